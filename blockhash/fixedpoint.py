@@ -1,0 +1,121 @@
+"""32-bit fixed-point photon positions over the photon map's bounding box.
+
+Paper section 3.2 / Figure 4: each coordinate of a photon position is a 32-bit
+unsigned fixed-point number.  The box is the photons' bounding box, padded so
+that the largest coordinate still maps below 2**32.
+
+Two conversions matter, and both are defined so that the GLSL lookup can
+reproduce them bit for bit:
+
+* ``encode`` (build time, CPU only): float64 position -> uint32 code,
+  ``floor((p - lo) / step)``.  Exact to one step.
+* ``decode`` (CPU reference and shader): uint32 code -> float32 position,
+  evaluated as ``lo32 + float32(u) * step32`` in float32, one rounding per
+  operation (the shader marks the expression ``precise``).
+* ``quantize_query`` (CPU reference and shader): float32 query -> uint32 code
+  for hashing, evaluated as ``(q - lo32) * inv_step32`` in float32 and
+  truncated, with values outside the box mapped to the first or last code.
+  Outside points are *hashed* to the edge cells; their distances are still
+  computed from the unmodified query.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import InputError
+from .validate import as_points
+
+#: Codes per axis: positions map to [0, 2**32).
+CODE_RANGE = 2.0**32
+#: Largest float32 strictly below 2**32; the float-to-code conversion saturates here.
+FLOAT32_BELOW_2_32 = np.float32(4294967040.0)
+#: Relative padding of the box on each side, so that no photon lies on the upper face
+#: (which would need code 2**32) and float32 decoding stays inside the box.
+BOX_PAD = 1e-6
+
+
+@dataclass(frozen=True)
+class Quantizer:
+    """Maps positions in ``[lo, lo + step * 2**32)`` to uint32 codes per axis.
+
+    Attributes
+    ----------
+    lo : (3,) float32
+        Lower corner of the box (exactly representable in float32).
+    step : (3,) float32
+        Size of one code step per axis in metres (float32, > 0).
+    """
+
+    lo: np.ndarray
+    step: np.ndarray
+
+    @classmethod
+    def for_points(cls, positions) -> "Quantizer":
+        """The quantizer of the padded bounding box of ``positions`` ((n, 3), n >= 1)."""
+        p = as_points(positions, "positions", dtype=np.float64)
+        if len(p) == 0:
+            raise InputError("positions is empty; a photon map needs at least one photon")
+        lo = p.min(axis=0)
+        hi = p.max(axis=0)
+        extent = hi - lo
+        # A degenerate axis (all photons on one plane) still gets a box of non-zero
+        # size, scaled to the largest extent so that the step stays meaningful.
+        scale = max(float(extent.max()), float(np.abs(p).max()), 1.0)
+        pad = BOX_PAD * scale
+        lo32 = np.float32(lo - pad)
+        # float32 rounding of lo may move it up; step it down until it is below lo - pad/2.
+        lo32 = np.where(lo32.astype(np.float64) > lo - 0.5 * pad,
+                        np.nextafter(lo32, np.float32(-np.inf)), lo32).astype(np.float32)
+        size = (hi + pad) - lo32.astype(np.float64)
+        step = np.float32(size / CODE_RANGE)
+        # Round the step up so that hi + pad maps below 2**32 in exact arithmetic.
+        step = np.where(step.astype(np.float64) * CODE_RANGE < size,
+                        np.nextafter(step, np.float32(np.inf)), step).astype(np.float32)
+        return cls(lo=lo32, step=step)
+
+    @property
+    def hi(self) -> np.ndarray:
+        """Upper corner of the box, float64 (3,)."""
+        return self.lo.astype(np.float64) + self.step.astype(np.float64) * CODE_RANGE
+
+    @property
+    def inv_step(self) -> np.ndarray:
+        """float32 reciprocal of the step, as the shader uses it for query hashing."""
+        return (np.float32(1.0) / self.step).astype(np.float32)
+
+    def encode(self, positions) -> np.ndarray:
+        """(n, 3) float positions -> (n, 3) uint32 codes, exact to one step.
+
+        Raises InputError for positions outside the box: nothing is clamped.
+        """
+        p = as_points(positions, "positions", dtype=np.float64)
+        u = np.floor((p - self.lo.astype(np.float64)) / self.step.astype(np.float64))
+        bad = (u < 0) | (u >= CODE_RANGE)
+        if bad.any():
+            i = int(np.argwhere(bad.any(axis=1))[0, 0])
+            raise InputError(
+                f"positions[{i}]={p[i].tolist()} lies outside the photon map box "
+                f"[{self.lo.tolist()}, {self.hi.tolist()}); build the quantizer from all "
+                "photons (Quantizer.for_points) before encoding")
+        return u.astype(np.uint32)
+
+    def decode(self, codes) -> np.ndarray:
+        """(n, 3) uint32 codes -> (n, 3) float32 positions, ``lo + float32(u) * step``."""
+        u = np.asarray(codes, dtype=np.uint32)
+        with np.errstate(over="raise"):
+            return (self.lo + u.astype(np.float32) * self.step).astype(np.float32)
+
+    def quantize_query(self, points) -> np.ndarray:
+        """(m, 3) float32 query points -> (m, 3) uint32 codes for hashing.
+
+        Evaluated in float32 exactly as the shader does; points outside the box
+        hash to the edge code (their distances are unaffected).  NaN is rejected
+        by the caller before this point.
+        """
+        q = np.asarray(points, dtype=np.float32)
+        t = (q - self.lo) * self.inv_step
+        t = np.minimum(np.maximum(t, np.float32(0.0)), FLOAT32_BELOW_2_32)
+        return t.astype(np.uint32)

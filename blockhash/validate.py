@@ -1,0 +1,73 @@
+"""Checks on user input shared by every module.
+
+Each check raises an :class:`~blockhash.errors.InputError` (or
+:class:`~blockhash.errors.InputTypeError`) naming the parameter, what was
+expected, what was received and the way out.  Nothing is clamped or dropped.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+from .errors import InputError, InputTypeError
+
+
+def as_points(value, name: str, *, dtype=np.float64, allow_empty: bool = True,
+              finite: bool = True) -> np.ndarray:
+    """Return ``value`` as a C-contiguous ``(n, 3)`` array of ``dtype``.
+
+    Rejects non-numeric dtypes, other shapes, and (with ``finite``) NaN or
+    infinite coordinates, naming the first offending row.
+    """
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "fiu":
+        raise InputTypeError(
+            f"{name} must be a real numeric array of shape (n, 3); got dtype {arr.dtype}. "
+            "Convert it with np.asarray(..., dtype=np.float32)")
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise InputError(
+            f"{name} must have shape (n, 3); got shape {arr.shape}. "
+            "Pass one row of x, y, z per point (reshape(-1, 3) for a flat array)")
+    if not allow_empty and arr.shape[0] == 0:
+        raise InputError(f"{name} is empty; at least one point is needed")
+    arr = np.ascontiguousarray(arr, dtype=dtype)
+    if finite:
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            i = int(np.argwhere(bad.any(axis=1))[0, 0])
+            raise InputError(
+                f"{name}[{i}]={arr[i].tolist()} is not finite ({int(bad.any(axis=1).sum())} "
+                f"row(s) with NaN or inf); remove or fix those points before building")
+    return arr
+
+
+def as_int(value, name: str, *, minimum: int | None = None, maximum: int | None = None,
+           hint: str = "") -> int:
+    """Return ``value`` as a Python int in ``[minimum, maximum]``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        if isinstance(value, numbers.Real) and float(value).is_integer():
+            value = int(value)
+        else:
+            raise InputTypeError(f"{name} must be an integer; got {value!r} ({type(value).__name__})")
+    value = int(value)
+    if minimum is not None and value < minimum or maximum is not None and value > maximum:
+        lo = "-inf" if minimum is None else f"{minimum:,}"
+        hi = "inf" if maximum is None else f"{maximum:,}"
+        raise InputError(f"{name}={value:,} is out of range; allowed {lo} <= {name} <= {hi}"
+                         + (f"; {hint}" if hint else ""))
+    return value
+
+
+def as_vector(value, name: str, length: int, *, dtype=np.float64, finite: bool = True) -> np.ndarray:
+    """Return ``value`` as a 1-D array of exactly ``length`` entries."""
+    arr = np.asarray(value)
+    if arr.dtype.kind not in "fiu":
+        raise InputTypeError(f"{name} must be numeric; got dtype {arr.dtype}")
+    if arr.shape != (length,):
+        raise InputError(f"{name} must have shape ({length},); got shape {arr.shape}")
+    arr = arr.astype(dtype)
+    if finite and not np.isfinite(arr).all():
+        raise InputError(f"{name}={arr.tolist()} must be finite")
+    return arr
