@@ -1,0 +1,231 @@
+"""Adaptive hash thresholds (paper sections 3.1 and 4.2).
+
+The one-dimensional locality-sensitive hash of an axis is
+``h(x) = #{i : t_i <= x}`` over its interior thresholds ``t_1 .. t_{P-1}``.
+Thresholds are stratified samples of the inverse cumulative distribution of the
+photon coordinates: they crowd where photons crowd, so buckets hold similar
+numbers of photons.  The distribution is taken at full code resolution (the
+histogram with one bin per code, i.e. the empirical CDF, interpolated between
+order statistics); a coarser histogram would only add binning error.
+
+Table ``t`` samples an axis at the quantiles ``(i + o[t, a]) / P_a`` for
+``i = 1 .. P_a - 1``, with offsets ``o[t, a]`` in [-1/2, 1/2) from the additive
+recurrence of the 3D golden ratio (Roberts' R3 sequence).  Offsets differ per
+table and per axis, so the bucket boundaries of the L tables interleave and
+their buckets complement each other around a query (Figure 2).
+
+Two layouts (``ThresholdLayout``):
+
+``marginal`` (paper)
+    One threshold list per axis, from that axis' marginal distribution.  On
+    clustered data the product of marginals makes a grid whose cells hold very
+    different numbers of photons: a hot spot's cells overflow while most cells
+    stay empty.
+``nested``
+    x thresholds from the marginal of x; y thresholds separately for each x slab
+    from the photons in that slab; z thresholds for each (x, y) column from the
+    photons in it.  Every bucket then holds about N / buckets photons whatever
+    the clustering (an adaptive grid in the spirit of the grid files the paper
+    cites, section 4.1).  Hashing costs the same comparisons; only the row of
+    thresholds searched for y and z depends on the earlier axes.
+
+Storage (both layouts): one flat row of uint32 codes per table.  Axis x's list
+starts at 0 (length ``Px - 1``); axis y's list for slab ``hx`` starts at
+``(Px - 1) + hx * (Py - 1)`` (``hx`` taken as 0 in the marginal layout); axis z's
+list for column ``(hx, hy)`` starts at ``(Px - 1) + Px * (Py - 1) + (hx * Py + hy)
+* (Pz - 1)`` (column 0 in the marginal layout).  Thresholds are fixed-point
+codes, so hashing is integer comparison that the CPU reference and the shader
+agree on exactly.  Lists of empty slabs hold ``THRESHOLD_PAD``, which no code
+reaches, so everything there hashes to bucket 0.
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+
+import numba
+import numpy as np
+
+#: Padding for thresholds of empty slabs: codes never reach 2**32 - 1 (the box is
+#: padded, and query codes saturate at 2**32 - 256), so a padded slot never counts.
+THRESHOLD_PAD = np.uint32(0xFFFFFFFF)
+#: The plastic number (real root of x^3 = x + 1): R3 offsets are frac(t / phi^(a+1)).
+_PHI3 = 1.2207440846057596
+
+
+class ThresholdLayout(IntEnum):
+    """How thresholds depend on the other axes; the value is the shader's define id."""
+
+    MARGINAL = 0
+    NESTED = 1
+
+
+def table_offsets(L: int) -> np.ndarray:
+    """(L, 3) float64 stratification offsets in [-1/2, 1/2), one row per table."""
+    alpha = 1.0 / _PHI3 ** np.arange(1, 4)
+    t = np.arange(L)[:, None]
+    return np.mod(0.5 + t * alpha[None, :], 1.0) - 0.5
+
+
+def row_starts(P, layout: ThresholdLayout) -> tuple[int, int, int, int]:
+    """Start of the x, y and z lists and the row length, for slab/column 0."""
+    px, py, pz = (int(p) for p in P)
+    if layout == ThresholdLayout.NESTED:
+        return 0, px - 1, (px - 1) + px * (py - 1), (px - 1) + px * (py - 1) + px * py * (pz - 1)
+    return 0, px - 1, (px - 1) + (py - 1), (px - 1) + (py - 1) + (pz - 1)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def count_le(thresholds, start, count, code):
+    """#{thresholds[start + i] <= code : i < count} for a sorted list (binary search)."""
+    lo = 0
+    hi = count
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if thresholds[start + mid] <= code:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def bucket_of(thresholds, px, py, pz, nested, cx, cy, cz):
+    """Bucket ``hx + Px * (hy + Py * hz)`` of one code triple in one table's row."""
+    hx = count_le(thresholds, 0, px - 1, cx)
+    ys = px - 1
+    zs = ys + (px * (py - 1) if nested else py - 1)
+    if nested:
+        ys += hx * (py - 1)
+    hy = count_le(thresholds, ys, py - 1, cy)
+    if nested:
+        zs += (hx * py + hy) * (pz - 1)
+    hz = count_le(thresholds, zs, pz - 1, cz)
+    return hx + px * (hy + py * hz)
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _hash_all(codes, thresholds, px, py, pz, nested):
+    L = thresholds.shape[0]
+    n = codes.shape[0]
+    keys = np.empty((L, n), dtype=np.int64)
+    for j in numba.prange(n):
+        for t in range(L):
+            keys[t, j] = bucket_of(thresholds[t], px, py, pz, nested,
+                                   codes[j, 0], codes[j, 1], codes[j, 2])
+    return keys
+
+
+@numba.njit(cache=True, nogil=True)
+def _fill_quantiles(values, first, m, fractions, row, start):
+    """row[start + i] = inverse empirical CDF of sorted values[first:first + m] at fractions[i]."""
+    for i in range(fractions.shape[0]):
+        pos = min(max(fractions[i] * m - 0.5, 0.0), m - 1.0)
+        lo = int(np.floor(pos))
+        hi = min(lo + 1, m - 1)
+        w = pos - lo
+        x = float(values[first + lo]) * (1.0 - w) + float(values[first + hi]) * w
+        row[start + i] = np.uint32(np.floor(x))
+
+
+@numba.njit(cache=True, nogil=True)
+def _fill_axis(by_axis, a, row, px, py, pz, nested, fractions, start):
+    """Thresholds of axis ``a`` (1 or 2) for every slab/column, from codes sorted on ``a``.
+
+    Photons are visited in ascending order of axis ``a``, grouped by the slab (y)
+    or column (z) they hash to with the thresholds already in ``row``, so a
+    stable counting sort leaves each group's values sorted.
+    """
+    n = by_axis.shape[0]
+    count = fractions.shape[0] + 1
+    ngroups = 1
+    if nested:
+        ngroups = px if a == 1 else px * py
+    groups = np.zeros(n, dtype=np.int64)
+    sizes = np.zeros(ngroups + 1, dtype=np.int64)
+    for j in range(n):
+        g = 0
+        if nested:
+            hx = count_le(row, 0, px - 1, by_axis[j, 0])
+            g = hx
+            if a == 2:
+                hy = count_le(row, px - 1 + hx * (py - 1), py - 1, by_axis[j, 1])
+                g = hx * py + hy
+        groups[j] = g
+        sizes[g + 1] += 1
+    for g in range(ngroups):
+        sizes[g + 1] += sizes[g]
+    fill = sizes[:-1].copy()
+    values = np.empty(n, dtype=np.uint32)
+    for j in range(n):
+        g = groups[j]
+        values[fill[g]] = by_axis[j, a]
+        fill[g] += 1
+    for g in range(ngroups):
+        m = sizes[g + 1] - sizes[g]
+        if m > 0:
+            _fill_quantiles(values, sizes[g], m, fractions, row, start + g * (count - 1))
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _build_rows(by_x, by_y, by_z, px, py, pz, nested, fx, fy, fz, sy, sz, out):
+    for t in numba.prange(out.shape[0]):
+        row = out[t]
+        if px > 1:
+            _fill_quantiles(by_x[:, 0], 0, by_x.shape[0], fx[t], row, 0)
+        if py > 1:
+            _fill_axis(by_y, 1, row, px, py, pz, nested, fy[t], sy)
+        if pz > 1:
+            _fill_axis(by_z, 2, row, px, py, pz, nested, fz[t], sz)
+
+
+def build_thresholds(codes, P, L: int, layout: ThresholdLayout) -> tuple[np.ndarray, np.ndarray]:
+    """Thresholds of ``L`` tables with ``P = (Px, Py, Pz)`` buckets per axis.
+
+    Parameters
+    ----------
+    codes : (n, 3) uint32
+        Photon position codes.
+    P : sequence of 3 int
+        Buckets per axis (>= 1).
+    L : int
+        Number of tables.
+    layout : ThresholdLayout
+
+    Returns
+    -------
+    thresholds : (L, T) uint32, laid out as the module docstring describes.
+    keys : (L, n) int64, the bucket of every photon in every table (what
+        :func:`hash_codes` returns, computed along the way).
+    """
+    px, py, pz = (int(p) for p in P)
+    _, sy, sz, T = row_starts(P, layout)
+    codes = np.ascontiguousarray(codes, dtype=np.uint32)
+    out = np.full((L, T), THRESHOLD_PAD, dtype=np.uint32)
+    offsets = table_offsets(L)
+    # Codes sorted on each split axis, once; every table then groups them in linear time.
+    by_axis = [codes[np.argsort(codes[:, a], )] if p > 1 else codes[:1]
+               for a, p in enumerate((px, py, pz))]
+    fractions = [(np.arange(1, p)[None, :] + offsets[:, a:a + 1]) / p
+                 for a, p in enumerate((px, py, pz))]
+    _build_rows(*by_axis, px, py, pz, layout == ThresholdLayout.NESTED, *fractions, sy, sz, out)
+    return out, hash_codes(codes, out, P, layout)
+
+
+def hash_codes(codes, thresholds, P, layout: ThresholdLayout) -> np.ndarray:
+    """Bucket index of each code in each table: ``hx + Px * (hy + Py * hz)``.
+
+    Parameters
+    ----------
+    codes : (n, 3) uint32
+    thresholds : (L, T) uint32, from :func:`build_thresholds`
+    P : (3,) buckets per axis
+    layout : ThresholdLayout
+
+    Returns
+    -------
+    keys : (L, n) int64, each in [0, Px * Py * Pz)
+    """
+    px, py, pz = (int(p) for p in P)
+    return _hash_all(np.ascontiguousarray(codes, dtype=np.uint32), np.ascontiguousarray(thresholds),
+                     px, py, pz, layout == ThresholdLayout.NESTED)
