@@ -292,15 +292,31 @@ class PhotonRecords:
         if len(p) == 0:
             raise InputError("positions has shape (0, 3); a photon map needs at least one photon")
         n = len(p)
-        d = _unit_vectors(np.tile([0.0, -1.0, 0.0], (n, 1)) if directions is None else directions,
-                          "directions")
-        nrm = _unit_vectors(np.tile([0.0, 1.0, 0.0], (n, 1)) if normals is None else normals,
-                            "normals")
-        pw = _as_powers(np.ones((n, 3)) if powers is None else powers)
-        _same_rows({"positions": p, "directions": d, "normals": nrm, "powers": pw})
+        given = {"positions": p}
+
+        def vector_codes(value, name, default):
+            # A missing payload is one constant code: encode it once, not n times.
+            if value is None:
+                return np.full(n, _polar_codes(np.array([default], dtype=np.float64))[0])
+            given[name] = _unit_vectors(value, name)
+            return None
+
+        d_codes = vector_codes(directions, "directions", [0.0, -1.0, 0.0])
+        n_codes = vector_codes(normals, "normals", [0.0, 1.0, 0.0])
+        if powers is not None:
+            given["powers"] = _as_powers(powers)
+        _same_rows(given)
+        if d_codes is None:
+            d_codes = _polar_codes(given["directions"])
+        if n_codes is None:
+            n_codes = _polar_codes(given["normals"])
+        if powers is None:
+            one, scale = encode_powers(np.ones((1, 3)))
+            bits = np.broadcast_to(one, (n, 4))
+        else:
+            bits, scale = encode_powers(given["powers"])
         quantizer = Quantizer.for_points(p)
-        bits, scale = encode_powers(pw)
-        rec = pack_records(quantizer.encode(p), _polar_codes(d), _polar_codes(nrm), bits)
+        rec = pack_records(quantizer.encode(p), d_codes, n_codes, bits)
         return cls(records=rec, quantizer=quantizer, power_scale=scale)
 
     def positions(self) -> np.ndarray:

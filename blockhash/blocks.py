@@ -1,0 +1,71 @@
+"""64-word photon blocks (paper sections 3.2 and 4.1).
+
+A block is 64 32-bit words: up to ten 6-word photon records in words 0-59,
+then the spare words, of which word 60 holds the number of photons stored
+(the paper keeps the count there) and words 61-63 are zero.  Photons are
+ordered along a 3D Hilbert curve and cut into blocks by one of two builders
+(:mod:`blockhash.btree`): a real B+-tree with leaf compaction, or the compact
+static B+-tree bulk build for a known photon set.  Both leave disjoint blocks
+each covering a compact interval of the curve (Figure 7a).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .btree import LeafBlocks, btree_blocks, bulk_blocks
+from .codec import WORDS_PER_PHOTON
+from .errors import InputError
+
+#: Words per block: a 64-word burst (section 3.2).
+BLOCK_WORDS = 64
+#: Records per block: floor(64 / 6) = 10.
+PHOTONS_PER_BLOCK = BLOCK_WORDS // WORDS_PER_PHOTON
+#: Word of a block holding its photon count.
+COUNT_WORD = PHOTONS_PER_BLOCK * WORDS_PER_PHOTON
+BUILDERS = ("bulk", "btree")
+
+
+def make_blocks(keys, *, builder: str = "bulk") -> LeafBlocks:
+    """Cut photons ordered by Hilbert key into blocks with the chosen builder.
+
+    Parameters
+    ----------
+    keys : (n,) uint64 Hilbert keys
+    builder : {'bulk', 'btree'}
+    """
+    if builder == "bulk":
+        return bulk_blocks(keys, leaf_capacity=PHOTONS_PER_BLOCK)
+    if builder == "btree":
+        return btree_blocks(keys, leaf_capacity=PHOTONS_PER_BLOCK)
+    raise InputError(f"builder={builder!r} is not known; choose one of {', '.join(BUILDERS)}")
+
+
+def pack_blocks(records: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """Photon records in block order -> (nblocks, 64) uint32 block words.
+
+    Parameters
+    ----------
+    records : (n, 6) uint32, photons in block order
+    starts : (nblocks + 1,) int64, block b holds records[starts[b]:starts[b + 1]]
+    """
+    counts = np.diff(starts)
+    if counts.size and (counts.min() < 1 or counts.max() > PHOTONS_PER_BLOCK):
+        raise InputError(f"block sizes must be 1..{PHOTONS_PER_BLOCK}; got {counts.min()}..{counts.max()}")
+    nblocks = len(counts)
+    words = np.zeros((nblocks, BLOCK_WORDS), dtype=np.uint32)
+    block = np.repeat(np.arange(nblocks), counts)
+    slot = np.arange(len(records)) - np.repeat(starts[:-1], counts)
+    view = words[:, :COUNT_WORD].reshape(nblocks, PHOTONS_PER_BLOCK, WORDS_PER_PHOTON)
+    view[block, slot] = records
+    words[:, COUNT_WORD] = counts
+    return words
+
+
+def unpack_blocks(words: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(nblocks, 64) block words -> (records (n, 6) uint32, starts (nblocks + 1,) int64)."""
+    counts = words[:, COUNT_WORD].astype(np.int64)
+    view = words[:, :COUNT_WORD].reshape(len(words), PHOTONS_PER_BLOCK, WORDS_PER_PHOTON)
+    mask = np.arange(PHOTONS_PER_BLOCK)[None, :] < counts[:, None]
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    return view[mask], starts

@@ -1,0 +1,254 @@
+"""The Block Hashing index: build (paper sections 4.1-4.3, 5) and CPU query (4.4).
+
+>>> import numpy as np
+>>> from blockhash import BlockHashIndex
+>>> pts = np.random.default_rng(0).random((20_000, 3))
+>>> index = BlockHashIndex(pts, k=8, A=8)
+>>> d, i = index.query(pts[:5])            # like scipy.spatial.cKDTree.query
+>>> d.shape, i.shape
+((5, 8), (5, 8))
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .blocks import BLOCK_WORDS, make_blocks, pack_blocks
+from .codec import WORDS_PER_PHOTON, PhotonRecords
+from .errors import BlockHashError
+from .hashtables import insert_blocks
+from .hilbert import hilbert_keys
+from .params import BlockHashParams, resolve_params
+from .query import bh_query
+from .thresholds import ThresholdLayout, build_thresholds
+from .validate import as_int, as_points
+
+#: Bytes per 32-bit word.
+WORD = 4
+
+
+class OrphanWarning(UserWarning):
+    """Some photon blocks are in no hash table: their photons can never be found."""
+
+
+@dataclass(frozen=True)
+class IndexStats:
+    """What an index holds and what it costs (paper section 5).
+
+    Counts: ``N`` photons, ``blocks``, ``orphans`` (blocks in no table),
+    ``bumps`` (references replaced on overflow), ``overflowing_buckets``
+    (buckets that refused or bumped at least once), ``empty_buckets``.
+    ``bucket_load`` is the mean fraction of the B slots in use over all buckets.
+    Bytes: ``photon_bytes`` (24 N, the records themselves), ``block_bytes`` (256
+    per block), ``reference_bytes`` (4 L P^3 B), ``threshold_bytes``,
+    ``priority_bytes`` (one word per bucket) and ``index_bytes`` (the last three).
+    ``overhead`` is equation (1) on the real structure: (references + thresholds +
+    blocks - photon data) / photon data; ``overhead_with_priority`` adds the
+    priority words that the paper's formula leaves out.
+    """
+
+    N: int
+    blocks: int
+    params: BlockHashParams
+    orphans: int
+    orphan_photons: int
+    bumps: int
+    overflowing_buckets: int
+    empty_buckets: int
+    bucket_load: float
+    refs_per_photon: float
+    used_refs_per_photon: float
+    photon_bytes: int
+    block_bytes: int
+    reference_bytes: int
+    threshold_bytes: int
+    priority_bytes: int
+
+    @property
+    def index_bytes(self) -> int:
+        return self.reference_bytes + self.threshold_bytes + self.priority_bytes
+
+    @property
+    def overhead(self) -> float:
+        """Equation (1) measured: (refs + thresholds + blocks - 24 N) / 24 N."""
+        return (self.reference_bytes + self.threshold_bytes + self.block_bytes
+                - self.photon_bytes) / self.photon_bytes
+
+    @property
+    def overhead_with_priority(self) -> float:
+        return self.overhead + self.priority_bytes / self.photon_bytes
+
+    def summary(self) -> str:
+        """A few lines for people."""
+        p = self.params
+        lines = [
+            f"{p!r}",
+            f"photons {self.N:,} in {self.blocks:,} blocks; buckets {p.L} x {p.buckets:,} x B={p.B}",
+            f"orphans {self.orphans:,} blocks ({self.orphan_photons:,} photons), bumps {self.bumps:,}, "
+            f"overflowing buckets {self.overflowing_buckets:,}, empty buckets {self.empty_buckets:,}",
+            f"bucket load {self.bucket_load:.1%}; block references per photon "
+            f"{self.refs_per_photon:.2f} allocated, {self.used_refs_per_photon:.2f} used",
+            f"memory: photon blocks {self.block_bytes / 2**20:.1f} MiB, index "
+            f"{self.index_bytes / 2**20:.1f} MiB; overhead (eq. 1) {self.overhead:.1%}",
+        ]
+        if self.orphans:
+            lines.insert(0, f"WARNING: {self.orphans:,} orphaned blocks: {self.orphan_photons:,} "
+                            "photons can never be found")
+        return "\n".join(lines)
+
+
+class BlockHashIndex:
+    """Approximate k-nearest-photon search by Block Hashing.
+
+    Parameters
+    ----------
+    positions : (n, 3) float
+        Photon positions, finite, n >= 1.
+    k : int, keyword-only
+        Neighbours per query the index is built for (1 <= k <= n).
+    A : int, keyword-only
+        Accuracy multiplier: a query examines about ``A * k`` candidates (>= 1).
+    preset : {'default', 'paper'}
+        Parameter choice, see :mod:`blockhash.params`.
+    L, P, B : int, optional
+        Override the preset's tables, buckets per axis (one int or three), refs per bucket.
+    layout : {'nested', 'marginal'}, optional
+        Override the preset's threshold layout.
+    builder : {'bulk', 'btree'}
+        Block builder (section 4.1); both give the same blocks.
+    directions, normals : (n, 3) float unit vectors, optional
+    powers : (n, 3) or (n, 4) float watts, optional
+        Photon payload stored in the records (Figure 4).
+
+    Block hashing gives no (1 + eps) guarantee on distances; measure recall and
+    dilation with :mod:`blockhash.metrics`.
+    """
+
+    def __init__(self, positions, *, k: int = 50, A: int = 8, preset: str = "default",
+                 L=None, P=None, B=None, layout=None, builder: str = "bulk",
+                 directions=None, normals=None, powers=None):
+        pos = as_points(positions, "positions", allow_empty=False)
+        timings = {}
+        t0 = time.perf_counter()
+        self.params = resolve_params(pos, k=k, A=A, preset=preset, L=L, P=P, B=B, layout=layout)
+        records = PhotonRecords.encode(pos, directions=directions, normals=normals, powers=powers)
+        codes = records.records[:, :3]
+        t1 = time.perf_counter()
+        timings["encode"] = t1 - t0
+        leaves = make_blocks(hilbert_keys(codes), builder=builder)
+        t2 = time.perf_counter()
+        timings["blocks"] = t2 - t1
+        self.order = leaves.order
+        self.starts = leaves.starts
+        sorted_records = records.records[self.order]
+        sorted_codes = np.ascontiguousarray(sorted_records[:, :3])
+        prm = self.params
+        self.thresholds, photon_keys = build_thresholds(sorted_codes, prm.P, prm.L, prm.layout)
+        t3 = time.perf_counter()
+        timings["thresholds"] = t3 - t2
+        self.tables = insert_blocks(photon_keys, self.starts, buckets=prm.buckets, B=prm.B)
+        self.priority = self.tables.priority
+        t4 = time.perf_counter()
+        timings["insert"] = t4 - t3
+        self.records = PhotonRecords(sorted_records, records.quantizer, records.power_scale)
+        self.quantizer = records.quantizer
+        self.block_words = pack_blocks(sorted_records, self.starts)
+        self._positions = self.quantizer.decode(sorted_codes)
+        timings["pack"] = time.perf_counter() - t4
+        timings["total"] = time.perf_counter() - t0
+        self.timings = timings
+        self.counters: dict[str, float] = {}
+        self.stats = self._stats()
+        if self.stats.orphans:
+            warnings.warn(
+                f"{self.stats.orphans:,} of {self.stats.blocks:,} photon blocks "
+                f"({self.stats.orphan_photons:,} photons) are in no hash table and can never be "
+                f"found with {prm!r}; raise B or L, or use preset='default'",
+                OrphanWarning, stacklevel=2)
+
+    def __len__(self) -> int:
+        return len(self.order)
+
+    def __repr__(self) -> str:
+        return f"BlockHashIndex(N={len(self):,}, blocks={self.stats.blocks:,}, {self.params!r})"
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(n, 3) float32 decoded photon positions in the caller's order."""
+        out = np.empty_like(self._positions)
+        out[self.order] = self._positions
+        return out
+
+    def _stats(self) -> IndexStats:
+        prm = self.params
+        t = self.tables
+        n = len(self.order)
+        nblocks = len(self.starts) - 1
+        sizes = np.diff(self.starts)
+        orphan = t.block_buckets == 0
+        return IndexStats(
+            N=n, blocks=nblocks, params=prm,
+            orphans=int(orphan.sum()), orphan_photons=int(sizes[orphan].sum()),
+            bumps=t.bumps, overflowing_buckets=int(np.count_nonzero(t.overflows)),
+            empty_buckets=int(np.count_nonzero(t.entries == 0)),
+            bucket_load=float(t.entries.mean() / prm.B),
+            refs_per_photon=prm.refs / n, used_refs_per_photon=float(t.entries.sum()) / n,
+            photon_bytes=n * WORDS_PER_PHOTON * WORD, block_bytes=nblocks * BLOCK_WORDS * WORD,
+            reference_bytes=prm.refs * WORD, threshold_bytes=self.thresholds.size * WORD,
+            priority_bytes=prm.L * prm.buckets * WORD)
+
+    def query(self, points, k=None, *, A=None):
+        """Approximate k nearest photons, like ``scipy.spatial.cKDTree.query``.
+
+        Parameters
+        ----------
+        points : (m, 3) or (3,) float
+            Query points.  Rows with NaN or inf get no neighbours (distance inf,
+            index N), as the shader returns for a background pixel.
+        k : int, optional
+            Neighbours per query, 1 <= k <= N (default: the k the index was built for).
+        A : int, optional
+            Accuracy multiplier for this query (default: the index's A).
+
+        Returns
+        -------
+        distances : (m, k) float64, ascending; inf where fewer than k were found
+        indices : (m, k) int64 into the build positions; N where fewer than k were found
+            As with cKDTree, an integer k == 1 drops the last axis and a single
+            (3,) point drops the first.
+        """
+        n = len(self)
+        k_eff = self.params.k if k is None else as_int(
+            k, "k", minimum=1, maximum=n, hint=f"use k <= N={n:,} or add photons")
+        A_eff = self.params.A if A is None else as_int(A, "A", minimum=1)
+        arr = np.asarray(points)
+        single = arr.ndim == 1
+        q = as_points(arr.reshape(1, -1) if single else arr, "points", dtype=np.float32, finite=False)
+        finite = np.isfinite(q).all(axis=1)
+        qf = np.where(finite[:, None], q, np.float32(0.0))
+        prm = self.params
+        d2, slots, examined, fetched = bh_query(
+            self.quantizer.quantize_query(qf), qf, self.thresholds, np.asarray(prm.P, dtype=np.int64),
+            prm.layout == ThresholdLayout.NESTED, self.tables.refs, self.priority, self.starts,
+            self._positions, k_eff, A_eff * k_eff)
+        d2[~finite] = np.inf
+        slots[~finite] = -1
+        self.counters = {
+            "query.points": float(len(q)),
+            "query.candidates.mean": float(examined[finite].mean()) if finite.any() else 0.0,
+            "query.blocks.mean": float(fetched[finite].mean()) if finite.any() else 0.0,
+        }
+        distances = np.sqrt(d2.astype(np.float64))
+        indices = np.where(slots >= 0, self.order[np.maximum(slots, 0)], n)
+        if single:
+            distances, indices = distances[0], indices[0]
+        if k is not None and not isinstance(k, (list, tuple, np.ndarray)) and k_eff == 1:
+            distances, indices = distances[..., 0], indices[..., 0]
+        return distances, indices
+
+
+__all__ = ["BlockHashIndex", "IndexStats", "OrphanWarning", "BlockHashError"]
