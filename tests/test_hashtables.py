@@ -1,0 +1,94 @@
+import numpy as np
+import pytest
+
+from blockhash.blocks import bulk_blocks
+from blockhash.fixedpoint import Quantizer
+from blockhash.hashtables import NO_BLOCK, insert_blocks
+from blockhash.hilbert import hilbert_keys
+from blockhash.thresholds import ThresholdLayout, build_thresholds
+from conftest import photon_set
+
+
+def table_inputs(name, n, P, L, layout=ThresholdLayout.NESTED):
+    pts = photon_set(name, n)
+    codes = Quantizer.for_points(pts).encode(pts)
+    leaves = bulk_blocks(hilbert_keys(codes))
+    _, keys = build_thresholds(codes[leaves.order], P, L, layout)
+    return keys, leaves.starts
+
+
+def demand(keys, starts, t, buckets):
+    """Blocks with at least one photon in each bucket of table t."""
+    block = np.repeat(np.arange(len(starts) - 1), np.diff(starts))
+    out = [set() for _ in range(buckets)]
+    for b, key in zip(block, keys[t]):
+        out[key].add(int(b))
+    return out
+
+
+@pytest.mark.parametrize("name", ["uniform", "caustic", "clustered"])
+@pytest.mark.parametrize("B", [1, 3, 12])
+def test_tables_hold_only_blocks_that_hash_there_once_each(name, B):
+    P, L = (5, 2, 4), 3
+    keys, starts = table_inputs(name, 4000, P, L)
+    tabs = insert_blocks(keys, starts, buckets=40, B=B)
+    refcount = np.zeros(len(starts) - 1, dtype=np.int64)
+    for t in range(L):
+        want = demand(keys, starts, t, 40)
+        for key in range(40):
+            row = tabs.refs[t, key]
+            e = tabs.entries[t, key]
+            valid = row[:e]
+            assert (row[e:] == NO_BLOCK).all() and (valid >= 0).all()
+            assert len(set(valid.tolist())) == e  # never twice in a bucket
+            assert set(valid.tolist()) <= want[key]
+            if len(want[key]) <= B:  # room for all: every block is there, no overflow
+                assert set(valid.tolist()) == want[key] and tabs.overflows[t, key] == 0
+            else:
+                assert e == B and tabs.overflows[t, key] >= len(want[key]) - B
+            refcount[valid] += 1
+    np.testing.assert_array_equal(tabs.block_buckets, refcount)
+    assert tabs.orphans == int(np.sum(refcount == 0))
+
+
+def test_priority_is_distance_from_full_plus_overflows():
+    keys, starts = table_inputs("caustic", 3000, (4, 1, 4), 2)
+    tabs = insert_blocks(keys, starts, buckets=16, B=4)
+    np.testing.assert_array_equal(tabs.priority, np.abs(4 - tabs.entries - tabs.overflows))
+    assert tabs.priority.min() >= 0
+
+
+def test_full_bucket_bumps_the_block_that_sits_in_most_buckets():
+    # Block 0 has photons in buckets 0 and 1; block 1 only in bucket 0, which holds one ref.
+    keys = np.array([[0, 1, 0]], dtype=np.int64)
+    starts = np.array([0, 2, 3])
+    tabs = insert_blocks(keys, starts, buckets=2, B=1)
+    assert tabs.refs[0, 0, 0] == 1 and tabs.refs[0, 1, 0] == 0
+    assert tabs.bumps == 1 and tabs.overflows[0, 0] == 1
+    np.testing.assert_array_equal(tabs.block_buckets, [1, 1])
+    assert tabs.orphans == 0
+
+
+def test_full_bucket_keeps_a_resident_that_is_its_only_home():
+    # Both blocks hash only to bucket 0 of one table with room for one: the second is refused.
+    keys = np.array([[0, 0]], dtype=np.int64)
+    tabs = insert_blocks(keys, np.array([0, 1, 2]), buckets=1, B=1)
+    assert tabs.refs[0, 0, 0] == 0 and tabs.bumps == 0 and tabs.overflows[0, 0] == 1
+    assert tabs.orphans == 1
+
+
+@pytest.mark.parametrize("L", [2, 3, 5])
+def test_striping_starts_each_table_at_a_different_block(L):
+    # One bucket of one slot per table and single-photon blocks: nobody can be bumped
+    # (every count stays 1), so each table keeps the first block striping gave it.
+    nblocks = 10
+    keys = np.zeros((L, nblocks), dtype=np.int64)
+    tabs = insert_blocks(keys, np.arange(nblocks + 1), buckets=1, B=1)
+    np.testing.assert_array_equal(tabs.refs[:, 0, 0], [(t * nblocks) // L for t in range(L)])
+
+
+def test_block_is_inserted_once_per_distinct_key_not_per_photon():
+    keys = np.array([[2, 2, 2, 0]], dtype=np.int64)
+    tabs = insert_blocks(keys, np.array([0, 4]), buckets=3, B=2)
+    assert tabs.entries[0].tolist() == [1, 0, 1]
+    assert tabs.block_buckets.tolist() == [2]

@@ -1,0 +1,90 @@
+"""The CPU reference query against a literal transcription of section 4.4 and against cKDTree."""
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from blockhash import BlockHashIndex
+from blockhash.thresholds import ThresholdLayout, hash_codes
+from conftest import photon_set
+
+
+def transcribed_query(index, q, k, A):
+    """Section 4.4 as written, one query at a time in plain Python."""
+    prm = index.params
+    qf = np.asarray(q, dtype=np.float32)[None, :]
+    keys = hash_codes(index.quantizer.quantize_query(qf), index.thresholds, prm.P, prm.layout)[:, 0]
+    order = sorted(range(prm.L), key=lambda t: (index.priority[t, keys[t]], t))
+    taken, cand = [], []
+    for t in order:
+        for blk in index.tables.refs[t, keys[t]]:
+            if len(cand) >= A * k or blk < 0:
+                break
+            if blk in taken:
+                continue
+            taken.append(blk)
+            cand.extend(range(index.starts[blk], index.starts[blk + 1]))
+    p = index._positions[cand]
+    d = p - qf[0]
+    d2 = (d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]) + d[:, 2] * d[:, 2]
+    best = sorted(zip(d2.tolist(), cand))[:k]
+    return [s for _, s in best], [v for v, _ in best]
+
+
+@pytest.mark.filterwarnings("ignore::blockhash.OrphanWarning")  # the paper preset orphans blocks
+@pytest.mark.parametrize("k,A", [(1, 1), (8, 1), (8, 8), (50, 8), (50, 16)])
+@pytest.mark.parametrize("preset", ["default", "paper"])
+def test_reference_query_follows_section_4_4(distribution, k, A, preset):
+    pts = photon_set(distribution, 6000)
+    index = BlockHashIndex(pts, k=k, A=A, preset=preset)
+    queries = photon_set(distribution, 40, seed=99)
+    d, i = index.query(queries, k=[k] and k)
+    d = d.reshape(len(queries), k)
+    i = i.reshape(len(queries), k)
+    slot_of = np.empty(len(index), dtype=np.int64)
+    slot_of[index.order] = np.arange(len(index))
+    for qi, q in enumerate(queries):
+        slots, d2 = transcribed_query(index, q, k, A)
+        found = i[qi] < len(index)
+        assert slot_of[i[qi][found]].tolist() == slots
+        np.testing.assert_array_equal(d[qi][found], np.sqrt(np.float64(np.float32(d2))))
+        assert np.isinf(d[qi][~found]).all()
+
+
+def test_one_bucket_holding_every_block_gives_the_exact_neighbours(distribution):
+    pts = photon_set(distribution, 2500)  # 250 blocks, all in one bucket of 256 slots
+    index = BlockHashIndex(pts, k=20, A=1000, L=1, P=1, B=256)
+    queries = photon_set(distribution, 200, seed=5)
+    d, i = index.query(queries)
+    ed, ei = cKDTree(index.positions.astype(np.float64)).query(queries.astype(np.float32), k=20)
+    np.testing.assert_allclose(d, ed, rtol=1e-6, atol=1e-9)
+    assert (np.sort(i, axis=1) == np.sort(ei, axis=1)).mean() > 0.999  # float ties only
+
+
+def test_builders_give_identical_answers():
+    pts = photon_set("caustic", 20000)
+    q = photon_set("caustic", 500, seed=3)
+    a = BlockHashIndex(pts, k=16, A=4, builder="bulk").query(q)
+    b = BlockHashIndex(pts, k=16, A=4, builder="btree").query(q)
+    np.testing.assert_array_equal(a[0], b[0])
+    np.testing.assert_array_equal(a[1], b[1])
+
+
+def test_examined_candidates_stop_after_A_k_plus_one_block():
+    index = BlockHashIndex(photon_set("uniform", 20000), k=10, A=2)
+    index.query(photon_set("uniform", 300, seed=4))
+    assert index.counters["query.candidates.mean"] <= 2 * 10 + 9
+
+
+@pytest.mark.parametrize("layout", ["nested", "marginal"])
+def test_query_hashes_a_photon_to_the_buckets_that_hold_its_block(layout):
+    pts = photon_set("clustered", 5000)
+    index = BlockHashIndex(pts, k=10, A=8, layout=layout, B=64)
+    prm = index.params
+    codes = index.records.records[:, :3]
+    keys = hash_codes(codes, index.thresholds, prm.P, ThresholdLayout[layout.upper()])
+    block = np.repeat(np.arange(len(index.starts) - 1), np.diff(index.starts))
+    # With room to spare nothing overflows, so each photon's block is in each of its buckets.
+    assert index.stats.overflowing_buckets == 0
+    for t in range(prm.L):
+        assert all(block[s] in index.tables.refs[t, keys[t, s]] for s in range(0, len(block), 97))
