@@ -1,0 +1,29 @@
+import numpy as np
+
+from blockhash.cli import main
+
+
+def test_index_command_builds_and_reports_accuracy(capsys):
+    assert main(["index", "--photons", "20000", "--queries", "2000", "--k", "10"]) == 0
+    out = capsys.readouterr().out
+    assert "photons 20,000 in 2,000 blocks" in out
+    assert "orphans 0 blocks" in out
+    assert "accuracy: false negatives" in out
+
+
+def test_index_command_reads_npy_positions(tmp_path, capsys):
+    path = tmp_path / "photons.npy"
+    np.save(path, np.random.default_rng(0).random((3000, 3)))
+    assert main(["index", "--data", str(path), "--queries", "100", "--k", "1"]) == 0
+    assert "photons: 3,000" in capsys.readouterr().out
+
+
+def test_index_command_names_a_bad_data_argument(capsys):
+    assert main(["index", "--data", "nowhere.npy"]) == 2
+    err = capsys.readouterr().err
+    assert "--data 'nowhere.npy': no such file" in err
+
+
+def test_index_command_reports_bad_parameters(capsys):
+    assert main(["index", "--photons", "100", "--k", "500", "--queries", "0"]) == 2
+    assert "k=500 is out of range" in capsys.readouterr().err
