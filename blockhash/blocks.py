@@ -49,6 +49,14 @@ def pack_blocks(records: np.ndarray, starts: np.ndarray) -> np.ndarray:
     records : (n, 6) uint32, photons in block order
     starts : (nblocks + 1,) int64, block b holds records[starts[b]:starts[b + 1]]
     """
+    records = np.asarray(records)
+    starts = np.asarray(starts, dtype=np.int64)
+    if records.ndim != 2 or records.shape[1] != WORDS_PER_PHOTON or records.dtype != np.uint32:
+        raise InputError(f"records must be a (n, {WORDS_PER_PHOTON}) uint32 array; got shape "
+                         f"{records.shape}, dtype {records.dtype}")
+    if starts.ndim != 1 or len(starts) < 1 or starts[0] != 0 or starts[-1] != len(records):
+        raise InputError(f"starts must run from 0 to len(records)={len(records)}; got "
+                         f"{starts[:1].tolist()}..{starts[-1:].tolist()}")
     counts = np.diff(starts)
     if counts.size and (counts.min() < 1 or counts.max() > PHOTONS_PER_BLOCK):
         raise InputError(f"block sizes must be 1..{PHOTONS_PER_BLOCK}; got {counts.min()}..{counts.max()}")
@@ -65,6 +73,10 @@ def pack_blocks(records: np.ndarray, starts: np.ndarray) -> np.ndarray:
 def unpack_blocks(words: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(nblocks, 64) block words -> (records (n, 6) uint32, starts (nblocks + 1,) int64)."""
     counts = words[:, COUNT_WORD].astype(np.int64)
+    if counts.size and counts.max() > PHOTONS_PER_BLOCK:
+        b = int(np.argmax(counts))
+        raise InputError(f"block {b} has count word {counts[b]} > {PHOTONS_PER_BLOCK}; "
+                         "these are not blocks written by pack_blocks")
     view = words[:, :COUNT_WORD].reshape(len(words), PHOTONS_PER_BLOCK, WORDS_PER_PHOTON)
     mask = np.arange(PHOTONS_PER_BLOCK)[None, :] < counts[:, None]
     starts = np.concatenate([[0], np.cumsum(counts)])

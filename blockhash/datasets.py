@@ -59,7 +59,8 @@ def caustic_like(n: int, rng: np.random.Generator, *, ring_radius: float = 0.5) 
     a = 0.5 * ring_radius
     t = rng.vonmises(np.pi, 0.6, counts[0])
     r = a * (1.0 + np.cos(t))
-    band = np.stack([r * np.cos(t) + 0.5 * a, np.zeros_like(t), r * np.sin(t)], axis=1)
+    # x spans [-a/4, 2a] before the shift: centre it so the band lies inside the ring.
+    band = np.stack([r * np.cos(t) - 0.875 * a, np.zeros_like(t), r * np.sin(t)], axis=1)
     band[:, [0, 2]] += rng.normal(scale=0.002, size=(counts[0], 2))
     parts.append(band)
     # Hot spots.

@@ -15,6 +15,7 @@ import numba
 import numpy as np
 
 from .errors import InputError
+from .validate import as_int
 
 #: Bits per axis used for the key: 3 * 21 = 63 bits fit an unsigned 64-bit key.
 #: 21 bits over the photon box is a 1/2,097,152 step (0.5 um over 1 m), far finer
@@ -41,8 +42,7 @@ def hilbert_keys(codes, *, bits: int = KEY_BITS_PER_AXIS) -> np.ndarray:
     c = np.asarray(codes)
     if c.ndim != 2 or c.shape[1] != 3 or c.dtype != np.uint32:
         raise InputError(f"codes must be a (n, 3) uint32 array; got shape {c.shape}, dtype {c.dtype}")
-    if not 1 <= bits <= KEY_BITS_PER_AXIS:
-        raise InputError(f"bits={bits} is out of range; allowed 1 <= bits <= {KEY_BITS_PER_AXIS}")
+    bits = as_int(bits, "bits", minimum=1, maximum=KEY_BITS_PER_AXIS)
     return _hilbert_keys(np.ascontiguousarray(c), bits)
 
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .validate import as_points
+from .validate import as_int, as_points
 
 #: Percentiles reported by :func:`summarize`.
 PERCENTILES = (50, 90, 99)
@@ -29,6 +29,7 @@ PERCENTILES = (50, 90, 99)
 
 def exact_knn(positions, queries, k: int, *, workers: int = -1):
     """Exact k nearest neighbours, ``(distances, indices)`` each (m, k), nearest first."""
+    k = as_int(k, "k", minimum=1)
     tree = cKDTree(as_points(positions, "positions"))
     d, i = tree.query(as_points(queries, "queries"), k=[*range(1, k + 1)], workers=workers)
     return d, i
@@ -37,11 +38,11 @@ def exact_knn(positions, queries, k: int, *, workers: int = -1):
 def false_negatives(approx_indices, exact_indices, n: int) -> np.ndarray:
     """(m,) number of exact neighbours missing from each approximate set.
 
-    ``approx_indices`` may hold ``n`` for missing entries (cKDTree convention).
+    Both may hold ``n`` for missing entries (cKDTree convention); padding of the
+    exact set (k > N) is not a neighbour and is never counted as missed.
     """
     a = np.asarray(approx_indices, dtype=np.int64)
     e = np.asarray(exact_indices, dtype=np.int64)
-    k = e.shape[1]
     # Sort each row once and test membership row by row with a vectorised searchsorted
     # on offset rows, so 262,144 queries take well under a second.
     offset = (np.arange(len(a), dtype=np.int64) * (n + 1))[:, None]
@@ -49,7 +50,7 @@ def false_negatives(approx_indices, exact_indices, n: int) -> np.ndarray:
     found = np.searchsorted(flat_a, (e + offset).ravel())
     found = np.minimum(found, len(flat_a) - 1)
     hit = (flat_a[found] == (e + offset).ravel()).reshape(e.shape) & (e < n)
-    return (k - hit.sum(axis=1)).astype(np.int64)
+    return ((e < n).sum(axis=1) - hit.sum(axis=1)).astype(np.int64)
 
 
 def dilations(approx_distances, exact_distances) -> tuple[np.ndarray, np.ndarray]:
