@@ -27,3 +27,7 @@ class InputTypeError(BlockHashError, TypeError):
 
 class CapacityError(BlockHashError, RuntimeError):
     """A data structure does not fit the limits it must live in."""
+
+
+class GLUnavailableError(BlockHashError, RuntimeError):
+    """No usable OpenGL context, or a shader failed to compile or link."""

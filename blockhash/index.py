@@ -201,7 +201,7 @@ class BlockHashIndex:
             reference_bytes=prm.refs * WORD, threshold_bytes=self.thresholds.size * WORD,
             priority_bytes=prm.L * prm.buckets * WORD)
 
-    def query(self, points, k=None, *, A=None):
+    def query(self, points, k=None, *, A=None, by_priority: bool = True):
         """Approximate k nearest photons, like ``scipy.spatial.cKDTree.query``.
 
         Parameters
@@ -213,6 +213,9 @@ class BlockHashIndex:
             Neighbours per query, 1 <= k <= N (default: the k the index was built for).
         A : int, optional
             Accuracy multiplier for this query (default: the index's A).
+        by_priority : bool
+            Visit buckets by priority alpha (section 4.4); False visits them in
+            table order, as the shader variant with priority 'off' does.
 
         Returns
         -------
@@ -234,7 +237,7 @@ class BlockHashIndex:
         d2, slots, examined, fetched = bh_query(
             self.quantizer.quantize_query(qf), qf, self.thresholds, np.asarray(prm.P, dtype=np.int64),
             prm.layout == ThresholdLayout.NESTED, self.tables.refs, self.priority, self.starts,
-            self._positions, k_eff, A_eff * k_eff)
+            self._positions, k_eff, A_eff * k_eff, by_priority)
         d2[~finite] = np.inf
         slots[~finite] = -1
         self.counters = {

@@ -30,7 +30,8 @@ from .thresholds import bucket_of
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positions, k, cap):
+def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positions, k, cap,
+             by_priority=True):
     """Approximate k nearest photons of each query.
 
     Parameters
@@ -46,6 +47,7 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
     positions : (n, 3) float32  decoded photon positions in block order
     k : int                     neighbours kept
     cap : int                   A * k, candidates examined before stopping
+    by_priority : bool          order buckets by priority (False: table order, a shader variant)
 
     Returns
     -------
@@ -72,7 +74,7 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
             keys[t] = key
             # Stable insertion by priority.
             j = t
-            while j > 0 and priority[order[j - 1], keys[order[j - 1]]] > priority[t, key]:
+            while by_priority and j > 0 and priority[order[j - 1], keys[order[j - 1]]] > priority[t, key]:
                 order[j] = order[j - 1]
                 j -= 1
             order[j] = t

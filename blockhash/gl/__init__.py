@@ -1,0 +1,1 @@
+"""OpenGL side of blockhash: contexts, texture packing, the GLSL library and lookups."""

@@ -1,0 +1,103 @@
+"""Offscreen OpenGL contexts: EGL by default, OSMesa when asked or when EGL fails.
+
+Both give GL 4.5 core on Mesa's llvmpipe (or a GPU's driver under EGL).  One
+context per process and backend is created on first use and reused.
+moderngl reports failed allocations through ``ctx.error`` rather than by
+raising, so :func:`check_gl` is called after every large allocation.
+"""
+
+from __future__ import annotations
+
+import os
+
+import moderngl
+
+from ..errors import CapacityError, GLUnavailableError
+
+BACKENDS = ("auto", "egl", "osmesa")
+#: GL 4.5 core: integer textures, texelFetch, SSBO writes from fragment shaders.
+REQUIRED_GL = 450
+#: System packages that provide each backend (Debian names).
+PACKAGES = {"egl": "libegl1 libegl-mesa0 libgl1-mesa-dri", "osmesa": "libosmesa6"}
+
+_contexts: dict[str, moderngl.Context] = {}
+
+
+def _create(backend: str) -> moderngl.Context:
+    if backend == "egl":
+        return moderngl.create_standalone_context(backend="egl", require=REQUIRED_GL)
+    from .osmesa import OSMesaLoader
+
+    loader = OSMesaLoader()
+    previous = moderngl._store.default_context
+    moderngl._store.default_context = None
+    try:
+        moderngl.init_context(loader=loader)
+        ctx = moderngl.get_context()
+    finally:
+        moderngl._store.default_context = previous
+    ctx.extra = {"osmesa_loader": loader}
+    if ctx.version_code < REQUIRED_GL:
+        raise GLUnavailableError(f"OSMesa gave GL {ctx.version_code}, need {REQUIRED_GL}")
+    return ctx
+
+
+def get_context(backend: str | None = None) -> moderngl.Context:
+    """The shared context of ``backend``.
+
+    Parameters
+    ----------
+    backend : {'auto', 'egl', 'osmesa'}, optional
+        Default: the ``BLOCKHASH_GL`` environment variable, else 'auto' (EGL, then OSMesa).
+    """
+    backend = backend or os.environ.get("BLOCKHASH_GL", "auto")
+    if backend not in BACKENDS:
+        raise GLUnavailableError(f"GL backend {backend!r} is not known; choose one of {', '.join(BACKENDS)}")
+    tries = ["egl", "osmesa"] if backend == "auto" else [backend]
+    failures = []
+    for name in tries:
+        if name in _contexts:
+            return _contexts[name]
+        try:
+            ctx = _create(name)
+        except Exception as exc:  # noqa: BLE001 - each backend fails in its own library's way
+            failures.append(f"{name}: {exc}")
+            continue
+        ctx.extra = {**(ctx.extra or {}), "backend": name}
+        _contexts[name] = ctx
+        return ctx
+    packages = " / ".join(f"{name}: {PACKAGES[name]}" for name in tries)
+    raise GLUnavailableError(
+        "no OpenGL 4.5 context could be created; tried " + "; ".join(failures)
+        + f". Install the system packages ({packages}) or choose another backend with "
+          "BLOCKHASH_GL=egl|osmesa")
+
+
+def backend_of(ctx: moderngl.Context) -> str:
+    return (ctx.extra or {}).get("backend", "?")
+
+
+def check_gl(ctx: moderngl.Context, what: str) -> None:
+    """Raise if the last GL calls failed (moderngl sets ctx.error instead of raising)."""
+    err = ctx.error
+    if err != "GL_NO_ERROR":
+        raise CapacityError(f"OpenGL reported {err} after {what}; the data does not fit this "
+                            "device: use fewer photons, a smaller index or a smaller image")
+
+
+#: Limits printed by ``blockhash info`` and checked before packing.
+LIMIT_NAMES = ("GL_MAX_TEXTURE_SIZE", "GL_MAX_3D_TEXTURE_SIZE", "GL_MAX_ARRAY_TEXTURE_LAYERS",
+               "GL_MAX_SHADER_STORAGE_BLOCK_SIZE", "GL_MAX_FRAGMENT_UNIFORM_COMPONENTS",
+               "GL_MAX_VIEWPORT_DIMS", "GL_MAX_RENDERBUFFER_SIZE", "GL_MAX_COLOR_ATTACHMENTS")
+
+
+def gl_info(ctx: moderngl.Context) -> dict:
+    """Renderer, version, backend and the limits that matter here."""
+    info = ctx.info
+    out = {"backend": backend_of(ctx), "renderer": info.get("GL_RENDERER"),
+           "vendor": info.get("GL_VENDOR"), "version": info.get("GL_VERSION"),
+           "version_code": ctx.version_code}
+    for name in LIMIT_NAMES:
+        if name in info:
+            out[name] = info[name]
+    return out

@@ -1,0 +1,149 @@
+"""Block Hashing queries in a GLSL fragment shader (paper section 7).
+
+``GLLookup(index).query(points)`` answers like the CPU reference
+(:meth:`BlockHashIndex.query`), with identical neighbour sets for the same
+index: both hash in integers, compute float32 distances with the same
+operations (``precise`` in GLSL), and order equal distances by photon slot.
+One fragment per query writes its k (distance bits, slot) pairs to a shader
+storage buffer; queries are processed in passes that fit the buffer limit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InputError
+from ..thresholds import ThresholdLayout
+from ..validate import as_int, as_points
+from .context import check_gl, get_context
+from .packing import PHOTONS_PER_BLOCK_CHECK, pack_index
+from .shaderlib import Variant, compile_program
+
+#: Queries per pass are capped so one draw stays short (llvmpipe runs a draw to completion).
+MAX_QUERIES_PER_PASS = 1 << 18
+NO_SLOT = 0xFFFFFFFF
+
+
+class GLLookup:
+    """A BlockHashIndex uploaded to a GL context.
+
+    Parameters
+    ----------
+    index : BlockHashIndex
+    backend : {'auto', 'egl', 'osmesa'}, optional
+    """
+
+    def __init__(self, index, *, backend: str | None = None):
+        starts = index.starts
+        expected = np.minimum(np.arange(len(starts)) * PHOTONS_PER_BLOCK_CHECK, len(index))
+        if not np.array_equal(starts, expected):
+            raise InputError("the GL lookup needs compact blocks (every block full but the last); "
+                             "build the index with builder='bulk' or 'btree' (both compact)")
+        self.index = index
+        self.ctx = get_context(backend)
+        with self.ctx:
+            self.packed = pack_index(self.ctx, index)
+            self._home_color = self.ctx.renderbuffer((1, 1), 4, dtype="f1")
+            self._home = self.ctx.framebuffer(color_attachments=[self._home_color])
+        self._programs: dict = {}
+
+    def _program(self, variant: Variant, k: int, cap: int, width: int, count: int):
+        prm = self.index.params
+        defines = {
+            **variant.defines(),
+            "BH_L": prm.L, "BH_B": prm.B, "BH_PX": prm.P[0], "BH_PY": prm.P[1], "BH_PZ": prm.P[2],
+            "BH_NESTED": int(prm.layout == ThresholdLayout.NESTED), "BH_T": self.index.thresholds.shape[1],
+            "BH_BUCKETS": prm.buckets, "BH_K": k, "BH_CAP": cap, **self.packed.widths,
+            "BH_QUERY_W": width, "BH_QUERIES": count,
+        }
+        key = tuple(defines.items())
+        if key not in self._programs:
+            self._programs[key] = compile_program(self.ctx, "bh_query.frag", defines)
+        return self._programs[key]
+
+    def query(self, points, k=None, *, A=None, variant="default"):
+        """Approximate k nearest photons computed by the shader; see BlockHashIndex.query.
+
+        Returns ``(distances, indices)`` of shape (m, k) (no squeezing); rows with NaN
+        or inf get distance inf and index N.  ``self.counters`` holds candidates examined.
+        """
+        index = self.index
+        n = len(index)
+        k = index.params.k if k is None else as_int(k, "k", minimum=1, maximum=n,
+                                                     hint=f"use k <= N={n:,}")
+        A = index.params.A if A is None else as_int(A, "A", minimum=1)
+        v = variant if isinstance(variant, Variant) else Variant.parse(variant)
+        q = as_points(points, "points", dtype=np.float32, finite=False)
+        m = len(q)
+        pairs = np.empty((m, k, 2), dtype=np.uint32)
+        counts = np.empty(m, dtype=np.uint32)
+        limit = self.ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27) // (8 * k)
+        per_pass = max(1, min(MAX_QUERIES_PER_PASS, limit))
+        with self.ctx:
+            for first in range(0, m, per_pass):
+                chunk = q[first:first + per_pass]
+                self._run(chunk, v, k, A * k, pairs[first:first + len(chunk)],
+                          counts[first:first + len(chunk)])
+        slots = pairs[..., 1].astype(np.int64)
+        found = slots != NO_SLOT
+        d2 = pairs[..., 0].copy().view(np.float32)
+        distances = np.where(found, np.sqrt(d2.astype(np.float64)), np.inf)
+        indices = np.where(found, index.order[np.where(found, slots, 0)], n)
+        finite = np.isfinite(q).all(axis=1)
+        self.counters = {"query.points": float(m),
+                         "query.candidates.mean": float(counts[finite].mean()) if finite.any() else 0.0}
+        return distances, indices
+
+    def _run(self, q, variant, k, cap, pairs_out, counts_out):
+        ctx = self.ctx
+        m = len(q)
+        width = min(m, 1024)
+        height = -(-m // width)
+        grid = np.zeros((height * width, 4), dtype=np.float32)
+        grid[:m, :3] = q
+        qtex = ctx.texture((width, height), 4, grid.tobytes(), dtype="f4")
+        qtex.filter = (ctx.NEAREST, ctx.NEAREST)
+        results = ctx.buffer(reserve=m * k * 8)
+        counts = ctx.buffer(reserve=m * 4)
+        color = ctx.renderbuffer((width, height), 4, dtype="f1")
+        fbo = ctx.framebuffer(color_attachments=[color])
+        check_gl(ctx, f"allocating buffers for {m:,} queries x k={k}")
+        try:
+            prog = self._program(variant, k, cap, width, m)
+            box = self.index.quantizer
+            prog["bh_lo"].value = tuple(float(x) for x in box.lo)
+            prog["bh_step"].value = tuple(float(x) for x in box.step)
+            prog["bh_inv_step"].value = tuple(float(x) for x in box.inv_step)
+            units = {"bh_blocks": self.packed.blocks, "bh_headers": self.packed.headers,
+                     "bh_refs": self.packed.refs, "bh_thresholds": self.packed.thresholds,
+                     "bh_queries": qtex}
+            for unit, (name, tex) in enumerate(units.items()):
+                tex.use(location=unit)
+                if name in prog:
+                    prog[name].value = unit
+            results.bind_to_storage_buffer(0)
+            counts.bind_to_storage_buffer(1)
+            fbo.use()
+            fbo.viewport = (0, 0, width, height)
+            vao = ctx.vertex_array(prog, [])
+            vao.render(mode=ctx.TRIANGLES, vertices=3)
+            ctx.finish()
+            check_gl(ctx, "the lookup draw")
+            pairs_out[:] = np.frombuffer(results.read(), dtype=np.uint32).reshape(m, k, 2)
+            counts_out[:] = np.frombuffer(counts.read(), dtype=np.uint32)
+            vao.release()
+        finally:
+            # moderngl rebinds its current framebuffer after creating one: never leave a
+            # framebuffer that is about to be released current.
+            self._home.use()
+            for obj in (qtex, results, counts, fbo, color):
+                obj.release()
+
+    def release(self):
+        with self.ctx:
+            self.packed.release()
+            self._home.release()
+            self._home_color.release()
+            for prog in self._programs.values():
+                prog.release()
+        self._programs.clear()

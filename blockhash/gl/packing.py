@@ -1,0 +1,92 @@
+"""Block Hashing data as integer textures (paper section 7, steps 2 and 4).
+
+Every array is a 1D sequence of texels stored row by row in a 2D texture whose
+width ``W`` is a power of two (the largest not above GL_MAX_TEXTURE_SIZE and
+not wider than needed): element ``i`` is texel ``(i mod W, i div W)``
+(glsl/bh_fetch.glsl).  Layouts:
+
+============  ========  ====================================================
+texture       format    element
+============  ========  ====================================================
+blocks        RGBA32UI  16 texels per block: the block's 64 words (Figure 4)
+headers       RG32UI    bucket ``t * buckets + key``: (priority alpha, entries)
+refs          R32UI     ``(t * buckets + key) * B + slot``: block reference
+thresholds    R32UI     ``t * T + i``: threshold codes (blockhash/thresholds.py)
+============  ========  ====================================================
+
+A map that does not fit (more rows than GL_MAX_TEXTURE_SIZE) is refused
+before anything is allocated; allocations are checked with ``ctx.error``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import CapacityError
+from .context import check_gl
+
+BLOCK_TEXELS = 16
+#: The lookup computes photon slots as 10 * block + j: blocks must be compact.
+PHOTONS_PER_BLOCK_CHECK = 10
+
+
+def texture_shape(elements: int, max_size: int) -> tuple[int, int, int]:
+    """(width, height, log2 width) for ``elements`` texels, or CapacityError."""
+    elements = max(int(elements), 1)
+    wlog2 = min(int(max_size).bit_length() - 1, max(0, (elements - 1).bit_length()))
+    width = 1 << wlog2
+    height = -(-elements // width)
+    if height > max_size:
+        raise CapacityError(
+            f"{elements:,} texels need {width:,} x {height:,} > GL_MAX_TEXTURE_SIZE={max_size:,} "
+            "rows; use fewer photons, or a smaller index (fewer tables L, buckets P or slots B)")
+    return width, height, wlog2
+
+
+def upload(ctx, data: np.ndarray, components: int, what: str, *, dtype: str = "u4"):
+    """Upload ``data`` ((n, components) or (n,)) as a wrapped 2D texture; returns (texture, log2 W)."""
+    max_size = ctx.info["GL_MAX_TEXTURE_SIZE"]
+    flat = np.ascontiguousarray(data).reshape(-1, components)
+    width, height, wlog2 = texture_shape(len(flat), max_size)
+    padded = np.zeros((width * height, components), dtype=flat.dtype)
+    padded[:len(flat)] = flat
+    tex = ctx.texture((width, height), components, padded.tobytes(), dtype=dtype)
+    check_gl(ctx, f"allocating the {what} texture ({width} x {height} x {components} x 4 bytes)")
+    tex.filter = (ctx.NEAREST, ctx.NEAREST)
+    tex.repeat_x = tex.repeat_y = False
+    return tex, wlog2
+
+
+@dataclass
+class PackedIndex:
+    """The GL textures of one BlockHashIndex in one context."""
+
+    blocks: object
+    headers: object
+    refs: object
+    thresholds: object
+    widths: dict
+
+    def release(self):
+        for tex in (self.blocks, self.headers, self.refs, self.thresholds):
+            tex.release()
+
+
+def pack_index(ctx, index) -> PackedIndex:
+    """Upload an index's blocks, bucket headers, references and thresholds."""
+    tables = index.tables
+    headers = np.stack([index.priority.astype(np.uint32), tables.entries.astype(np.uint32)], axis=-1)
+    refs = tables.refs.astype(np.int64).astype(np.uint32)  # -1 -> 0xFFFFFFFF, past `entries`
+    thresholds = index.thresholds if index.thresholds.size else np.zeros((1, 1), dtype=np.uint32)
+    blocks, wb = upload(ctx, index.block_words.reshape(-1, 4), 4, "photon block")
+    try:
+        hdr, wh = upload(ctx, headers.reshape(-1, 2), 2, "bucket header")
+        ref, wr = upload(ctx, refs.reshape(-1), 1, "block reference")
+        thr, wt = upload(ctx, thresholds.reshape(-1), 1, "threshold")
+    except CapacityError:
+        blocks.release()
+        raise
+    return PackedIndex(blocks=blocks, headers=hdr, refs=ref, thresholds=thr,
+                       widths={"BH_BLK_W": wb, "BH_HDR_W": wh, "BH_REF_W": wr, "BH_THR_W": wt})

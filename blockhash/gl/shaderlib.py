@@ -1,0 +1,191 @@
+"""The GLSL library: locating it, splicing includes, emitting defines, compiling.
+
+Shader files live in ``glsl/`` (shipped as the package ``blockhash.glsl``).
+``#include "file"`` lines are spliced recursively with cycle detection; each
+splice is followed by a ``#line N S`` directive, where ``S`` numbers the
+source file, so a compiler message ``S:N(col)`` maps back to ``file:line``.
+Python never rewrites lines inside a shader file: every configurable value is a
+``#define`` emitted after ``#version`` from one frozen dataclass.
+"""
+
+from __future__ import annotations
+
+import itertools
+import re
+from dataclasses import dataclass, fields
+from importlib import resources
+from pathlib import Path
+
+from ..errors import GLUnavailableError, InputError
+
+GLSL_VERSION = "#version 450 core"
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
+
+
+def glsl_dir() -> Path:
+    """The directory of the shader library, in a checkout or an installed wheel."""
+    try:
+        path = Path(str(resources.files("blockhash.glsl")))
+    except ModuleNotFoundError:
+        path = Path(__file__).resolve().parents[2] / "glsl"
+    if not (path / "bh_lookup.glsl").is_file():
+        raise GLUnavailableError(
+            f"the GLSL library was not found at {path} (bh_lookup.glsl missing); reinstall "
+            "blockhash (pip install .) so that its glsl/ directory ships with it")
+    return path
+
+
+@dataclass(frozen=True)
+class Source:
+    """A preprocessed shader: the text and the file of each ``#line`` source number."""
+
+    text: str
+    files: tuple[str, ...]
+
+    def locate(self, message: str) -> str:
+        """Rewrite compiler locations ``S:N(col)`` / ``S(N)`` into ``file:N``."""
+        def repl(m):
+            s, line = int(m.group(1)), m.group(2)
+            name = self.files[s] if 0 <= s < len(self.files) else f"source {s}"
+            return f"{name}:{line}"
+        return re.sub(r"\b(\d+):(\d+)\(\d+\)", repl, re.sub(r"\b(\d+)\((\d+)\)", repl, message))
+
+
+def preprocess(name: str, prologue: str = "", *, root: Path | None = None) -> Source:
+    """Splice the includes of ``name`` after ``#version`` and ``prologue``.
+
+    Raises InputError for a missing file or an include cycle (naming the chain).
+    """
+    root = root or glsl_dir()
+    files: list[str] = ["<defines>"]
+    out = [GLSL_VERSION, prologue.rstrip("\n")] if prologue else [GLSL_VERSION]
+
+    def splice(fname: str, stack: tuple[str, ...], parent: str, parent_line: int) -> None:
+        if fname in stack:
+            chain = " -> ".join((*stack, fname))
+            raise InputError(f"include cycle in the GLSL library: {chain}; remove one of these includes")
+        path = root / fname
+        if not path.is_file():
+            where = f" (included from {parent}:{parent_line})" if parent else ""
+            raise InputError(f"GLSL file {fname!r} not found in {root}{where}")
+        sid = len(files)
+        files.append(fname)
+        out.append(f"#line 1 {sid}")
+        for lineno, line in enumerate(path.read_text().splitlines(), start=1):
+            m = _INCLUDE.match(line)
+            if m:
+                splice(m.group(1), (*stack, fname), fname, lineno)
+                out.append(f"#line {lineno + 1} {sid}")
+            else:
+                out.append(line)
+
+    splice(name, (), "", 0)
+    return Source(text="\n".join(out) + "\n", files=tuple(files))
+
+
+# --- variants -----------------------------------------------------------------------------
+
+#: Choice -> (GLSL selector define, {name: id}); ids match glsl/bh_variants.glsl.
+CHOICES = {
+    "search": ("BH_THRESHOLD_SEARCH", {"linear": 0, "binary": 1}),
+    "dedup": ("BH_DEDUP", {"branch": 0, "zero": 1}),
+    "priority": ("BH_PRIORITY", {"off": 0, "on": 1}),
+    "select": ("BH_SELECT", {"insertion": 0, "network": 1}),
+}
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One shader variant: a named choice per algorithm stage.
+
+    search : {'linear', 'binary'}     threshold search (section 7)
+    dedup : {'branch', 'zero'}        duplicate blocks skipped, or "multiplied by zero"
+    priority : {'on', 'off'}          buckets by priority alpha (4.4), or table order
+    select : {'insertion', 'network'} k-nearest selection
+    """
+
+    search: str = "binary"
+    dedup: str = "branch"
+    priority: str = "on"
+    select: str = "network"
+
+    def __post_init__(self):
+        for f in fields(self):
+            value = getattr(self, f.name)
+            valid = CHOICES[f.name][1]
+            if value not in valid:
+                raise InputError(f"variant {f.name}={value!r} is not known; choose one of "
+                                 f"{', '.join(valid)}")
+
+    @property
+    def name(self) -> str:
+        return "-".join(getattr(self, f.name) for f in fields(self))
+
+    @classmethod
+    def parse(cls, name: str) -> "Variant":
+        """'default', 'paper', or 'search-dedup-priority-select' such as 'linear-zero-on-insertion'."""
+        if name in NAMED:
+            return NAMED[name]
+        parts = name.split("-")
+        if len(parts) != len(CHOICES):
+            raise InputError(f"shader variant {name!r} is not known; the variants are: "
+                             + ", ".join(variants()))
+        try:
+            return cls(*parts)
+        except InputError as exc:
+            raise InputError(f"shader variant {name!r} is not known ({exc}); the variants are: "
+                             + ", ".join(variants())) from None
+
+    def defines(self) -> dict[str, int]:
+        return {CHOICES[f.name][0]: CHOICES[f.name][1][getattr(self, f.name)] for f in fields(self)}
+
+    def __repr__(self) -> str:
+        return f"Variant({self.name!r})"
+
+
+#: Named variants: 'default' is the fastest measured here, 'paper' follows section 7 literally.
+NAMED = {
+    "default": Variant(),
+    "paper": Variant(search="linear", dedup="zero", priority="on", select="insertion"),
+}
+
+
+def variants() -> list[str]:
+    """Every variant name: the named ones, then each combination of choices."""
+    combos = ["-".join(c) for c in itertools.product(*(list(v[1]) for v in CHOICES.values()))]
+    return [*NAMED, *combos]
+
+
+def define_block(defines: dict[str, object]) -> str:
+    """``#define NAME value`` lines, every value written out (falsy ones too)."""
+    lines = []
+    for key, value in defines.items():
+        if isinstance(value, bool):
+            value = int(value)
+        lines.append(f"#define {key} {value}")
+    return "\n".join(lines)
+
+
+def compile_program(ctx, fragment: str, defines: dict[str, object], *, vertex: str = None):
+    """Compile ``fragment`` (a file of the library) with ``defines`` into a moderngl Program.
+
+    A failed compile raises GLUnavailableError naming file:line and the active defines.
+    """
+    import moderngl
+
+    src = preprocess(fragment, define_block(defines))
+    try:
+        return ctx.program(vertex_shader=vertex or FULLSCREEN_VS, fragment_shader=src.text)
+    except moderngl.Error as exc:
+        active = ", ".join(f"{k}={v}" for k, v in defines.items())
+        raise GLUnavailableError(f"{fragment} failed to compile: {src.locate(str(exc)).strip()}\n"
+                                 f"active defines: {active}") from None
+
+
+#: A triangle covering the viewport; no vertex attributes.
+FULLSCREEN_VS = """#version 450 core
+void main() {
+    vec2 p = vec2(float((gl_VertexID & 1) << 2) - 1.0, float((gl_VertexID & 2) << 1) - 1.0);
+    gl_Position = vec4(p, 0.0, 1.0);
+}
+"""

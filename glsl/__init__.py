@@ -1,0 +1,1 @@
+"""GLSL shader library of blockhash (shipped inside the wheel as ``blockhash.glsl``)."""

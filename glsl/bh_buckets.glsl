@@ -1,0 +1,47 @@
+// bh_buckets.glsl: first dependent fetch and bucket order (paper 4.4; section 7 steps 2-3).
+// Takes: the L bucket keys of a query.  Returns: the table order to visit
+// (bh_order_tables) and each bucket's valid references (bh_ref).
+// Textures: bh_headers RG32UI (priority alpha, valid entries) per bucket
+// t * BH_BUCKETS + key; bh_refs R32UI, BH_B references per bucket.
+// Defines: BH_PRIORITY (on: smallest alpha first, ties in table order | off:
+// table order), BH_L, BH_B, BH_BUCKETS, BH_HDR_W, BH_REF_W.
+#ifndef BH_BUCKETS_GLSL
+#define BH_BUCKETS_GLSL
+#include "bh_fetch.glsl"
+
+uniform usampler2D bh_headers;
+uniform usampler2D bh_refs;
+
+uvec2 bh_header(uint t, uint key) {
+    return bh_fetch2(bh_headers, BH_HDR_W, t * uint(BH_BUCKETS) + key);
+}
+
+uint bh_ref(uint t, uint key, uint slot) {
+    return bh_fetch1(bh_refs, BH_REF_W, (t * uint(BH_BUCKETS) + key) * uint(BH_B) + slot);
+}
+
+// Fills order[] with table indices; entries[t] receives the bucket's valid count.
+void bh_order_tables(uint keys[BH_L], out uint order[BH_L], out uint entries[BH_L]) {
+    uint prio[BH_L];
+    for (int t = 0; t < BH_L; ++t) {
+        uvec2 h = bh_header(uint(t), keys[t]);
+        prio[t] = h.x;
+        entries[t] = h.y;
+        order[t] = uint(t);
+    }
+#if BH_PRIORITY == BH_PRIORITY_ON
+    for (int t = 1; t < BH_L; ++t) {  // stable insertion sort by priority
+        uint cur = order[t];
+        int j = t;
+        while (j > 0 && prio[order[j - 1]] > prio[cur]) {
+            order[j] = order[j - 1];
+            --j;
+        }
+        order[j] = cur;
+    }
+#elif BH_PRIORITY != BH_PRIORITY_OFF
+#error unknown BH_PRIORITY
+#endif
+}
+
+#endif

@@ -1,0 +1,64 @@
+// bh_hash.glsl: hash keys of a query in every table (paper sections 3.1, 4.2, 7 step 1).
+// Takes: the query's float32 position.  Returns: its uint32 fixed-point codes
+// (bh_quantize) and its bucket in table t (bh_bucket_of).
+// Defines: BH_THRESHOLD_SEARCH (linear | binary), BH_PX/BH_PY/BH_PZ buckets per
+// axis, BH_NESTED (0 marginal, 1 nested threshold layout), BH_T thresholds per
+// table row, BH_THR_W threshold texture width (log2).
+// Exactly blockhash/fixedpoint.py quantize_query and blockhash/thresholds.py bucket_of.
+#ifndef BH_HASH_GLSL
+#define BH_HASH_GLSL
+#include "bh_fetch.glsl"
+#include "bh_box.glsl"
+
+uniform usampler2D bh_thresholds;
+
+uvec3 bh_quantize(vec3 q) {
+    precise vec3 t = (q - bh_lo) * bh_inv_step;
+    t = min(max(t, vec3(0.0)), vec3(4294967040.0));  // largest float32 below 2^32
+    return uvec3(t);
+}
+
+// #{thresholds[base + i] <= code : i < count}; each list is sorted.
+uint bh_count_le(uint base, uint count, uint code) {
+#if BH_THRESHOLD_SEARCH == BH_SEARCH_LINEAR
+    uint h = 0u;
+    for (uint i = 0u; i < count; ++i) {
+        h += uint(bh_fetch1(bh_thresholds, BH_THR_W, base + i) <= code);
+    }
+    return h;
+#elif BH_THRESHOLD_SEARCH == BH_SEARCH_BINARY
+    uint lo = 0u;
+    uint hi = count;
+    while (lo < hi) {
+        uint mid = (lo + hi) >> 1u;
+        if (bh_fetch1(bh_thresholds, BH_THR_W, base + mid) <= code) {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return lo;
+#else
+#error unknown BH_THRESHOLD_SEARCH
+#endif
+}
+
+uint bh_bucket_of(uint t, uvec3 c) {
+    uint row = t * uint(BH_T);
+    uint hx = bh_count_le(row, uint(BH_PX - 1), c.x);
+    uint ys = uint(BH_PX - 1);
+#if BH_NESTED
+    uint zs = ys + uint(BH_PX * (BH_PY - 1));
+    ys += hx * uint(BH_PY - 1);
+#else
+    uint zs = ys + uint(BH_PY - 1);
+#endif
+    uint hy = bh_count_le(row + ys, uint(BH_PY - 1), c.y);
+#if BH_NESTED
+    zs += (hx * uint(BH_PY) + hy) * uint(BH_PZ - 1);
+#endif
+    uint hz = bh_count_le(row + zs, uint(BH_PZ - 1), c.z);
+    return hx + uint(BH_PX) * (hy + uint(BH_PY) * hz);
+}
+
+#endif

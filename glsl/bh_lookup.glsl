@@ -1,0 +1,69 @@
+// bh_lookup.glsl: the whole Block Hashing query of one point (paper 4.4, section 7 steps 1-5).
+// Takes: a float32 query position.  Returns: the k nearest photons found, in
+// bh_best (keys: squared-distance bits, photon slot in block order), and the
+// number of candidates examined.
+// Defines: everything its includes take, plus BH_CAP (= A * k, candidates
+// examined before stopping; the check precedes each block) and BH_DEDUP.
+// The CPU oracle is blockhash/query.py bh_query; both give identical results.
+#ifndef BH_LOOKUP_GLSL
+#define BH_LOOKUP_GLSL
+#include "bh_variants.glsl"
+#include "bh_hash.glsl"
+#include "bh_buckets.glsl"
+#include "bh_blocks.glsl"
+#include "bh_select.glsl"
+
+uint bh_lookup(vec3 q) {
+    bh_select_init();
+    uvec3 code = bh_quantize(q);
+    uint keys[BH_L];
+    for (int t = 0; t < BH_L; ++t) {
+        keys[t] = bh_bucket_of(uint(t), code);
+    }
+    uint order[BH_L];
+    uint entries[BH_L];
+    bh_order_tables(keys, order, entries);
+    uint taken[BH_L * BH_B];
+    uint ntaken = 0u;
+    uint count = 0u;
+    for (int oi = 0; oi < BH_L; ++oi) {
+        uint t = order[oi];
+        for (uint r = 0u; r < entries[t]; ++r) {
+            if (count >= uint(BH_CAP)) {
+                break;
+            }
+            uint b = bh_ref(t, keys[t], r);
+            bool dup = false;
+            for (uint j = 0u; j < ntaken; ++j) {
+                dup = dup || taken[j] == b;
+            }
+#if BH_DEDUP == BH_DEDUP_BRANCH
+            if (dup) {
+                continue;
+            }
+            uint kill = 0u;
+#elif BH_DEDUP == BH_DEDUP_ZERO
+            uint kill = dup ? 0xFFFFFFFFu : 0u;  // the redundant block's photons count for nothing
+#else
+#error unknown BH_DEDUP
+#endif
+            uvec4 words[BH_BLOCK_TEXELS];
+            bh_fetch_block(b, words);
+            uint n = words[BH_COUNT_WORD >> 2].x;
+            for (uint j = 0u; j < n; ++j) {
+                vec3 p = bh_photon_position(words, j);
+                precise vec3 d = p - q;
+                precise float dd = (d.x * d.x + d.y * d.y) + d.z * d.z;
+                bh_select_offer(uvec2(floatBitsToUint(dd) | kill, (b * 10u + j) | kill));
+            }
+            if (!dup) {
+                taken[ntaken] = b;
+                ntaken += 1u;
+                count += n;
+            }
+        }
+    }
+    return count;
+}
+
+#endif

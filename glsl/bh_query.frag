@@ -1,0 +1,34 @@
+// bh_query.frag: one fragment per query point, the lookup API's shader.
+// Takes: bh_queries (RGBA32F, one point per texel, row-major over the viewport).
+// Returns: for query i, BH_K (squared-distance bits, slot) pairs at
+// results[i * BH_K ...] and the candidates examined at counts[i]; a query with
+// NaN or inf gets no neighbours.  Defines: BH_QUERY_W (viewport width),
+// BH_QUERIES (queries in this pass), and everything bh_lookup.glsl takes.
+#include "bh_lookup.glsl"
+
+uniform sampler2D bh_queries;
+uniform uint bh_first;  // index of the first query of this pass
+
+layout(std430, binding = 0) writeonly buffer Results { uvec2 results[]; };
+layout(std430, binding = 1) writeonly buffer Counts { uint counts[]; };
+
+out vec4 frag_color;
+
+void main() {
+    uint i = uint(gl_FragCoord.y) * uint(BH_QUERY_W) + uint(gl_FragCoord.x);
+    frag_color = vec4(0.0);
+    if (i >= uint(BH_QUERIES)) {
+        return;
+    }
+    vec3 q = texelFetch(bh_queries, ivec2(gl_FragCoord.xy), 0).xyz;
+    uint examined = 0u;
+    if (any(isnan(q)) || any(isinf(q))) {
+        bh_select_init();
+    } else {
+        examined = bh_lookup(q);
+    }
+    for (int j = 0; j < BH_K; ++j) {
+        results[i * uint(BH_K) + uint(j)] = bh_best[j];
+    }
+    counts[i] = examined;
+}

@@ -1,0 +1,50 @@
+// bh_select.glsl: keep the k nearest candidates (paper 4.4: selection, not a priority queue).
+// Takes: candidates as keys (float32 squared distance bits, photon slot); for
+// non-negative floats the bits order like the values, so keys compare
+// lexicographically exactly as the CPU reference orders (distance, slot).
+// Returns: the k smallest keys, ascending, in bh_best.
+// Defines: BH_SELECT (insertion | network), BH_K.
+#ifndef BH_SELECT_GLSL
+#define BH_SELECT_GLSL
+
+#define BH_NO_KEY uvec2(0xFFFFFFFFu, 0xFFFFFFFFu)
+
+uvec2 bh_best[BH_K];
+
+void bh_select_init() {
+    for (int i = 0; i < BH_K; ++i) {
+        bh_best[i] = BH_NO_KEY;
+    }
+}
+
+bool bh_key_less(uvec2 a, uvec2 b) {
+    return a.x < b.x || (a.x == b.x && a.y < b.y);
+}
+
+void bh_select_offer(uvec2 c) {
+#if BH_SELECT == BH_SELECT_INSERTION
+    if (!bh_key_less(c, bh_best[BH_K - 1])) {
+        return;
+    }
+    int j = BH_K - 1;
+    for (; j > 0; --j) {  // shift larger keys up until c's place is found
+        uvec2 prev = bh_best[j - 1];
+        if (!bh_key_less(c, prev)) {
+            break;
+        }
+        bh_best[j] = prev;
+    }
+    bh_best[j] = c;
+#elif BH_SELECT == BH_SELECT_NETWORK
+    for (int i = 0; i < BH_K; ++i) {  // compare-exchange down the sorted list, no branches
+        bool lt = bh_key_less(c, bh_best[i]);
+        uvec2 lo = lt ? c : bh_best[i];
+        c = lt ? bh_best[i] : c;
+        bh_best[i] = lo;
+    }
+#else
+#error unknown BH_SELECT
+#endif
+}
+
+#endif

@@ -1,0 +1,26 @@
+// bh_variants.glsl: the numbered ids of every shader variant choice.
+// Takes: nothing.  Returns: the id constants that the selector defines
+// (BH_THRESHOLD_SEARCH, BH_DEDUP, BH_PRIORITY, BH_SELECT) are compared with.
+// Python (blockhash/gl/shaderlib.py, class Variant) emits the selectors; the ids
+// here and there must agree (tests/test_shaderlib.py checks it).
+#ifndef BH_VARIANTS_GLSL
+#define BH_VARIANTS_GLSL
+
+// Threshold search (paper section 7: "linear time ... or logarithmic time using binary search").
+#define BH_SEARCH_LINEAR 0
+#define BH_SEARCH_BINARY 1
+
+// Duplicate block removal (section 7: branch, or "multiply redundant photons by zero").
+#define BH_DEDUP_BRANCH 0
+#define BH_DEDUP_ZERO 1
+
+// Bucket order (section 4.4): by priority alpha, or plain table order.
+#define BH_PRIORITY_OFF 0
+#define BH_PRIORITY_ON 1
+
+// k-nearest selection: sorted insertion (data-dependent loop) or a branch-free
+// compare-exchange network over (distance bits, slot) keys.
+#define BH_SELECT_INSERTION 0
+#define BH_SELECT_NETWORK 1
+
+#endif
