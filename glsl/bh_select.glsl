@@ -8,11 +8,16 @@
 #define BH_SELECT_GLSL
 
 #define BH_NO_KEY uvec2(0xFFFFFFFFu, 0xFFFFFFFFu)
+// The network runs over groups of 8 slots, an inner loop the compiler unrolls:
+// llvmpipe caps the iterations a shader's loops may run in total (about 65,536),
+// and a rolled loop of k steps per candidate hits that cap at A*k*k ~ 30,000.
+#define BH_GROUP 8
+#define BH_K_PAD (((BH_K + BH_GROUP - 1) / BH_GROUP) * BH_GROUP)
 
-uvec2 bh_best[BH_K];
+uvec2 bh_best[BH_K_PAD];
 
 void bh_select_init() {
-    for (int i = 0; i < BH_K; ++i) {
+    for (int i = 0; i < BH_K_PAD; ++i) {
         bh_best[i] = BH_NO_KEY;
     }
 }
@@ -36,11 +41,14 @@ void bh_select_offer(uvec2 c) {
     }
     bh_best[j] = c;
 #elif BH_SELECT == BH_SELECT_NETWORK
-    for (int i = 0; i < BH_K; ++i) {  // compare-exchange down the sorted list, no branches
-        bool lt = bh_key_less(c, bh_best[i]);
-        uvec2 lo = lt ? c : bh_best[i];
-        c = lt ? bh_best[i] : c;
-        bh_best[i] = lo;
+    for (int g = 0; g < BH_K_PAD; g += BH_GROUP) {  // compare-exchange down the sorted list
+        for (int u = 0; u < BH_GROUP; ++u) {            // no branches; padding slots hold
+            int i = g + u;                              // larger keys and are never read
+            bool lt = bh_key_less(c, bh_best[i]);
+            uvec2 lo = lt ? c : bh_best[i];
+            c = lt ? bh_best[i] : c;
+            bh_best[i] = lo;
+        }
     }
 #else
 #error unknown BH_SELECT

@@ -2,8 +2,10 @@
 
 Shader files live in ``glsl/`` (shipped as the package ``blockhash.glsl``).
 ``#include "file"`` lines are spliced recursively with cycle detection; each
-splice is followed by a ``#line N S`` directive, where ``S`` numbers the
-source file, so a compiler message ``S:N(col)`` maps back to ``file:line``.
+splice is followed by a ``#line`` directive that encodes the file in the line
+number itself (``file_id * LINE_STRIDE + line``, with ``file_id`` also given as
+the source-string number), because Mesa reports source string 0 whatever
+``#line`` says.  A compiler message ``S:N(col)`` then maps back to ``file:line``.
 Python never rewrites lines inside a shader file: every configurable value is a
 ``#define`` emitted after ``#version`` from one frozen dataclass.
 """
@@ -20,6 +22,8 @@ from ..errors import GLUnavailableError, InputError
 
 GLSL_VERSION = "#version 450 core"
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
+#: Lines per file in the encoded ``#line`` numbers; no library file comes near it.
+LINE_STRIDE = 100_000
 
 
 def glsl_dir() -> Path:
@@ -45,10 +49,12 @@ class Source:
     def locate(self, message: str) -> str:
         """Rewrite compiler locations ``S:N(col)`` / ``S(N)`` into ``file:N``."""
         def repl(m):
-            s, line = int(m.group(1)), m.group(2)
+            s, line = (int(m.group(1)), int(m.group(2))) if m.group(1) else (int(m.group(3)), int(m.group(4)))
+            if line >= LINE_STRIDE:
+                s, line = divmod(line, LINE_STRIDE)
             name = self.files[s] if 0 <= s < len(self.files) else f"source {s}"
             return f"{name}:{line}"
-        return re.sub(r"\b(\d+):(\d+)\(\d+\)", repl, re.sub(r"\b(\d+)\((\d+)\)", repl, message))
+        return re.sub(r"\b(\d+):(\d+)\(\d+\)|\b(\d+)\((\d+)\)", repl, message)
 
 
 def preprocess(name: str, prologue: str = "", *, root: Path | None = None) -> Source:
@@ -70,12 +76,12 @@ def preprocess(name: str, prologue: str = "", *, root: Path | None = None) -> So
             raise InputError(f"GLSL file {fname!r} not found in {root}{where}")
         sid = len(files)
         files.append(fname)
-        out.append(f"#line 1 {sid}")
+        out.append(f"#line {sid * LINE_STRIDE + 1} {sid}")
         for lineno, line in enumerate(path.read_text().splitlines(), start=1):
             m = _INCLUDE.match(line)
             if m:
                 splice(m.group(1), (*stack, fname), fname, lineno)
-                out.append(f"#line {lineno + 1} {sid}")
+                out.append(f"#line {sid * LINE_STRIDE + lineno + 1} {sid}")
             else:
                 out.append(line)
 

@@ -1,0 +1,120 @@
+"""The GLSL lookup returns exactly the CPU reference's neighbours (the oracle)."""
+
+import os
+
+import numpy as np
+import pytest
+
+from blockhash import BlockHashIndex, CapacityError, InputError
+from blockhash.errors import GLUnavailableError
+from blockhash.gl.context import check_gl, get_context, gl_info
+from blockhash.gl.lookup import GLLookup
+from blockhash.gl.packing import texture_shape
+from blockhash.gl.shaderlib import variants
+from conftest import photon_set
+
+BACKENDS = ["egl", "osmesa"]
+
+
+def context_or_skip(backend):
+    """The backend's context; a machine without it skips, unless BLOCKHASH_REQUIRE_GL names it (CI)."""
+    try:
+        return get_context(backend)
+    except GLUnavailableError as exc:
+        if backend in os.environ.get("BLOCKHASH_REQUIRE_GL", "").split(","):
+            raise
+        pytest.skip(f"{backend} unavailable: {exc}")
+
+
+def queries_for(name, m=300, seed=21):
+    q = photon_set(name, m, seed=seed).astype(np.float32)
+    q[::50] += np.float32(0.7)  # some points outside the photon box
+    q[7] = np.nan
+    q[8, 2] = np.inf
+    return q
+
+
+def assert_same_as_cpu(lookup, index, q, k, A, by_priority=True, variant="default"):
+    d, i = lookup.query(q, k=k, A=A, variant=variant)
+    dc, ic = index.query(q, k=[k] and k, A=A, by_priority=by_priority)
+    dc, ic = dc.reshape(len(q), k), ic.reshape(len(q), k)
+    np.testing.assert_array_equal(i, ic)
+    np.testing.assert_array_equal(d, dc)
+    assert np.isinf(d[7]).all() and (i[8] == len(index)).all()
+
+
+@pytest.fixture(scope="module")
+def caustic_index():
+    return BlockHashIndex(photon_set("caustic", 8000), k=8, A=4)
+
+
+@pytest.mark.parametrize("variant", variants())
+def test_every_variant_equals_the_cpu_reference(caustic_index, variant):
+    context_or_skip("egl")
+    lookup = GLLookup(caustic_index, backend="egl")
+    assert_same_as_cpu(lookup, caustic_index, queries_for("caustic"), 8, 4,
+                       by_priority="-off-" not in variant, variant=variant)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("variant", ["default", "paper"])
+def test_both_backends_equal_the_cpu_reference(caustic_index, backend, variant):
+    context_or_skip(backend)
+    lookup = GLLookup(caustic_index, backend=backend)
+    assert_same_as_cpu(lookup, caustic_index, queries_for("caustic"), 8, 4, variant=variant)
+    assert gl_info(lookup.ctx)["backend"] == backend
+
+
+@pytest.mark.filterwarnings("ignore::blockhash.OrphanWarning")
+@pytest.mark.parametrize("preset", ["default", "paper"])
+@pytest.mark.parametrize("k", [1, 8, 50])
+def test_distributions_k_and_A_equal_the_cpu_reference(distribution, preset, k):
+    context_or_skip("egl")
+    index = BlockHashIndex(photon_set(distribution, 5000), k=k, A=8, preset=preset)
+    lookup = GLLookup(index, backend="egl")
+    q = queries_for(distribution, m=200)
+    for A in (1, 8, 16):
+        assert_same_as_cpu(lookup, index, q, k, A)
+
+
+def test_queries_are_split_into_passes_without_changing_results(caustic_index, monkeypatch):
+    context_or_skip("egl")
+    import blockhash.gl.lookup as lookup_module
+
+    lookup = GLLookup(caustic_index, backend="egl")
+    q = queries_for("caustic", m=500)
+    whole = lookup.query(q)
+    monkeypatch.setattr(lookup_module, "MAX_QUERIES_PER_PASS", 128)
+    parts = lookup.query(q)
+    np.testing.assert_array_equal(whole[1], parts[1])
+
+
+def test_bad_queries_are_rejected(caustic_index):
+    context_or_skip("egl")
+    lookup = GLLookup(caustic_index, backend="egl")
+    with pytest.raises(InputError, match=r"points must have shape \(n, 3\)"):
+        lookup.query(np.zeros((3, 4)))
+    with pytest.raises(InputError, match="k=9,000 is out of range"):
+        lookup.query(np.zeros((3, 3)), k=9000)
+    with pytest.raises(InputError, match="shader variant 'fastest' is not known"):
+        lookup.query(np.zeros((3, 3)), variant="fastest")
+
+
+def test_maps_beyond_the_texture_limit_are_refused_before_allocating():
+    assert texture_shape(16384 * 3 + 1, 16384) == (16384, 4, 14)
+    assert texture_shape(5, 16384) == (8, 1, 3)
+    with pytest.raises(CapacityError, match=r"GL_MAX_TEXTURE_SIZE=1,024.*use fewer photons"):
+        texture_shape(1024 * 1024 + 1, 1024)
+
+
+def test_failed_allocation_is_an_error_not_junk():
+    class FakeContext:
+        error = "GL_OUT_OF_MEMORY"
+
+    with pytest.raises(CapacityError, match="GL_OUT_OF_MEMORY after allocating the photon block texture"):
+        check_gl(FakeContext(), "allocating the photon block texture")
+
+
+def test_unknown_backend_is_named():
+    with pytest.raises(GLUnavailableError, match="backend 'vulkan' is not known; choose one of auto, egl, osmesa"):
+        get_context("vulkan")

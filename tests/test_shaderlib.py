@@ -1,0 +1,95 @@
+"""The shader preprocessor and variant registry, without a GL context."""
+
+import re
+
+import pytest
+
+from blockhash.errors import InputError
+from blockhash.gl.shaderlib import (CHOICES, NAMED, Source, Variant, define_block, glsl_dir,
+                                    preprocess, variants)
+
+
+def write(tmp_path, files):
+    for name, text in files.items():
+        (tmp_path / name).write_text(text)
+    return tmp_path
+
+
+def test_library_is_found_and_every_stage_has_a_guarded_documented_file():
+    root = glsl_dir()
+    for name in ("bh_fetch", "bh_box", "bh_hash", "bh_buckets", "bh_blocks", "bh_select", "bh_lookup",
+                 "bh_variants"):
+        text = (root / f"{name}.glsl").read_text()
+        guard = name.upper() + "_GLSL"
+        assert text.startswith(f"// {name}.glsl:"), name
+        assert f"#ifndef {guard}\n#define {guard}" in text and text.rstrip().endswith("#endif")
+
+
+def test_every_variant_chain_ends_in_an_error():
+    for path in glsl_dir().glob("*.glsl"):
+        text = path.read_text()
+        for selector, _ in CHOICES.values():
+            if f"#if {selector} ==" in text:
+                assert f"#error unknown {selector}" in text, path.name
+
+
+def test_glsl_ids_match_the_python_registry():
+    text = (glsl_dir() / "bh_variants.glsl").read_text()
+    ids = dict((m.group(1), int(m.group(2))) for m in re.finditer(r"#define (BH_\w+) (\d+)", text))
+    prefixes = {"search": "BH_SEARCH_", "dedup": "BH_DEDUP_", "priority": "BH_PRIORITY_",
+                "select": "BH_SELECT_"}
+    for choice, (_, names) in CHOICES.items():
+        for name, value in names.items():
+            assert ids[prefixes[choice] + name.upper()] == value
+
+
+def test_includes_are_spliced_with_line_directives(tmp_path):
+    root = write(tmp_path, {"main.frag": 'a\n#include "b.glsl"\nc\n', "b.glsl": "b1\nb2\n"})
+    src = preprocess("main.frag", "#define X 0", root=root)
+    assert src.text.splitlines() == ["#version 450 core", "#define X 0", "#line 100001 1", "a",
+                                     "#line 200001 2", "b1", "b2", "#line 100003 1", "c"]
+    assert src.files == ("<defines>", "main.frag", "b.glsl")
+
+
+def test_compiler_locations_map_back_to_files(tmp_path):
+    src = Source(text="", files=("<defines>", "main.frag", "b.glsl"))
+    # Mesa: source 0, file encoded in the line; other drivers: source number, plain line.
+    assert src.locate("0:200007(12): error: syntax error") == "b.glsl:7: error: syntax error"
+    assert src.locate("2:7(12): error: syntax error") == "b.glsl:7: error: syntax error"
+    assert src.locate("ERROR: 1(3) : undeclared") == "ERROR: main.frag:3 : undeclared"
+
+
+def test_include_cycles_are_reported_with_the_chain(tmp_path):
+    root = write(tmp_path, {"a.glsl": '#include "b.glsl"\n', "b.glsl": '#include "a.glsl"\n'})
+    with pytest.raises(InputError, match=r"include cycle .*a\.glsl -> b\.glsl -> a\.glsl"):
+        preprocess("a.glsl", root=root)
+
+
+def test_missing_include_names_the_including_line(tmp_path):
+    root = write(tmp_path, {"a.glsl": 'x\n#include "gone.glsl"\n'})
+    with pytest.raises(InputError, match=r"'gone\.glsl' not found .*included from a\.glsl:2"):
+        preprocess("a.glsl", root=root)
+
+
+def test_defines_write_out_falsy_values():
+    assert define_block({"A": 0, "B": False, "C": 3}) == "#define A 0\n#define B 0\n#define C 3"
+
+
+def test_variants_list_named_and_every_combination():
+    names = variants()
+    assert names[:2] == ["default", "paper"] and len(names) == 2 + 16
+    for name in names:
+        assert Variant.parse(name).name in names or name in NAMED
+    assert Variant.parse("linear-zero-off-insertion").defines() == {
+        "BH_THRESHOLD_SEARCH": 0, "BH_DEDUP": 1, "BH_PRIORITY": 0, "BH_SELECT": 0}
+
+
+@pytest.mark.parametrize("name", ["fast", "linear-zero-on", "linear-zero-on-heap"])
+def test_unknown_variant_lists_the_valid_ones(name):
+    with pytest.raises(InputError, match=r"is not known.*the variants are: default, paper, linear-"):
+        Variant.parse(name)
+
+
+def test_unknown_choice_value_names_the_choice():
+    with pytest.raises(InputError, match=r"variant select='heap' is not known; choose one of insertion, network"):
+        Variant(select="heap")
