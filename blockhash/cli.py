@@ -72,6 +72,18 @@ def cmd_index(args) -> int:
     return 0
 
 
+def cmd_info(args) -> int:
+    from .gl.context import get_context, gl_info
+
+    ctx = get_context(args.backend)
+    with ctx:
+        info = gl_info(ctx)
+    width = max(len(k) for k in info)
+    for key, value in info.items():
+        print(f"{key:<{width}}  {value}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="blockhash", description="Low latency photon mapping with Block Hashing.")
@@ -91,6 +103,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--builder", choices=("bulk", "btree"), default="bulk")
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=cmd_index)
+    p = sub.add_parser("info", help="OpenGL renderer, version, backend and limits",
+                       description="Create the offscreen OpenGL context and print what it offers.")
+    p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None,
+                   help="GL backend (default: $BLOCKHASH_GL or auto: EGL, then OSMesa)")
+    p.set_defaults(func=cmd_info)
     return parser
 
 

@@ -253,5 +253,20 @@ class BlockHashIndex:
             distances, indices = distances[..., 0], indices[..., 0]
         return distances, indices
 
+    def query_gl(self, points, k=None, *, A=None, variant="default", backend=None):
+        """The same query answered by the GLSL fragment shader (paper section 7).
+
+        Returns ``(distances, indices)`` of shape (m, k), equal to :meth:`query`'s for
+        the same index (``variant`` with priority 'off' equals ``query(...,
+        by_priority=False)``).  The textures are uploaded once per backend and kept.
+        """
+        from .gl.lookup import GLLookup
+
+        lookups = self.__dict__.setdefault("_gl_lookups", {})
+        key = backend or "auto"
+        if key not in lookups:
+            lookups[key] = GLLookup(self, backend=backend)
+        return lookups[key].query(points, k=k, A=A, variant=variant)
+
 
 __all__ = ["BlockHashIndex", "IndexStats", "OrphanWarning", "BlockHashError"]

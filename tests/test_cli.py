@@ -27,3 +27,22 @@ def test_index_command_names_a_bad_data_argument(capsys):
 def test_index_command_reports_bad_parameters(capsys):
     assert main(["index", "--photons", "100", "--k", "500", "--queries", "0"]) == 2
     assert "k=500 is out of range" in capsys.readouterr().err
+
+
+def test_info_command_prints_renderer_and_limits(capsys):
+    assert main(["info", "--backend", "egl"]) == 0
+    out = capsys.readouterr().out
+    assert "backend" in out and "GL_MAX_TEXTURE_SIZE" in out and "4.5" in out
+
+
+def test_info_command_names_an_unavailable_backend(capsys, monkeypatch):
+    import blockhash.gl.context as context
+
+    def fail(name):
+        raise OSError("library missing")
+
+    monkeypatch.setattr(context, "_create", fail)
+    monkeypatch.setattr(context, "_contexts", {})
+    assert main(["info", "--backend", "osmesa"]) == 2
+    err = capsys.readouterr().err
+    assert "tried osmesa: library missing" in err and "libosmesa6" in err

@@ -118,3 +118,13 @@ def test_failed_allocation_is_an_error_not_junk():
 def test_unknown_backend_is_named():
     with pytest.raises(GLUnavailableError, match="backend 'vulkan' is not known; choose one of auto, egl, osmesa"):
         get_context("vulkan")
+
+
+def test_index_query_gl_uploads_once_and_matches_query(caustic_index):
+    context_or_skip("egl")
+    q = queries_for("caustic", m=100)
+    d, i = caustic_index.query_gl(q, backend="egl")
+    assert list(caustic_index._gl_lookups) == ["egl"]
+    caustic_index.query_gl(q, backend="egl", variant="paper")
+    assert len(caustic_index._gl_lookups) == 1
+    np.testing.assert_array_equal(i, caustic_index.query(q)[1])
