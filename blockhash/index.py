@@ -201,7 +201,7 @@ class BlockHashIndex:
             reference_bytes=prm.refs * WORD, threshold_bytes=self.thresholds.size * WORD,
             priority_bytes=prm.L * prm.buckets * WORD)
 
-    def query(self, points, k=None, *, A=None, by_priority: bool = True):
+    def query(self, points, k=None, *, A=None, by_priority: bool = True, slot_bits: int = 0):
         """Approximate k nearest photons, like ``scipy.spatial.cKDTree.query``.
 
         Parameters
@@ -216,6 +216,12 @@ class BlockHashIndex:
         by_priority : bool
             Visit buckets by priority alpha (section 4.4); False visits them in
             table order, as the shader variant with priority 'off' does.
+        slot_bits : int
+            0 (default) selects by exact distance.  The shader's 'packed' selection
+            variant compares distances with their low ``slot_bits`` bits replaced by
+            the candidate's number; passing its value (``gl.lookup.slot_bits(L, B)``)
+            reproduces that variant exactly.  Neighbours then differ from the exact
+            selection only where squared distances agree to 2**-(23 - slot_bits).
 
         Returns
         -------
@@ -237,7 +243,7 @@ class BlockHashIndex:
         d2, slots, examined, fetched = bh_query(
             self.quantizer.quantize_query(qf), qf, self.thresholds, np.asarray(prm.P, dtype=np.int64),
             prm.layout == ThresholdLayout.NESTED, self.tables.refs, self.priority, self.starts,
-            self._positions, k_eff, A_eff * k_eff, by_priority)
+            self._positions, k_eff, A_eff * k_eff, by_priority, slot_bits)
         d2[~finite] = np.inf
         slots[~finite] = -1
         self.counters = {

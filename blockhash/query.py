@@ -31,7 +31,7 @@ from .thresholds import bucket_of
 
 @numba.njit(cache=True, nogil=True, parallel=True)
 def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positions, k, cap,
-             by_priority=True):
+             by_priority=True, slot_bits=0):
     """Approximate k nearest photons of each query.
 
     Parameters
@@ -48,6 +48,10 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
     k : int                     neighbours kept
     cap : int                   A * k, candidates examined before stopping
     by_priority : bool          order buckets by priority (False: table order, a shader variant)
+    slot_bits : int             0: select by exact (distance, slot).  > 0: the shader's
+                                packed selection, keys (distance bits with the low
+                                ``slot_bits`` bits replaced by the candidate's number,
+                                10 * taken-block position + photon), kept in key order
 
     Returns
     -------
@@ -63,7 +67,11 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
     slots = np.full((m, k), -1, dtype=np.int64)
     examined = np.zeros(m, dtype=np.int32)
     fetched = np.zeros(m, dtype=np.int32)
+    mask = np.uint32((1 << slot_bits) - 1) if slot_bits > 0 else np.uint32(0)
     for qi in numba.prange(m):
+        packed = np.full(k, np.uint32(0xFFFFFFFF), dtype=np.uint32)
+        bits = np.empty(1, dtype=np.float32)
+        bits_u = bits.view(np.uint32)
         keys = np.empty(L, dtype=np.int64)
         order = np.empty(L, dtype=np.int64)
         taken = np.empty(L * B, dtype=np.int32)
@@ -108,6 +116,16 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
                     dy = positions[s, 1] - qy
                     dz = positions[s, 2] - qz
                     dd = (dx * dx + dy * dy) + dz * dz
+                    if slot_bits > 0:
+                        bits[0] = dd
+                        pkey = (bits_u[0] & ~mask) | np.uint32((ntaken - 1) * 10 + (s - starts[blk]))
+                        if pkey < packed[k - 1]:
+                            j = k - 1
+                            while j > 0 and packed[j - 1] > pkey:
+                                packed[j] = packed[j - 1]
+                                j -= 1
+                            packed[j] = pkey
+                        continue
                     if dd < bd[k - 1] or (dd == bd[k - 1] and s < bs[k - 1]) or bs[k - 1] < 0:
                         j = k - 1
                         while j > 0 and (bs[j - 1] < 0 or bd[j - 1] > dd or (bd[j - 1] == dd and bs[j - 1] > s)):
@@ -116,6 +134,18 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
                             j -= 1
                         bd[j] = dd
                         bs[j] = s
+        if slot_bits > 0:
+            for i in range(k):
+                if packed[i] == np.uint32(0xFFFFFFFF):
+                    break
+                cand = np.int64(packed[i] & mask)
+                blk = taken[cand // 10]
+                s = starts[blk] + cand % 10
+                dx = positions[s, 0] - qx
+                dy = positions[s, 1] - qy
+                dz = positions[s, 2] - qz
+                bd[i] = (dx * dx + dy * dy) + dz * dz
+                bs[i] = s
         examined[qi] = count
         fetched[qi] = ntaken
     return d2, slots, examined, fetched

@@ -1,6 +1,6 @@
 // bh_blocks.glsl: second dependent fetch, photon blocks (paper 3.2, Figure 4; section 7 step 4).
-// Takes: a block reference.  Returns: the block's 64 words (16 RGBA32UI texels)
-// and decoded photon positions.  Block b is texels 16b .. 16b+15 of bh_blocks;
+// Takes: a block reference.  Returns: its photon count and decoded photon
+// positions, fetched word by word from its 16 RGBA32UI texels.  Block b is texels 16b .. 16b+15 of bh_blocks;
 // photon j occupies words 6j .. 6j+5, word 60 holds the count.
 // Defines: BH_BLK_W (texture width, log2).
 #ifndef BH_BLOCKS_GLSL
@@ -13,20 +13,21 @@ uniform usampler2D bh_blocks;
 #define BH_BLOCK_TEXELS 16
 #define BH_COUNT_WORD 60
 
-void bh_fetch_block(uint b, out uvec4 words[BH_BLOCK_TEXELS]) {
-    for (int i = 0; i < BH_BLOCK_TEXELS; ++i) {
-        words[i] = bh_fetch4(bh_blocks, BH_BLK_W, b * uint(BH_BLOCK_TEXELS) + uint(i));
-    }
+// Word w of block b (texelFetch is cheap and coherent here; a local copy of the
+// block would live in slow scratch memory under llvmpipe).
+uint bh_block_word(uint b, uint w) {
+    return bh_fetch4(bh_blocks, BH_BLK_W, b * uint(BH_BLOCK_TEXELS) + (w >> 2u))[w & 3u];
 }
 
-uint bh_word(uvec4 words[BH_BLOCK_TEXELS], uint w) {
-    return words[w >> 2u][w & 3u];
+uint bh_block_count(uint b) {
+    return bh_fetch4(bh_blocks, BH_BLK_W, b * uint(BH_BLOCK_TEXELS) + uint(BH_COUNT_WORD >> 2)).x;
 }
 
-// Decoded float32 position: lo + float(u) * step, one rounding per operation
-// (blockhash/fixedpoint.py Quantizer.decode).
-vec3 bh_photon_position(uvec4 words[BH_BLOCK_TEXELS], uint j) {
-    uvec3 u = uvec3(bh_word(words, 6u * j), bh_word(words, 6u * j + 1u), bh_word(words, 6u * j + 2u));
+// Decoded float32 position of photon j: lo + float(u) * step, one rounding per
+// operation (blockhash/fixedpoint.py Quantizer.decode).
+vec3 bh_photon_position(uint b, uint j) {
+    uint w = 6u * j;
+    uvec3 u = uvec3(bh_block_word(b, w), bh_block_word(b, w + 1u), bh_block_word(b, w + 2u));
     precise vec3 p = bh_lo + vec3(u) * bh_step;
     return p;
 }

@@ -12,9 +12,14 @@
 #include "bh_buckets.glsl"
 #include "bh_blocks.glsl"
 #include "bh_select.glsl"
+#include "bh_select_packed.glsl"
 
 uint bh_lookup(vec3 q) {
+#if BH_SELECT == BH_SELECT_PACKED
+    bh_packed_init();
+#else
     bh_select_init();
+#endif
     uvec3 code = bh_quantize(q);
     uint keys[BH_L];
     for (int t = 0; t < BH_L; ++t) {
@@ -47,14 +52,16 @@ uint bh_lookup(vec3 q) {
 #else
 #error unknown BH_DEDUP
 #endif
-            uvec4 words[BH_BLOCK_TEXELS];
-            bh_fetch_block(b, words);
-            uint n = words[BH_COUNT_WORD >> 2].x;
+            uint n = bh_block_count(b);
             for (uint j = 0u; j < n; ++j) {
-                vec3 p = bh_photon_position(words, j);
+                vec3 p = bh_photon_position(b, j);
                 precise vec3 d = p - q;
                 precise float dd = (d.x * d.x + d.y * d.y) + d.z * d.z;
+#if BH_SELECT == BH_SELECT_PACKED
+                bh_packed_offer(((floatBitsToUint(dd) & ~BH_SLOT_MASK) | (ntaken * 10u + j)) | kill);
+#else
                 bh_select_offer(uvec2(floatBitsToUint(dd) | kill, (b * 10u + j) | kill));
+#endif
             }
             if (!dup) {
                 taken[ntaken] = b;
@@ -63,6 +70,23 @@ uint bh_lookup(vec3 q) {
             }
         }
     }
+#if BH_SELECT == BH_SELECT_PACKED
+    // Unpack the winners into (exact distance bits, photon slot) keys.
+    for (int i = 0; i < BH_K; ++i) {
+        uint key = bh_pk[i];
+        if (key == 0xFFFFFFFFu) {
+            bh_best[i] = BH_NO_KEY;
+            continue;
+        }
+        uint cand = key & BH_SLOT_MASK;
+        uint b = taken[cand / 10u];
+        uint j = cand % 10u;
+        vec3 p = bh_photon_position(b, j);
+        precise vec3 d = p - q;
+        precise float dd = (d.x * d.x + d.y * d.y) + d.z * d.z;
+        bh_best[i] = uvec2(floatBitsToUint(dd), b * 10u + j);
+    }
+#endif
     return count;
 }
 

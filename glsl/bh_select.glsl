@@ -50,7 +50,7 @@ void bh_select_offer(uvec2 c) {
             bh_best[i] = lo;
         }
     }
-#else
+#elif BH_SELECT != BH_SELECT_PACKED
 #error unknown BH_SELECT
 #endif
 }

@@ -18,9 +18,13 @@
 #define BH_PRIORITY_OFF 0
 #define BH_PRIORITY_ON 1
 
-// k-nearest selection: sorted insertion (data-dependent loop) or a branch-free
-// compare-exchange network over (distance bits, slot) keys.
+// k-nearest selection: sorted insertion (data-dependent loop), a branch-free
+// compare-exchange network over (distance bits, slot) keys, or that network fully
+// unrolled over single uint keys (distance bits with the low bits replaced by the
+// candidate's position in the candidate list: exact up to 2^-(23-BH_SLOT_BITS)
+// relative near-ties, which the CPU reference reproduces).
 #define BH_SELECT_INSERTION 0
 #define BH_SELECT_NETWORK 1
+#define BH_SELECT_PACKED 2
 
 #endif

@@ -10,6 +10,8 @@ storage buffer; queries are processed in passes that fit the buffer limit.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from ..errors import InputError
@@ -22,6 +24,11 @@ from .shaderlib import Variant, compile_program
 #: Queries per pass are capped so one draw stays short (llvmpipe runs a draw to completion).
 MAX_QUERIES_PER_PASS = 1 << 18
 NO_SLOT = 0xFFFFFFFF
+
+
+def slot_bits(L: int, B: int) -> int:
+    """Bits that number a query's candidates (10 per taken block, at most L * B blocks)."""
+    return max(1, int(L * B * 10 - 1).bit_length())
 
 
 class GLLookup:
@@ -55,6 +62,7 @@ class GLLookup:
             "BH_NESTED": int(prm.layout == ThresholdLayout.NESTED), "BH_T": self.index.thresholds.shape[1],
             "BH_BUCKETS": prm.buckets, "BH_K": k, "BH_CAP": cap, **self.packed.widths,
             "BH_QUERY_W": width, "BH_QUERIES": count,
+            "BH_SLOT_BITS": slot_bits(prm.L, prm.B),
         }
         key = tuple(defines.items())
         if key not in self._programs:
@@ -65,7 +73,9 @@ class GLLookup:
         """Approximate k nearest photons computed by the shader; see BlockHashIndex.query.
 
         Returns ``(distances, indices)`` of shape (m, k) (no squeezing); rows with NaN
-        or inf get distance inf and index N.  ``self.counters`` holds candidates examined.
+        or inf get distance inf and index N.  ``self.counters`` holds the candidates
+        examined per query and ``gl.draw_seconds``, the time of the draws alone
+        (no compile, upload or read-back).
         """
         index = self.index
         n = len(index)
@@ -79,6 +89,7 @@ class GLLookup:
         counts = np.empty(m, dtype=np.uint32)
         limit = self.ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27) // (8 * k)
         per_pass = max(1, min(MAX_QUERIES_PER_PASS, limit))
+        self._draw_seconds = 0.0
         with self.ctx:
             for first in range(0, m, per_pass):
                 chunk = q[first:first + per_pass]
@@ -90,7 +101,7 @@ class GLLookup:
         distances = np.where(found, np.sqrt(d2.astype(np.float64)), np.inf)
         indices = np.where(found, index.order[np.where(found, slots, 0)], n)
         finite = np.isfinite(q).all(axis=1)
-        self.counters = {"query.points": float(m),
+        self.counters = {"query.points": float(m), "gl.draw_seconds": self._draw_seconds,
                          "query.candidates.mean": float(counts[finite].mean()) if finite.any() else 0.0}
         return distances, indices
 
@@ -126,8 +137,11 @@ class GLLookup:
             fbo.use()
             fbo.viewport = (0, 0, width, height)
             vao = ctx.vertex_array(prog, [])
+            ctx.finish()
+            start = time.perf_counter()
             vao.render(mode=ctx.TRIANGLES, vertices=3)
             ctx.finish()
+            self._draw_seconds += time.perf_counter() - start
             check_gl(ctx, "the lookup draw")
             pairs_out[:] = np.frombuffer(results.read(), dtype=np.uint32).reshape(m, k, 2)
             counts_out[:] = np.frombuffer(counts.read(), dtype=np.uint32)

@@ -96,7 +96,7 @@ CHOICES = {
     "search": ("BH_THRESHOLD_SEARCH", {"linear": 0, "binary": 1}),
     "dedup": ("BH_DEDUP", {"branch": 0, "zero": 1}),
     "priority": ("BH_PRIORITY", {"off": 0, "on": 1}),
-    "select": ("BH_SELECT", {"insertion": 0, "network": 1}),
+    "select": ("BH_SELECT", {"insertion": 0, "network": 1, "packed": 2}),
 }
 
 
@@ -107,13 +107,15 @@ class Variant:
     search : {'linear', 'binary'}     threshold search (section 7)
     dedup : {'branch', 'zero'}        duplicate blocks skipped, or "multiplied by zero"
     priority : {'on', 'off'}          buckets by priority alpha (4.4), or table order
-    select : {'insertion', 'network'} k-nearest selection
+    select : {'insertion', 'network', 'packed'} k-nearest selection (packed: unrolled
+                                      network on uint keys, exact up to near-ties that
+                                      the CPU reference reproduces with slot_bits)
     """
 
     search: str = "binary"
     dedup: str = "branch"
     priority: str = "on"
-    select: str = "network"
+    select: str = "packed"
 
     def __post_init__(self):
         for f in fields(self):
