@@ -84,6 +84,20 @@ def cmd_info(args) -> int:
     return 0
 
 
+def cmd_bench(args) -> int:
+    from .bench import format_table, run_benchmark, write_results
+
+    A_values = tuple(int(a) for a in args.A.split(","))
+    rows = run_benchmark(photons=args.photons, queries=args.queries, k=args.k, A_values=A_values,
+                         variants=tuple(args.variants.split(",")), data=args.data,
+                         repeat=args.repeat, backend=args.backend, seed=args.seed,
+                         kdtree=not args.no_kdtree, progress=lambda s: print(s, file=sys.stderr))
+    print(format_table(rows, args.queries))
+    if args.json:
+        write_results(rows, args.json)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="blockhash", description="Low latency photon mapping with Block Hashing.")
@@ -108,6 +122,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None,
                    help="GL backend (default: $BLOCKHASH_GL or auto: EGL, then OSMesa)")
     p.set_defaults(func=cmd_info)
+    p = sub.add_parser("bench", help="time shader variants against exact kNN",
+                       description="Time Block Hashing shader variants at each A beside the "
+                                   "fetch-only floor, the exact kd-tree shader and cKDTree, on one "
+                                   "photon map and query set; medians of --repeat runs.")
+    p.add_argument("--photons", type=int, default=1_000_000)
+    p.add_argument("--queries", type=int, default=512 * 512)
+    p.add_argument("--k", type=int, default=50)
+    p.add_argument("--A", default="1,2,4,8,16", help="comma-separated multipliers")
+    p.add_argument("--variants", default="default",
+                   help="comma-separated shader variants (see blockhash.gl.shaderlib.variants())")
+    p.add_argument("--data", choices=sorted(DISTRIBUTIONS), default="caustic")
+    p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--no-kdtree", action="store_true", help="skip the exact kd-tree shader")
+    p.add_argument("--json", help="write every row to this JSON file")
+    p.set_defaults(func=cmd_bench)
     return parser
 
 

@@ -3,7 +3,9 @@
 // bh_best (keys: squared-distance bits, photon slot in block order), and the
 // number of candidates examined.
 // Defines: everything its includes take, plus BH_CAP (= A * k, candidates
-// examined before stopping; the check precedes each block) and BH_DEDUP.
+// examined before stopping; the check precedes each block), BH_DEDUP, and
+// BH_FETCH_ONLY (1: fetch and measure the same candidates but keep none, the
+// memory floor the benchmark compares with; bh_fetch_sink receives their sum).
 // The CPU oracle is blockhash/query.py bh_query; both give identical results.
 #ifndef BH_LOOKUP_GLSL
 #define BH_LOOKUP_GLSL
@@ -13,6 +15,8 @@
 #include "bh_blocks.glsl"
 #include "bh_select.glsl"
 #include "bh_select_packed.glsl"
+
+uint bh_fetch_sink = 0u;
 
 uint bh_lookup(vec3 q) {
 #if BH_SELECT == BH_SELECT_PACKED
@@ -57,7 +61,9 @@ uint bh_lookup(vec3 q) {
                 vec3 p = bh_photon_position(b, j);
                 precise vec3 d = p - q;
                 precise float dd = (d.x * d.x + d.y * d.y) + d.z * d.z;
-#if BH_SELECT == BH_SELECT_PACKED
+#if BH_FETCH_ONLY
+                bh_fetch_sink += floatBitsToUint(dd) | kill;
+#elif BH_SELECT == BH_SELECT_PACKED
                 bh_packed_offer(((floatBitsToUint(dd) & ~BH_SLOT_MASK) | (ntaken * 10u + j)) | kill);
 #else
                 bh_select_offer(uvec2(floatBitsToUint(dd) | kill, (b * 10u + j) | kill));
@@ -70,7 +76,7 @@ uint bh_lookup(vec3 q) {
             }
         }
     }
-#if BH_SELECT == BH_SELECT_PACKED
+#if BH_SELECT == BH_SELECT_PACKED && !BH_FETCH_ONLY
     // Unpack the winners into (exact distance bits, photon slot) keys.
     for (int i = 0; i < BH_K; ++i) {
         uint key = bh_pk[i];

@@ -2,7 +2,8 @@
 // Takes: bh_queries (RGBA32F, one point per texel, row-major over the viewport).
 // Returns: for query i, BH_K (squared-distance bits, slot) pairs at
 // results[i * BH_K ...] and the candidates examined at counts[i]; a query with
-// NaN or inf gets no neighbours.  Defines: BH_QUERY_W (viewport width),
+// NaN or inf gets no neighbours (with BH_FETCH_ONLY, counts[] gets the
+// candidates plus one bit of the fetched data).  Defines: BH_QUERY_W (viewport width),
 // BH_QUERIES (queries in this pass), and everything bh_lookup.glsl takes.
 #include "bh_lookup.glsl"
 
@@ -30,5 +31,9 @@ void main() {
     for (int j = 0; j < BH_K; ++j) {
         results[i * uint(BH_K) + uint(j)] = bh_best[j];
     }
+#if BH_FETCH_ONLY
+    counts[i] = examined + (bh_fetch_sink & 1u);  // keeps the fetches alive
+#else
     counts[i] = examined;
+#endif
 }

@@ -46,3 +46,17 @@ def test_info_command_names_an_unavailable_backend(capsys, monkeypatch):
     assert main(["info", "--backend", "osmesa"]) == 2
     err = capsys.readouterr().err
     assert "tried osmesa: library missing" in err and "libosmesa6" in err
+
+
+def test_bench_command_prints_the_table_and_writes_json(tmp_path, capsys):
+    out_json = tmp_path / "bench.json"
+    assert main(["bench", "--photons", "5000", "--queries", "512", "--A", "2", "--repeat", "1",
+                 "--no-kdtree", "--backend", "egl", "--json", str(out_json)]) == 0
+    out = capsys.readouterr().out
+    assert "cKDTree (CPU, all workers)" in out and "BH default" in out and "BH fetch-only floor" in out
+    import json
+
+    rows = json.loads(out_json.read_text())
+    assert {r["method"] for r in rows} == {"cKDTree (CPU, all workers)", "BH default",
+                                           "BH fetch-only floor"}
+    assert all(r["seconds"] > 0 for r in rows)

@@ -50,7 +50,7 @@ from ..errors import CapacityError, InputError
 from ..validate import as_int, as_points
 from .context import check_gl, get_context
 from .packing import upload
-from .shaderlib import CHOICES, compile_program
+from .shaderlib import compile_program
 
 #: The node's original index shares a 32-bit word with the split axis (2 bits).
 AXIS_SHIFT = 30
@@ -60,7 +60,7 @@ MAX_QUERIES_PER_PASS = 1 << 18
 #: The k-best list lives in a local array of 2k uints; compile time grows fast with its size
 #: (DESIGN.md: 512 elements 0.25 s, 2048 elements 3.9 s), so k is bounded.
 MAX_K = 512
-#: Width of the query viewport (and query texture); programs are cached per (k, width).
+#: Width of the query texture and viewport (a power of two, a multiple of 4).
 QUERY_WIDTH = 1024
 NO_INDEX = 0xFFFFFFFF
 
@@ -227,11 +227,26 @@ def build_kdtree(positions) -> KdTree:
 
 # --- search (GLSL) ------------------------------------------------------------------------
 
-SELECT = CHOICES["select"][1]
+#: llvmpipe ends every loop of a shader invocation, silently, once this many loop iterations
+#: have run in total (Mesa gallivm LP_MAX_TGSI_LOOP_ITERATIONS, shared by all loops; loops
+#: of at most 32 constant iterations are unrolled and do not count).  The search keeps
+#: within it by stopping itself after a step budget and resuming in another pass.
+LOOP_LIMIT = 65535
+#: Iterations kept free for the fixed-length loops around the search, beyond the ones
+#: counted in :func:`_loop_reserve` (a margin for loops the compiler does not unroll).
+LOOP_MARGIN = 256
+
+
+def _loop_reserve(k: int, depth: int) -> int:
+    """Loop iterations one shader invocation spends outside the search steps (kd_query.frag):
+    heap init and load (2k), stack load and save (2 depth), the end of a sift and the loop
+    exit (log2 k + 2), heapsort ((k - 1)(log2 k + 1)) and the output (k)."""
+    lg = max(1, (k - 1).bit_length())
+    return 3 * k + 2 * depth + lg + 2 + (k - 1) * (lg + 1) + LOOP_MARGIN
 
 
 class GLKdTree:
-    """Exact k nearest photons by a kd-tree search in a GLSL fragment shader.
+    """Exact k nearest photons by a kd-tree search in a GLSL fragment shader (paper section 2).
 
     Parameters
     ----------
@@ -239,10 +254,18 @@ class GLKdTree:
         Photon positions (finite, n >= 1), searched as float32; the tree is built with
         :func:`build_kdtree` and kept in ``self.tree``.
     backend : {'auto', 'egl', 'osmesa'}, optional
+    step_budget : int, optional
+        Search steps (node visits, stack pops, heap sift levels) per query and pass; a query
+        that needs more is saved and resumed in another pass.  Default: the most that keeps
+        llvmpipe's loop limit (``LOOP_LIMIT``); small values are for tests.
     """
 
-    def __init__(self, positions, *, backend: str | None = None):
+    def __init__(self, positions, *, backend: str | None = None, step_budget: int | None = None):
+        if step_budget is not None:
+            step_budget = as_int(step_budget, "step_budget", minimum=1, maximum=LOOP_LIMIT,
+                                 hint="leave it unset for the largest budget llvmpipe allows")
         self.tree = build_kdtree(positions)
+        self.step_budget = step_budget
         self.ctx = get_context(backend)
         with self.ctx:
             self.nodes, self._node_wlog2 = upload(self.ctx, self.tree.texels(), 4, "kd-tree node")
@@ -256,22 +279,29 @@ class GLKdTree:
         return len(self.tree)
 
     def __repr__(self) -> str:
-        return f"GLKdTree(n={len(self):,}, height={self.tree.height}, backend={self.backend!r})"
+        return (f"GLKdTree(n={len(self):,}, height={self.tree.height}, backend={self.backend!r}, "
+                f"step_budget={self.step_budget})")
 
     @property
     def backend(self) -> str:
         return (self.ctx.extra or {}).get("backend", "?")
 
-    def _program(self, k: int, width: int, select: str):
-        defines = {"BH_SELECT": SELECT[select], "BH_K": k, "KD_N": len(self.tree),
-                   "KD_DEPTH": self.tree.height, "KD_NODE_W": self._node_wlog2,
-                   "KD_QUERY_W": width}
+    def budget(self, k: int) -> int:
+        """Search steps per query and pass for ``k`` neighbours."""
+        if self.step_budget is not None:
+            return self.step_budget
+        return LOOP_LIMIT - _loop_reserve(k, self.tree.height)
+
+    def _program(self, k: int):
+        defines = {"KD_K": k, "KD_N": len(self.tree), "KD_DEPTH": self.tree.height,
+                   "KD_NODE_W": self._node_wlog2, "KD_QUERY_W": QUERY_WIDTH.bit_length() - 1,
+                   "KD_VIEW_W": QUERY_WIDTH}
         key = tuple(defines.items())
         if key not in self._programs:
             self._programs[key] = compile_program(self.ctx, "kd_query.frag", defines)
         return self._programs[key]
 
-    def query(self, points, k: int = 1, *, select: str = "insertion"):
+    def query(self, points, k: int = 1):
         """The exact k nearest photons of each point, like ``scipy.spatial.cKDTree.query``.
 
         Parameters
@@ -279,83 +309,108 @@ class GLKdTree:
         points : (m, 3) float
             Query points, searched as float32; rows with NaN or inf get no neighbours.
         k : int
-            1 <= k <= MAX_K (k may exceed n: the missing neighbours are inf and n).
-        select : {'insertion', 'network'}
-            How the k-best list is kept (glsl/bh_select.glsl).
+            1 <= k <= MAX_K; k may exceed n (the missing neighbours are inf and n).
 
         Returns
         -------
         distances : (m, k) float64
-            Nearest first; sqrt of the float32 squared distance; inf where missing.
+            Nearest first: sqrt of the float32 squared distance; inf where missing.
         indices : (m, k) int64
             Into ``positions``; n where missing.  Equal distances: smaller index first.
 
-        Shapes are never squeezed (k = 1 gives (m, 1)).  ``self.counters['query.nodes.mean']``
-        is the mean number of tree nodes visited per finite query.
+        Shapes are never squeezed (k = 1 gives (m, 1)).  ``self.counters`` reports the mean
+        nodes visited per finite query, and the passes and queries that were resumed.
         """
         n = len(self.tree)
         k = as_int(k, "k", minimum=1, maximum=MAX_K,
-                   hint=f"the shader keeps at most {MAX_K} neighbours; query in fewer, larger k "
-                        "is not supported")
-        if select not in SELECT:
-            raise InputError(f"select={select!r} is not known; choose one of {', '.join(SELECT)}")
+                   hint=f"the shader keeps at most MAX_K={MAX_K} neighbours per query")
         q = as_points(points, "points", dtype=np.float32, finite=False)
         m = len(q)
         pairs = np.empty((m, k, 2), dtype=np.uint32)
-        visits = np.empty(m, dtype=np.uint32)
-        limit = self.ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27) // (8 * k)
-        per_pass = max(1, min(MAX_QUERIES_PER_PASS, limit))
+        visits = np.zeros(m, dtype=np.uint32)
+        info = self.ctx.info
+        ssbo = info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27)
+        per_pass = max(1, min(MAX_QUERIES_PER_PASS, ssbo // (8 * k), ssbo // (8 * self.tree.height)))
+        budget = self.budget(k)
+        self.counters = {"query.points": float(m), "query.passes": 0.0, "query.resumed": 0.0}
         with self.ctx:
             for first in range(0, m, per_pass):
                 stop = min(m, first + per_pass)
-                self._run(q[first:stop], k, select, pairs[first:stop], visits[first:stop])
+                self._search(q[first:stop], k, budget, pairs[first:stop], visits[first:stop])
         idx = pairs[..., 1].astype(np.int64)
         found = idx != NO_INDEX
         d2 = pairs[..., 0].copy().view(np.float32)
         distances = np.where(found, np.sqrt(d2.astype(np.float64)), np.inf)
         indices = np.where(found, idx, n)
         finite = np.isfinite(q).all(axis=1)
-        self.counters = {"query.points": float(m),
-                         "query.nodes.mean": float(visits[finite].mean()) if finite.any() else 0.0}
+        self.counters["query.nodes.mean"] = float(visits[finite].mean()) if finite.any() else 0.0
+        self.counters["query.nodes.max"] = float(visits.max()) if m else 0.0
         return distances, indices
 
-    def _run(self, q, k, select, pairs_out, visits_out):
+    def _search(self, q, k, budget, pairs_out, visits_out):
+        """Run passes over ``q`` until every search is complete (resuming the unfinished)."""
+        rows = np.arange(len(q))
+        saved = None
+        while len(rows):
+            pairs, state, stack = self._run(q[rows], k, budget, saved)
+            done = state[:, 3] == 1
+            pairs_out[rows[done]] = pairs[done]
+            visits_out[rows[done]] = state[done, 2]
+            self.counters["query.passes"] += 1.0
+            if saved is not None:
+                self.counters["query.resumed"] += float(len(rows))
+            rows = rows[~done]
+            saved = (pairs[~done], state[~done], stack[~done]) if len(rows) else None
+
+    def _run(self, q, k, budget, saved):
         ctx = self.ctx
         m = len(q)
-        width = QUERY_WIDTH
-        height = -(-m // width)
-        grid = np.zeros((height * width, 4), dtype=np.float32)
+        depth = self.tree.height
+        view_h = 4 * -(-m // (16 * (QUERY_WIDTH // 4)))
+        rows = -(-m // QUERY_WIDTH)
+        grid = np.zeros((rows * QUERY_WIDTH, 4), dtype=np.float32)
         grid[:m, :3] = q
-        qtex = ctx.texture((width, height), 4, grid.view(np.uint32).tobytes(), dtype="u4")
+        qtex = ctx.texture((QUERY_WIDTH, rows), 4, grid.view(np.uint32).tobytes(), dtype="u4")
         qtex.filter = (ctx.NEAREST, ctx.NEAREST)
-        results = ctx.buffer(reserve=m * k * 8)
-        visits = ctx.buffer(reserve=m * 4)
-        color = ctx.renderbuffer((width, height), 4, dtype="f1")
+        if saved is None:
+            results = ctx.buffer(reserve=m * k * 8)
+            states = ctx.buffer(reserve=m * 16)
+            stacks = ctx.buffer(reserve=m * depth * 8)
+        else:
+            results = ctx.buffer(np.ascontiguousarray(saved[0]).tobytes())
+            states = ctx.buffer(np.ascontiguousarray(saved[1]).tobytes())
+            stacks = ctx.buffer(np.ascontiguousarray(saved[2]).tobytes())
+        color = ctx.renderbuffer((QUERY_WIDTH, view_h), 4, dtype="f1")
         fbo = ctx.framebuffer(color_attachments=[color])
         check_gl(ctx, f"allocating buffers for {m:,} queries x k={k}")
         vao = None
         try:
-            prog = self._program(k, width, select)
-            prog["kd_queries_n"].value = m
+            prog = self._program(k)
+            prog["kd_count"].value = m
+            prog["kd_resume"].value = saved is not None
+            prog["kd_budget"].value = budget
             for unit, (name, tex) in enumerate({"kd_nodes": self.nodes, "kd_queries": qtex}.items()):
                 tex.use(location=unit)
-                if name in prog:
-                    prog[name].value = unit
-            results.bind_to_storage_buffer(0)
-            visits.bind_to_storage_buffer(1)
+                prog[name].value = unit
+            for binding, buf in enumerate((results, states, stacks)):
+                buf.bind_to_storage_buffer(binding)
             fbo.use()
-            fbo.viewport = (0, 0, width, height)
+            fbo.viewport = (0, 0, QUERY_WIDTH, view_h)
             vao = ctx.vertex_array(prog, [])
             vao.render(mode=ctx.TRIANGLES, vertices=3)
             ctx.finish()
             check_gl(ctx, "the kd-tree search draw")
-            pairs_out[:] = np.frombuffer(results.read(), dtype=np.uint32).reshape(m, k, 2)
-            visits_out[:] = np.frombuffer(visits.read(), dtype=np.uint32)
+            state = np.frombuffer(states.read(), dtype=np.uint32).reshape(m, 4).copy()
+            pairs = np.frombuffer(results.read(), dtype=np.uint32).reshape(m, k, 2)
+            stack = None
+            if not (state[:, 3] == 1).all():
+                stack = np.frombuffer(stacks.read(), dtype=np.uint32).reshape(m, depth, 2)
+            return pairs, state, stack
         finally:
             # moderngl rebinds its current framebuffer after creating one: never leave a
             # framebuffer that is about to be released current (see lookup.py).
             self._home.use()
-            for obj in (vao, qtex, results, visits, fbo, color):
+            for obj in (vao, qtex, results, states, stacks, fbo, color):
                 if obj is not None:
                     obj.release()
 

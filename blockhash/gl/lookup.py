@@ -54,7 +54,8 @@ class GLLookup:
             self._home = self.ctx.framebuffer(color_attachments=[self._home_color])
         self._programs: dict = {}
 
-    def _program(self, variant: Variant, k: int, cap: int, width: int, count: int):
+    def _program(self, variant: Variant, k: int, cap: int, width: int, count: int,
+                 fetch_only: bool = False):
         prm = self.index.params
         defines = {
             **variant.defines(),
@@ -62,20 +63,21 @@ class GLLookup:
             "BH_NESTED": int(prm.layout == ThresholdLayout.NESTED), "BH_T": self.index.thresholds.shape[1],
             "BH_BUCKETS": prm.buckets, "BH_K": k, "BH_CAP": cap, **self.packed.widths,
             "BH_QUERY_W": width, "BH_QUERIES": count,
-            "BH_SLOT_BITS": slot_bits(prm.L, prm.B),
+            "BH_SLOT_BITS": slot_bits(prm.L, prm.B), "BH_FETCH_ONLY": int(fetch_only),
         }
         key = tuple(defines.items())
         if key not in self._programs:
             self._programs[key] = compile_program(self.ctx, "bh_query.frag", defines)
         return self._programs[key]
 
-    def query(self, points, k=None, *, A=None, variant="default"):
+    def query(self, points, k=None, *, A=None, variant="default", fetch_only: bool = False):
         """Approximate k nearest photons computed by the shader; see BlockHashIndex.query.
 
         Returns ``(distances, indices)`` of shape (m, k) (no squeezing); rows with NaN
         or inf get distance inf and index N.  ``self.counters`` holds the candidates
         examined per query and ``gl.draw_seconds``, the time of the draws alone
-        (no compile, upload or read-back).
+        (no compile, upload or read-back).  ``fetch_only`` runs the memory-floor
+        shader for benchmarks: same candidates, no selection, no neighbours returned.
         """
         index = self.index
         n = len(index)
@@ -94,7 +96,7 @@ class GLLookup:
             for first in range(0, m, per_pass):
                 chunk = q[first:first + per_pass]
                 self._run(chunk, v, k, A * k, pairs[first:first + len(chunk)],
-                          counts[first:first + len(chunk)])
+                          counts[first:first + len(chunk)], fetch_only)
         slots = pairs[..., 1].astype(np.int64)
         found = slots != NO_SLOT
         d2 = pairs[..., 0].copy().view(np.float32)
@@ -105,7 +107,7 @@ class GLLookup:
                          "query.candidates.mean": float(counts[finite].mean()) if finite.any() else 0.0}
         return distances, indices
 
-    def _run(self, q, variant, k, cap, pairs_out, counts_out):
+    def _run(self, q, variant, k, cap, pairs_out, counts_out, fetch_only=False):
         ctx = self.ctx
         m = len(q)
         width = min(m, 1024)
@@ -120,7 +122,7 @@ class GLLookup:
         fbo = ctx.framebuffer(color_attachments=[color])
         check_gl(ctx, f"allocating buffers for {m:,} queries x k={k}")
         try:
-            prog = self._program(variant, k, cap, width, m)
+            prog = self._program(variant, k, cap, width, m, fetch_only)
             box = self.index.quantizer
             prog["bh_lo"].value = tuple(float(x) for x in box.lo)
             prog["bh_step"].value = tuple(float(x) for x in box.step)
