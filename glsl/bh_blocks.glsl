@@ -13,21 +13,22 @@ uniform usampler2D bh_blocks;
 #define BH_BLOCK_TEXELS 16
 #define BH_COUNT_WORD 60
 
-// Word w of block b (texelFetch is cheap and coherent here; a local copy of the
-// block would live in slow scratch memory under llvmpipe).
-uint bh_block_word(uint b, uint w) {
-    return bh_fetch4(bh_blocks, BH_BLK_W, b * uint(BH_BLOCK_TEXELS) + (w >> 2u))[w & 3u];
-}
-
 uint bh_block_count(uint b) {
     return bh_fetch4(bh_blocks, BH_BLK_W, b * uint(BH_BLOCK_TEXELS) + uint(BH_COUNT_WORD >> 2)).x;
 }
 
 // Decoded float32 position of photon j: lo + float(u) * step, one rounding per
-// operation (blockhash/fixedpoint.py Quantizer.decode).
+// operation (blockhash/fixedpoint.py Quantizer.decode).  Its words 6j .. 6j+2
+// start at a texel boundary (even j) or half way (odd j): one or two fetches.
 vec3 bh_photon_position(uint b, uint j) {
-    uint w = 6u * j;
-    uvec3 u = uvec3(bh_block_word(b, w), bh_block_word(b, w + 1u), bh_block_word(b, w + 2u));
+    uint texel = b * uint(BH_BLOCK_TEXELS) + ((6u * j) >> 2u);
+    uvec4 a = bh_fetch4(bh_blocks, BH_BLK_W, texel);
+    uvec3 u;
+    if ((j & 1u) == 0u) {
+        u = a.xyz;
+    } else {
+        u = uvec3(a.zw, bh_fetch4(bh_blocks, BH_BLK_W, texel + 1u).x);
+    }
     precise vec3 p = bh_lo + vec3(u) * bh_step;
     return p;
 }

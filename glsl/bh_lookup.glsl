@@ -18,6 +18,20 @@
 
 uint bh_fetch_sink = 0u;
 
+// A packed key -> (exact squared-distance bits, photon slot), or BH_NO_KEY.
+uvec2 bh_unpack(uint key, vec3 q, uint taken[BH_L * BH_B]) {
+    if (key == BH_PK_EMPTY) {
+        return BH_NO_KEY;
+    }
+    uint cand = key & BH_SLOT_MASK;
+    uint b = taken[cand / 10u];
+    uint j = cand % 10u;
+    vec3 p = bh_photon_position(b, j);
+    precise vec3 d = p - q;
+    precise float dd = (d.x * d.x + d.y * d.y) + d.z * d.z;
+    return uvec2(floatBitsToUint(dd), b * 10u + j);
+}
+
 uint bh_lookup(vec3 q) {
 #if BH_SELECT == BH_SELECT_PACKED
     bh_packed_init();
@@ -78,20 +92,10 @@ uint bh_lookup(vec3 q) {
     }
 #if BH_SELECT == BH_SELECT_PACKED && !BH_FETCH_ONLY
     // Unpack the winners into (exact distance bits, photon slot) keys.
-    for (int i = 0; i < BH_K; ++i) {
-        uint key = bh_pk[i];
-        if (key == 0xFFFFFFFFu) {
-            bh_best[i] = BH_NO_KEY;
-            continue;
-        }
-        uint cand = key & BH_SLOT_MASK;
-        uint b = taken[cand / 10u];
-        uint j = cand % 10u;
-        vec3 p = bh_photon_position(b, j);
-        precise vec3 d = p - q;
-        precise float dd = (d.x * d.x + d.y * d.y) + d.z * d.z;
-        bh_best[i] = uvec2(floatBitsToUint(dd), b * 10u + j);
-    }
+#define BH_UNPACK1(i) if (i < BH_K) bh_best[i] = bh_unpack(bh_pk[i], q, taken);
+#define BH_UNPACK8(i) BH_UNPACK1(i) BH_UNPACK1(i + 1) BH_UNPACK1(i + 2) BH_UNPACK1(i + 3) \
+                      BH_UNPACK1(i + 4) BH_UNPACK1(i + 5) BH_UNPACK1(i + 6) BH_UNPACK1(i + 7)
+    BH_PK_GROUPS(BH_UNPACK8)
 #endif
     return count;
 }

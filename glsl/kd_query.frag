@@ -5,8 +5,9 @@
 // this pass), and the tree (kd_tree.glsl).
 // Returns: query i's k keys at results[i*KD_K ..]: sorted ascending (float32 squared
 // distance bits, photon index; 0xFFFFFFFF where missing) when state[i].w == 1, else the
-// unsorted heap of a search to resume; state[i] = (next node, stack size, nodes visited,
-// finished) and stack[i*KD_DEPTH ..] = (node, plane distance bits) for resuming.
+// unsorted heap of a search to resume; state[2i] = (next node, stack size, nodes visited,
+// finished), state[2i+1] = (cell offsets bits, 0) and stack[i*KD_DEPTH ..] = (node, cell
+// offsets bits) for resuming.
 // Fragment (x, y) of the KD_VIEW_W-wide viewport is query 16 * tile + 4 * (y & 3) + (x & 3)
 // with 4 x 4 tiles in row order, so queries given in a spatial order run together.
 // A query with NaN or inf gets no neighbours.
@@ -20,7 +21,7 @@ uniform uint kd_budget;
 
 layout(std430, binding = 0) buffer Results { uvec2 results[]; };
 layout(std430, binding = 1) buffer States { uvec4 state[]; };
-layout(std430, binding = 2) buffer Stacks { uvec2 stack[]; };
+layout(std430, binding = 2) buffer Stacks { uvec4 stack[]; };
 
 out vec4 frag_color;
 
@@ -34,21 +35,20 @@ void main() {
     }
     vec3 q = uintBitsToFloat(bh_fetch4(kd_queries, uint(KD_QUERY_W), i).xyz);
     bool searchable = !(any(isnan(q)) || any(isinf(q)));
-    kd_init(searchable);
+    kd_init(q, searchable);
     uint base = i * uint(KD_K);
     uint sbase = i * uint(KD_DEPTH);
     if (kd_resume && searchable) {
-        uvec4 s = state[i];
+        uvec4 s = state[2u * i];
         kd_node = s.x;
         kd_sp = int(s.y);
         kd_visited = s.z;
+        kd_off = uintBitsToFloat(state[2u * i + 1u].xyz);
         for (int j = 0; j < KD_K; ++j) {
             kd_heap[j] = results[base + uint(j)];
         }
         for (int j = 0; j < KD_DEPTH; ++j) {
-            uvec2 e = stack[sbase + uint(j)];
-            kd_stack_node[j] = e.x;
-            kd_stack_d2[j] = e.y;
+            kd_stack[j] = stack[sbase + uint(j)];
         }
     }
     bool complete = kd_search(q, kd_budget);
@@ -56,11 +56,12 @@ void main() {
         kd_heap_sort();
     } else {
         for (int j = 0; j < KD_DEPTH; ++j) {
-            stack[sbase + uint(j)] = uvec2(kd_stack_node[j], kd_stack_d2[j]);
+            stack[sbase + uint(j)] = kd_stack[j];
         }
     }
     for (int j = 0; j < KD_K; ++j) {
         results[base + uint(j)] = kd_heap[j];
     }
-    state[i] = uvec4(kd_node, uint(kd_sp), kd_visited, complete ? 1u : 0u);
+    state[2u * i] = uvec4(kd_node, uint(kd_sp), kd_visited, complete ? 1u : 0u);
+    state[2u * i + 1u] = uvec4(floatBitsToUint(kd_off), 0u);
 }
