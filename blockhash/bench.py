@@ -21,6 +21,29 @@ from .index import BlockHashIndex
 from .metrics import exact_knn, false_negatives
 
 
+QUERY_SETS = ("image", "random")
+
+
+def make_queries(pts: np.ndarray, m: int, kind: str, seed: int, data: str) -> np.ndarray:
+    """(m, 3) float32 query points.
+
+    ``image``: a raster of pixels over the receiver seen from above, row by row,
+    as a caustic pass visits them: the plane y = median(y) across the 1-99%
+    x and z range of the photons (neighbouring queries are neighbouring points).
+    ``random``: fresh samples of the photon distribution, in random order
+    (no coherence between neighbouring queries).
+    """
+    if kind == "random":
+        return DISTRIBUTIONS[data](m, np.random.default_rng(seed)).astype(np.float32)
+    side = int(np.ceil(np.sqrt(m)))
+    lo, hi = np.percentile(pts[:, [0, 2]], [1, 99], axis=0)
+    xs = np.linspace(lo[0], hi[0], side)
+    zs = np.linspace(lo[1], hi[1], side)
+    gz, gx = np.meshgrid(zs, xs, indexing="ij")
+    q = np.stack([gx.ravel(), np.full(gx.size, np.median(pts[:, 1])), gz.ravel()], axis=1)
+    return q[:m].astype(np.float32)
+
+
 def _median_time(fn, repeat):
     times = []
     for _ in range(repeat):
@@ -30,17 +53,18 @@ def _median_time(fn, repeat):
 
 def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2, 4, 8, 16),
                   variants=("default",), data="caustic", repeat=3, backend=None, seed=0,
-                  kdtree=True, progress=print):
+                  kdtree=True, query_set="image", progress=print):
     """Run the benchmark and return a list of result rows (dicts)."""
     from scipy.spatial import cKDTree
 
     from .gl.lookup import GLLookup
 
     pts = DISTRIBUTIONS[data](photons, np.random.default_rng(seed))
-    q = DISTRIBUTIONS[data](queries, np.random.default_rng(seed + 1)).astype(np.float32)
+    q = make_queries(pts, queries, query_set, seed + 1, data)
     index = BlockHashIndex(pts, k=k, A=max(A_values))
     positions = index.positions.astype(np.float64)
-    progress(f"photons {photons:,} ({data}), queries {queries:,}, k={k}; {index.params!r}")
+    progress(f"photons {photons:,} ({data}), queries {queries:,} ({query_set}), k={k}; "
+             f"{index.params!r}")
     exact = exact_knn(positions, q, k)
     tree = cKDTree(positions)
 

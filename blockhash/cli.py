@@ -91,7 +91,8 @@ def cmd_bench(args) -> int:
     rows = run_benchmark(photons=args.photons, queries=args.queries, k=args.k, A_values=A_values,
                          variants=tuple(args.variants.split(",")), data=args.data,
                          repeat=args.repeat, backend=args.backend, seed=args.seed,
-                         kdtree=not args.no_kdtree, progress=lambda s: print(s, file=sys.stderr))
+                         kdtree=not args.no_kdtree, query_set=args.query_set,
+                         progress=lambda s: print(s, file=sys.stderr))
     print(format_table(rows, args.queries))
     if args.json:
         write_results(rows, args.json)
@@ -137,6 +138,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-kdtree", action="store_true", help="skip the exact kd-tree shader")
+    p.add_argument("--query-set", choices=("image", "random"), default="image",
+                   help="image: a 512x512-style raster over the receiver (default); "
+                        "random: fresh photon-distribution samples in random order")
     p.add_argument("--json", help="write every row to this JSON file")
     p.set_defaults(func=cmd_bench)
     return parser
