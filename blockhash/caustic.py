@@ -1,0 +1,187 @@
+"""Caustic radiance from a Block Hashing photon map: shader pass and CPU reference.
+
+The estimate (glsl/caustic_estimate.glsl) at a shading point with normal n and
+viewer direction wo is ``L = sum f_r(wi, wo) Phi_p / (pi r^2)`` over the found
+photons that arrive from the front (``dot(-d_p, n) > 0``), with r the distance to
+the farthest photon found (the k-th when k were found) and f_r the modified
+Phong BRDF (Lafortune & Willems 1994).  Shading points come as per-pixel arrays
+(position, normal, viewer direction, material id, path weight), so mirrors seen
+by the camera are handled upstream by moving the shading point to what the
+mirror reflects.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .codec import decode_directions, decode_powers, unpack_records
+from .errors import InputError
+from .gl.context import check_gl
+from .gl.lookup import GLLookup, slot_bits
+from .gl.shaderlib import Variant
+
+#: Materials a caustic pass can hold (uniform arrays in caustic_pass.frag).
+MAX_MATERIALS = 16
+
+
+@dataclass(frozen=True)
+class ShadingPoints:
+    """Per-pixel shading points, (h, w, ...) arrays.
+
+    position : (h, w, 3) float32     world position
+    normal : (h, w, 3) float32       unit shading normal
+    view : (h, w, 3) float32         unit direction toward the viewer
+    material : (h, w) int32          index into the material table, -1 for none
+    weight : (h, w) float32          path weight (1, or a mirror's reflectance average)
+    """
+
+    position: np.ndarray
+    normal: np.ndarray
+    view: np.ndarray
+    material: np.ndarray
+    weight: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.material.shape
+
+
+def phong_brdf(wi, wo, n, kd, ks, e):
+    """Modified Phong f_r, vectorised: all (m, 3) except e (m,). Returns (m, 3)."""
+    r = 2.0 * np.sum(n * wi, axis=1, keepdims=True) * n - wi
+    c = np.maximum(np.sum(r * wo, axis=1), 0.0)
+    return kd / np.pi + ks * ((e + 2.0) / (2.0 * np.pi) * c ** e)[:, None]
+
+
+def estimate_cpu(index, points: ShadingPoints, materials, *, k=None, A=None,
+                 variant: str = "default") -> np.ndarray:
+    """The CPU reference of the caustic pass: (h, w, 3) float64 radiance.
+
+    Uses :meth:`BlockHashIndex.query` in the mode of ``variant`` so that it finds the
+    same photons as the shader.
+    """
+    v = Variant.parse(variant)
+    prm = index.params
+    k = prm.k if k is None else k
+    bits = slot_bits(prm.L, prm.B) if v.select == "packed" else 0
+    h, w = points.shape
+    mat = points.material.reshape(-1)
+    live = mat >= 0
+    out = np.zeros((h * w, 3))
+    if not live.any():
+        return out.reshape(h, w, 3)
+    q = points.position.reshape(-1, 3)[live]
+    d, idx = index.query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
+    d, idx = d.reshape(len(q), k), idx.reshape(len(q), k)
+    _, dcodes, _, pbits = unpack_records(index.records.records)
+    slot_of = np.empty(len(index), dtype=np.int64)
+    slot_of[index.order] = np.arange(len(index))
+    found = idx < len(index)
+    safe = np.where(found, slot_of[np.minimum(idx, len(index) - 1)], 0)
+    wi = -decode_directions(dcodes[safe.ravel()]).astype(np.float64)
+    power = decode_powers(pbits[safe.ravel()], index.records.power_scale)[:, :3].astype(np.float64)
+    n = np.repeat(points.normal.reshape(-1, 3)[live], k, axis=0).astype(np.float64)
+    wo = np.repeat(points.view.reshape(-1, 3)[live], k, axis=0).astype(np.float64)
+    table = _material_table(materials)
+    mid = np.repeat(mat[live], k)
+    f = phong_brdf(wi, wo, n, table[0][mid], table[1][mid], table[2][mid])
+    front = (np.sum(wi * n, axis=1) > 0) & found.ravel()
+    contrib = np.where(front[:, None], f * power, 0.0).reshape(len(q), k, 3).sum(axis=1)
+    last = np.where(found.any(axis=1), found.sum(axis=1) - 1, 0)
+    r2 = np.where(found.any(axis=1), d[np.arange(len(q)), last].astype(np.float64) ** 2, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        L = np.where(r2[:, None] > 0, contrib / (np.pi * r2[:, None]), 0.0)
+    out[live] = L * points.weight.reshape(-1)[live, None]
+    return out.reshape(h, w, 3)
+
+
+def _material_table(materials):
+    """[(kd, ks, exponent)] -> (kd (M,3), ks (M,3), e (M,)) float64."""
+    if len(materials) > MAX_MATERIALS:
+        raise InputError(f"{len(materials)} receiver materials > {MAX_MATERIALS} that the caustic "
+                         "pass holds; merge materials")
+    kd = np.array([m[0] for m in materials], dtype=np.float64).reshape(-1, 3)
+    ks = np.array([m[1] for m in materials], dtype=np.float64).reshape(-1, 3)
+    e = np.array([m[2] for m in materials], dtype=np.float64).reshape(-1)
+    return kd, ks, e
+
+
+class CausticPass:
+    """The caustic pass in a fragment shader over an uploaded index (GLLookup's textures)."""
+
+    def __init__(self, index, *, backend=None):
+        self.lookup = GLLookup(index, backend=backend)
+        self.index = index
+        self.ctx = self.lookup.ctx
+        self.seconds = 0.0
+
+    def render(self, points: ShadingPoints, materials, *, k=None, A=None,
+               variant: str = "default") -> np.ndarray:
+        """(h, w, 3) float32 caustic radiance, row 0 at the top like ``points``."""
+        import time
+
+        from .gl.shaderlib import compile_program
+        from .thresholds import ThresholdLayout
+
+        index = self.index
+        prm = index.params
+        k = prm.k if k is None else k
+        A = prm.A if A is None else A
+        v = Variant.parse(variant)
+        h, w = points.shape
+        kd, ks, e = _material_table(materials)
+        defines = {
+            **v.defines(), "BH_L": prm.L, "BH_B": prm.B, "BH_PX": prm.P[0], "BH_PY": prm.P[1],
+            "BH_PZ": prm.P[2], "BH_NESTED": int(prm.layout == ThresholdLayout.NESTED),
+            "BH_T": index.thresholds.shape[1], "BH_BUCKETS": prm.buckets, "BH_K": k,
+            "BH_CAP": A * k, **self.lookup.packed.widths, "BH_SLOT_BITS": slot_bits(prm.L, prm.B),
+            "BH_FETCH_ONLY": 0,
+        }
+        ctx = self.ctx
+        with ctx:
+            prog = compile_program(ctx, "caustic_pass.frag", defines)
+            # Textures are bottom-up in GL: flip rows on the way in and out.
+            pos = np.concatenate([points.position, points.material[..., None].astype(np.float32)], axis=2)
+            nrm = np.concatenate([points.normal, points.weight[..., None]], axis=2)
+            view = np.concatenate([points.view, np.zeros((h, w, 1), np.float32)], axis=2)
+            texs = [ctx.texture((w, h), 4, np.ascontiguousarray(a[::-1], dtype=np.float32).tobytes(),
+                                dtype="f4") for a in (pos, nrm, view)]
+            out_tex = ctx.texture((w, h), 4, dtype="f4")
+            fbo = ctx.framebuffer(color_attachments=[out_tex])
+            check_gl(ctx, f"allocating the {w} x {h} caustic pass")
+            try:
+                box = index.quantizer
+                prog["bh_lo"].value = tuple(float(x) for x in box.lo)
+                prog["bh_step"].value = tuple(float(x) for x in box.step)
+                prog["bh_inv_step"].value = tuple(float(x) for x in box.inv_step)
+                prog["bh_power_scale"].value = float(index.records.power_scale)
+                pad = MAX_MATERIALS - len(kd)
+                prog["cp_kd"].value = [tuple(r) for r in np.vstack([kd, np.zeros((pad, 3))])]
+                prog["cp_ks"].value = [tuple(r) for r in np.vstack([ks, np.zeros((pad, 3))])]
+                prog["cp_exponent"].value = [float(x) for x in np.concatenate([e, np.zeros(pad)])]
+                packed = self.lookup.packed
+                units = {"bh_blocks": packed.blocks, "bh_headers": packed.headers,
+                         "bh_refs": packed.refs, "bh_thresholds": packed.thresholds,
+                         "cp_position": texs[0], "cp_normal": texs[1], "cp_view": texs[2]}
+                for unit, (name, tex) in enumerate(units.items()):
+                    tex.use(location=unit)
+                    if name in prog:
+                        prog[name].value = unit
+                fbo.use()
+                fbo.viewport = (0, 0, w, h)
+                vao = ctx.vertex_array(prog, [])
+                ctx.finish()
+                start = time.perf_counter()
+                vao.render(mode=ctx.TRIANGLES, vertices=3)
+                ctx.finish()
+                self.seconds = time.perf_counter() - start
+                check_gl(ctx, "the caustic pass draw")
+                img = np.frombuffer(out_tex.read(), dtype=np.float32).reshape(h, w, 4)[::-1, :, :3]
+                vao.release()
+            finally:
+                self.lookup._home.use()
+                for obj in (*texs, fbo, out_tex):
+                    obj.release()
+        return np.ascontiguousarray(img)

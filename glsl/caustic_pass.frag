@@ -1,0 +1,32 @@
+// caustic_pass.frag: the caustic pass, one fragment per pixel (paper section 7).
+// Takes: shading points per pixel: cp_position (RGBA32F: xyz, material id or -1
+// for none), cp_normal (RGBA32F: unit normal, path weight), cp_view (RGBA32F:
+// unit direction toward the viewer); a table of up to 16 modified Phong
+// materials.  Returns: caustic radiance times the path weight (RGBA32F).
+// Defines: everything bh_lookup.glsl takes (the lookup variant included).
+#include "bh_lookup.glsl"
+#include "caustic_estimate.glsl"
+
+uniform sampler2D cp_position;
+uniform sampler2D cp_normal;
+uniform sampler2D cp_view;
+uniform vec3 cp_kd[16];
+uniform vec3 cp_ks[16];
+uniform float cp_exponent[16];
+
+out vec4 frag_color;
+
+void main() {
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    vec4 pos = texelFetch(cp_position, px, 0);
+    frag_color = vec4(0.0, 0.0, 0.0, 1.0);
+    if (pos.w < 0.0) {
+        return;
+    }
+    vec4 nw = texelFetch(cp_normal, px, 0);
+    vec3 wo = texelFetch(cp_view, px, 0).xyz;
+    int m = int(pos.w);
+    bh_lookup(pos.xyz);
+    vec3 l = caustic_radiance(pos.xyz, nw.xyz, wo, cp_kd[m], cp_ks[m], cp_exponent[m]);
+    frag_color = vec4(l * nw.w, 1.0);
+}
