@@ -34,7 +34,7 @@ class ShadingPoints:
     normal : (h, w, 3) float32       unit shading normal
     view : (h, w, 3) float32         unit direction toward the viewer
     material : (h, w) int32          index into the material table, -1 for none
-    weight : (h, w) float32          path weight (1, or a mirror's reflectance average)
+    weight : (h, w, 3) float32       path weight (1, or the product of mirror reflectances)
     """
 
     position: np.ndarray
@@ -93,7 +93,7 @@ def estimate_cpu(index, points: ShadingPoints, materials, *, k=None, A=None,
     r2 = np.where(found.any(axis=1), d[np.arange(len(q)), last].astype(np.float64) ** 2, 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         L = np.where(r2[:, None] > 0, contrib / (np.pi * r2[:, None]), 0.0)
-    out[live] = L * points.weight.reshape(-1)[live, None]
+    out[live] = L * points.weight.reshape(-1, 3)[live]
     return out.reshape(h, w, 3)
 
 
@@ -144,7 +144,7 @@ class CausticPass:
             prog = compile_program(ctx, "caustic_pass.frag", defines)
             # Textures are bottom-up in GL: flip rows on the way in and out.
             pos = np.concatenate([points.position, points.material[..., None].astype(np.float32)], axis=2)
-            nrm = np.concatenate([points.normal, points.weight[..., None]], axis=2)
+            nrm = np.concatenate([points.normal, np.ones((h, w, 1), np.float32)], axis=2)
             view = np.concatenate([points.view, np.zeros((h, w, 1), np.float32)], axis=2)
             texs = [ctx.texture((w, h), 4, np.ascontiguousarray(a[::-1], dtype=np.float32).tobytes(),
                                 dtype="f4") for a in (pos, nrm, view)]
@@ -184,4 +184,4 @@ class CausticPass:
                 self.lookup._home.use()
                 for obj in (*texs, fbo, out_tex):
                     obj.release()
-        return np.ascontiguousarray(img)
+        return np.ascontiguousarray(img * points.weight)

@@ -1,6 +1,6 @@
 // caustic_pass.frag: the caustic pass, one fragment per pixel (paper section 7).
 // Takes: shading points per pixel: cp_position (RGBA32F: xyz, material id or -1
-// for none), cp_normal (RGBA32F: unit normal, path weight), cp_view (RGBA32F:
+// for none), cp_normal (RGBA32F: unit normal, scalar weight), cp_view (RGBA32F:
 // unit direction toward the viewer); a table of up to 16 modified Phong
 // materials.  Returns: caustic radiance times the path weight (RGBA32F).
 // Defines: everything bh_lookup.glsl takes (the lookup variant included).

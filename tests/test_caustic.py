@@ -24,7 +24,7 @@ def grid_points(h=32, w=32, *, lo=0.2, hi=0.8, normal=(0, 1, 0), view=(0, 1, 0))
     return ShadingPoints(
         position=np.stack([gx, np.zeros_like(gx), gz], axis=2).astype(np.float32),
         normal=np.tile(np.float32(normal), (h, w, 1)), view=np.tile(np.float32(view), (h, w, 1)),
-        material=np.zeros((h, w), np.int32), weight=np.ones((h, w), np.float32))
+        material=np.zeros((h, w), np.int32), weight=np.ones((h, w, 3), np.float32))
 
 
 def test_uniform_photons_on_a_plane_give_the_analytic_radiance(plane_index):

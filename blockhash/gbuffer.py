@@ -1,0 +1,135 @@
+"""The G-buffer: what each pixel sees, rasterised with moderngl.
+
+One draw of every scene triangle (per-corner shading normals, so smooth ring
+walls stay smooth) into two RGBA32F targets: world position with the object id
+(-1 where nothing is hit) and the unit shading normal turned toward the camera.
+Rows are returned top to bottom.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .gl.context import check_gl, get_context
+
+VERTEX = """#version 450 core
+uniform mat4 view_proj;
+in vec3 in_position;
+in vec3 in_normal;
+in float in_object;
+out vec3 v_position;
+out vec3 v_normal;
+flat out float v_object;
+void main() {
+    v_position = in_position;
+    v_normal = in_normal;
+    v_object = in_object;
+    gl_Position = view_proj * vec4(in_position, 1.0);
+}
+"""
+
+FRAGMENT = """#version 450 core
+uniform vec3 eye;
+in vec3 v_position;
+in vec3 v_normal;
+flat in float v_object;
+layout(location = 0) out vec4 out_position;
+layout(location = 1) out vec4 out_normal;
+void main() {
+    vec3 n = normalize(v_normal);
+    if (dot(n, eye - v_position) < 0.0) {
+        n = -n;  // two-sided: the side the camera sees
+    }
+    out_position = vec4(v_position, v_object);
+    out_normal = vec4(n, 0.0);
+}
+"""
+
+
+@dataclass(frozen=True)
+class GBuffer:
+    """position (h, w, 3) float32; normal (h, w, 3) float32; object (h, w) int32, -1 for none."""
+
+    position: np.ndarray
+    normal: np.ndarray
+    object: np.ndarray
+
+
+def look_at(eye, target, up) -> np.ndarray:
+    """Right-handed view matrix (camera looks down -z)."""
+    eye, target, up = (np.asarray(v, dtype=np.float64) for v in (eye, target, up))
+    f = target - eye
+    f /= np.linalg.norm(f)
+    s = np.cross(f, up)
+    s /= np.linalg.norm(s)
+    u = np.cross(s, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
+    m[:3, 3] = -m[:3, :3] @ eye
+    return m
+
+
+def perspective(fov_y_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
+    """OpenGL projection matrix."""
+    f = 1.0 / np.tan(np.radians(fov_y_deg) / 2.0)
+    m = np.zeros((4, 4))
+    m[0, 0] = f / aspect
+    m[1, 1] = f
+    m[2, 2] = (far + near) / (near - far)
+    m[2, 3] = 2.0 * far * near / (near - far)
+    m[3, 2] = -1.0
+    return m
+
+
+def scene_triangles(objects) -> np.ndarray:
+    """(3 T, 7) float32 corners: position, shading normal, object index."""
+    parts = []
+    for i, obj in enumerate(objects):
+        mesh = obj.mesh
+        corners = mesh.faces.reshape(-1)
+        parts.append(np.concatenate([mesh.vertices[corners], mesh.vertex_normals[corners],
+                                     np.full((len(corners), 1), float(i))], axis=1))
+    return np.concatenate(parts).astype(np.float32)
+
+
+def rasterize(camera, objects, *, size=None, backend=None) -> GBuffer:
+    """Rasterise ``objects`` seen by ``camera`` at ``size`` = (width, height) or the camera's."""
+    width, height = size or (camera.width, camera.height)
+    ctx = get_context(backend)
+    tris = scene_triangles(objects)
+    radius = float(np.linalg.norm(tris[:, :3] - np.asarray(camera.eye, dtype=np.float32), axis=1).max())
+    view_proj = perspective(camera.fov_y_deg, width / height, radius * 1e-4, radius * 2.0) @ \
+        look_at(camera.eye, camera.target, camera.up)
+    with ctx:
+        prog = ctx.program(vertex_shader=VERTEX, fragment_shader=FRAGMENT)
+        vbo = ctx.buffer(tris.tobytes())
+        vao = ctx.vertex_array(prog, [(vbo, "3f 3f 1f", "in_position", "in_normal", "in_object")])
+        targets = [ctx.texture((width, height), 4, dtype="f4") for _ in range(2)]
+        depth = ctx.depth_renderbuffer((width, height))
+        fbo = ctx.framebuffer(color_attachments=targets, depth_attachment=depth)
+        check_gl(ctx, f"allocating a {width} x {height} G-buffer")
+        try:
+            prog["view_proj"].write(view_proj.T.astype(np.float32).tobytes())
+            prog["eye"].value = tuple(float(x) for x in camera.eye)
+            fbo.use()
+            fbo.viewport = (0, 0, width, height)
+            fbo.clear(0.0, 0.0, 0.0, -1.0, depth=1.0)
+            ctx.enable(ctx.DEPTH_TEST)
+            vao.render()
+            ctx.disable(ctx.DEPTH_TEST)
+            check_gl(ctx, "the G-buffer draw")
+            pos = np.frombuffer(targets[0].read(), dtype=np.float32).reshape(height, width, 4)[::-1]
+            nrm = np.frombuffer(targets[1].read(), dtype=np.float32).reshape(height, width, 4)[::-1]
+        finally:
+            home = ctx.extra.get("home_fbo")
+            if home is None:
+                home = ctx.framebuffer(color_attachments=[ctx.renderbuffer((1, 1))])
+                ctx.extra["home_fbo"] = home
+            home.use()
+            for obj in (vao, vbo, prog, fbo, depth, *targets):
+                obj.release()
+    obj_id = np.where(pos[..., 3] >= 0, np.rint(pos[..., 3]), -1).astype(np.int32)
+    return GBuffer(position=np.ascontiguousarray(pos[..., :3]),
+                   normal=np.ascontiguousarray(nrm[..., :3]), object=obj_id)
