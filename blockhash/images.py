@@ -1,0 +1,90 @@
+"""Image files: multi-layer EXR and tone-mapped PNG (OpenImageIO), and pixel comparison.
+
+EXR channels are named ``layer.R``, ``layer.G``, ``layer.B`` (layers ``direct``,
+``caustic``, ``combined``).  Comparison follows OpenImageIO's
+``ImageBufAlgo.compare`` (RMS, max error) per layer and adds the relative RMS,
+RMS(A - B) / RMS(B), because PSNR would use each HDR image's own peak.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import OpenImageIO as oiio
+
+from .errors import InputError
+
+CHANNELS = ("R", "G", "B")
+
+
+def write_exr(path, layers: dict[str, np.ndarray]) -> None:
+    """Write ``{name: (h, w, 3) float}`` as one float EXR with channels name.R/G/B."""
+    names = list(layers)
+    h, w, _ = layers[names[0]].shape
+    data = np.concatenate([np.asarray(layers[n], dtype=np.float32) for n in names], axis=2)
+    spec = oiio.ImageSpec(w, h, data.shape[2], oiio.FLOAT)
+    spec.channelnames = tuple(f"{n}.{c}" for n in names for c in CHANNELS)
+    spec.attribute("compression", "zip")
+    _write(path, spec, data)
+
+
+def tone_map(image: np.ndarray, *, percentile: float = 99.5) -> np.ndarray:
+    """(h, w, 3) radiance -> (h, w, 3) uint8 sRGB: the given luminance percentile maps to white."""
+    lum = image @ np.array([0.2126, 0.7152, 0.0722])
+    white = np.percentile(lum[lum > 0], percentile) if np.any(lum > 0) else 1.0
+    x = np.clip(image / max(white, 1e-30), 0.0, 1.0)
+    srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
+    return np.round(srgb * 255).astype(np.uint8)
+
+
+def write_png(path, image: np.ndarray) -> None:
+    h, w, _ = image.shape
+    _write(path, oiio.ImageSpec(w, h, 3, oiio.UINT8), tone_map(image))
+
+
+def _write(path, spec, data) -> None:
+    out = oiio.ImageOutput.create(str(path))
+    if out is None or not out.open(str(path), spec):
+        raise InputError(f"cannot write {path}: {oiio.geterror()}; check the directory and extension")
+    out.write_image(data)
+    out.close()
+
+
+def read_layers(path) -> dict[str, np.ndarray]:
+    """{layer: (h, w, 3) float32} from an EXR written by :func:`write_exr` (or any RGB image)."""
+    if not Path(path).is_file():
+        raise InputError(f"{path}: no such image file")
+    buf = oiio.ImageBuf(str(path))
+    if buf.has_error:
+        raise InputError(f"{path}: cannot read: {buf.geterror()}")
+    pixels = buf.get_pixels(oiio.FLOAT)
+    names = list(buf.spec().channelnames)
+    layers: dict[str, list] = {}
+    for i, name in enumerate(names):
+        layer, _, chan = name.rpartition(".")
+        layers.setdefault(layer or "rgb", []).append(i)
+    return {layer: pixels[..., idx] for layer, idx in layers.items()}
+
+
+def compare_images(path_a, path_b, *, diff_path=None) -> dict[str, dict]:
+    """Per layer present in both: rms, relative rms (to B), max error; optional |A-B| EXR."""
+    a, b = read_layers(path_a), read_layers(path_b)
+    common = [name for name in a if name in b]
+    if not common:
+        raise InputError(f"{path_a} and {path_b} share no layer; layers are {list(a)} and {list(b)}")
+    out = {}
+    diffs = {}
+    for name in common:
+        if a[name].shape != b[name].shape:
+            raise InputError(f"layer {name!r}: {path_a} is {a[name].shape[:2]} but {path_b} is "
+                             f"{b[name].shape[:2]}; render both at the same size")
+        res = oiio.ImageBufAlgo.compare(oiio.ImageBuf(np.ascontiguousarray(a[name])),
+                                        oiio.ImageBuf(np.ascontiguousarray(b[name])), 0.0, 0.0)
+        ref = float(np.sqrt(np.mean(np.asarray(b[name], dtype=np.float64) ** 2)))
+        out[name] = {"rms": res.rms_error, "relative_rms": res.rms_error / ref if ref > 0 else float("inf"),
+                     "max": res.maxerror, "mean": res.meanerror}
+        diffs[name] = np.abs(a[name] - b[name])
+    if diff_path:
+        write_exr(diff_path, diffs)
+    return out
