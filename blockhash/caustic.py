@@ -66,6 +66,33 @@ def estimate_cpu(index, points: ShadingPoints, materials, *, k=None, A=None,
     prm = index.params
     k = prm.k if k is None else k
     bits = slot_bits(prm.L, prm.B) if v.select == "packed" else 0
+
+    def search(q):
+        return index.query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
+
+    return estimate_from_neighbours(index, points, materials, search, k)
+
+
+def estimate_exact(index, points: ShadingPoints, materials, *, k=None, backend=None,
+                   gpu: bool = True) -> np.ndarray:
+    """The caustic with the exact k nearest photons: the kd-tree shader (``gpu``) or cKDTree."""
+    k = index.params.k if k is None else k
+    if gpu:
+        from .gl.kdtree import GLKdTree
+
+        tree = GLKdTree(index.positions, backend=backend)
+        return estimate_from_neighbours(index, points, materials, lambda q: tree.query(q, k), k)
+    from .metrics import exact_knn
+
+    return estimate_from_neighbours(index, points, materials,
+                                    lambda q: exact_knn(index.positions, q, k), k)
+
+
+def estimate_from_neighbours(index, points: ShadingPoints, materials, search, k) -> np.ndarray:
+    """The density estimate of the module docstring with neighbours from ``search(q)``.
+
+    ``search`` maps (m, 3) float32 points to cKDTree-style ``(distances, indices)``.
+    """
     h, w = points.shape
     mat = points.material.reshape(-1)
     live = mat >= 0
@@ -73,8 +100,8 @@ def estimate_cpu(index, points: ShadingPoints, materials, *, k=None, A=None,
     if not live.any():
         return out.reshape(h, w, 3)
     q = points.position.reshape(-1, 3)[live]
-    d, idx = index.query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
-    d, idx = d.reshape(len(q), k), idx.reshape(len(q), k)
+    d, idx = search(q)
+    d, idx = np.asarray(d).reshape(len(q), k), np.asarray(idx).reshape(len(q), k)
     _, dcodes, _, pbits = unpack_records(index.records.records)
     slot_of = np.empty(len(index), dtype=np.int64)
     slot_of[index.order] = np.arange(len(index))

@@ -1,0 +1,129 @@
+"""Render a scene: caustic photons, Block Hashing index, G-buffer, direct light, caustic pass.
+
+``render_scene`` returns the three layers (direct, caustic, combined) and a
+summary of every phase; ``blockhash render`` writes them to a multi-layer EXR
+and a tone-mapped PNG.  ``method='kdtree'`` replaces the Block Hashing lookup
+by the exact k nearest photons from the kd-tree shader (the estimate itself in
+numpy) for comparison; ``method='cpu'`` computes the caustic with the CPU
+reference of the Block Hashing lookup.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .caustic import CausticPass, estimate_cpu, estimate_exact
+from .errors import InputError
+from .gbuffer import rasterize
+from .index import BlockHashIndex
+from .shading import SceneRays, direct_light, shading_points
+
+METHODS = ("bh", "kdtree", "cpu")
+
+
+class NoCausticWarning(UserWarning):
+    """The scene has no specular object or no photon reached a receiver."""
+
+
+@dataclass
+class RenderResult:
+    direct: np.ndarray
+    caustic: np.ndarray
+    timings: dict = field(default_factory=dict)
+    info: dict = field(default_factory=dict)
+    index: BlockHashIndex | None = None
+
+    @property
+    def combined(self) -> np.ndarray:
+        return self.direct + self.caustic
+
+    def layers(self) -> dict:
+        return {"direct": self.direct, "caustic": self.caustic, "combined": self.combined}
+
+
+def _receiver_materials(scene):
+    """Material table of the caustic pass: (kd, ks, exponent) per object, zeros for mirrors."""
+    table = []
+    for obj in scene.objects:
+        m = obj.material
+        if hasattr(m, "kd"):
+            table.append((tuple(m.kd), tuple(m.ks), float(m.n)))
+        else:
+            table.append(((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0))
+    return table
+
+
+def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="default",
+                 size=None, seed=None, backend=None, progress=False, photon_map=None) -> RenderResult:
+    """Render ``scene`` (see :mod:`blockhash.scene`).
+
+    Parameters
+    ----------
+    photons, k, A, seed : optional
+        Override the scene's ``[photons]`` settings.
+    method : {'bh', 'kdtree', 'cpu'}
+    variant : str
+        Shader variant of the Block Hashing lookup (``blockhash.gl.shaderlib.variants()``).
+    size : (width, height), optional
+        Override the camera's image size.
+    photon_map : CausticPhotons, optional
+        Reuse traced photons (for comparing methods on the same map).
+    """
+    from .scene import MirrorMaterial
+    from .tracing import trace_caustic_photons
+
+    if method not in METHODS:
+        raise InputError(f"method={method!r} is not known; choose one of {', '.join(METHODS)}")
+    settings = scene.photons
+    k = settings.k if k is None else k
+    A = settings.A if A is None else A
+    timings, info = {}, {}
+    t0 = time.perf_counter()
+    if photon_map is None and scene.specular_objects:
+        photon_map = trace_caustic_photons(scene, photons or settings.count,
+                                           seed=settings.seed if seed is None else seed,
+                                           progress=progress)
+    timings["trace"] = time.perf_counter() - t0
+    stored = 0 if photon_map is None else len(photon_map.positions)
+    info["photons_stored"] = stored
+    if photon_map is not None:
+        info["photons_emitted"] = photon_map.emitted
+    t = time.perf_counter()
+    gbuf = rasterize(scene.camera, scene.objects, size=size, backend=backend)
+    rays = SceneRays(scene.objects)
+    points = shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,))
+    timings["gbuffer"] = time.perf_counter() - t
+    t = time.perf_counter()
+    direct = direct_light(points, scene.objects, scene.lights, rays)
+    timings["direct"] = time.perf_counter() - t
+    caustic = np.zeros_like(direct, dtype=np.float32)
+    index = None
+    if stored == 0:
+        why = ("the scene has no specular object" if not scene.specular_objects
+               else "no caustic photon reached a receiver")
+        warnings.warn(f"rendering direct light only: {why}", NoCausticWarning, stacklevel=2)
+    elif stored < k:
+        raise InputError(f"only {stored} caustic photons were stored, fewer than k={k}; "
+                         "trace more photons (--photons) or lower --k")
+    else:
+        t = time.perf_counter()
+        index = BlockHashIndex(photon_map.positions, k=k, A=A, directions=photon_map.directions,
+                               normals=photon_map.normals, powers=photon_map.powers)
+        timings["index"] = time.perf_counter() - t
+        info["index"] = index.stats.summary()
+        materials = _receiver_materials(scene)
+        t = time.perf_counter()
+        if method == "bh":
+            caustic = CausticPass(index, backend=backend).render(points, materials, variant=variant)
+        elif method == "cpu":
+            caustic = estimate_cpu(index, points, materials, variant=variant).astype(np.float32)
+        else:
+            caustic = estimate_exact(index, points, materials, backend=backend).astype(np.float32)
+        timings["caustic"] = time.perf_counter() - t
+    timings["total"] = time.perf_counter() - t0
+    return RenderResult(direct=direct.astype(np.float32), caustic=np.asarray(caustic, np.float32),
+                        timings=timings, info=info, index=index)
