@@ -99,6 +99,54 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--size {text!r}: expected WIDTHxHEIGHT such as 512x512") from None
+    if w < 1 or h < 1:
+        raise argparse.ArgumentTypeError(f"--size {text!r}: width and height must be positive")
+    return w, h
+
+
+def cmd_render(args) -> int:
+    from .images import write_exr, write_png
+    from .render import render_scene
+    from .scene import load_scene
+
+    scene = load_scene(args.scene)
+    out = Path(args.output or Path(args.scene).with_suffix(".exr").name)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = render_scene(scene, photons=args.photons, k=args.k, A=args.A, method=args.method,
+                              variant=args.variant, size=args.size, seed=args.seed,
+                              backend=args.backend, progress=True)
+    for w in caught:
+        print(f"WARNING: {w.message}", file=sys.stderr)
+    write_exr(out, result.layers())
+    png = out.with_suffix(".png")
+    write_png(png, result.combined)
+    info = result.info
+    print(f"scene: {args.scene} -> {out} (+ {png.name})")
+    print(f"photons stored: {info.get('photons_stored', 0):,} of {info.get('photons_emitted', 0):,} emitted")
+    if "index" in info:
+        print(info["index"])
+    print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
+    return 0
+
+
+def cmd_compare(args) -> int:
+    from .images import compare_images
+
+    results = compare_images(args.a, args.b, diff_path=args.diff)
+    print(f"{'layer':<10} {'rms':>12} {'relative rms':>13} {'max':>12}")
+    for layer, r in results.items():
+        print(f"{layer:<10} {r['rms']:>12.6g} {r['relative_rms']:>13.6g} {r['max']:>12.6g}")
+    if args.diff:
+        print(f"difference image: {args.diff}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="blockhash", description="Low latency photon mapping with Block Hashing.")
@@ -143,6 +191,29 @@ def build_parser() -> argparse.ArgumentParser:
                         "random: fresh photon-distribution samples in random order")
     p.add_argument("--json", help="write every row to this JSON file")
     p.set_defaults(func=cmd_bench)
+    p = sub.add_parser("render", help="render a scene's direct light and caustics to EXR and PNG",
+                       description="Trace caustic photons, build the Block Hashing index, render "
+                                   "direct light and the caustic pass; write a multi-layer EXR "
+                                   "(direct, caustic, combined) and a tone-mapped PNG.")
+    p.add_argument("scene", help="scene file (TOML), e.g. scenes/ring.toml")
+    p.add_argument("-o", "--output", help="EXR path (default: SCENE-NAME.exr here)")
+    p.add_argument("--photons", type=int, help="caustic photons to store (default: the scene's)")
+    p.add_argument("--k", type=int, help="photons per estimate (default: the scene's)")
+    p.add_argument("--A", type=int, help="accuracy multiplier (default: the scene's)")
+    p.add_argument("--method", choices=("bh", "kdtree", "cpu"), default="bh",
+                   help="bh: Block Hashing shader; kdtree: exact kNN (kd-tree shader); cpu: BH CPU reference")
+    p.add_argument("--variant", default="default", help="BH shader variant")
+    p.add_argument("--size", type=_size, help="image size WIDTHxHEIGHT (default: the camera's)")
+    p.add_argument("--seed", type=int, help="photon seed (default: the scene's)")
+    p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
+    p.set_defaults(func=cmd_render)
+    p = sub.add_parser("compare", help="RMS, relative RMS and max error per layer of two images",
+                       description="Compare two EXR images layer by layer (OpenImageIO); "
+                                   "relative RMS is RMS(A - B) / RMS(B).")
+    p.add_argument("a")
+    p.add_argument("b", help="the reference")
+    p.add_argument("--diff", help="write |A - B| per layer to this EXR")
+    p.set_defaults(func=cmd_compare)
     return parser
 
 
