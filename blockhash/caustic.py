@@ -18,7 +18,7 @@ import numpy as np
 
 from .codec import decode_directions, decode_powers, unpack_records
 from .errors import InputError
-from .gl.context import check_gl
+from .gl.context import check_gl, home_framebuffer
 from .gl.lookup import GLLookup, slot_bits
 from .gl.shaderlib import Variant
 
@@ -208,7 +208,7 @@ class CausticPass:
                 img = np.frombuffer(out_tex.read(), dtype=np.float32).reshape(h, w, 4)[::-1, :, :3]
                 vao.release()
             finally:
-                self.lookup._home.use()
+                home_framebuffer(ctx).use()
                 for obj in (*texs, fbo, out_tex):
                     obj.release()
         return np.ascontiguousarray(img * points.weight)

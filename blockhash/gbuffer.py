@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .gl.context import check_gl, get_context
+from .gl.context import check_gl, get_context, home_framebuffer
 
 VERTEX = """#version 450 core
 uniform mat4 view_proj;
@@ -123,11 +123,7 @@ def rasterize(camera, objects, *, size=None, backend=None) -> GBuffer:
             pos = np.frombuffer(targets[0].read(), dtype=np.float32).reshape(height, width, 4)[::-1]
             nrm = np.frombuffer(targets[1].read(), dtype=np.float32).reshape(height, width, 4)[::-1]
         finally:
-            home = ctx.extra.get("home_fbo")
-            if home is None:
-                home = ctx.framebuffer(color_attachments=[ctx.renderbuffer((1, 1))])
-                ctx.extra["home_fbo"] = home
-            home.use()
+            home_framebuffer(ctx).use()
             for obj in (vao, vbo, prog, fbo, depth, *targets):
                 obj.release()
     obj_id = np.where(pos[..., 3] >= 0, np.rint(pos[..., 3]), -1).astype(np.int32)

@@ -4,7 +4,7 @@
 // search; true: continue the state saved by an earlier pass), kd_budget (search steps in
 // this pass), and the tree (kd_tree.glsl).
 // Returns: query i's k keys at results[i*KD_K ..]: sorted ascending (float32 squared
-// distance bits, photon index; 0xFFFFFFFF where missing) when state[i].w == 1, else the
+// distance bits, photon index; 0xFFFFFFFF where missing) when state[2i].w == 1, else the
 // unsorted heap of a search to resume; state[2i] = (next node, stack size, nodes visited,
 // finished), state[2i+1] = (cell offsets bits, 0) and stack[i*KD_DEPTH ..] = (node, cell
 // offsets bits) for resuming.
@@ -52,9 +52,7 @@ void main() {
         }
     }
     bool complete = kd_search(q, kd_budget);
-    if (complete) {
-        kd_heap_sort();
-    } else {
+    if (!complete) {
         for (int j = 0; j < KD_DEPTH; ++j) {
             stack[sbase + uint(j)] = kd_stack[j];
         }

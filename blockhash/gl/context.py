@@ -80,9 +80,25 @@ def backend_of(ctx: moderngl.Context) -> str:
 def check_gl(ctx: moderngl.Context, what: str) -> None:
     """Raise if the last GL calls failed (moderngl sets ctx.error instead of raising)."""
     err = ctx.error
-    if err != "GL_NO_ERROR":
+    if err in ("GL_OUT_OF_MEMORY", "GL_INVALID_VALUE"):
         raise CapacityError(f"OpenGL reported {err} after {what}; the data does not fit this "
                             "device: use fewer photons, a smaller index or a smaller image")
+    if err != "GL_NO_ERROR":
+        raise GLUnavailableError(f"OpenGL reported {err} after {what}")
+
+
+def home_framebuffer(ctx: moderngl.Context):
+    """A 1x1 framebuffer kept for the context's lifetime.
+
+    moderngl rebinds its idea of the current framebuffer after creating a new one,
+    so a framebuffer about to be released must never be left current: make this
+    one current first.  It is never released.
+    """
+    extra = ctx.extra if ctx.extra is not None else {}
+    ctx.extra = extra
+    if "home_fbo" not in extra:
+        extra["home_fbo"] = ctx.framebuffer(color_attachments=[ctx.renderbuffer((1, 1))])
+    return extra["home_fbo"]
 
 
 #: Limits printed by ``blockhash info`` and checked before packing.

@@ -18,24 +18,37 @@ search tolerates).  The axis is that of the largest extent of the subtree's
 photons (the lowest axis on equal extents), so a degenerate axis (every photon
 at y = 0) is never split on while another axis has any extent.
 
-The search (glsl/kd_tree.glsl) is the classic exact kNN: descend to the side of
-the query, push the far child with its squared plane distance on a fixed-size
-stack (depth = tree height, a ``#define``), keep the k best
-(float32 squared distance bits, original index) keys, and pop a far child only
-if its plane distance does not exceed the current k-th distance.  Distances are
-``((dx*dx + dy*dy) + dz*dz)`` in float32 with ``d = p - q`` exactly as in
-glsl/bh_lookup.glsl; equal distances are ordered by original photon index.
-Since float rounding is monotonic, the float32 squared plane distance of a far
-child is a lower bound of the float32 squared distance of every photon below
-it, so the pruning never drops a key that belongs to the k best: the result is
-the exact k smallest keys over all photons (the float32 brute force).
+The search (glsl/kd_tree.glsl, one fragment per query) is the classic exact kNN:
+descend to the query's side of each split, push the far child on a fixed-size stack
+(depth = tree height, a ``#define``) with its cell's per-axis offsets from the query,
+keep the k best (float32 squared distance bits, original index) keys in a max-heap
+whose top is the pruning radius, and skip a node with its subtree when the squared
+distance to its cell exceeds the k-th distance (incremental cell distance, Arya &
+Mount; the root's cell is the photons' bounding box, so queries outside it prune
+too).  Distances are ``((dx*dx + dy*dy) + dz*dz)`` in float32 with ``d = p - q``
+exactly as in glsl/bh_lookup.glsl.  Float rounding is monotonic, so the cell distance
+computed the same way is a lower bound of every float32 photon distance in the cell,
+and the search returns exactly the k smallest keys over all photons: the float32 brute
+force, equal distances ordered by photon index.  Against scipy's cKDTree (float64 on
+the same float32 points) distances agree to ~1e-7 relative and the sets agree except
+among neighbours tied, or nearly tied within float32 rounding, with the k-th.
 
-Texture: ``nodes`` RGBA32UI, texel ``i`` = (x, y, z bits, index | axis << 30),
+llvmpipe ends every loop of a shader invocation silently once 65,535 loop iterations
+have run in total (``LOOP_LIMIT``).  The search is therefore one loop of steps that
+stops after a step budget with its whole state (next node, cell offsets, stack, heap)
+saved to buffers; unfinished queries are resumed in further passes until every search
+is complete (``counters['query.passes']``).  Queries run in Hilbert-curve order
+(:func:`query_order`) so that the lanes llvmpipe runs together walk similar paths.
+
+Texture: ``nodes`` RGBA32UI, texel ``i`` = (x, y, z float bits, index | axis << 30),
 wrapped row by row (blockhash/gl/packing.py, glsl/bh_fetch.glsl).
 
-Measured on the 2-core development machine (llvmpipe; see the module's report)::
-
-    build_kdtree, 10^6 caustic-like photons: see KdTree.build_seconds
+Measured on the 2-core development machine (llvmpipe, LLVM 15, Mesa 22.3, EGL; other
+jobs running, load ~3, so compare within a run), 10^6 caustic-like photons, 262,144 fresh
+caustic-like queries, k = 50, medians of 3: build_kdtree 0.64 s (cKDTree build 0.61 s);
+query 5.6 s wall, 4.4 s of it the draw (332 nodes visited per query, 2,171 at most, one
+pass), beside cKDTree(workers=-1) 1.7 s: 2.5-3.3x slower than cKDTree over several runs.
+Queries in the given (random) order instead of Hilbert order: 2-3.5x slower.
 """
 
 from __future__ import annotations
@@ -46,9 +59,10 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from ..errors import CapacityError, InputError
+from ..errors import CapacityError
+from ..hilbert import hilbert_keys
 from ..validate import as_int, as_points
-from .context import check_gl, get_context
+from .context import check_gl, get_context, home_framebuffer
 from .packing import upload
 from .shaderlib import compile_program
 
@@ -57,8 +71,8 @@ AXIS_SHIFT = 30
 MAX_PHOTONS = 1 << AXIS_SHIFT
 #: Queries per pass are capped so one draw stays short (llvmpipe runs a draw to completion).
 MAX_QUERIES_PER_PASS = 1 << 18
-#: The k-best list lives in a local array of 2k uints; compile time grows fast with its size
-#: (DESIGN.md: 512 elements 0.25 s, 2048 elements 3.9 s), so k is bounded.
+#: The k best live in a local array of 2k uints, whose size the compile time follows
+#: (measured here, uncached: k = 50 about 0.3 s, 128 about 2.4 s, 512 about 4.6 s).
 MAX_K = 512
 #: Width of the query texture and viewport (a power of two, a multiple of 4).
 QUERY_WIDTH = 1024
@@ -114,13 +128,13 @@ def _select(perm, lo, hi, m, coord):
 
 @numba.njit(cache=True)
 def _build(pos):
+    """(photon of each node, split axis of each node) of the left-balanced tree of ``pos``."""
     n = pos.shape[0]
     perm = np.arange(n, dtype=np.int64)
     node_index = np.empty(n, dtype=np.int64)
     node_axis = np.zeros(n, dtype=np.uint8)
-    # explicit work stack of (node, lo, hi); depth-first keeps it at most 2 * height
+    # explicit work stack of (node, lo, hi); depth-first keeps it at most height + 1 deep
     stack = np.empty((128, 3), dtype=np.int64)
-    sp = 0
     stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, n
     sp = 1
     coord = np.empty(n, dtype=np.float32)
@@ -170,6 +184,7 @@ class KdTree:
     index : (n,) int64              node i's photon, as an index into the build positions
     axis : (n,) uint8               split axis of node i's subtree (0 for leaves)
     height : int                    levels of the tree, floor(log2 n) + 1 (the stack depth)
+    lo, hi : (3,) float32           bounding box of the photons (the root's cell)
     build_seconds : float
     """
 
@@ -177,6 +192,8 @@ class KdTree:
     index: np.ndarray
     axis: np.ndarray
     height: int
+    lo: np.ndarray
+    hi: np.ndarray
     build_seconds: float = field(default=0.0, compare=False)
 
     def __len__(self) -> int:
@@ -222,7 +239,7 @@ def build_kdtree(positions) -> KdTree:
     index, axis = _build(pos)
     seconds = time.perf_counter() - t0
     return KdTree(positions=pos[index], index=index, axis=axis, height=int(n).bit_length(),
-                  build_seconds=seconds)
+                  lo=pos.min(axis=0), hi=pos.max(axis=0), build_seconds=seconds)
 
 
 # --- search (GLSL) ------------------------------------------------------------------------
@@ -232,17 +249,36 @@ def build_kdtree(positions) -> KdTree:
 #: of at most 32 constant iterations are unrolled and do not count).  The search keeps
 #: within it by stopping itself after a step budget and resuming in another pass.
 LOOP_LIMIT = 65535
-#: Iterations kept free for the fixed-length loops around the search, beyond the ones
-#: counted in :func:`_loop_reserve` (a margin for loops the compiler does not unroll).
+#: Iterations kept free beyond those counted in :func:`_loop_reserve`, for loops the
+#: compiler might not unroll.
 LOOP_MARGIN = 256
 
 
 def _loop_reserve(k: int, depth: int) -> int:
     """Loop iterations one shader invocation spends outside the search steps (kd_query.frag):
-    heap init and load (2k), stack load and save (2 depth), the end of a sift and the loop
-    exit (log2 k + 2), heapsort ((k - 1)(log2 k + 1)) and the output (k)."""
-    lg = max(1, (k - 1).bit_length())
-    return 3 * k + 2 * depth + lg + 2 + (k - 1) * (lg + 1) + LOOP_MARGIN
+    heap init, load and output (3k), heapsort (k), stack load and save (2 depth)."""
+    return 4 * k + 2 * depth + LOOP_MARGIN
+
+
+#: Compiled programs per (context, defines): every tree of the same size and k shares one.
+_programs: dict = {}
+
+
+
+
+def query_order(points: np.ndarray) -> np.ndarray:
+    """Permutation that runs ``points`` ((m, 3) float) along a 3D Hilbert curve over their
+    bounding box (21 bits per axis); rows with NaN or inf go last, in their given order."""
+    finite = np.isfinite(points).all(axis=1)
+    good = np.flatnonzero(finite)
+    if not len(good):
+        return np.arange(len(points))
+    f = points[good].astype(np.float64)
+    lo, hi = f.min(axis=0), f.max(axis=0)
+    scale = np.where(hi > lo, (2.0**32 - 1) / np.where(hi > lo, hi - lo, 1.0), 0.0)
+    codes = np.clip((f - lo) * scale, 0, 2.0**32 - 1).astype(np.uint32)
+    keys = hilbert_keys(codes)
+    return np.concatenate([good[np.argsort(keys, kind="stable")], np.flatnonzero(~finite)])
 
 
 class GLKdTree:
@@ -255,8 +291,8 @@ class GLKdTree:
         :func:`build_kdtree` and kept in ``self.tree``.
     backend : {'auto', 'egl', 'osmesa'}, optional
     step_budget : int, optional
-        Search steps (node visits, stack pops, heap sift levels) per query and pass; a query
-        that needs more is saved and resumed in another pass.  Default: the most that keeps
+        Search steps (a node visited or skipped) per query and pass; a query that needs
+        more is saved and resumed in another pass.  Default: the most that keeps within
         llvmpipe's loop limit (``LOOP_LIMIT``); small values are for tests.
     """
 
@@ -269,10 +305,7 @@ class GLKdTree:
         self.ctx = get_context(backend)
         with self.ctx:
             self.nodes, self._node_wlog2 = upload(self.ctx, self.tree.texels(), 4, "kd-tree node")
-            self._home_color = self.ctx.renderbuffer((1, 1), 4, dtype="f1")
-            self._home = self.ctx.framebuffer(color_attachments=[self._home_color])
-            check_gl(self.ctx, "allocating the kd-tree's home framebuffer")
-        self._programs: dict = {}
+            self._home = home_framebuffer(self.ctx)
         self.counters: dict = {}
 
     def __len__(self) -> int:
@@ -293,15 +326,15 @@ class GLKdTree:
         return LOOP_LIMIT - _loop_reserve(k, self.tree.height)
 
     def _program(self, k: int):
-        defines = {"KD_K": k, "KD_N": len(self.tree), "KD_DEPTH": self.tree.height,
-                   "KD_NODE_W": self._node_wlog2, "KD_QUERY_W": QUERY_WIDTH.bit_length() - 1,
-                   "KD_VIEW_W": QUERY_WIDTH}
-        key = tuple(defines.items())
-        if key not in self._programs:
-            self._programs[key] = compile_program(self.ctx, "kd_query.frag", defines)
-        return self._programs[key]
+        defines = {"KD_K": k, "KD_LEVELS": k.bit_length() - 1, "KD_N": len(self.tree),
+                   "KD_DEPTH": self.tree.height, "KD_NODE_W": self._node_wlog2,
+                   "KD_QUERY_W": QUERY_WIDTH.bit_length() - 1, "KD_VIEW_W": QUERY_WIDTH}
+        key = (id(self.ctx), tuple(defines.items()))
+        if key not in _programs:
+            _programs[key] = compile_program(self.ctx, "kd_query.frag", defines)
+        return _programs[key]
 
-    def query(self, points, k: int = 1):
+    def query(self, points, k: int = 1, *, spatial_order: bool = True):
         """The exact k nearest photons of each point, like ``scipy.spatial.cKDTree.query``.
 
         Parameters
@@ -310,6 +343,10 @@ class GLKdTree:
             Query points, searched as float32; rows with NaN or inf get no neighbours.
         k : int
             1 <= k <= MAX_K; k may exceed n (the missing neighbours are inf and n).
+        spatial_order : bool
+            Run the queries in Hilbert-curve order (:func:`query_order`) so that neighbouring
+            fragments walk similar paths: 2-3.5x faster on llvmpipe than random order.
+            The results do not depend on it.
 
         Returns
         -------
@@ -318,51 +355,69 @@ class GLKdTree:
         indices : (m, k) int64
             Into ``positions``; n where missing.  Equal distances: smaller index first.
 
-        Shapes are never squeezed (k = 1 gives (m, 1)).  ``self.counters`` reports the mean
-        nodes visited per finite query, and the passes and queries that were resumed.
+        Shapes are never squeezed (k = 1 gives (m, 1)).  ``self.counters`` reports the nodes
+        visited per finite query (mean, max), the draws (``query.passes``), the queries
+        resumed over all passes after the first, and ``gl.draw_seconds``, the time of the
+        draws alone (no compile, upload, ordering or read-back).
         """
         n = len(self.tree)
         k = as_int(k, "k", minimum=1, maximum=MAX_K,
                    hint=f"the shader keeps at most MAX_K={MAX_K} neighbours per query")
         q = as_points(points, "points", dtype=np.float32, finite=False)
         m = len(q)
-        pairs = np.empty((m, k, 2), dtype=np.uint32)
+        keys = np.empty((m, k), dtype=np.uint64)  # (d2 bits, index) pairs, in run order
         visits = np.zeros(m, dtype=np.uint32)
         info = self.ctx.info
         ssbo = info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27)
-        per_pass = max(1, min(MAX_QUERIES_PER_PASS, ssbo // (8 * k), ssbo // (8 * self.tree.height)))
+        per_pass = max(1, min(MAX_QUERIES_PER_PASS, ssbo // (8 * k),
+                              ssbo // (16 * self.tree.height)))
         budget = self.budget(k)
-        self.counters = {"query.points": float(m), "query.passes": 0.0, "query.resumed": 0.0}
+        self.counters = {"query.points": float(m), "query.passes": 0.0, "query.resumed": 0.0,
+                         "gl.draw_seconds": 0.0}
+        order = query_order(q) if spatial_order else None
+        qo = q if order is None else q[order]
         with self.ctx:
             for first in range(0, m, per_pass):
                 stop = min(m, first + per_pass)
-                self._search(q[first:stop], k, budget, pairs[first:stop], visits[first:stop])
-        idx = pairs[..., 1].astype(np.int64)
-        found = idx != NO_INDEX
-        d2 = pairs[..., 0].copy().view(np.float32)
-        distances = np.where(found, np.sqrt(d2.astype(np.float64)), np.inf)
-        indices = np.where(found, idx, n)
+                self._search(qo[first:stop], k, budget, keys[first:stop], visits[first:stop])
+        if order is not None:  # back to the caller's order
+            ran, keys = keys, np.empty_like(keys)
+            keys[order] = ran
+            visits[order] = visits.copy()
+        pairs = keys.view(np.uint32).reshape(m, k, 2)
+        missing = pairs[..., 1] == NO_INDEX
+        distances = np.sqrt(pairs.view(np.float32)[..., 0], dtype=np.float64)
+        distances[missing] = np.inf
+        indices = pairs[..., 1].astype(np.int64)
+        indices[missing] = n
         finite = np.isfinite(q).all(axis=1)
         self.counters["query.nodes.mean"] = float(visits[finite].mean()) if finite.any() else 0.0
         self.counters["query.nodes.max"] = float(visits.max()) if m else 0.0
         return distances, indices
 
-    def _search(self, q, k, budget, pairs_out, visits_out):
-        """Run passes over ``q`` until every search is complete (resuming the unfinished)."""
+    def _search(self, q, k, budget, keys_out, visits_out):
+        """Run passes over ``q`` until every search is complete, resuming the unfinished
+        ones from their saved state; results go to ``keys_out`` and ``visits_out``."""
         rows = np.arange(len(q))
-        saved = None
-        while len(rows):
-            pairs, state, stack = self._run(q[rows], k, budget, saved)
+        state, stack = self._run(q, k, budget, None, keys_out)
+        while True:
             done = state[:, 3] == 1
-            pairs_out[rows[done]] = pairs[done]
             visits_out[rows[done]] = state[done, 2]
             self.counters["query.passes"] += 1.0
-            if saved is not None:
-                self.counters["query.resumed"] += float(len(rows))
-            rows = rows[~done]
-            saved = (pairs[~done], state[~done], stack[~done]) if len(rows) else None
+            if done.all():
+                return
+            rows, q = rows[~done], q[~done]
+            saved = (keys_out[rows], state[~done], stack[~done])
+            self.counters["query.resumed"] += float(len(rows))
+            keys = np.empty((len(rows), k), dtype=np.uint64)
+            state, stack = self._run(q, k, budget, saved, keys)
+            keys_out[rows] = keys  # unfinished rows hold their heap until a later pass
 
-    def _run(self, q, k, budget, saved):
+    def _run(self, q, k, budget, saved, keys_out):
+        """One draw over ``q``: fresh searches, or those in ``saved`` (keys, state, stack)
+        resumed.  Writes the keys (sorted, or the heap of an unfinished search) into
+        ``keys_out`` and returns the state (m, 8) and, if any search is unfinished, the
+        stacks (m, depth, 4)."""
         ctx = self.ctx
         m = len(q)
         depth = self.tree.height
@@ -374,8 +429,8 @@ class GLKdTree:
         qtex.filter = (ctx.NEAREST, ctx.NEAREST)
         if saved is None:
             results = ctx.buffer(reserve=m * k * 8)
-            states = ctx.buffer(reserve=m * 16)
-            stacks = ctx.buffer(reserve=m * depth * 8)
+            states = ctx.buffer(reserve=m * 32)
+            stacks = ctx.buffer(reserve=m * depth * 16)
         else:
             results = ctx.buffer(np.ascontiguousarray(saved[0]).tobytes())
             states = ctx.buffer(np.ascontiguousarray(saved[1]).tobytes())
@@ -389,7 +444,9 @@ class GLKdTree:
             prog["kd_count"].value = m
             prog["kd_resume"].value = saved is not None
             prog["kd_budget"].value = budget
-            for unit, (name, tex) in enumerate({"kd_nodes": self.nodes, "kd_queries": qtex}.items()):
+            prog["kd_lo"].value = tuple(float(x) for x in self.tree.lo)
+            prog["kd_hi"].value = tuple(float(x) for x in self.tree.hi)
+            for unit, (name, tex) in enumerate((("kd_nodes", self.nodes), ("kd_queries", qtex))):
                 tex.use(location=unit)
                 prog[name].value = unit
             for binding, buf in enumerate((results, states, stacks)):
@@ -397,15 +454,18 @@ class GLKdTree:
             fbo.use()
             fbo.viewport = (0, 0, QUERY_WIDTH, view_h)
             vao = ctx.vertex_array(prog, [])
+            ctx.finish()
+            start = time.perf_counter()
             vao.render(mode=ctx.TRIANGLES, vertices=3)
             ctx.finish()
+            self.counters["gl.draw_seconds"] += time.perf_counter() - start
             check_gl(ctx, "the kd-tree search draw")
-            state = np.frombuffer(states.read(), dtype=np.uint32).reshape(m, 4).copy()
-            pairs = np.frombuffer(results.read(), dtype=np.uint32).reshape(m, k, 2)
+            state = np.frombuffer(states.read(), dtype=np.uint32).reshape(m, 8).copy()
+            results.read_into(keys_out)
             stack = None
             if not (state[:, 3] == 1).all():
-                stack = np.frombuffer(stacks.read(), dtype=np.uint32).reshape(m, depth, 2)
-            return pairs, state, stack
+                stack = np.frombuffer(stacks.read(), dtype=np.uint32).reshape(m, depth, 4)
+            return state, stack
         finally:
             # moderngl rebinds its current framebuffer after creating one: never leave a
             # framebuffer that is about to be released current (see lookup.py).
@@ -415,11 +475,8 @@ class GLKdTree:
                     obj.release()
 
     def release(self):
+        """Free the node texture.  The programs and the home framebuffer stay with the
+        context: trees of the same size share them."""
         with self.ctx:
             self._home.use()
             self.nodes.release()
-            self._home.release()
-            self._home_color.release()
-            for prog in self._programs.values():
-                prog.release()
-        self._programs.clear()

@@ -17,7 +17,7 @@ import numpy as np
 from ..errors import InputError
 from ..thresholds import ThresholdLayout
 from ..validate import as_int, as_points
-from .context import check_gl, get_context
+from .context import check_gl, get_context, home_framebuffer
 from .packing import PHOTONS_PER_BLOCK_CHECK, pack_index
 from .shaderlib import Variant, compile_program
 
@@ -50,8 +50,7 @@ class GLLookup:
         self.ctx = get_context(backend)
         with self.ctx:
             self.packed = pack_index(self.ctx, index)
-            self._home_color = self.ctx.renderbuffer((1, 1), 4, dtype="f1")
-            self._home = self.ctx.framebuffer(color_attachments=[self._home_color])
+            self._home = home_framebuffer(self.ctx)
         self._programs: dict = {}
 
     def _program(self, variant: Variant, k: int, cap: int, width: int, count: int,
@@ -157,9 +156,8 @@ class GLLookup:
 
     def release(self):
         with self.ctx:
+            self._home.use()
             self.packed.release()
-            self._home.release()
-            self._home_color.release()
             for prog in self._programs.values():
                 prog.release()
         self._programs.clear()
