@@ -147,6 +147,22 @@ def cmd_compare(args) -> int:
     return 0
 
 
+def cmd_preview(args) -> int:
+    from .images import _write
+    from .preview import preview
+    from .scene import load_scene
+
+    import OpenImageIO as oiio
+
+    scene = load_scene(args.scene)
+    colour, _ = preview(scene, size=args.size)
+    out = Path(args.output or Path(args.scene).with_suffix(".preview.png").name)
+    h, w, _ = colour.shape
+    _write(out, oiio.ImageSpec(w, h, 3, oiio.UINT8), colour)
+    print(f"preview of {args.scene}: {out} ({w} x {h}, pyrender)")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="blockhash", description="Low latency photon mapping with Block Hashing.")
@@ -214,6 +230,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("b", help="the reference")
     p.add_argument("--diff", help="write |A - B| per layer to this EXR")
     p.set_defaults(func=cmd_compare)
+    p = sub.add_parser("preview", help="a quick pyrender view of a scene (camera, objects, lights)",
+                       description="Render the scene with pyrender in a separate process, to check "
+                                   "the camera, objects and lights before a real render.")
+    p.add_argument("scene")
+    p.add_argument("-o", "--output", help="PNG path (default: SCENE-NAME.preview.png here)")
+    p.add_argument("--size", type=_size, help="image size WIDTHxHEIGHT (default: the camera's)")
+    p.set_defaults(func=cmd_preview)
     return parser
 
 

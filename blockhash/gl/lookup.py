@@ -158,6 +158,4 @@ class GLLookup:
         with self.ctx:
             self._home.use()
             self.packed.release()
-            for prog in self._programs.values():
-                prog.release()
-        self._programs.clear()
+        self._programs.clear()  # the programs stay in shaderlib's cache

@@ -174,20 +174,30 @@ def define_block(defines: dict[str, object]) -> str:
     return "\n".join(lines)
 
 
+#: Programs per (context, fragment file, source text): llvmpipe takes seconds per compile.
+_PROGRAMS: dict = {}
+
+
 def compile_program(ctx, fragment: str, defines: dict[str, object], *, vertex: str = None):
     """Compile ``fragment`` (a file of the library) with ``defines`` into a moderngl Program.
 
-    A failed compile raises GLUnavailableError naming file:line and the active defines.
+    Programs are cached per context and source; callers must not release them.  A
+    failed compile raises GLUnavailableError naming file:line and the active defines.
     """
     import moderngl
 
     src = preprocess(fragment, define_block(defines))
+    key = (id(ctx), fragment, src.text, vertex)
+    if key in _PROGRAMS:
+        return _PROGRAMS[key]
     try:
-        return ctx.program(vertex_shader=vertex or FULLSCREEN_VS, fragment_shader=src.text)
+        program = ctx.program(vertex_shader=vertex or FULLSCREEN_VS, fragment_shader=src.text)
     except moderngl.Error as exc:
         active = ", ".join(f"{k}={v}" for k, v in defines.items())
         raise GLUnavailableError(f"{fragment} failed to compile: {src.locate(str(exc)).strip()}\n"
                                  f"active defines: {active}") from None
+    _PROGRAMS[key] = program
+    return program
 
 
 #: A triangle covering the viewport; no vertex attributes.

@@ -1,0 +1,332 @@
+"""Generated meshes for the scenes: a floor rectangle, a mirror ring and a bust.
+
+Everything is in metres, y up, right-handed.  Each function returns a
+:class:`trimesh.Trimesh` built with ``process=False`` and carrying the vertex
+normals to shade with in ``mesh.vertex_normals``:
+
+``rectangle``
+    Two triangles in a ``y = const`` plane, flat ``+y`` normals.
+``ring``
+    A cylindrical shell standing on its base plane (section 6's "Ring" scene):
+    inner and outer walls with smoothly interpolated radial normals (a round
+    ring, not a faceted one), a flat top rim, optionally a flat bottom.  Each
+    part has its own vertices, so normals are smooth within a wall and sharp
+    at the rim edges.
+``bust``
+    A head, neck, shoulders and chest as one closed, smooth surface with
+    >= 100,000 triangles (section 6's "Venus with Ring" scene, generated
+    instead of shipping a third-party mesh).
+
+Do not modify a returned mesh in place (``merge_vertices``, ``fix_normals``,
+``apply_transform``...): trimesh recomputes ``vertex_normals`` from the faces
+when the geometry changes, which merges the ring's rim into its walls and
+loses the smooth normals.  Use :func:`with_normals` to build a new mesh.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+import trimesh
+from scipy.interpolate import PchipInterpolator
+
+from .errors import InputError
+
+#: The bust has this many triangles at least with the default resolution.
+MIN_BUST_TRIANGLES = 100_000
+
+
+def with_normals(vertices, faces, normals) -> trimesh.Trimesh:
+    """Return a mesh of ``vertices (n, 3) float64``, ``faces (m, 3) int64``
+    shaded with ``normals (n, 3)`` (normalised here), without merging or
+    reordering anything (``process=False``)."""
+    vertices = np.array(vertices, dtype=np.float64, order="C")      # copies: the mesh owns them
+    faces = np.array(faces, dtype=np.int64, order="C")
+    normals = np.array(normals, dtype=np.float64)
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    normals = normals / np.where(length > 0.0, length, 1.0)
+    return trimesh.Trimesh(vertices=vertices, faces=faces, vertex_normals=normals,
+                           process=False, validate=False)
+
+
+def _check_positive(name: str, value: float) -> float:
+    value = float(value)
+    if not math.isfinite(value) or value <= 0.0:
+        raise InputError(f"{name} must be a finite number > 0; got {value!r}")
+    return value
+
+
+def _check_segments(name: str, value: int, minimum: int) -> int:
+    if isinstance(value, bool) or int(value) != value or value < minimum:
+        raise InputError(f"{name} must be an integer >= {minimum}; got {value!r}")
+    return int(value)
+
+
+def _check_point(name: str, value) -> np.ndarray:
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.shape != (3,) or not np.isfinite(arr).all():
+        raise InputError(f"{name} must be 3 finite numbers [x, y, z]; got {value!r}")
+    return arr
+
+
+# --------------------------------------------------------------------------- rectangle
+
+def rectangle(*, x=(-1.5, 1.5), z=(-1.5, 1.5), y: float = 0.0) -> trimesh.Trimesh:
+    """The rectangle ``x[0] <= x <= x[1]``, ``z[0] <= z <= z[1]`` in the plane
+    ``y``, facing ``+y`` (two triangles, four vertices, flat normals)."""
+    x0, x1 = (float(v) for v in x)
+    z0, z1 = (float(v) for v in z)
+    y = float(y)
+    if not all(math.isfinite(v) for v in (x0, x1, z0, z1, y)):
+        raise InputError(f"rectangle: x={list(x)}, z={list(z)}, y={y} must be finite")
+    if not (x0 < x1 and z0 < z1):
+        raise InputError(f"rectangle: extents must be increasing, [min, max] with min < max; "
+                         f"got x={[x0, x1]}, z={[z0, z1]}")
+    vertices = np.array([[x0, y, z0], [x0, y, z1], [x1, y, z1], [x1, y, z0]])
+    # (v1 - v0) x (v2 - v0) = (0,0,dz) x (dx,0,dz) = +y
+    faces = np.array([[0, 1, 2], [0, 2, 3]])
+    normals = np.tile([0.0, 1.0, 0.0], (4, 1))
+    return with_normals(vertices, faces, normals)
+
+
+# --------------------------------------------------------------------------- ring
+
+def _annulus_faces(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Quads between vertex index rows ``a`` and ``b`` (same length, closed
+    around), as triangles wound so the normal is (b - a) x (a[j+1] - a[j])."""
+    a1, b1 = np.roll(a, -1), np.roll(b, -1)
+    return np.concatenate([np.stack([a, b, a1], axis=1), np.stack([b, b1, a1], axis=1)])
+
+
+def ring(inner_radius: float, outer_radius: float, height: float, segments: int = 256,
+         center=(0.0, 0.0, 0.0), *, bottom: bool = False) -> trimesh.Trimesh:
+    """A cylindrical shell, axis ``+y``, standing on the plane ``y = center[1]``.
+
+    Parameters
+    ----------
+    inner_radius, outer_radius : float
+        Radii of the walls, ``0 < inner_radius < outer_radius``.
+    height : float
+        Height of the walls above the base plane.
+    segments : int
+        Quads around each wall (vertex ``i`` at angle ``2 pi i / segments``
+        from ``+x`` towards ``+z``).
+    center : (3,) float
+        Centre of the base (the axis passes through it).
+    bottom : bool
+        Also close the base with a flat annulus facing ``-y`` (for a ring that
+        floats; a ring standing on a floor leaves it open).
+
+    Returns a mesh whose inner wall (first ``2 * segments`` vertices) has unit
+    normals towards the axis, outer wall (next ``2 * segments``) away from it,
+    top rim (next ``2 * segments``) ``+y`` and bottom (last ``2 * segments``,
+    when asked) ``-y``.  Faces are wound to agree with those normals.
+    """
+    r0 = _check_positive("ring: inner_radius", inner_radius)
+    r1 = _check_positive("ring: outer_radius", outer_radius)
+    h = _check_positive("ring: height", height)
+    n = _check_segments("ring: segments", segments, 3)
+    c = _check_point("ring: center", center)
+    if r0 >= r1:
+        raise InputError(f"ring: inner_radius={r0} must be < outer_radius={r1}; "
+                         "swap them or make the wall thicker")
+    theta = 2.0 * np.pi * np.arange(n) / n
+    radial = np.stack([np.cos(theta), np.zeros(n), np.sin(theta)], axis=1)
+    up = np.array([0.0, 1.0, 0.0])
+
+    def circle(r: float, y: float) -> np.ndarray:
+        return c + r * radial + y * up
+
+    idx = np.arange(n)
+    parts_v, parts_n, parts_f = [], [], []
+
+    def add(lower: np.ndarray, upper: np.ndarray, normals: np.ndarray, flip: bool) -> None:
+        base = sum(len(v) for v in parts_v)
+        parts_v.append(np.concatenate([lower, upper]))
+        parts_n.append(normals)
+        a, b = base + idx, base + n + idx
+        f = _annulus_faces(a, b)
+        parts_f.append(f[:, ::-1] if flip else f)
+
+    # (b - a) x (a[j+1] - a[j]) with b above a is (+y) x (tangent) = +radial:
+    # kept for the outer wall, flipped for the inner one.
+    add(circle(r0, 0.0), circle(r0, h), np.tile(-radial, (2, 1)), flip=True)
+    add(circle(r1, 0.0), circle(r1, h), np.tile(radial, (2, 1)), flip=False)
+    # rim: a inner, b outer: (radial) x (tangent) = -y, flipped to face +y
+    add(circle(r0, h), circle(r1, h), np.tile(up, (2 * n, 1)), flip=True)
+    if bottom:
+        add(circle(r0, 0.0), circle(r1, 0.0), np.tile(-up, (2 * n, 1)), flip=False)
+    return with_normals(np.concatenate(parts_v), np.concatenate(parts_f),
+                        np.concatenate(parts_n))
+
+
+# --------------------------------------------------------------------------- bust
+#
+# The bust is a surface of "stacked cross-sections": a meridian parameter t runs
+# from a pole at the centre of the flat base, out across the base, up the chest,
+# over the shoulders, up the neck and over the head to a pole at its top.  At each
+# t the horizontal cross-section at height y(t) is a superellipse
+#     |x / A|^p + |(z - cz) / B|^p = 1,   B = B_front for z > cz, B_back behind,
+# which is round (p = 2) at the neck and head and squarer (p ~ 2.6-3) across the
+# shoulders.  y(t) never decreases, so cross-sections never cross and the surface
+# is closed and free of self-intersections; the profile is interpolated
+# monotonically (PCHIP), so it never overshoots the control values below.
+
+#: Control values (metres) from the base pole to the head's top pole, bottom to top:
+#: y, half-width A (x), front depth B_front (+z), back depth B_back (-z),
+#: superellipse exponent p, forward offset cz of the cross-section's centre.
+_HEAD_CENTRE_Y, _HEAD_HALF_HEIGHT, _HEAD_CZ = 0.540, 0.120, 0.022
+_HEAD_A, _HEAD_BF, _HEAD_BB = 0.078, 0.104, 0.098
+_BODY = [
+    # flat base (y = 0) from the pole outwards, then a rounded bottom edge
+    (0.000, 0.000, 0.0000, 0.0000, 3.0, 0.0),
+    (0.000, 0.085, 0.0540, 0.0470, 3.0, 0.0),
+    (0.000, 0.150, 0.0950, 0.0830, 3.0, 0.0),
+    (0.005, 0.168, 0.1065, 0.0930, 3.0, 0.0),
+    (0.018, 0.175, 0.1110, 0.0970, 3.0, 0.0),
+    # torso: the arms are cut off where they meet it; the chest is fullest at y ~ 0.18
+    (0.070, 0.180, 0.1160, 0.0980, 3.0, 0.0),
+    (0.130, 0.186, 0.1250, 0.1000, 3.0, 0.0),
+    (0.180, 0.192, 0.1280, 0.1010, 3.2, 0.0),
+    (0.230, 0.198, 0.1180, 0.1000, 3.4, 0.0),
+    # shoulders; above y ~ 0.2 the chest front slopes back to the neck, facing forward and up
+    (0.268, 0.202, 0.1040, 0.0960, 3.6, 0.0),
+    (0.290, 0.198, 0.0940, 0.0900, 3.6, 0.0),
+    (0.302, 0.186, 0.0870, 0.0850, 3.4, 0.0),
+    # shoulder tops, rising about 20 degrees to the neck
+    (0.311, 0.160, 0.0810, 0.0800, 3.0, 0.0),
+    (0.320, 0.130, 0.0750, 0.0750, 2.6, 0.0),
+    (0.330, 0.100, 0.0680, 0.0690, 2.3, 0.0),
+    (0.342, 0.076, 0.0620, 0.0630, 2.0, 0.0),
+    # neck, leaning slightly forward
+    (0.360, 0.062, 0.0580, 0.0590, 2.0, 0.002),
+    (0.385, 0.057, 0.0560, 0.0570, 2.0, 0.005),
+    (0.410, 0.056, 0.0570, 0.0560, 2.0, 0.009),
+    (0.428, 0.058, 0.0640, 0.0570, 2.0, 0.013),
+    # under the jaw to the chin
+    (0.443, 0.058, 0.0720, 0.0600, 2.0, 0.018),
+]
+#: The neck band (metres above the base): the bust's narrowest part, where a ring goes.
+BUST_NECK_Y = (0.350, 0.425)
+
+
+def _head_rows() -> list[tuple]:
+    """Upper part of an ellipsoidal head, from below the jaw line to the top pole."""
+    rows = []
+    for phi in np.radians([-40.0, -20.0, 0.0, 20.0, 40.0, 55.0, 68.0, 79.0, 90.0]):
+        s = math.cos(phi)
+        rows.append((_HEAD_CENTRE_Y + _HEAD_HALF_HEIGHT * math.sin(phi), _HEAD_A * s,
+                     _HEAD_BF * s, _HEAD_BB * s, 2.0, _HEAD_CZ))
+    return rows
+
+
+@dataclass(frozen=True)
+class BustDimensions:
+    """Landmarks of :func:`bust` with its base centre at the origin (metres).
+
+    ``neck_y`` is the neck band, ``neck_radius`` the largest distance from the
+    y axis of any bust vertex in that band (a ring with a larger inner radius
+    clears the neck), ``chest_front_z`` the front of the chest, ``height`` the
+    top of the head."""
+
+    height: float
+    neck_y: tuple[float, float]
+    neck_radius: float
+    shoulder_y: float
+    shoulder_half_width: float
+    chest_front_z: float
+
+
+@lru_cache(maxsize=8)
+def _bust_arrays(segments: int, rings: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(vertices, faces, normals) of the bust at the origin, read-only (cached)."""
+    table = np.array(_BODY + _head_rows())
+    # chord-length parameter over (y, A, B_front), then a dense, monotone profile
+    chord = np.linalg.norm(np.diff(table[:, [0, 1, 2]], axis=0), axis=1)
+    knots = np.concatenate([[0.0], np.cumsum(chord)])
+    profile = PchipInterpolator(knots, table, axis=0)
+    dense_t = np.linspace(0.0, knots[-1], 20 * rings)
+    dense = profile(dense_t)
+    # resample uniformly in arc length along the widest meridian, so triangles
+    # are about as tall over the shoulders and head as up the chest
+    step = np.diff(dense[:, :4], axis=0)
+    ds = np.hypot(step[:, 0], np.abs(step[:, 1:4]).max(axis=1))
+    s = np.concatenate([[0.0], np.cumsum(ds)])
+    t = np.interp(np.linspace(0.0, s[-1], rings), s, dense_t)
+    y, a, bf, bb, p, cz = profile(t).T
+    a[[0, -1]] = bf[[0, -1]] = bb[[0, -1]] = 0.0      # exact poles
+
+    theta = 2.0 * np.pi * np.arange(segments) / segments
+    cos, sin = np.cos(theta)[None, :], np.sin(theta)[None, :]
+    b = np.where(sin >= 0.0, bf[:, None], bb[:, None])
+    with np.errstate(divide="ignore", invalid="ignore"):   # the poles, A = B = 0
+        inv = (np.abs(cos) / a[:, None]) ** p[:, None] + (np.abs(sin) / b) ** p[:, None]
+        r = np.where(a[:, None] > 0.0, inv ** (-1.0 / p[:, None]), 0.0)
+    grid = np.stack([r * cos, np.broadcast_to(y[:, None], r.shape),
+                     cz[:, None] + r * sin], axis=-1)          # (rings, segments, 3)
+
+    # normals of the smooth surface: d/dt x d/dtheta points outwards
+    d_t = np.gradient(grid, axis=0)
+    d_theta = (np.roll(grid, -1, axis=1) - np.roll(grid, 1, axis=1)) / 2.0
+    normals = np.cross(d_t, d_theta)
+    normals /= np.linalg.norm(normals, axis=-1, keepdims=True).clip(1e-300)
+
+    body = grid[1:-1].reshape(-1, 3)
+    vertices = np.concatenate([[grid[0, 0]], body, [grid[-1, 0]]])
+    vnormals = np.concatenate([[[0.0, -1.0, 0.0]], normals[1:-1].reshape(-1, 3),
+                               [[0.0, 1.0, 0.0]]])
+    n, top = segments, len(vertices) - 1
+    rows = 1 + n * np.arange(rings - 2)[:, None] + np.arange(n)[None, :]
+    faces = [np.stack([np.zeros(n, int), rows[0], np.roll(rows[0], -1)], axis=1)]
+    for lo, hi in zip(rows[:-1], rows[1:]):
+        faces.append(_annulus_faces(lo, hi))
+    faces.append(np.stack([np.full(n, top), np.roll(rows[-1], -1), rows[-1]], axis=1))
+    arrays = (vertices, np.concatenate(faces), vnormals)
+    for arr in arrays:
+        arr.setflags(write=False)
+    return arrays
+
+
+def bust(*, center=(0.0, 0.0, 0.0), segments: int = 384, rings: int = 200) -> trimesh.Trimesh:
+    """A generated bust: head, neck, shoulders and chest as one closed surface.
+
+    About 0.67 m tall and 0.36 m wide at the shoulders, facing ``+z``, its flat
+    base on the plane ``y = center[1]`` centred on ``center``; the neck is the
+    band :data:`BUST_NECK_Y` above the base (see :func:`bust_dimensions`).  The
+    chest in front of and below the neck is curved and faces forward and up, so
+    a mirror ring around the neck can cast a caustic onto it.
+
+    Parameters
+    ----------
+    center : (3,) float
+        Centre of the base.
+    segments : int
+        Vertices around each cross-section (>= 8).
+    rings : int
+        Cross-sections from the base pole to the head pole (>= 4).
+
+    The mesh is watertight, wound outwards, with ``2 * segments * (rings - 2)``
+    triangles (152,064 by default) and normals of the smooth surface.
+    """
+    n = _check_segments("bust: segments", segments, 8)
+    m = _check_segments("bust: rings", rings, 4)
+    c = _check_point("bust: center", center)
+    vertices, faces, normals = _bust_arrays(n, m)
+    return with_normals(vertices + c, faces, normals)
+
+
+def bust_dimensions(*, segments: int = 384, rings: int = 200) -> BustDimensions:
+    """Landmarks of ``bust(segments=segments, rings=rings)`` centred at the origin."""
+    vertices, _, _ = _bust_arrays(_check_segments("bust: segments", segments, 8),
+                                  _check_segments("bust: rings", rings, 4))
+    y = vertices[:, 1]
+    radius = np.hypot(vertices[:, 0], vertices[:, 2])
+    neck = (y >= BUST_NECK_Y[0]) & (y <= BUST_NECK_Y[1])
+    i = int(np.argmax(np.abs(vertices[:, 0])))
+    return BustDimensions(
+        height=float(y.max()), neck_y=BUST_NECK_Y, neck_radius=float(radius[neck].max()),
+        shoulder_y=float(y[i]), shoulder_half_width=float(np.abs(vertices[:, 0]).max()),
+        chest_front_z=float(vertices[y < BUST_NECK_Y[0], 2].max()))

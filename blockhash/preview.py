@@ -1,0 +1,66 @@
+"""A quick pyrender view of a scene, for checking camera, objects and lights.
+
+pyrender makes its own EGL context current on every render, and deleting an
+``OffscreenRenderer`` calls eglTerminate, which breaks every moderngl context in
+the process (DESIGN.md).  So the preview renders in a separate, spawned process
+and sends back colour and depth arrays.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+
+import numpy as np
+
+from .gbuffer import look_at
+
+
+def _render(meshes, colours, lights, camera, size):
+    os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
+    import pyrender
+    import trimesh
+
+    scene = pyrender.Scene(ambient_light=np.full(3, 0.15), bg_color=np.zeros(4))
+    for (vertices, faces, normals), colour in zip(meshes, colours):
+        mesh = trimesh.Trimesh(vertices=vertices, faces=faces, vertex_normals=normals, process=False)
+        material = pyrender.MetallicRoughnessMaterial(baseColorFactor=(*colour, 1.0), metallicFactor=0.0,
+                                                      roughnessFactor=0.8)
+        scene.add(pyrender.Mesh.from_trimesh(mesh, material=material, smooth=True))
+    for position, power in lights:
+        pose = np.eye(4)
+        pose[:3, 3] = position
+        scene.add(pyrender.PointLight(color=np.ones(3), intensity=float(np.mean(power)) / (4 * np.pi)),
+                  pose=pose)
+    eye, target, up, fov_y_deg = camera
+    width, height = size
+    cam = pyrender.PerspectiveCamera(yfov=np.radians(fov_y_deg), aspectRatio=width / height)
+    scene.add(cam, pose=np.linalg.inv(look_at(eye, target, up)))
+    renderer = pyrender.OffscreenRenderer(width, height)
+    try:
+        colour, depth = renderer.render(scene)
+    finally:
+        renderer.delete()
+    return np.array(colour), np.array(depth)
+
+
+def preview(scene, *, size=None):
+    """(colour (h, w, 3) uint8, depth (h, w) float32 eye-space distance, 0 where empty)."""
+    size = size or (scene.camera.width, scene.camera.height)
+    meshes = [(o.mesh.vertices, o.mesh.faces, o.mesh.vertex_normals) for o in scene.objects]
+    colours = [tuple(getattr(o.material, "reflectance", None) if hasattr(o.material, "reflectance")
+                     else np.clip(np.asarray(o.material.kd) + np.asarray(o.material.ks), 0, 1))
+               for o in scene.objects]
+    lights = [(tuple(l.position), tuple(l.power)) for l in scene.lights]
+    cam = scene.camera
+    camera = (tuple(cam.eye), tuple(cam.target), tuple(cam.up), float(cam.fov_y_deg))
+    with multiprocessing.get_context("spawn").Pool(1) as pool:
+        return pool.apply(_render, (meshes, colours, lights, camera, tuple(size)))
+
+
+def gbuffer_depth(camera, gbuffer) -> np.ndarray:
+    """Eye-space depth of each G-buffer pixel along the view axis (0 where nothing is hit)."""
+    view = look_at(camera.eye, camera.target, camera.up)
+    p = gbuffer.position.reshape(-1, 3).astype(np.float64)
+    z = -(p @ view[2, :3] + view[2, 3])
+    return np.where(gbuffer.object.reshape(-1) >= 0, z, 0.0).reshape(gbuffer.object.shape)
