@@ -17,6 +17,9 @@ normals to shade with in ``mesh.vertex_normals``:
     >= 100,000 triangles (section 6's "Venus with Ring" scene, generated
     instead of shipping a third-party mesh).
 
+:func:`load_mesh` reads a mesh file with its normals and :func:`placed` scales,
+rotates and translates a mesh together with its normals.
+
 Do not modify a returned mesh in place (``merge_vertices``, ``fix_normals``,
 ``apply_transform``...): trimesh recomputes ``vertex_normals`` from the faces
 when the geometry changes, which merges the ring's rim into its walls and
@@ -28,6 +31,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -37,6 +41,9 @@ from .errors import InputError
 
 #: The bust has this many triangles at least with the default resolution.
 MIN_BUST_TRIANGLES = 100_000
+#: Mesh file types :func:`load_mesh` accepts, and its normal modes.
+MESH_SUFFIXES = (".obj", ".ply", ".stl")
+NORMAL_MODES = ("auto", "smooth", "flat")
 
 
 def with_normals(vertices, faces, normals) -> trimesh.Trimesh:
@@ -70,6 +77,82 @@ def _check_point(name: str, value) -> np.ndarray:
     if arr.shape != (3,) or not np.isfinite(arr).all():
         raise InputError(f"{name} must be 3 finite numbers [x, y, z]; got {value!r}")
     return arr
+
+
+# --------------------------------------------------------------------------- files, placement
+
+def load_mesh(path, *, normals: str = "auto") -> trimesh.Trimesh:
+    """Read a triangle mesh file (``.obj``, ``.ply``, ``.stl``) with trimesh.
+
+    ``normals`` : {'auto', 'smooth', 'flat'}
+        ``auto`` keeps the file's vertex normals (OBJ ``vn``, PLY ``nx ny nz``)
+        and makes smooth ones when it has none; ``smooth`` averages face normals
+        over vertices shared by position; ``flat`` gives every face its own
+        vertices and normal.
+
+    trimesh 5.2's ``force='mesh'`` concatenates through a path that drops the
+    normals a file carries, so the file is loaded as a scene and its geometries
+    are concatenated here, each with its node transform.  Raises InputError
+    for an unreadable file or one without triangles."""
+    path = Path(path)
+    if normals not in NORMAL_MODES:
+        raise InputError(f"normals={normals!r} is not a normal mode; expected one of "
+                         f"{', '.join(map(repr, NORMAL_MODES))}")
+    try:
+        loaded = trimesh.load(str(path), force="scene", process=False)
+    except (ValueError, KeyError, IndexError, TypeError, AttributeError, OSError,
+            NotImplementedError) as exc:
+        raise InputError(f"trimesh could not read {str(path)!r}: {exc}; check that the file is "
+                         "a valid mesh") from None
+    parts = []
+    for node in loaded.graph.nodes_geometry:
+        transform, name = loaded.graph[node]
+        geom = loaded.geometry[name]
+        if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
+            continue
+        from_file = "vertex_normals" in geom._cache.cache     # set by the loader, not computed
+        normal_matrix = np.linalg.inv(transform[:3, :3]).T
+        parts.append((trimesh.transform_points(geom.vertices, transform), np.asarray(geom.faces),
+                      geom.vertex_normals @ normal_matrix.T if from_file else None))
+    if not parts:
+        raise InputError(f"the mesh file {str(path)!r} has no triangles (empty, or only points or "
+                         "lines); expected a triangle mesh")
+    offsets = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
+    vertices = np.concatenate([p[0] for p in parts])
+    faces = np.concatenate([p[1] + o for p, o in zip(parts, offsets)])
+    if normals == "auto" and all(p[2] is not None for p in parts):
+        return with_normals(vertices, faces, np.concatenate([p[2] for p in parts]))
+    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False, validate=False)
+    if normals == "flat":
+        mesh.unmerge_vertices()
+        return with_normals(mesh.vertices, mesh.faces, np.repeat(mesh.face_normals, 3, axis=0))
+    mesh.merge_vertices(merge_tex=True, merge_norm=True)
+    return with_normals(mesh.vertices, mesh.faces, mesh.vertex_normals)
+
+
+def rotation(rotate_deg) -> np.ndarray:
+    """(3, 3) rotation by ``rotate_deg = (rx, ry, rz)`` degrees about x, then y,
+    then z (fixed axes): ``Rz @ Ry @ Rx``."""
+    rx, ry, rz = np.radians(np.asarray(rotate_deg, dtype=np.float64))
+    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+    mx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    my = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    mz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return mz @ my @ mx
+
+
+def placed(mesh: trimesh.Trimesh, *, scale: float = 1.0, rotate_deg=(0.0, 0.0, 0.0),
+           translate=(0.0, 0.0, 0.0)) -> trimesh.Trimesh:
+    """``mesh`` scaled (uniformly, > 0), rotated (see :func:`rotation`), then
+    translated, with its vertex normals rotated alike; ``mesh`` itself when
+    nothing changes."""
+    scale = _check_positive("scale", scale)
+    rot = rotation(_check_point("rotate_deg", rotate_deg))
+    shift = _check_point("translate", translate)
+    if scale == 1.0 and np.array_equal(rot, np.eye(3)) and not shift.any():
+        return mesh
+    vertices = (scale * np.asarray(mesh.vertices)) @ rot.T + shift
+    return with_normals(vertices, mesh.faces, np.asarray(mesh.vertex_normals) @ rot.T)
 
 
 # --------------------------------------------------------------------------- rectangle
@@ -170,8 +253,8 @@ def ring(inner_radius: float, outer_radius: float, height: float, segments: int 
 # over the shoulders, up the neck and over the head to a pole at its top.  At each
 # t the horizontal cross-section at height y(t) is a superellipse
 #     |x / A|^p + |(z - cz) / B|^p = 1,   B = B_front for z > cz, B_back behind,
-# which is round (p = 2) at the neck and head and squarer (p ~ 2.6-3) across the
-# shoulders.  y(t) never decreases, so cross-sections never cross and the surface
+# which is round (p = 2) at the neck and head and squarer (p = 3 .. 3.6) across the
+# torso and shoulders.  y(t) never decreases, so cross-sections never cross and the surface
 # is closed and free of self-intersections; the profile is interpolated
 # monotonically (PCHIP), so it never overshoots the control values below.
 
@@ -293,7 +376,7 @@ def _bust_arrays(segments: int, rings: int) -> tuple[np.ndarray, np.ndarray, np.
 def bust(*, center=(0.0, 0.0, 0.0), segments: int = 384, rings: int = 200) -> trimesh.Trimesh:
     """A generated bust: head, neck, shoulders and chest as one closed surface.
 
-    About 0.67 m tall and 0.36 m wide at the shoulders, facing ``+z``, its flat
+    0.66 m tall and 0.40 m wide at the shoulders, facing ``+z``, its flat
     base on the plane ``y = center[1]`` centred on ``center``; the neck is the
     band :data:`BUST_NECK_Y` above the base (see :func:`bust_dimensions`).  The
     chest in front of and below the neck is curved and faces forward and up, so

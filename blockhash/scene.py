@@ -4,7 +4,8 @@ Units are metres and watts, y is up, the frame is right-handed.  A scene file
 has these tables (every key is listed; a key not listed here is an error, so a
 typo is never silently ignored)::
 
-    description = "..."             # optional, one line shown by Scene.summary()
+    description = "..."             # optional, one line shown by Scene.summary();
+                                    #   top-level keys go before the first table
 
     [camera]                        # required: a pinhole camera
     eye = [0.0, 1.9, 1.6]           # required, metres
@@ -53,7 +54,8 @@ typo is never silently ignored)::
     #         segments = 256 (3 .. 65536), center = [0, 0, 0] (centre of the base),
     #         bottom = false (close the base; for a ring that floats)
     #   bust: center = [0, 0, 0] (centre of the base), segments = 384 (8 .. 4096),
-    #         rings = 200 (4 .. 4096); 152,064 triangles by default
+    #         rings = 200 (4 .. 4096); 0.66 m tall, facing +z, neck at 0.35 .. 0.425 m
+    #         above the base, 152,064 triangles by default
     # optional placement of the mesh or shape, applied as scale, rotate, translate:
     # scale = 1.0                   # > 0, uniform
     # rotate_deg = [0.0, 0.0, 0.0]  # degrees about x, then y, then z (fixed axes)
@@ -97,9 +99,6 @@ MAX_IMAGE_SIDE = 16384
 #: up and the view direction count as parallel when the sine of their angle is
 #: below this: the camera basis (cross products) would then be mostly rounding.
 PARALLEL_SINE = 1e-6
-#: Mesh file types the loader accepts.
-MESH_SUFFIXES = (".obj", ".ply", ".stl")
-NORMAL_MODES = ("auto", "smooth", "flat")
 
 
 # --------------------------------------------------------------------------- errors
@@ -568,72 +567,24 @@ def _check_mesh(mesh: trimesh.Trimesh, key: str) -> None:
 
 
 def _load_mesh_file(value, key: str, base: Path, normals: str) -> trimesh.Trimesh:
-    """Load a mesh file with trimesh, keeping the file's vertex normals.
-
-    trimesh 5.2's ``force='mesh'`` concatenates through a path that drops the
-    normals a file carries, so the file is loaded as a scene and its
-    geometries are concatenated here, each with its node transform."""
+    """Resolve a mesh path against the scene file's folder and load it."""
     text = _string(value, key, what="a mesh file path")
     path = Path(text).expanduser()
     full = path if path.is_absolute() else base / path
-    if full.suffix.lower() not in MESH_SUFFIXES:
+    if full.suffix.lower() not in meshes.MESH_SUFFIXES:
         raise _FieldError(key, f"unsupported mesh file type {full.suffix or '(none)'!r} in {text!r}; "
-                          f"expected one of {', '.join(MESH_SUFFIXES)}; convert it (e.g. with trimesh)")
+                          f"expected one of {', '.join(meshes.MESH_SUFFIXES)}; convert it "
+                          "(e.g. with trimesh)")
     if not full.is_file():
         raise _FieldError(key, f"mesh file not found: {str(full)!r} ({text!r} is resolved relative to "
                           f"the scene file's folder {str(base)!r}); check the path or give an "
                           "absolute one")
     try:
-        loaded = trimesh.load(str(full), force="scene", process=False)
-    except (ValueError, KeyError, IndexError, TypeError, AttributeError, OSError,
-            NotImplementedError) as exc:
-        raise _FieldError(key, f"trimesh could not read {str(full)!r}: {exc}; check that the file "
-                          "is a valid mesh") from None
-    parts = []
-    for node in loaded.graph.nodes_geometry:
-        transform, name = loaded.graph[node]
-        geom = loaded.geometry[name]
-        if not isinstance(geom, trimesh.Trimesh) or len(geom.faces) == 0:
-            continue
-        has_normals = "vertex_normals" in geom._cache.cache   # given by the file
-        v = trimesh.transform_points(geom.vertices, transform)
-        rot = np.linalg.inv(transform[:3, :3]).T
-        n = geom.vertex_normals @ rot.T if has_normals else None
-        parts.append((v, np.asarray(geom.faces), n))
-    if not parts:
-        raise _FieldError(key, f"the mesh file {str(full)!r} has no triangles (empty, or only "
-                          "points or lines); expected a triangle mesh")
-    offsets = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
-    vertices = np.concatenate([p[0] for p in parts])
-    faces = np.concatenate([p[1] + o for p, o in zip(parts, offsets)])
-    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False, validate=False)
+        mesh = meshes.load_mesh(full, normals=normals)
+    except InputError as exc:
+        raise _FieldError(key, str(exc)) from None
     _check_mesh(mesh, key)
-    if normals == "auto" and all(p[2] is not None for p in parts):
-        return meshes.with_normals(vertices, faces, np.concatenate([p[2] for p in parts]))
-    if normals == "flat":
-        mesh.unmerge_vertices()
-        return meshes.with_normals(mesh.vertices, mesh.faces, np.repeat(mesh.face_normals, 3, axis=0))
-    mesh.merge_vertices(merge_tex=True, merge_norm=True)
-    return meshes.with_normals(mesh.vertices, mesh.faces, mesh.vertex_normals)
-
-
-def _rotation(angles_deg: np.ndarray) -> np.ndarray:
-    """Rotation about x, then y, then z (fixed axes): Rz @ Ry @ Rx."""
-    rx, ry, rz = np.radians(angles_deg)
-    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
-    mx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
-    my = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-    mz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-    return mz @ my @ mx
-
-
-def _place(mesh: trimesh.Trimesh, scale: float, rotate_deg: np.ndarray,
-           translate: np.ndarray) -> trimesh.Trimesh:
-    if scale == 1.0 and not rotate_deg.any() and not translate.any():
-        return mesh
-    rot = _rotation(rotate_deg)
-    vertices = (scale * np.asarray(mesh.vertices)) @ rot.T + translate
-    return meshes.with_normals(vertices, mesh.faces, np.asarray(mesh.vertex_normals) @ rot.T)
+    return mesh
 
 
 # --------------------------------------------------------------------------- TOML
@@ -645,7 +596,8 @@ def _keys(table, key: str, required: tuple, optional: tuple = (), *, what: str) 
     allowed = tuple(required) + tuple(optional)
     for name in table:
         if name not in allowed:
-            close = difflib.get_close_matches(name, allowed, n=1)
+            close = difflib.get_close_matches(name, allowed, n=1) or \
+                [a for a in allowed if a.startswith(name) or name.startswith(a)]
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise _FieldError(f"{key}.{name}" if key else name,
                               f"unknown key{hint}; allowed keys here: {', '.join(allowed)}; "
@@ -749,13 +701,15 @@ def _parse_shape(t, key: str) -> trimesh.Trimesh:
     if not isinstance(t, dict):
         raise _FieldError(key, f"expected a table [objects.shape] with a kind; got {_got(t)}")
     if "kind" not in t:
-        raise _FieldError(f"{key}.kind", f"missing required key; expected one of {', '.join(map(repr, _SHAPES))}")
+        raise _FieldError(f"{key}.kind", "missing required key; expected one of "
+                          + ", ".join(map(repr, _SHAPES)))
     kind = _choice(t["kind"], f"{key}.kind", tuple(_SHAPES))
     spec = _SHAPES[kind]
     required = tuple(k for k, (_, d) in spec.items() if d is _REQUIRED)
     optional = tuple(k for k, (_, d) in spec.items() if d is not _REQUIRED)
     _keys(t, key, ("kind",) + required, optional, what=f"a {kind} shape")
-    args = {k: check(t[k] if k in t else default, f"{key}.{k}") for k, (check, default) in spec.items()}
+    args = {k: check(t[k] if k in t else default, f"{key}.{k}")
+            for k, (check, default) in spec.items()}
     try:
         return _BUILDERS[kind](**args)
     except _FieldError:
@@ -779,16 +733,17 @@ def _parse_object(t, i: int, materials: dict, base: Path) -> SceneObject:
     if "normals" in t and "mesh" not in t:
         raise _FieldError(f"{key}.normals", "normals applies to mesh files only; generated shapes "
                           "carry their own normals; remove it")
-    if "mesh" in t:
-        normals = _choice(t.get("normals", "auto"), f"{key}.normals", NORMAL_MODES)
-        mesh = _load_mesh_file(t["mesh"], f"{key}.mesh", base, normals)
-    else:
-        mesh = _parse_shape(t["shape"], f"{key}.shape")
     scale = _positive(t.get("scale", 1.0), f"{key}.scale")
     rotate = _vector(t.get("rotate_deg", [0.0, 0.0, 0.0]), f"{key}.rotate_deg", unit="degrees")
     translate = _vector(t.get("translate", [0.0, 0.0, 0.0]), f"{key}.translate")
+    if "mesh" in t:
+        normals = _choice(t.get("normals", "auto"), f"{key}.normals", meshes.NORMAL_MODES)
+        mesh = _load_mesh_file(t["mesh"], f"{key}.mesh", base, normals)
+    else:
+        mesh = _parse_shape(t["shape"], f"{key}.shape")
     with _under(key):
-        return SceneObject(name=name, mesh=_place(mesh, scale, rotate, translate),
+        return SceneObject(name=name, mesh=meshes.placed(mesh, scale=scale, rotate_deg=rotate,
+                                                          translate=translate),
                            material=materials[mat])
 
 
