@@ -18,7 +18,7 @@ import numpy as np
 
 from .codec import decode_directions, decode_powers, unpack_records
 from .errors import InputError
-from .gl.context import check_gl, home_framebuffer
+from .gl.context import bind_textures, check_gl, draw_fullscreen, home_framebuffer
 from .gl.lookup import GLLookup, slot_bits
 from .gl.shaderlib import Variant
 
@@ -147,28 +147,18 @@ class CausticPass:
     def render(self, points: ShadingPoints, materials, *, k=None, A=None,
                variant: str = "default") -> np.ndarray:
         """(h, w, 3) float32 caustic radiance, row 0 at the top like ``points``."""
-        import time
-
         from .gl.shaderlib import compile_program
-        from .thresholds import ThresholdLayout
 
         index = self.index
         prm = index.params
         k = prm.k if k is None else k
         A = prm.A if A is None else A
-        v = Variant.parse(variant)
         h, w = points.shape
         kd, ks, e = _material_table(materials)
-        defines = {
-            **v.defines(), "BH_L": prm.L, "BH_B": prm.B, "BH_PX": prm.P[0], "BH_PY": prm.P[1],
-            "BH_PZ": prm.P[2], "BH_NESTED": int(prm.layout == ThresholdLayout.NESTED),
-            "BH_T": index.thresholds.shape[1], "BH_BUCKETS": prm.buckets, "BH_K": k,
-            "BH_CAP": A * k, **self.lookup.packed.widths, "BH_SLOT_BITS": slot_bits(prm.L, prm.B),
-            "BH_FETCH_ONLY": 0,
-        }
         ctx = self.ctx
         with ctx:
-            prog = compile_program(ctx, "caustic_pass.frag", defines)
+            prog = compile_program(ctx, "caustic_pass.frag",
+                                   self.lookup.defines(Variant.parse(variant), k, A * k))
             # Textures are bottom-up in GL: flip rows on the way in and out.
             pos = np.concatenate([points.position, points.material[..., None].astype(np.float32)], axis=2)
             nrm = np.concatenate([points.normal, np.ones((h, w, 1), np.float32)], axis=2)
@@ -179,34 +169,16 @@ class CausticPass:
             fbo = ctx.framebuffer(color_attachments=[out_tex])
             check_gl(ctx, f"allocating the {w} x {h} caustic pass")
             try:
-                box = index.quantizer
-                prog["bh_lo"].value = tuple(float(x) for x in box.lo)
-                prog["bh_step"].value = tuple(float(x) for x in box.step)
-                prog["bh_inv_step"].value = tuple(float(x) for x in box.inv_step)
-                prog["bh_power_scale"].value = float(index.records.power_scale)
+                self.lookup.set_uniforms(prog)
                 pad = MAX_MATERIALS - len(kd)
                 prog["cp_kd"].value = [tuple(r) for r in np.vstack([kd, np.zeros((pad, 3))])]
                 prog["cp_ks"].value = [tuple(r) for r in np.vstack([ks, np.zeros((pad, 3))])]
                 prog["cp_exponent"].value = [float(x) for x in np.concatenate([e, np.zeros(pad)])]
-                packed = self.lookup.packed
-                units = {"bh_blocks": packed.blocks, "bh_headers": packed.headers,
-                         "bh_refs": packed.refs, "bh_thresholds": packed.thresholds,
-                         "cp_position": texs[0], "cp_normal": texs[1], "cp_view": texs[2]}
-                for unit, (name, tex) in enumerate(units.items()):
-                    tex.use(location=unit)
-                    if name in prog:
-                        prog[name].value = unit
-                fbo.use()
-                fbo.viewport = (0, 0, w, h)
-                vao = ctx.vertex_array(prog, [])
-                ctx.finish()
-                start = time.perf_counter()
-                vao.render(mode=ctx.TRIANGLES, vertices=3)
-                ctx.finish()
-                self.seconds = time.perf_counter() - start
+                bind_textures(prog, {**self.lookup.textures(), "cp_position": texs[0],
+                                     "cp_normal": texs[1], "cp_view": texs[2]})
+                self.seconds = draw_fullscreen(ctx, prog, fbo, (w, h))
                 check_gl(ctx, "the caustic pass draw")
                 img = np.frombuffer(out_tex.read(), dtype=np.float32).reshape(h, w, 4)[::-1, :, :3]
-                vao.release()
             finally:
                 home_framebuffer(ctx).use()
                 for obj in (*texs, fbo, out_tex):

@@ -1,4 +1,6 @@
-"""Shared fixtures: seeded generators and small photon sets."""
+"""Shared fixtures: seeded generators, small photon sets, GL contexts."""
+
+import os
 
 import numpy as np
 import pytest
@@ -19,3 +21,17 @@ def distribution(request):
 
 def photon_set(name: str, n: int, seed: int = 7) -> np.ndarray:
     return DISTRIBUTIONS[name](n, np.random.default_rng(seed))
+
+
+def context_or_skip(backend):
+    """The backend's GL context; a machine without it skips, unless BLOCKHASH_REQUIRE_GL
+    names the backend (CI installs and requires both)."""
+    from blockhash.errors import GLUnavailableError
+    from blockhash.gl.context import get_context
+
+    try:
+        return get_context(backend)
+    except GLUnavailableError as exc:
+        if backend in os.environ.get("BLOCKHASH_REQUIRE_GL", "").split(","):
+            raise
+        pytest.skip(f"{backend} unavailable: {exc}")

@@ -1,36 +1,22 @@
 """The exact kd-tree baseline (paper section 2): a balanced heap-ordered tree built on the CPU,
 searched in a fragment shader, equal to the float32 brute force and to scipy's cKDTree."""
 
-import os
-
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from blockhash.errors import CapacityError, GLUnavailableError, InputError
-from blockhash.gl.context import get_context
+from blockhash.errors import CapacityError, InputError
 from blockhash.gl.context import home_framebuffer
 from blockhash.gl.kdtree import (LOOP_LIMIT, MAX_K, GLKdTree, build_kdtree,
                                  query_order)
 from blockhash.gl.shaderlib import FULLSCREEN_VS, define_block, preprocess
-from conftest import photon_set
+from conftest import context_or_skip, photon_set
 
 BACKENDS = ["egl", "osmesa"]
 N = 3000
 #: cKDTree works in float64 on the float32 points, the shader in float32: a squared distance
 #: differs by at most a few float32 roundings (4 ulp ~ 2.4e-7 relative), a distance by half that.
 DIST_RTOL = 1e-6
-
-
-def context_or_skip(backend):
-    """The backend's context; a machine without it skips, unless BLOCKHASH_REQUIRE_GL names
-    it (CI)."""
-    try:
-        return get_context(backend)
-    except GLUnavailableError as exc:
-        if backend in os.environ.get("BLOCKHASH_REQUIRE_GL", "").split(","):
-            raise
-        pytest.skip(f"{backend} unavailable: {exc}")
 
 
 def queries_for(name, m=400, seed=21):

@@ -1,7 +1,5 @@
 """The GLSL lookup returns exactly the CPU reference's neighbours (the oracle)."""
 
-import os
-
 import numpy as np
 import pytest
 
@@ -11,19 +9,9 @@ from blockhash.gl.context import check_gl, get_context, gl_info
 from blockhash.gl.lookup import GLLookup, slot_bits
 from blockhash.gl.packing import texture_shape
 from blockhash.gl.shaderlib import Variant, variants
-from conftest import photon_set
+from conftest import context_or_skip, photon_set
 
 BACKENDS = ["egl", "osmesa"]
-
-
-def context_or_skip(backend):
-    """The backend's context; a machine without it skips, unless BLOCKHASH_REQUIRE_GL names it (CI)."""
-    try:
-        return get_context(backend)
-    except GLUnavailableError as exc:
-        if backend in os.environ.get("BLOCKHASH_REQUIRE_GL", "").split(","):
-            raise
-        pytest.skip(f"{backend} unavailable: {exc}")
 
 
 def queries_for(name, m=300, seed=21):

@@ -1,6 +1,5 @@
 import math
 
-import numpy as np
 import pytest
 
 from blockhash.params import (DEFAULT_REFS_PER_PHOTON, buckets_per_axis, default_params,

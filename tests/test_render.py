@@ -1,6 +1,5 @@
 """End-to-end rendering of the canonical ring scene at test size, against its oracles."""
 
-import warnings
 from pathlib import Path
 
 import numpy as np

@@ -96,7 +96,7 @@ def test_summary_and_repr_show_the_numbers(ring_scene):
 # --------------------------------------------------------------------------- venus.toml
 
 def test_venus_scene_loads_with_bust_ring_and_lights(venus_scene):
-    bust, ring = _by_name(venus_scene, "bust"), _by_name(venus_scene, "ring")
+    bust = _by_name(venus_scene, "bust")
     assert len(bust.mesh.faces) >= meshes.MIN_BUST_TRIANGLES
     assert isinstance(bust.material, PhongMaterial)
     assert [o.name for o in venus_scene.specular_objects] == ["ring"]

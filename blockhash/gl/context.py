@@ -117,3 +117,32 @@ def gl_info(ctx: moderngl.Context) -> dict:
         if name in info:
             out[name] = info[name]
     return out
+
+
+def draw_fullscreen(ctx: moderngl.Context, program, fbo, size: tuple[int, int]) -> float:
+    """One fullscreen-triangle draw of ``program`` into ``fbo``; returns the draw's seconds.
+
+    The time covers the draw alone (the pipeline is drained before and after), not
+    compilation or transfers; llvmpipe compiles a program at its first draw.
+    """
+    import time
+
+    fbo.use()
+    fbo.viewport = (0, 0, *size)
+    vao = ctx.vertex_array(program, [])
+    try:
+        ctx.finish()
+        start = time.perf_counter()
+        vao.render(mode=ctx.TRIANGLES, vertices=3)
+        ctx.finish()
+        return time.perf_counter() - start
+    finally:
+        vao.release()
+
+
+def bind_textures(program, textures: dict) -> None:
+    """Bind each named texture to its own unit and point the program's sampler at it."""
+    for unit, (name, tex) in enumerate(textures.items()):
+        tex.use(location=unit)
+        if name in program:
+            program[name].value = unit

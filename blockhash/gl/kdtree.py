@@ -62,7 +62,7 @@ import numpy as np
 from ..errors import CapacityError
 from ..hilbert import hilbert_keys
 from ..validate import as_int, as_points
-from .context import check_gl, get_context, home_framebuffer
+from .context import check_gl, draw_fullscreen, get_context, home_framebuffer
 from .packing import upload
 from .shaderlib import compile_program
 
@@ -438,7 +438,6 @@ class GLKdTree:
         color = ctx.renderbuffer((QUERY_WIDTH, view_h), 4, dtype="f1")
         fbo = ctx.framebuffer(color_attachments=[color])
         check_gl(ctx, f"allocating buffers for {m:,} queries x k={k}")
-        vao = None
         try:
             prog = self._program(k)
             prog["kd_count"].value = m
@@ -451,14 +450,7 @@ class GLKdTree:
                 prog[name].value = unit
             for binding, buf in enumerate((results, states, stacks)):
                 buf.bind_to_storage_buffer(binding)
-            fbo.use()
-            fbo.viewport = (0, 0, QUERY_WIDTH, view_h)
-            vao = ctx.vertex_array(prog, [])
-            ctx.finish()
-            start = time.perf_counter()
-            vao.render(mode=ctx.TRIANGLES, vertices=3)
-            ctx.finish()
-            self.counters["gl.draw_seconds"] += time.perf_counter() - start
+            self.counters["gl.draw_seconds"] += draw_fullscreen(ctx, prog, fbo, (QUERY_WIDTH, view_h))
             check_gl(ctx, "the kd-tree search draw")
             state = np.frombuffer(states.read(), dtype=np.uint32).reshape(m, 8).copy()
             results.read_into(keys_out)
@@ -470,9 +462,8 @@ class GLKdTree:
             # moderngl rebinds its current framebuffer after creating one: never leave a
             # framebuffer that is about to be released current (see lookup.py).
             self._home.use()
-            for obj in (vao, qtex, results, states, stacks, fbo, color):
-                if obj is not None:
-                    obj.release()
+            for obj in (qtex, results, states, stacks, fbo, color):
+                obj.release()
 
     def release(self):
         """Free the node texture.  The programs and the home framebuffer stay with the

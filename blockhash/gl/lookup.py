@@ -10,14 +10,13 @@ storage buffer; queries are processed in passes that fit the buffer limit.
 
 from __future__ import annotations
 
-import time
 
 import numpy as np
 
 from ..errors import InputError
 from ..thresholds import ThresholdLayout
 from ..validate import as_int, as_points
-from .context import check_gl, get_context, home_framebuffer
+from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer
 from .packing import PHOTONS_PER_BLOCK_CHECK, pack_index
 from .shaderlib import Variant, compile_program
 
@@ -53,17 +52,36 @@ class GLLookup:
             self._home = home_framebuffer(self.ctx)
         self._programs: dict = {}
 
-    def _program(self, variant: Variant, k: int, cap: int, width: int, count: int,
-                 fetch_only: bool = False):
+    def defines(self, variant: Variant, k: int, cap: int, *, fetch_only: bool = False) -> dict:
+        """The #defines of bh_lookup.glsl for this index, variant, k and candidate cap."""
         prm = self.index.params
-        defines = {
+        return {
             **variant.defines(),
             "BH_L": prm.L, "BH_B": prm.B, "BH_PX": prm.P[0], "BH_PY": prm.P[1], "BH_PZ": prm.P[2],
             "BH_NESTED": int(prm.layout == ThresholdLayout.NESTED), "BH_T": self.index.thresholds.shape[1],
             "BH_BUCKETS": prm.buckets, "BH_K": k, "BH_CAP": cap, **self.packed.widths,
-            "BH_QUERY_W": width, "BH_QUERIES": count,
             "BH_SLOT_BITS": slot_bits(prm.L, prm.B), "BH_FETCH_ONLY": int(fetch_only),
         }
+
+    def textures(self) -> dict:
+        """Sampler name -> texture of the uploaded index."""
+        p = self.packed
+        return {"bh_blocks": p.blocks, "bh_headers": p.headers, "bh_refs": p.refs,
+                "bh_thresholds": p.thresholds}
+
+    def set_uniforms(self, program) -> None:
+        """The photon box (bh_box.glsl) and power scale, as exact float32 values."""
+        box = self.index.quantizer
+        program["bh_lo"].value = tuple(float(x) for x in box.lo)
+        program["bh_step"].value = tuple(float(x) for x in box.step)
+        program["bh_inv_step"].value = tuple(float(x) for x in box.inv_step)
+        if "bh_power_scale" in program:
+            program["bh_power_scale"].value = float(self.index.records.power_scale)
+
+    def _program(self, variant: Variant, k: int, cap: int, width: int, count: int,
+                 fetch_only: bool = False):
+        defines = {**self.defines(variant, k, cap, fetch_only=fetch_only),
+                   "BH_QUERY_W": width, "BH_QUERIES": count}
         key = tuple(defines.items())
         if key not in self._programs:
             self._programs[key] = compile_program(self.ctx, "bh_query.frag", defines)
@@ -122,31 +140,14 @@ class GLLookup:
         check_gl(ctx, f"allocating buffers for {m:,} queries x k={k}")
         try:
             prog = self._program(variant, k, cap, width, m, fetch_only)
-            box = self.index.quantizer
-            prog["bh_lo"].value = tuple(float(x) for x in box.lo)
-            prog["bh_step"].value = tuple(float(x) for x in box.step)
-            prog["bh_inv_step"].value = tuple(float(x) for x in box.inv_step)
-            units = {"bh_blocks": self.packed.blocks, "bh_headers": self.packed.headers,
-                     "bh_refs": self.packed.refs, "bh_thresholds": self.packed.thresholds,
-                     "bh_queries": qtex}
-            for unit, (name, tex) in enumerate(units.items()):
-                tex.use(location=unit)
-                if name in prog:
-                    prog[name].value = unit
+            self.set_uniforms(prog)
+            bind_textures(prog, {**self.textures(), "bh_queries": qtex})
             results.bind_to_storage_buffer(0)
             counts.bind_to_storage_buffer(1)
-            fbo.use()
-            fbo.viewport = (0, 0, width, height)
-            vao = ctx.vertex_array(prog, [])
-            ctx.finish()
-            start = time.perf_counter()
-            vao.render(mode=ctx.TRIANGLES, vertices=3)
-            ctx.finish()
-            self._draw_seconds += time.perf_counter() - start
+            self._draw_seconds += draw_fullscreen(ctx, prog, fbo, (width, height))
             check_gl(ctx, "the lookup draw")
             pairs_out[:] = np.frombuffer(results.read(), dtype=np.uint32).reshape(m, k, 2)
             counts_out[:] = np.frombuffer(counts.read(), dtype=np.uint32)
-            vao.release()
         finally:
             # moderngl rebinds its current framebuffer after creating one: never leave a
             # framebuffer that is about to be released current.
