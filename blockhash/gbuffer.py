@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .errors import CapacityError
 from .gl.context import check_gl, get_context, home_framebuffer
 
 VERTEX = """#version 450 core
@@ -98,6 +99,11 @@ def rasterize(camera, objects, *, size=None, backend=None) -> GBuffer:
     """Rasterise ``objects`` seen by ``camera`` at ``size`` = (width, height) or the camera's."""
     width, height = size or (camera.width, camera.height)
     ctx = get_context(backend)
+    limit = min(ctx.info["GL_MAX_TEXTURE_SIZE"], *ctx.info["GL_MAX_VIEWPORT_DIMS"])
+    if not (0 < width <= limit and 0 < height <= limit):
+        raise CapacityError(f"image size {width} x {height} is outside 1..{limit:,} per side "
+                            f"(GL_MAX_TEXTURE_SIZE / GL_MAX_VIEWPORT_DIMS of this device); "
+                            "render a smaller image (--size)")
     tris = scene_triangles(objects)
     radius = float(np.linalg.norm(tris[:, :3] - np.asarray(camera.eye, dtype=np.float32), axis=1).max())
     view_proj = perspective(camera.fov_y_deg, width / height, radius * 1e-4, radius * 2.0) @ \

@@ -116,3 +116,19 @@ def test_render_and_compare_commands(tmp_path, capsys):
 def test_render_command_reports_a_missing_scene(capsys):
     assert main(["render", "no/such/scene.toml"]) == 2
     assert "no/such/scene.toml" in capsys.readouterr().err
+
+
+def test_image_beyond_the_gl_limits_is_refused(ring, capsys):
+    from blockhash.errors import CapacityError
+
+    with pytest.raises(CapacityError, match=r"image size 40000 x 8 is outside 1\.\.16,384.*--size"):
+        rasterize(ring.camera, ring.objects, size=(40000, 8))
+    with pytest.raises(SystemExit):
+        main(["render", str(RING), "--size", "0x8"])
+    assert "width and height must be positive" in capsys.readouterr().err
+
+
+def test_bad_size_argument_is_named(capsys):
+    with pytest.raises(SystemExit):
+        main(["render", str(RING), "--size", "big"])
+    assert "--size 'big': expected WIDTHxHEIGHT" in capsys.readouterr().err
