@@ -1,7 +1,10 @@
 """Synthetic photon sets for tests and benchmarks.
 
 Each generator takes ``n`` and a numpy ``Generator`` and returns ``(n, 3)``
-float64 positions in metres (y up).  ``caustic_like`` is the distribution the
+float64 positions in metres (y up).  The shape of each distribution (cluster
+centres, weights and widths, hot spots) is fixed by ``LAYOUT_SEED``, not drawn
+from ``rng``: two calls with different generators sample the *same*
+distribution, so a query set drawn with another seed lands where the photons are.  ``caustic_like`` is the distribution the
 issue targets use: what a mirror ring puts on a floor (a thin cardioid band
 with a bright cusp, a few hot spots, a dim uniform background), nearly all on
 the plane y = 0, with a small share on the ring's inner wall.
@@ -13,6 +16,9 @@ import numpy as np
 
 from .validate import as_int
 
+#: Seed of the fixed geometry of the clustered and caustic-like distributions.
+LAYOUT_SEED = 20021
+
 
 def uniform(n: int, rng: np.random.Generator) -> np.ndarray:
     """Uniform points in the unit cube [0, 1)^3."""
@@ -23,10 +29,11 @@ def uniform(n: int, rng: np.random.Generator) -> np.ndarray:
 def clustered(n: int, rng: np.random.Generator, *, clusters: int = 20, sigma: float = 0.02) -> np.ndarray:
     """Gaussian clusters of random weight and width in the unit cube (3D, no plane)."""
     n = as_int(n, "n", minimum=0)
-    centres = rng.random((clusters, 3))
-    weights = rng.random(clusters) + 0.2
+    layout = np.random.default_rng(LAYOUT_SEED)
+    centres = layout.random((clusters, 3))
+    weights = layout.random(clusters) + 0.2
+    widths = sigma * (0.25 + layout.random(clusters))
     which = rng.choice(clusters, size=n, p=weights / weights.sum())
-    widths = sigma * (0.25 + rng.random(clusters))
     return centres[which] + rng.normal(size=(n, 3)) * widths[which, None]
 
 
@@ -64,9 +71,11 @@ def caustic_like(n: int, rng: np.random.Generator, *, ring_radius: float = 0.5) 
     band[:, [0, 2]] += rng.normal(scale=0.002, size=(counts[0], 2))
     parts.append(band)
     # Hot spots.
-    centres = rng.uniform(-0.3, 0.3, size=(5, 2))
+    layout = np.random.default_rng(LAYOUT_SEED)
+    centres = layout.uniform(-0.3, 0.3, size=(5, 2))
+    spread = layout.uniform(0.01, 0.03, 5)
     which = rng.integers(0, 5, counts[1])
-    spot = centres[which] + rng.normal(size=(counts[1], 2)) * rng.uniform(0.01, 0.03, 5)[which, None]
+    spot = centres[which] + rng.normal(size=(counts[1], 2)) * spread[which, None]
     parts.append(np.stack([spot[:, 0], np.zeros(counts[1]), spot[:, 1]], axis=1))
     # Uniform floor disc inside the ring.
     rr = ring_radius * np.sqrt(rng.random(counts[2]))

@@ -11,17 +11,30 @@ choose them from the photon set:
     a planar caustic only ``P^2`` of the ``P^3`` buckets are live.
 
 ``default``
-    Sizes buckets to the photon distribution.  Each axis gets buckets in
-    proportion to its robust extent (the 5th-95th percentile range), an axis
-    thinner than one bucket gets a single bucket (a caustic on a floor hashes
-    in x and z only), and the number of buckets is set so that a bucket holds
-    about ``DEFAULT_PHOTONS_PER_BUCKET * k`` photons.  Thresholds are nested
-    (:class:`~blockhash.thresholds.ThresholdLayout`), so every bucket holds about
-    that many photons however clustered the caustic is.  ``B`` holds twice the
-    blocks a bucket's photons fill (blocks straddle bucket borders), capped by the
-    memory bound of ``DEFAULT_REFS_PER_PHOTON`` block references per photon.
+    Sizes buckets to the photon distribution, in four steps:
 
-Every parameter can be overridden by keyword.
+    1. the number of buckets is set so that a bucket holds about
+       ``DEFAULT_PHOTONS_PER_BUCKET * k`` photons;
+    2. each axis gets buckets in proportion to its robust extent (the 5th-95th
+       percentile range); an axis thinner than one bucket gets a single bucket
+       (a caustic on a floor hashes in x and z only), and so does an axis on
+       which one plane holds more than ``PLANE_SHARE`` of the photons (a floor
+       with a lit wall: quantile thresholds cannot split photons that share one
+       coordinate, so splitting that axis only overfills the floor's buckets);
+    3. the buckets are rebalanced over the live axes so that the nested grid's
+       buckets are less elongated (:func:`balance_nested_shape`): nested
+       thresholds cut x into slabs from the x marginal alone, so in dense
+       regions (a caustic band, a cluster) buckets come out wide in x and thin
+       in the axes split later;
+    4. ``B`` holds up to ``DEFAULT_BLOCK_SLACK`` times the blocks that a bucket's
+       photons fill (blocks straddle bucket borders), capped by the memory bound
+       of ``DEFAULT_REFS_PER_PHOTON`` block references per photon.
+
+    Thresholds are nested (:class:`~blockhash.thresholds.ThresholdLayout`), so
+    every bucket holds about that many photons however clustered the caustic is.
+
+The default preset's constants were chosen with ``tools/tune_params.py``; each
+says which measurement fixed it.  Every parameter can be overridden by keyword.
 """
 
 from __future__ import annotations
@@ -45,17 +58,52 @@ MAX_REFS = 1 << 28
 #: Photons per block (section 3.2: six 32-bit words each in a 64-word block).
 PHOTONS_PER_BLOCK = 10
 
-#: Chosen with tools/tune_params.py on caustic-like and uniform data (BENCHMARKS.md):
-#: buckets of 2k photons, 8 tables.
-DEFAULT_PHOTONS_PER_BUCKET = 2.0
-DEFAULT_L = 8
+#: Photons per bucket, as a multiple of k.  tools/tune_params.py --ppb (caustic-like, N = 10^6,
+#: k = 50, A = 8, 50,000 queries drawn with the photons, seeds 0 and 3; commands in its
+#: docstring): mean average dilation 1.0377/1.0394 at 1.25, 1.0345/1.0372 at 1.5,
+#: 1.0354/1.0378 at 1.75, 1.0390/1.0397 at 2 (the old value).  Smaller buckets are each
+#: covered by fewer candidates; larger ones spend the A*k budget in fewer tables.
+DEFAULT_PHOTONS_PER_BUCKET = 1.5
+#: Tables.  A query stops after A*k candidates, about 40 blocks, which 2-3 buckets supply, so
+#: tables beyond those mostly buy a better choice by priority: --L 6,7,8 gives 1.0365/1.0395,
+#: 1.0345/1.0372, 1.0347/1.0373 (same runs as above), and the build's threshold and insertion
+#: passes grow linearly with L, so 7 tables build ~10% faster than 8 at the same accuracy.
+DEFAULT_L = 7
 #: The issue's memory bound is 2.5 block references per photon; keep a margin.
 DEFAULT_REFS_PER_PHOTON = 2.4
-#: B holds this many times the blocks that a bucket's photons fill.
-DEFAULT_BLOCK_SLACK = 2.0
+#: B holds up to this many times the blocks that a bucket's photons fill.  Full buckets drop
+#: the blocks that straddle their border, and queries near the border need exactly those.
+#: --slack 2,2.5,3,3.5 (same runs): 1.0398/1.0410, 1.0364/1.0392, 1.0345/1.0372, 1.0346/1.0368;
+#: 3 takes nearly all of the gain at 2.15 references per photon (3.5 nears the cap above: 2.34).
+DEFAULT_BLOCK_SLACK = 3.0
 #: Percentiles bounding an axis' robust extent: 5% of photons off the plane do not
 #: make an axis live.
 EXTENT_PERCENTILES = (5.0, 95.0)
+#: Photons sampled (without replacement, seeded) to measure extents, planes and bucket shapes.
+EXTENT_SAMPLE = 200_000
+#: An axis on which more than this share of the photons share one coordinate gets one bucket.
+#: Measured on caustic-like floors with a lit ring wall of growing weight (N = 3 x 10^5, k = 50,
+#: tools/tune_params.py --data caustic-wallNN): with 94%, 88% and 75% of the photons on the floor
+#: one y bucket beats splitting y (mean average dilation 1.029 vs 1.105, 1.057 vs 1.418, 1.171 vs
+#: 1.396); with 48% and 24% splitting y wins (1.184 vs 1.606, 1.071 vs 2.197).
+PLANE_SHARE = 0.5
+#: "One coordinate" means within this fraction of the largest robust extent: far below any bucket
+#: side (MAX_P buckets per axis), far above the rounding of a float64 ray-plane hit (~1e-16).
+PLANE_TOLERANCE = 1e-6
+#: Strength of the nested-shape rebalancing (:func:`balance_nested_shape`); 1 would equalise the
+#: buckets' mean log2 spread over the live axes as measured on the coarse grid below.
+#: --shape 0,0.5,0.75,1,1.5,2 (N = 10^6, k = 50, 20,000 queries, seed 0): caustic-like
+#: 1.0448/1.0380/1.0358/1.0355/1.0396/1.0481, 'clustered' 1.1038/1.0546/1.0415/1.0323/1.0361/1.0425.
+#: With caustic-like queries drawn apart from the photons (--query-mode seed, as
+#: tests/test_index.py draws them: other hot spots, so more queries in the dim background, where
+#: balancing makes buckets taller), seeds 3 and 4 (50,000 queries): 1.0500/1.0561 at 0.5,
+#: 1.0490/1.0579 at 0.75, 1.0505/1.0609 at 1.  0.75 is the compromise.
+SHAPE_STRENGTH = 0.75
+#: Photons (at most, a seeded sample) on which planes and bucket shapes are measured, and photons
+#: per bucket of the coarse grid that measures shapes: 16 give each bucket a usable spread, and
+#: 50,000 photons keep both measurements near 30 ms at N = 10^6 (the build takes ~1.1 s).
+SHAPE_SAMPLE = 50_000
+SHAPE_PHOTONS_PER_BUCKET = 16
 
 
 @dataclass(frozen=True)
@@ -105,13 +153,31 @@ def paper_params(n: int, *, k: int, A: int) -> BlockHashParams:
                            layout=ThresholdLayout.MARGINAL, preset="paper")
 
 
-def robust_extents(positions: np.ndarray, *, sample: int = 200_000, seed: int = 0) -> np.ndarray:
-    """(3,) 5th-95th percentile range per axis, from at most ``sample`` photons."""
+def photon_sample(positions: np.ndarray, *, sample: int = EXTENT_SAMPLE, seed: int = 0) -> np.ndarray:
+    """At most ``sample`` photons drawn without replacement (in random order), seeded."""
     if len(positions) > sample:
-        idx = np.random.default_rng(seed).choice(len(positions), sample, replace=False)
-        positions = positions[idx]
-    lo, hi = np.percentile(positions, EXTENT_PERCENTILES, axis=0)
+        return positions[np.random.default_rng(seed).choice(len(positions), sample, replace=False)]
+    return positions
+
+
+def robust_extents(positions: np.ndarray, *, sample: int = EXTENT_SAMPLE, seed: int = 0) -> np.ndarray:
+    """(3,) 5th-95th percentile range per axis, from at most ``sample`` photons."""
+    lo, hi = np.percentile(photon_sample(positions, sample=sample, seed=seed), EXTENT_PERCENTILES, axis=0)
     return hi - lo
+
+
+def plane_shares(positions: np.ndarray, tolerance: float) -> np.ndarray:
+    """(3,) largest share of photons whose coordinate on each axis lies within ``tolerance``
+    of one value (1.0 on an axis where all photons share one coordinate)."""
+    n = len(positions)
+    out = np.zeros(3)
+    if n == 0:
+        return out
+    for a in range(3):
+        v = np.sort(positions[:, a])
+        inside = np.searchsorted(v, v + tolerance, side="right") - np.arange(n)
+        out[a] = inside.max() / n
+    return out
 
 
 def buckets_per_axis(extents, cells: float) -> tuple[int, int, int]:
@@ -134,20 +200,119 @@ def buckets_per_axis(extents, cells: float) -> tuple[int, int, int]:
     return tuple(int(min(p, MAX_P)) for p in P)
 
 
+def nested_cells(sample: np.ndarray, P) -> np.ndarray:
+    """(m,) bucket of each photon of ``sample`` in an equal-count nested grid.
+
+    The grid is the one ``ThresholdLayout.NESTED`` builds with ``P`` buckets per
+    axis and no table offset: x slabs of equal count, then y per slab, then z
+    per (x, y) column, each from the photons it splits.
+    """
+    m = len(sample)
+    g = np.zeros(m, dtype=np.int64)
+    for a in range(3):
+        p = int(P[a])
+        if p == 1:
+            continue
+        order = np.argsort(sample[:, a], kind="stable")
+        if g.any():
+            rank = np.empty(m, dtype=np.int64)
+            rank[order] = np.arange(m)
+            order = np.argsort(g * m + rank)
+        gs = g[order]
+        count = np.bincount(gs)
+        pos = np.arange(m) - (np.cumsum(count) - count)[gs]
+        g[order] = gs * p + pos * p // count[gs]
+    return g
+
+
+def nested_log_spread(sample: np.ndarray, P) -> np.ndarray:
+    """(3,) mean over the buckets of :func:`nested_cells` of log2 of the photons'
+    standard deviation along each axis.
+
+    NaN on axes with one bucket, and on every axis when fewer than 32 buckets,
+    or fewer than 90% of those holding two photons or more, have a spread on
+    every split axis: buckets flat along a split axis (a floor inside a 3D grid)
+    have no shape to measure, and where they are common the grid's shape is set
+    by that plane rather than by the photon density.
+    """
+    live = [a for a in range(3) if P[a] > 1]
+    out = np.full(3, np.nan)
+    if not live or len(sample) < 2:
+        return out
+    g = nested_cells(sample, P)
+    nb = int(g.max()) + 1
+    c = np.bincount(g, minlength=nb).astype(np.float64)
+    var = np.zeros((3, nb))
+    for a in live:
+        mean = np.bincount(g, sample[:, a], nb) / np.maximum(c, 1.0)
+        var[a] = np.bincount(g, sample[:, a] ** 2, nb) / np.maximum(c, 1.0) - mean * mean
+    filled = c >= 2
+    ok = filled & np.all(var[live] > 0, axis=0)
+    if ok.sum() >= max(32, 0.9 * filled.sum()):
+        for a in live:
+            out[a] = np.mean(0.5 * np.log2(var[a, ok]))
+    return out
+
+
+def balance_nested_shape(sample: np.ndarray, P, cells: float, *,
+                         strength: float = SHAPE_STRENGTH) -> tuple[int, int, int]:
+    """Move buckets between the live axes so that nested buckets are less elongated.
+
+    Nested thresholds cut x by its marginal alone, so a slab is as wide in a
+    dense caustic band as in the dim background around it; the later axes, split
+    per slab or column, then cut the band finely and the background coarsely.
+    Photon-weighted, buckets come out too wide in x: the geometric mean of the
+    buckets' x / z spread is ~2.9 on the caustic-like set at P = (95, 1, 106), and
+    on 'clustered' at P = (22, 19, 24) the x, y, z spreads are ~3.4, ~0.8 and ~0.4
+    times their geometric mean.
+
+    ``sample`` is a random sample of the photons (at most ``SHAPE_SAMPLE`` keep
+    this near 20 ms).  The spread is measured on a grid with the proportions of
+    ``P`` and about ``SHAPE_PHOTONS_PER_BUCKET`` photons of ``sample`` per bucket
+    (:func:`nested_log_spread`); each live axis' bucket count is multiplied by
+    ``2 ** (strength * d)``, ``d`` being its excess log2 spread over the mean of
+    the live axes, which keeps the total.  Uniform data measure ``|d| < 0.03``.
+    """
+    live = [a for a in range(3) if P[a] > 1]
+    if strength == 0 or len(live) < 2:
+        return tuple(int(p) for p in P)
+    f = min(1.0, len(sample) / SHAPE_PHOTONS_PER_BUCKET / max(cells, 1.0)) ** (1.0 / len(live))
+    spread = nested_log_spread(sample, [max(2, round(P[a] * f)) if a in live else 1 for a in range(3)])
+    if np.isnan(spread[live]).any():
+        return tuple(int(p) for p in P)
+    d = spread - np.mean(spread[live])
+    return tuple(int(min(MAX_P, max(2, round(P[a] * 2.0 ** (strength * d[a]))))) if a in live else 1
+                 for a in range(3))
+
+
 def default_params(positions: np.ndarray, *, k: int, A: int,
                    photons_per_bucket: float = DEFAULT_PHOTONS_PER_BUCKET,
                    L: int = DEFAULT_L,
-                   refs_per_photon: float = DEFAULT_REFS_PER_PHOTON) -> BlockHashParams:
+                   refs_per_photon: float = DEFAULT_REFS_PER_PHOTON,
+                   block_slack: float = DEFAULT_BLOCK_SLACK,
+                   plane_share: float = PLANE_SHARE,
+                   shape_strength: float = SHAPE_STRENGTH) -> BlockHashParams:
     """Distribution-adapted parameters (see the module docstring).
 
     ``A`` does not change the tables: it only sets how many candidates a query
-    examines, so one index serves every accuracy setting.
+    examines, so one index serves every accuracy setting.  The keywords are the
+    preset's constants, exposed for tools/tune_params.py.
     """
     n = len(positions)
     cells = max(1.0, n / (photons_per_bucket * k))
-    P = buckets_per_axis(robust_extents(positions), cells)
+    sample = photon_sample(positions)
+    lo, hi = np.percentile(sample, EXTENT_PERCENTILES, axis=0)
+    extents = hi - lo
+    small = photon_sample(sample, sample=SHAPE_SAMPLE, seed=1)
+    planes = plane_shares(small, PLANE_TOLERANCE * float(extents.max()))
+    flat = planes > plane_share
+    if not flat.all():
+        # All three flat is a point, not a plane: leave that to the extents.
+        extents = np.where(flat, 0.0, extents)
+    P = buckets_per_axis(extents, cells)
+    P = balance_nested_shape(small, P, cells, strength=shape_strength)
     buckets = P[0] * P[1] * P[2]
-    B_need = math.ceil(DEFAULT_BLOCK_SLACK * (n / buckets) / PHOTONS_PER_BLOCK)
+    B_need = math.ceil(block_slack * (n / buckets) / PHOTONS_PER_BLOCK)
     B_budget = max(1, int(refs_per_photon * n / (L * buckets)))
     B = max(1, min(B_need, B_budget, MAX_B))
     return BlockHashParams(k=k, A=A, L=L, P=P, B=B, layout=ThresholdLayout.NESTED, preset="default")

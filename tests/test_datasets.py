@@ -95,3 +95,18 @@ def test_caustic_floor_photons_lie_inside_the_ring():
     p = caustic_like(20_000, np.random.default_rng(13))
     floor = p[p[:, 1] == 0]
     assert np.mean(np.hypot(floor[:, 0], floor[:, 2]) > 0.5) < 0.005
+
+
+@pytest.mark.parametrize("name", ["clustered", "caustic"])
+def test_two_seeds_sample_one_distribution(name):
+    # Fixed geometry (LAYOUT_SEED): points drawn with another seed land where the photons are,
+    # so their 10th-neighbour distances among the photons match the photons' own.
+    from scipy.spatial import cKDTree
+
+    a = DISTRIBUTIONS[name](20_000, np.random.default_rng(1))
+    b = DISTRIBUTIONS[name](2_000, np.random.default_rng(2))
+    tree = cKDTree(a)
+    own = tree.query(a[:2_000], k=11)[0][:, -1]  # the first neighbour is the point itself
+    other = tree.query(b, k=10)[0][:, -1]
+    for q in (50, 90, 99):
+        assert np.percentile(other, q) == pytest.approx(np.percentile(own, q), rel=0.25)
