@@ -76,15 +76,16 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> S
     view = np.asarray(camera.eye, dtype=np.float64) - pos
     view /= np.maximum(np.linalg.norm(view, axis=1, keepdims=True), 1e-30)
     weight = np.ones((h * w, 3))
+    # Per object (index len(objects) stands for "nothing hit", obj == -1).
+    mirror = np.array([isinstance(o.material, mirror_types) for o in objects] + [False])
+    reflectance = np.array([getattr(o.material, "reflectance", np.ones(3)) for o in objects]
+                           + [np.ones(3)], dtype=np.float64)
     for _ in range(MAX_MIRROR_BOUNCES):
-        is_mirror = np.zeros(len(obj), dtype=bool)
-        live = obj >= 0
-        is_mirror[live] = [isinstance(objects[i].material, mirror_types) for i in obj[live]]
+        is_mirror = mirror[obj]
         if not is_mirror.any():
             break
         idx = np.flatnonzero(is_mirror)
-        refl = np.array([objects[i].material.reflectance for i in obj[idx]], dtype=np.float64)
-        weight[idx] *= refl
+        weight[idx] *= reflectance[obj[idx]]
         wi = view[idx]
         n = nrm[idx]
         r = 2.0 * np.sum(n * wi, axis=1, keepdims=True) * n - wi
@@ -93,10 +94,7 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> S
         sn[flip] *= -1  # face the incoming ray
         pos[idx], nrm[idx], view[idx] = p, sn, -r
         obj[idx] = np.where(hit, o, -1)
-    still_mirror = np.zeros(len(obj), dtype=bool)
-    live = obj >= 0
-    still_mirror[live] = [isinstance(objects[i].material, mirror_types) for i in obj[live]]
-    obj[still_mirror] = -1
+    obj[mirror[obj]] = -1  # still on a mirror after the last bounce: nothing to shade
     return ShadingPoints(position=pos.reshape(h, w, 3).astype(np.float32),
                          normal=nrm.reshape(h, w, 3).astype(np.float32),
                          view=view.reshape(h, w, 3).astype(np.float32),
@@ -127,9 +125,12 @@ def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays) -> np.
     p = points.position.reshape(-1, 3)[live].astype(np.float64)
     n = points.normal.reshape(-1, 3)[live].astype(np.float64)
     wo = points.view.reshape(-1, 3)[live].astype(np.float64)
-    kd = np.array([objects[i].material.kd for i in mat[live]], dtype=np.float64)
-    ks = np.array([objects[i].material.ks for i in mat[live]], dtype=np.float64)
-    e = np.array([objects[i].material.n for i in mat[live]], dtype=np.float64)
+    def per_object(attr, default):
+        return np.array([getattr(o.material, attr, default) for o in objects], dtype=np.float64)
+
+    kd = per_object("kd", np.zeros(3))[mat[live]]
+    ks = per_object("ks", np.zeros(3))[mat[live]]
+    e = per_object("n", 1.0)[mat[live]]
     for light in lights:
         lp = np.asarray(light.position, dtype=np.float64)
         d = lp - p
