@@ -83,7 +83,6 @@ from __future__ import annotations
 import difflib
 import math
 import tomllib
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -92,6 +91,10 @@ import trimesh
 
 from . import meshes
 from .errors import InputError
+from .scene_values import (FieldError as _FieldError, boolean as _boolean, choice as _choice,
+                           fmt as _fmt, got as _got, integer as _integer,
+                           number as _number, owned as _owned, readonly as _readonly, rgb as _rgb,
+                           string as _string, under as _under, vector as _vector)
 
 #: Largest image side: GL_MAX_TEXTURE_SIZE on llvmpipe (DESIGN.md), so a
 #: G-buffer of the camera's size can be allocated.
@@ -99,143 +102,6 @@ MAX_IMAGE_SIDE = 16384
 #: up and the view direction count as parallel when the sine of their angle is
 #: below this: the camera basis (cross products) would then be mostly rounding.
 PARALLEL_SINE = 1e-6
-
-
-# --------------------------------------------------------------------------- errors
-
-class _FieldError(InputError):
-    """An error at a key path; the loader adds the file name and the table path."""
-
-    def __init__(self, key: str, detail: str, owner: str = ""):
-        self.key, self.detail = key, detail
-        super().__init__(f"{owner + '.' if owner else ''}{key}: {detail}")
-
-
-@contextmanager
-def _under(prefix: str):
-    """Prefix the key path of any _FieldError raised inside with ``prefix``."""
-    try:
-        yield
-    except _FieldError as exc:
-        key = f"{prefix}.{exc.key}" if exc.key else prefix
-        raise _FieldError(key.replace(".[", "["), exc.detail) from None
-
-
-@contextmanager
-def _owned(owner: str):
-    """Name the class in errors of a dataclass built in code (not from a file)."""
-    try:
-        yield
-    except _FieldError as exc:
-        raise _FieldError(exc.key, exc.detail, owner) from None
-
-
-def _kind(value) -> str:
-    """TOML's name for a value's type."""
-    if isinstance(value, bool):
-        return "boolean"
-    if isinstance(value, int):
-        return "integer"
-    if isinstance(value, float):
-        return "float"
-    if isinstance(value, str):
-        return "string"
-    if isinstance(value, dict):
-        return "table"
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return "array"
-    return type(value).__name__
-
-
-def _got(value) -> str:
-    if isinstance(value, dict):
-        return "a table"
-    if isinstance(value, np.ndarray):
-        value = value.tolist()
-    return f"{value!r} ({_kind(value)})"
-
-
-# --------------------------------------------------------------------------- value checks
-
-def _number(value, key: str, *, lo: float | None = None, hi: float | None = None,
-            lo_open: bool = False, hi_open: bool = False, hint: str = "") -> float:
-    """A finite real (TOML integer or float) within the given bounds."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise _FieldError(key, f"expected a number; got {_got(value)}" + (f"; {hint}" if hint else ""))
-    x = float(value)
-    if not math.isfinite(x):
-        raise _FieldError(key, f"expected a finite number; got {x!r}" + (f"; {hint}" if hint else ""))
-    bad = (lo is not None and (x <= lo if lo_open else x < lo)) or \
-          (hi is not None and (x >= hi if hi_open else x > hi))
-    if bad:
-        left = "-inf" if lo is None else f"{lo:g}"
-        right = "inf" if hi is None else f"{hi:g}"
-        span = f"{'(' if lo_open or lo is None else '['}{left}, {right}{')' if hi_open or hi is None else ']'}"
-        raise _FieldError(key, f"expected a number in {span}; got {x!r}" + (f"; {hint}" if hint else ""))
-    return x
-
-
-def _integer(value, key: str, *, lo: int, hi: int | None = None, hint: str = "") -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        more = f"; write it without a decimal point, e.g. {int(value)}" \
-            if isinstance(value, float) and math.isfinite(value) and value.is_integer() else ""
-        raise _FieldError(key, f"expected an integer; got {_got(value)}{more}")
-    v = int(value)
-    if v < lo or (hi is not None and v > hi):
-        span = f">= {lo:,}" if hi is None else f"in {lo:,} .. {hi:,}"
-        raise _FieldError(key, f"expected an integer {span}; got {v:,}" + (f"; {hint}" if hint else ""))
-    return v
-
-
-def _readonly(arr: np.ndarray) -> np.ndarray:
-    arr = np.array(arr, dtype=np.float64)
-    arr.setflags(write=False)
-    return arr
-
-
-def _vector(value, key: str, *, unit: str = "metres") -> np.ndarray:
-    """Three finite numbers [x, y, z]."""
-    if isinstance(value, np.ndarray):
-        value = value.tolist()
-    if not isinstance(value, (list, tuple)) or len(value) != 3:
-        raise _FieldError(key, f"expected an array of 3 numbers [x, y, z] ({unit}); got {_got(value)}")
-    return _readonly([_number(v, f"{key}[{i}]") for i, v in enumerate(value)])
-
-
-def _rgb(value, key: str, *, hi: float | None = None, what: str) -> np.ndarray:
-    """A number (grey / white) or [r, g, b], each >= 0 (and <= hi)."""
-    if isinstance(value, np.ndarray):
-        value = value.tolist()
-    if isinstance(value, (list, tuple)):
-        if len(value) != 3:
-            raise _FieldError(key, f"expected {what} as a number or [r, g, b]; got {_got(value)}")
-        items = [(v, f"{key}[{i}]") for i, v in enumerate(value)]
-    else:
-        items = [(value, key)] * 3
-    return _readonly([_number(v, k, lo=0.0, hi=hi, hint=f"{what} must be in "
-                              f"[0, {'inf' if hi is None else f'{hi:g}'}]") for v, k in items])
-
-
-def _string(value, key: str, *, what: str) -> str:
-    if not isinstance(value, str) or not value.strip():
-        raise _FieldError(key, f"expected {what} (a non-empty string); got {_got(value)}")
-    return value
-
-
-def _boolean(value, key: str) -> bool:
-    if not isinstance(value, bool):
-        raise _FieldError(key, f"expected true or false; got {_got(value)}")
-    return value
-
-
-def _choice(value, key: str, choices) -> str:
-    if value not in choices:
-        raise _FieldError(key, f"expected one of {', '.join(map(repr, choices))}; got {_got(value)}")
-    return value
-
-
-def _fmt(v) -> str:
-    return "(" + ", ".join(f"{float(x):g}" for x in np.asarray(v).reshape(-1)) + ")"
 
 
 # --------------------------------------------------------------------------- dataclasses
