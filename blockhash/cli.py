@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from .bench import QUERY_SETS
 from .datasets import DISTRIBUTIONS
 from .errors import BlockHashError, InputError
 from .index import BlockHashIndex
@@ -148,17 +149,15 @@ def cmd_compare(args) -> int:
 
 
 def cmd_preview(args) -> int:
-    from .images import _write
+    from .images import write_rgb8
     from .preview import preview
     from .scene import load_scene
-
-    import OpenImageIO as oiio
 
     scene = load_scene(args.scene)
     colour, _ = preview(scene, size=args.size)
     out = Path(args.output or Path(args.scene).with_suffix(".preview.png").name)
     h, w, _ = colour.shape
-    _write(out, oiio.ImageSpec(w, h, 3, oiio.UINT8), colour)
+    write_rgb8(out, colour)
     print(f"preview of {args.scene}: {out} ({w} x {h}, pyrender)")
     return 0
 
@@ -202,7 +201,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-kdtree", action="store_true", help="skip the exact kd-tree shader")
-    p.add_argument("--query-set", choices=("image", "random"), default="image",
+    p.add_argument("--query-set", choices=QUERY_SETS, default="image",
                    help="image: a 512x512-style raster over the receiver (default); "
                         "random: fresh photon-distribution samples in random order")
     p.add_argument("--json", help="write every row to this JSON file")

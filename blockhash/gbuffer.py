@@ -8,7 +8,7 @@ Rows are returned top to bottom.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -58,32 +58,6 @@ class GBuffer:
     object: np.ndarray
 
 
-def look_at(eye, target, up) -> np.ndarray:
-    """Right-handed view matrix (camera looks down -z)."""
-    eye, target, up = (np.asarray(v, dtype=np.float64) for v in (eye, target, up))
-    f = target - eye
-    f /= np.linalg.norm(f)
-    s = np.cross(f, up)
-    s /= np.linalg.norm(s)
-    u = np.cross(s, f)
-    m = np.eye(4)
-    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
-    m[:3, 3] = -m[:3, :3] @ eye
-    return m
-
-
-def perspective(fov_y_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
-    """OpenGL projection matrix."""
-    f = 1.0 / np.tan(np.radians(fov_y_deg) / 2.0)
-    m = np.zeros((4, 4))
-    m[0, 0] = f / aspect
-    m[1, 1] = f
-    m[2, 2] = (far + near) / (near - far)
-    m[2, 3] = 2.0 * far * near / (near - far)
-    m[3, 2] = -1.0
-    return m
-
-
 def scene_triangles(objects) -> np.ndarray:
     """(3 T, 7) float32 corners: position, shading normal, object index."""
     parts = []
@@ -106,8 +80,9 @@ def rasterize(camera, objects, *, size=None, backend=None) -> GBuffer:
                             "render a smaller image (--size)")
     tris = scene_triangles(objects)
     radius = float(np.linalg.norm(tris[:, :3] - np.asarray(camera.eye, dtype=np.float32), axis=1).max())
-    view_proj = perspective(camera.fov_y_deg, width / height, radius * 1e-4, radius * 2.0) @ \
-        look_at(camera.eye, camera.target, camera.up)
+    # The camera's own matrices, at the rendered size (the aspect may differ from the file's).
+    view_proj = replace(camera, width=width, height=height).projection(radius * 1e-4, radius * 2.0) \
+        @ camera.view_matrix()
     with ctx:
         prog = ctx.program(vertex_shader=VERTEX, fragment_shader=FRAGMENT)
         vbo = ctx.buffer(tris.tobytes())

@@ -39,8 +39,14 @@ def tone_map(image: np.ndarray, *, percentile: float = 99.5) -> np.ndarray:
 
 
 def write_png(path, image: np.ndarray) -> None:
-    h, w, _ = image.shape
-    _write(path, oiio.ImageSpec(w, h, 3, oiio.UINT8), tone_map(image))
+    """Tone-map (h, w, 3) radiance and write it as an 8-bit sRGB image."""
+    write_rgb8(path, tone_map(image))
+
+
+def write_rgb8(path, pixels: np.ndarray) -> None:
+    """Write (h, w, 3) uint8 pixels as they are (PNG, or any format OpenImageIO knows)."""
+    h, w, _ = pixels.shape
+    _write(path, oiio.ImageSpec(w, h, 3, oiio.UINT8), np.ascontiguousarray(pixels, dtype=np.uint8))
 
 
 def _write(path, spec, data) -> None:

@@ -19,7 +19,6 @@ import numpy as np
 
 from .blocks import BLOCK_WORDS, make_blocks, pack_blocks
 from .codec import WORDS_PER_PHOTON, PhotonRecords
-from .errors import BlockHashError
 from .hashtables import insert_blocks
 from .hilbert import hilbert_keys
 from .params import BlockHashParams, resolve_params
@@ -275,4 +274,4 @@ class BlockHashIndex:
         return lookups[key].query(points, k=k, A=A, variant=variant)
 
 
-__all__ = ["BlockHashIndex", "IndexStats", "OrphanWarning", "BlockHashError"]
+__all__ = ["BlockHashIndex", "IndexStats", "OrphanWarning"]

@@ -44,6 +44,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .blocks import PHOTONS_PER_BLOCK
 from .errors import CapacityError, InputError
 from .thresholds import ThresholdLayout
 from .validate import as_int
@@ -55,8 +56,6 @@ MAX_P = 4096
 MAX_B = 256
 #: Block references allowed in the whole index: 2**28 refs is 1 GiB of int32.
 MAX_REFS = 1 << 28
-#: Photons per block (section 3.2: six 32-bit words each in a 64-word block).
-PHOTONS_PER_BLOCK = 10
 
 #: Photons per bucket, as a multiple of k.  tools/tune_params.py --ppb (caustic-like, N = 10^6,
 #: k = 50, A = 8, 50,000 queries drawn with the photons, seeds 0 and 3; commands in its
@@ -158,12 +157,6 @@ def photon_sample(positions: np.ndarray, *, sample: int = EXTENT_SAMPLE, seed: i
     if len(positions) > sample:
         return positions[np.random.default_rng(seed).choice(len(positions), sample, replace=False)]
     return positions
-
-
-def robust_extents(positions: np.ndarray, *, sample: int = EXTENT_SAMPLE, seed: int = 0) -> np.ndarray:
-    """(3,) 5th-95th percentile range per axis, from at most ``sample`` photons."""
-    lo, hi = np.percentile(photon_sample(positions, sample=sample, seed=seed), EXTENT_PERCENTILES, axis=0)
-    return hi - lo
 
 
 def plane_shares(positions: np.ndarray, tolerance: float) -> np.ndarray:

@@ -13,7 +13,6 @@ import os
 
 import numpy as np
 
-from .gbuffer import look_at
 
 
 def _render(meshes, colours, lights, camera, size):
@@ -32,10 +31,10 @@ def _render(meshes, colours, lights, camera, size):
         pose[:3, 3] = position
         scene.add(pyrender.PointLight(color=np.ones(3), intensity=float(np.mean(power)) / (4 * np.pi)),
                   pose=pose)
-    eye, target, up, fov_y_deg = camera
+    pose, fov_y_deg = camera
     width, height = size
     cam = pyrender.PerspectiveCamera(yfov=np.radians(fov_y_deg), aspectRatio=width / height)
-    scene.add(cam, pose=np.linalg.inv(look_at(eye, target, up)))
+    scene.add(cam, pose=pose)
     renderer = pyrender.OffscreenRenderer(width, height)
     try:
         colour, depth = renderer.render(scene)
@@ -53,14 +52,14 @@ def preview(scene, *, size=None):
                for o in scene.objects]
     lights = [(tuple(l.position), tuple(l.power)) for l in scene.lights]
     cam = scene.camera
-    camera = (tuple(cam.eye), tuple(cam.target), tuple(cam.up), float(cam.fov_y_deg))
+    camera = (np.linalg.inv(cam.view_matrix()), float(cam.fov_y_deg))
     with multiprocessing.get_context("spawn").Pool(1) as pool:
         return pool.apply(_render, (meshes, colours, lights, camera, tuple(size)))
 
 
 def gbuffer_depth(camera, gbuffer) -> np.ndarray:
     """Eye-space depth of each G-buffer pixel along the view axis (0 where nothing is hit)."""
-    view = look_at(camera.eye, camera.target, camera.up)
+    view = camera.view_matrix()
     p = gbuffer.position.reshape(-1, 3).astype(np.float64)
     z = -(p @ view[2, :3] + view[2, 3])
     return np.where(gbuffer.object.reshape(-1) >= 0, z, 0.0).reshape(gbuffer.object.shape)

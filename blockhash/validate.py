@@ -58,16 +58,3 @@ def as_int(value, name: str, *, minimum: int | None = None, maximum: int | None 
         raise InputError(f"{name}={value:,} is out of range; allowed {lo} <= {name} <= {hi}"
                          + (f"; {hint}" if hint else ""))
     return value
-
-
-def as_vector(value, name: str, length: int, *, dtype=np.float64, finite: bool = True) -> np.ndarray:
-    """Return ``value`` as a 1-D array of exactly ``length`` entries."""
-    arr = np.asarray(value)
-    if arr.dtype.kind not in "fiu":
-        raise InputTypeError(f"{name} must be numeric; got dtype {arr.dtype}")
-    if arr.shape != (length,):
-        raise InputError(f"{name} must have shape ({length},); got shape {arr.shape}")
-    arr = arr.astype(dtype)
-    if finite and not np.isfinite(arr).all():
-        raise InputError(f"{name}={arr.tolist()} must be finite")
-    return arr

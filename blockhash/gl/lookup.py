@@ -17,7 +17,8 @@ from ..errors import InputError
 from ..thresholds import ThresholdLayout
 from ..validate import as_int, as_points
 from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer
-from .packing import PHOTONS_PER_BLOCK_CHECK, pack_index
+from ..blocks import PHOTONS_PER_BLOCK
+from .packing import pack_index
 from .shaderlib import Variant, compile_program
 
 #: Queries per pass are capped so one draw stays short (llvmpipe runs a draw to completion).
@@ -41,7 +42,7 @@ class GLLookup:
 
     def __init__(self, index, *, backend: str | None = None):
         starts = index.starts
-        expected = np.minimum(np.arange(len(starts)) * PHOTONS_PER_BLOCK_CHECK, len(index))
+        expected = np.minimum(np.arange(len(starts)) * PHOTONS_PER_BLOCK, len(index))
         if not np.array_equal(starts, expected):
             raise InputError("the GL lookup needs compact blocks (every block full but the last); "
                              "build the index with builder='bulk' or 'btree' (both compact)")

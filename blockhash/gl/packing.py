@@ -27,9 +27,6 @@ import numpy as np
 from ..errors import CapacityError
 from .context import check_gl
 
-BLOCK_TEXELS = 16
-#: The lookup computes photon slots as 10 * block + j: blocks must be compact.
-PHOTONS_PER_BLOCK_CHECK = 10
 
 
 def texture_shape(elements: int, max_size: int) -> tuple[int, int, int]:
