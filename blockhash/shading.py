@@ -1,8 +1,7 @@
 """Shading points and direct light (the non-caustic part of the image).
 
-Ray queries go through embree (trimesh's embreex intersector; embreex is a hard
-dependency because trimesh otherwise falls back silently to a caster ~60,000x
-slower, DESIGN.md).  Perfect mirrors seen by the camera are resolved by one
+Ray queries go through the photon tracer's embree scene
+(:class:`blockhash.tracing.EmbreeGeometry`, embreex called directly).  Perfect mirrors seen by the camera are resolved by one
 reflection: the pixel's shading point moves to what the mirror reflects, with the
 mirror's reflectance as path weight (up to ``MAX_MIRROR_BOUNCES``).  Direct light
 is point and spot lights with shadow rays, through the modified Phong BRDF.
@@ -11,47 +10,33 @@ is point and spot lights with shadow rays, through the modified Phong BRDF.
 from __future__ import annotations
 
 import numpy as np
-import trimesh
-from trimesh.ray.ray_pyembree import RayMeshIntersector
 
 from .caustic import ShadingPoints, phong_brdf
+from .tracing import RAY_OFFSET, EmbreeGeometry, surface_hits
 
 #: Mirror-to-mirror reflections followed for camera rays.
 MAX_MIRROR_BOUNCES = 4
-#: Ray origins move this far along the geometric normal, relative to the scene size,
-#: so that a ray does not hit the surface it leaves.
-RAY_OFFSET = 1e-5
 
 
 class SceneRays:
-    """Embree ray queries over all objects of a scene."""
+    """First-hit and visibility queries over all objects of a scene (embree, as the tracer)."""
 
     def __init__(self, objects):
-        meshes = [o.mesh for o in objects]
-        self.mesh = trimesh.util.concatenate(meshes)
-        self.normals = np.concatenate([m.vertex_normals for m in meshes])
-        self.face_object = np.repeat(np.arange(len(meshes)), [len(m.faces) for m in meshes])
-        self.scale = float(np.linalg.norm(self.mesh.extents))
-        self.caster = RayMeshIntersector(self.mesh)
+        self.geometry = EmbreeGeometry(tuple(objects))
+        self.scale = self.geometry.scale
 
     def first_hit(self, origins, dirs):
-        """(hit mask, points, shading normals, object ids, geometric normals) for each ray."""
+        """(hit mask, points, shading normals, object ids, geometric normals) for each ray.
+
+        Normals face the side the ray came from; rays that hit nothing get zeros and -1.
+        """
         n = len(origins)
-        tri, ray, loc = self.caster.intersects_id(origins, dirs, multiple_hits=False,
-                                                  return_locations=True)
-        hit = np.zeros(n, dtype=bool)
-        hit[ray] = True
-        points = np.zeros((n, 3))
-        points[ray] = loc
-        faces = self.mesh.faces[tri]
-        bary = trimesh.triangles.points_to_barycentric(self.mesh.triangles[tri], loc)
-        shade = np.zeros((n, 3))
-        sn = np.einsum("ij,ijk->ik", bary, self.normals[faces])
-        shade[ray] = sn / np.linalg.norm(sn, axis=1, keepdims=True)
-        geo = np.zeros((n, 3))
-        geo[ray] = self.mesh.face_normals[tri]
+        hit, face, u, v = self.geometry.intersect(origins, dirs)
+        p, ns, ng = surface_hits(self.geometry, face, u, v, np.asarray(dirs, dtype=np.float64)[hit])
+        points, shade, geo = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
+        points[hit], shade[hit], geo[hit] = p, ns, ng
         obj = np.full(n, -1)
-        obj[ray] = self.face_object[tri]
+        obj[hit] = self.geometry.face_object[face]
         return hit, points, shade, obj, geo
 
     def visible(self, points, normals, targets) -> np.ndarray:
@@ -60,11 +45,9 @@ class SceneRays:
         dist = np.linalg.norm(d, axis=1)
         d = d / dist[:, None]
         origins = points + normals * (RAY_OFFSET * self.scale)
-        tri, ray, loc = self.caster.intersects_id(origins, d, multiple_hits=False, return_locations=True)
-        blocked = np.zeros(len(points), dtype=bool)
-        t = np.linalg.norm(loc - origins[ray], axis=1)
-        blocked[ray[t < dist[ray] * (1 - 1e-6)]] = True
-        return ~blocked
+        hit, p, _, _, _ = self.first_hit(origins, d)
+        t = np.linalg.norm(p - origins, axis=1)
+        return ~(hit & (t < dist * (1 - 1e-6)))
 
 
 def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> ShadingPoints:

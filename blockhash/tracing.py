@@ -143,7 +143,7 @@ def _scene_name(scene) -> str:
     return f"scene {str(path)!r}" if path else "scene (built in code, no path)"
 
 
-class _Geometry:
+class EmbreeGeometry:
     """All meshes of a scene in one embree scene, with per-triangle lookup tables.
 
     embree numbers the meshes (geomID) 0, 1, ... in the order they are added and
@@ -151,7 +151,7 @@ class _Geometry:
     concatenated float64 tables.  At least one mesh must have triangles.
     """
 
-    def __init__(self, objects, specular_ids: set[int]):
+    def __init__(self, objects, specular_ids: frozenset[int] = frozenset()):
         from embreex import rtcore_scene
         from embreex.mesh_construction import TriangleMesh
 
@@ -219,7 +219,7 @@ class _Batch:
                       self.weights[keep], self.depth[keep], self.rays)
 
 
-def _surface(geom: _Geometry, face, u, v, d):
+def surface_hits(geom: EmbreeGeometry, face, u, v, d):
     """Hit points, shading normals and geometric normals (each (m, 3)) of hits on ``face``.
 
     Points and shading normals interpolate with embree's barycentrics
@@ -240,7 +240,7 @@ def _surface(geom: _Geometry, face, u, v, d):
     return p, ns * (sgn / length)[:, None], ng * sgn[:, None]
 
 
-def _trace_batch(geom: _Geometry, origins, dirs, weights, max_bounces: int) -> _Batch:
+def _trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int) -> _Batch:
     """Follow a batch of photons through mirrors to their first diffuse hit (vectorised)."""
     n = len(origins)
     fate = np.full(n, -1, dtype=np.int8)
@@ -265,14 +265,14 @@ def _trace_batch(geom: _Geometry, origins, dirs, weights, max_bounces: int) -> _
             fate[idx[diffuse]] = DIRECT  # direct light: the renderer's shadow rays do it
         elif diffuse.any():
             fate[idx[diffuse]] = STORED
-            p, ns, _ = _surface(geom, face[diffuse], u[diffuse], v[diffuse], d[diffuse])
+            p, ns, _ = surface_hits(geom, face[diffuse], u[diffuse], v[diffuse], d[diffuse])
             parts.append((idx[diffuse], p, d[diffuse], ns, w[diffuse],
                           np.full(len(p), bounce, dtype=np.uint8)))
         if bounce == max_bounces:
             fate[idx[spec]] = MAX_BOUNCES
             break
         idx, d, w, face = idx[spec], d[spec], w[spec], face[spec]
-        p, ns, ng = _surface(geom, face, u[spec], v[spec], d)
+        p, ns, ng = surface_hits(geom, face, u[spec], v[spec], d)
         w = w * geom.reflectance[geom.face_object[face]]
         r = reflect(d, ns)
         under = np.einsum("ij,ij->i", r, ng) <= 0.0  # shading normal sent it into the surface
@@ -370,7 +370,7 @@ def trace_caustic_photons(scene, n_stored_target: int | None = None, *, seed: in
         raise InputError(f"{name}: the lights that face the mirrors have zero power; "
                          "give a light a positive power")
     spec_ids = {id(o) for o in specular}
-    geom = _Geometry(tuple(scene.objects), spec_ids)
+    geom = EmbreeGeometry(tuple(scene.objects), spec_ids)
 
     fate_counts = np.zeros(len(FATE_NAMES), dtype=np.int64)
     light_counts = np.zeros(len(lights), dtype=np.int64)
