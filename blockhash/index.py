@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import functools
 import time
 import warnings
 from dataclasses import dataclass
@@ -174,6 +175,13 @@ class BlockHashIndex:
 
     def __repr__(self) -> str:
         return f"BlockHashIndex(N={len(self):,}, blocks={self.stats.blocks:,}, {self.params!r})"
+
+    @functools.cached_property
+    def slot_of(self) -> np.ndarray:
+        """(n,) int64 position in block order of each photon (the inverse of ``order``)."""
+        slots = np.empty(len(self.order), dtype=np.int64)
+        slots[self.order] = np.arange(len(self.order))
+        return slots
 
     @property
     def positions(self) -> np.ndarray:
