@@ -29,6 +29,7 @@ loses the smooth normals.  Use :func:`with_normals` to build a new mesh.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -67,7 +68,9 @@ def _check_positive(name: str, value: float) -> float:
 
 
 def _check_segments(name: str, value: int, minimum: int) -> int:
-    if isinstance(value, bool) or int(value) != value or value < minimum:
+    whole = (isinstance(value, numbers.Real) and not isinstance(value, bool)
+             and math.isfinite(value) and float(value).is_integer())
+    if not whole or value < minimum:
         raise InputError(f"{name} must be an integer >= {minimum}; got {value!r}")
     return int(value)
 

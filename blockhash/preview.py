@@ -26,10 +26,10 @@ def _render(meshes, colours, lights, camera, size):
         material = pyrender.MetallicRoughnessMaterial(baseColorFactor=(*colour, 1.0), metallicFactor=0.0,
                                                       roughnessFactor=0.8)
         scene.add(pyrender.Mesh.from_trimesh(mesh, material=material, smooth=True))
-    for position, power in lights:
+    for position, intensity in lights:
         pose = np.eye(4)
         pose[:3, 3] = position
-        scene.add(pyrender.PointLight(color=np.ones(3), intensity=float(np.mean(power)) / (4 * np.pi)),
+        scene.add(pyrender.PointLight(color=np.ones(3), intensity=float(np.mean(intensity))),
                   pose=pose)
     pose, fov_y_deg = camera
     width, height = size
@@ -44,13 +44,15 @@ def _render(meshes, colours, lights, camera, size):
 
 
 def preview(scene, *, size=None):
-    """(colour (h, w, 3) uint8, depth (h, w) float32 eye-space distance, 0 where empty)."""
+    """(colour (h, w, 3) uint8, depth (h, w) float32 eye-space depth along the view axis, 0 where empty)."""
     size = size or (scene.camera.width, scene.camera.height)
     meshes = [(o.mesh.vertices, o.mesh.faces, o.mesh.vertex_normals) for o in scene.objects]
-    colours = [tuple(getattr(o.material, "reflectance", None) if hasattr(o.material, "reflectance")
+    colours = [tuple(o.material.reflectance if o.is_specular
                      else np.clip(np.asarray(o.material.kd) + np.asarray(o.material.ks), 0, 1))
                for o in scene.objects]
-    lights = [(tuple(l.position), tuple(l.power)) for l in scene.lights]
+    # pyrender gets point lights of the same intensity (W/sr): a spot's power fills its cone.
+    lights = [(tuple(l.position), tuple(np.asarray(l.power) / getattr(l, "solid_angle", 4 * np.pi)))
+              for l in scene.lights]
     cam = scene.camera
     camera = (np.linalg.inv(cam.view_matrix()), float(cam.fov_y_deg))
     with multiprocessing.get_context("spawn").Pool(1) as pool:

@@ -73,8 +73,8 @@ naming the file and the key path, what was expected, what was received and the
 way out, e.g. ``scenes/ring.toml: objects[1].material: unknown material 'gold';
 defined materials: floor, mirror; define [materials.gold] or use one of those``.
 
-The dataclasses are frozen and their arrays read-only; they compare by
-identity (numpy arrays have no single truth value).  Do not modify an object's
+The dataclasses are frozen and their arrays read-only; all but
+``PhotonSettings`` compare by identity (numpy arrays have no single truth value).  Do not modify an object's
 mesh in place: trimesh would recompute its vertex normals from the faces.
 """
 
@@ -578,8 +578,6 @@ def _parse_shape(t, key: str) -> trimesh.Trimesh:
             for k, (check, default) in spec.items()}
     try:
         return _BUILDERS[kind](**args)
-    except _FieldError:
-        raise
     except InputError as exc:
         raise _FieldError(key, str(exc)) from None
 
@@ -617,9 +615,6 @@ def _parse_photons(t) -> PhotonSettings:
     fields = ("count", "k", "A", "seed", "max_bounces")
     _keys(t, "photons", (), fields, what="the photon settings")
     with _under("photons"):
-        for name in fields:          # types first, so that k <= count compares integers
-            if name in t:
-                _integer(t[name], name, lo=0 if name == "seed" else 1)
         return PhotonSettings(**{k: t[k] for k in fields if k in t})
 
 

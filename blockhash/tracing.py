@@ -151,14 +151,14 @@ class EmbreeGeometry:
     concatenated float64 tables.  At least one mesh must have triangles.
     """
 
-    def __init__(self, objects, specular_ids: frozenset[int] = frozenset()):
+    def __init__(self, objects):
         from embreex import rtcore_scene
         from embreex.mesh_construction import TriangleMesh
 
         self.embree = rtcore_scene.EmbreeScene()
         self._keep = []  # TriangleMesh objects must outlive the scene
         geom_faces, tri, vnrm, fnrm, fobj = [], [], [], [], []
-        self.is_specular = np.array([id(o) in specular_ids for o in objects], dtype=bool)
+        self.is_specular = np.array([o.is_specular for o in objects], dtype=bool)
         self.reflectance = np.zeros((len(objects), 3))
         all_vertices = []
         for i, obj in enumerate(objects):
@@ -369,8 +369,7 @@ def trace_caustic_photons(scene, n_stored_target: int | None = None, *, seed: in
     if emitter.total_brightness <= 0.0:
         raise InputError(f"{name}: the lights that face the mirrors have zero power; "
                          "give a light a positive power")
-    spec_ids = {id(o) for o in specular}
-    geom = EmbreeGeometry(tuple(scene.objects), spec_ids)
+    geom = EmbreeGeometry(tuple(scene.objects))
 
     fate_counts = np.zeros(len(FATE_NAMES), dtype=np.int64)
     light_counts = np.zeros(len(lights), dtype=np.int64)

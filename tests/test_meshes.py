@@ -270,3 +270,8 @@ def test_placed_moves_vertices_and_turns_normals():
     assert np.allclose(meshes.rotation((0.0, 90.0, 0.0)) @ [1.0, 0.0, 0.0], [0.0, 0.0, -1.0])
     with pytest.raises(InputError, match=r"scale must be a finite number > 0; got 0\.0"):
         meshes.placed(ring, scale=0.0)
+
+
+def test_text_segment_count_is_an_input_error_not_a_crash():
+    with pytest.raises(InputError, match=r"segments must be an integer >= 3; got 'x'"):
+        meshes.ring(0.5, 0.53, 0.3, "x")

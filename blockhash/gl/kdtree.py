@@ -199,11 +199,6 @@ class KdTree:
     def __len__(self) -> int:
         return len(self.index)
 
-    @property
-    def nbytes(self) -> int:
-        """Bytes of the GL node texture payload (16 per node)."""
-        return 16 * len(self)
-
     def texels(self) -> np.ndarray:
         """(n, 4) uint32 node texels: x, y, z float bits and index | axis << 30."""
         out = np.empty((len(self), 4), dtype=np.uint32)
