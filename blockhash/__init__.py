@@ -1,8 +1,8 @@
 """blockhash: low latency photon mapping with Block Hashing (Ma & McCool 2002)."""
 
 from .errors import BlockHashError, CapacityError, InputError, InputTypeError
-from .index import BlockHashIndex, IndexStats, OrphanWarning
-from .params import BlockHashParams
+from .index.block_hash_index import BlockHashIndex, IndexStats, OrphanWarning
+from .index.params import BlockHashParams
 
 __version__ = "0.1.0"
 

@@ -16,9 +16,9 @@ import time
 
 import numpy as np
 
-from .datasets import DISTRIBUTIONS
-from .index import BlockHashIndex
-from .metrics import exact_knn, false_negatives
+from .index.datasets import DISTRIBUTIONS
+from .index.block_hash_index import BlockHashIndex
+from .index.metrics import exact_knn, false_negatives
 
 
 QUERY_SETS = ("image", "random")

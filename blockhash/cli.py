@@ -17,11 +17,11 @@ import numpy as np
 
 from . import __version__
 from .bench import QUERY_SETS
-from .datasets import DISTRIBUTIONS
+from .index.datasets import DISTRIBUTIONS
 from .errors import BlockHashError, InputError
-from .index import BlockHashIndex
-from .metrics import accuracy, exact_knn
-from .params import PRESETS
+from .index.block_hash_index import BlockHashIndex
+from .index.metrics import accuracy, exact_knn
+from .index.params import PRESETS
 
 
 def _load_photons(spec: str, n: int, seed: int) -> np.ndarray:
@@ -111,9 +111,9 @@ def _size(text: str) -> tuple[int, int]:
 
 
 def cmd_render(args) -> int:
-    from .images import write_exr, write_png
-    from .render import render_scene
-    from .scene import load_scene
+    from .render.images import write_exr, write_png
+    from .render.pipeline import render_scene
+    from .render.scene_toml import load_scene
 
     scene = load_scene(args.scene)
     out = Path(args.output or Path(args.scene).with_suffix(".exr").name)
@@ -137,7 +137,7 @@ def cmd_render(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from .images import compare_images
+    from .render.images import compare_images
 
     results = compare_images(args.a, args.b, diff_path=args.diff)
     print(f"{'layer':<10} {'rms':>12} {'relative rms':>13} {'max':>12}")
@@ -149,9 +149,9 @@ def cmd_compare(args) -> int:
 
 
 def cmd_preview(args) -> int:
-    from .images import write_rgb8
-    from .preview import preview
-    from .scene import load_scene
+    from .render.images import write_rgb8
+    from .render.preview import preview
+    from .render.scene_toml import load_scene
 
     scene = load_scene(args.scene)
     colour, _ = preview(scene, size=args.size)

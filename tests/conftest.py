@@ -5,7 +5,7 @@ import os
 import numpy as np
 import pytest
 
-from blockhash.datasets import DISTRIBUTIONS
+from blockhash.index.datasets import DISTRIBUTIONS
 
 
 @pytest.fixture

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from blockhash import BlockHashError, InputError
-from blockhash.blocks import (BLOCK_WORDS, BUILDERS, COUNT_WORD, PHOTONS_PER_BLOCK, make_blocks,
+from blockhash.index.blocks import (BLOCK_WORDS, BUILDERS, COUNT_WORD, PHOTONS_PER_BLOCK, make_blocks,
                               pack_blocks, unpack_blocks)
-from blockhash.btree import btree_blocks
-from blockhash.codec import WORDS_PER_PHOTON
-from blockhash.datasets import caustic_like, uniform
-from blockhash.fixedpoint import Quantizer
-from blockhash.hilbert import hilbert_keys
+from blockhash.index.btree import btree_blocks
+from blockhash.index.codec import WORDS_PER_PHOTON
+from blockhash.index.datasets import caustic_like, uniform
+from blockhash.index.fixedpoint import Quantizer
+from blockhash.index.hilbert import hilbert_keys
 
 
 def _hilbert_keys_of(points: np.ndarray) -> np.ndarray:

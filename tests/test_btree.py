@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from blockhash.btree import LeafBlocks, btree_blocks, btree_nodes, bulk_blocks
+from blockhash.index.btree import LeafBlocks, btree_blocks, btree_nodes, bulk_blocks
 from blockhash.errors import InputError, InputTypeError
 
 

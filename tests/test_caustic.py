@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from blockhash import BlockHashIndex
-from blockhash.caustic import CausticPass, ShadingPoints, estimate_cpu, phong_brdf
+from blockhash.render.caustic import CausticPass, ShadingPoints, estimate_cpu, phong_brdf
 
 N = 100_000
 FLUX = 10.0  # watts over the unit square

@@ -1,4 +1,4 @@
-"""Tests for blockhash.codec: the six-word photon record of Figure 4 (section 3.2)."""
+"""Tests for blockhash.index.codec: the six-word photon record of Figure 4 (section 3.2)."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from blockhash import InputError, InputTypeError
-from blockhash.codec import (WORDS_PER_PHOTON, PhotonRecords, decode_directions, decode_powers,
+from blockhash.index.codec import (WORDS_PER_PHOTON, PhotonRecords, decode_directions, decode_powers,
                              encode_directions, encode_powers, pack_records, unpack_records)
-from blockhash.fixedpoint import Quantizer
+from blockhash.index.fixedpoint import Quantizer
 
 
 def _polar(t, p):

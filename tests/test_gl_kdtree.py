@@ -258,8 +258,8 @@ def test_bad_step_budget_raises_input_error():
 
 
 def test_too_many_photons_for_the_index_bits(monkeypatch):
-    import blockhash.gl.kdtree as kdtree
-    monkeypatch.setattr(kdtree, "MAX_PHOTONS", 16)
+    import blockhash.gl.kdtree_build as kdtree_build
+    monkeypatch.setattr(kdtree_build, "MAX_PHOTONS", 16)
     with pytest.raises(CapacityError, match="positions has 20 photons.*use fewer photons"):
         build_kdtree(np.zeros((20, 3)))
 

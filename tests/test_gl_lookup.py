@@ -110,11 +110,9 @@ def test_unknown_backend_is_named():
         get_context("vulkan")
 
 
-def test_index_query_gl_uploads_once_and_matches_query(caustic_index):
+def test_gl_lookup_of_an_index_matches_its_cpu_query(caustic_index):
     context_or_skip("egl")
     q = queries_for("caustic", m=100)
-    d, i = caustic_index.query_gl(q, backend="egl", variant="binary-branch-on-network")
-    assert list(caustic_index._gl_lookups) == ["egl"]
-    caustic_index.query_gl(q, backend="egl", variant="paper")
-    assert len(caustic_index._gl_lookups) == 1
+    lookup = GLLookup(caustic_index, backend="egl")
+    d, i = lookup.query(q, variant="binary-branch-on-network")
     np.testing.assert_array_equal(i, caustic_index.query(q)[1])

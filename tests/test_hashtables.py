@@ -1,11 +1,11 @@
 import numpy as np
 import pytest
 
-from blockhash.blocks import bulk_blocks
-from blockhash.fixedpoint import Quantizer
-from blockhash.hashtables import NO_BLOCK, insert_blocks
-from blockhash.hilbert import hilbert_keys
-from blockhash.thresholds import ThresholdLayout, build_thresholds
+from blockhash.index.blocks import bulk_blocks
+from blockhash.index.fixedpoint import Quantizer
+from blockhash.index.hashtables import NO_BLOCK, insert_blocks
+from blockhash.index.hilbert import hilbert_keys
+from blockhash.index.thresholds import ThresholdLayout, build_thresholds
 from conftest import photon_set
 
 

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from blockhash import BlockHashError, InputError
-from blockhash.datasets import clustered, uniform
-from blockhash.fixedpoint import Quantizer
-from blockhash.hilbert import KEY_BITS_PER_AXIS, hilbert_keys
+from blockhash.index.datasets import clustered, uniform
+from blockhash.index.fixedpoint import Quantizer
+from blockhash.index.hilbert import KEY_BITS_PER_AXIS, hilbert_keys
 
 
 def _grid(b: int) -> np.ndarray:

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from blockhash import BlockHashIndex, CapacityError, InputError, InputTypeError, OrphanWarning
-from blockhash.metrics import accuracy, exact_knn
+from blockhash.index.metrics import accuracy, exact_knn
 from conftest import photon_set
 
 

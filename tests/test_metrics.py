@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from blockhash import BlockHashError
-from blockhash.datasets import DISTRIBUTIONS
-from blockhash.metrics import Accuracy, accuracy, dilations, exact_knn, false_negatives, summarize
+from blockhash.index.datasets import DISTRIBUTIONS
+from blockhash.index.metrics import Accuracy, accuracy, dilations, exact_knn, false_negatives, summarize
 
 #: cKDTree and numpy compute the same Euclidean distance with differently ordered sums:
 #: a few ulps apart, far below 1e-12 relative.

@@ -2,9 +2,9 @@ import math
 
 import pytest
 
-from blockhash.params import (DEFAULT_REFS_PER_PHOTON, buckets_per_axis, default_params,
+from blockhash.index.params import (DEFAULT_REFS_PER_PHOTON, buckets_per_axis, default_params,
                               paper_params, resolve_params)
-from blockhash.thresholds import ThresholdLayout
+from blockhash.index.thresholds import ThresholdLayout
 from conftest import photon_set
 
 

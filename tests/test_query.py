@@ -5,7 +5,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from blockhash import BlockHashIndex
-from blockhash.thresholds import ThresholdLayout, hash_codes
+from blockhash.index.thresholds import ThresholdLayout, hash_codes
 from conftest import photon_set
 
 

@@ -5,14 +5,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from blockhash.caustic import estimate_cpu, estimate_exact
+from blockhash.render.caustic import estimate_cpu, estimate_exact
 from blockhash.cli import main
-from blockhash.gbuffer import rasterize
-from blockhash.preview import gbuffer_depth, preview
-from blockhash.render import NoCausticWarning, _receiver_materials, render_scene
-from blockhash.scene import MirrorMaterial, load_scene
-from blockhash.shading import SceneRays, shading_points
-from blockhash.tracing import trace_caustic_photons
+from blockhash.render.gbuffer import rasterize
+from blockhash.render.preview import gbuffer_depth, preview
+from blockhash.render.pipeline import NoCausticWarning, _receiver_materials, render_scene
+from blockhash.render.scene import MirrorMaterial
+from blockhash.render.scene_toml import load_scene
+from blockhash.render.shading import SceneRays, shading_points
+from blockhash.render.tracing import trace_caustic_photons
 
 RING = Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"
 SIZE = (96, 96)

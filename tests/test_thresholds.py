@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from blockhash.fixedpoint import Quantizer
-from blockhash.thresholds import (THRESHOLD_PAD, ThresholdLayout, build_thresholds, count_le,
+from blockhash.index.fixedpoint import Quantizer
+from blockhash.index.thresholds import (THRESHOLD_PAD, ThresholdLayout, build_thresholds, count_le,
                                   hash_codes, row_starts, table_offsets)
 from conftest import photon_set
 

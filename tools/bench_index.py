@@ -37,8 +37,8 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from blockhash import BlockHashIndex, OrphanWarning
-from blockhash.datasets import DISTRIBUTIONS
-from blockhash.metrics import accuracy, exact_knn
+from blockhash.index.datasets import DISTRIBUTIONS
+from blockhash.index.metrics import accuracy, exact_knn
 
 PRESETS = ("default", "paper")
 

@@ -13,12 +13,13 @@ from __future__ import annotations
 import argparse
 import numpy as np
 
-from blockhash.caustic import estimate_exact
-from blockhash.gbuffer import rasterize
-from blockhash.render import _receiver_materials, render_scene
-from blockhash.scene import MirrorMaterial, load_scene
-from blockhash.shading import SceneRays, shading_points
-from blockhash.tracing import trace_caustic_photons
+from blockhash.render.caustic import estimate_exact
+from blockhash.render.gbuffer import rasterize
+from blockhash.render.pipeline import _receiver_materials, render_scene
+from blockhash.render.scene import MirrorMaterial
+from blockhash.render.scene_toml import load_scene
+from blockhash.render.shading import SceneRays, shading_points
+from blockhash.render.tracing import trace_caustic_photons
 
 
 def main() -> None:

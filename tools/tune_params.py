@@ -1,6 +1,6 @@
 """Sweep the default preset's knobs; report accuracy, memory and build time.
 
-The default preset (:func:`blockhash.params.default_params`) turns a photon set
+The default preset (:func:`blockhash.index.params.default_params`) turns a photon set
 into ``L``, ``P = (Px, Py, Pz)`` and ``B`` with a few constants and heuristics.
 This script builds one index per combination of the knob values given on the
 command line (the preset's own function with the knobs as keywords, passed to
@@ -22,7 +22,7 @@ each:
 The first row of each data set, marked ``*``, is the shipped preset
 (``default_params`` with no keywords) unless ``--no-baseline``.
 
-Data (``--data``): the names of :data:`blockhash.datasets.DISTRIBUTIONS`, and
+Data (``--data``): the names of :data:`blockhash.index.datasets.DISTRIBUTIONS`, and
 ``caustic-wallNN``: caustic-like photons plus extra photons on the ring's wall
 so that NN% of all photons are off the floor (caustic-like alone has 3%).
 
@@ -42,7 +42,7 @@ Queries (``--query-mode``):
     on 'caustic' 15% sit on hot spots that the photons do not have.
 
 Knobs (each takes a comma-separated list; the sweep is their product; the
-defaults are the shipped constants of blockhash/params.py):
+defaults are the shipped constants of blockhash/index/params.py):
 
 ``--ppb``       photons per bucket as a multiple of k        DEFAULT_PHOTONS_PER_BUCKET
 ``--L``         hash tables                                  DEFAULT_L
@@ -59,7 +59,7 @@ With ``--thin`` or ``--aspect`` away from 1, ``B`` is recomputed by the preset's
 rule for the changed ``P``.
 
 The old preset (before this tool) is ``--ppb 2 --L 8 --slack 2 --plane 2 --shape 0``.
-Commands behind the constants in blockhash/params.py (k=50, A=8, N=10^6 unless said;
+Commands behind the constants in blockhash/index/params.py (k=50, A=8, N=10^6 unless said;
 S = 0 and 3, M = split and seed)::
 
     # photons per bucket; tables; block slack (caustic-like)
@@ -100,9 +100,9 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from blockhash import BlockHashIndex, OrphanWarning
-from blockhash import params as bp
-from blockhash.datasets import CAUSTIC_SHARES, DISTRIBUTIONS, caustic_like
-from blockhash.metrics import dilations, exact_knn, false_negatives
+from blockhash.index import params as bp
+from blockhash.index.datasets import CAUSTIC_SHARES, DISTRIBUTIONS, caustic_like
+from blockhash.index.metrics import dilations, exact_knn, false_negatives
 
 WALL = re.compile(r"caustic-wall(\d+(?:\.\d+)?)$")
 
@@ -158,7 +158,7 @@ def pct_pairs(text: str) -> list[tuple[float, float]]:
 
 @contextmanager
 def extent_percentiles(pct):
-    """Temporarily replace blockhash.params.EXTENT_PERCENTILES (read at call time)."""
+    """Temporarily replace blockhash.index.params.EXTENT_PERCENTILES (read at call time)."""
     old = bp.EXTENT_PERCENTILES
     bp.EXTENT_PERCENTILES = tuple(pct)
     try:

@@ -1,1 +1,10 @@
-"""OpenGL side of blockhash: contexts, texture packing, the GLSL library and lookups."""
+"""The GL part: offscreen contexts, texture packing, the GLSL library and lookups.
+
+Sits between the index (:mod:`blockhash.index`, which it uploads) and the renderer
+(:mod:`blockhash.render`, which draws with it); it imports the index, never the
+renderer.  ``GLLookup(index).query(points)`` answers like ``index.query(points)``.
+"""
+
+from .lookup import GLLookup
+
+__all__ = ["GLLookup"]

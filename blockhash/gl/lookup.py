@@ -14,10 +14,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..thresholds import ThresholdLayout
+from ..index.thresholds import ThresholdLayout
 from ..validate import as_int, as_points
 from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer
-from ..blocks import PHOTONS_PER_BLOCK
+from ..index.blocks import PHOTONS_PER_BLOCK
 from .packing import pack_index
 from .shaderlib import Variant, compile_program
 

@@ -11,7 +11,7 @@ texture       format    element
 blocks        RGBA32UI  16 texels per block: the block's 64 words (Figure 4)
 headers       RG32UI    bucket ``t * buckets + key``: (priority alpha, entries)
 refs          R32UI     ``(t * buckets + key) * B + slot``: block reference
-thresholds    R32UI     ``t * T + i``: threshold codes (blockhash/thresholds.py)
+thresholds    R32UI     ``t * T + i``: threshold codes (blockhash/index/thresholds.py)
 ============  ========  ====================================================
 
 A map that does not fit (more rows than GL_MAX_TEXTURE_SIZE) is refused

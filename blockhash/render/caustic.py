@@ -16,11 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .codec import decode_directions, decode_powers, unpack_records
-from .errors import InputError
-from .gl.context import bind_textures, check_gl, draw_fullscreen, home_framebuffer
-from .gl.lookup import GLLookup, slot_bits
-from .gl.shaderlib import Variant
+from ..index.codec import decode_directions, decode_powers, unpack_records
+from ..errors import InputError
+from ..gl.context import bind_textures, check_gl, draw_fullscreen, home_framebuffer
+from ..gl.lookup import GLLookup, slot_bits
+from ..gl.shaderlib import Variant
 
 #: Materials a caustic pass can hold (uniform arrays in caustic_pass.frag).
 MAX_MATERIALS = 16
@@ -78,11 +78,11 @@ def estimate_exact(index, points: ShadingPoints, materials, *, k=None, backend=N
     """The caustic with the exact k nearest photons: the kd-tree shader (``gpu``) or cKDTree."""
     k = index.params.k if k is None else k
     if gpu:
-        from .gl.kdtree import GLKdTree
+        from ..gl.kdtree import GLKdTree
 
         tree = GLKdTree(index.positions, backend=backend)
         return estimate_from_neighbours(index, points, materials, lambda q: tree.query(q, k), k)
-    from .metrics import exact_knn
+    from ..index.metrics import exact_knn
 
     return estimate_from_neighbours(index, points, materials,
                                     lambda q: exact_knn(index.positions, q, k), k)
@@ -145,7 +145,7 @@ class CausticPass:
     def render(self, points: ShadingPoints, materials, *, k=None, A=None,
                variant: str = "default") -> np.ndarray:
         """(h, w, 3) float32 caustic radiance, row 0 at the top like ``points``."""
-        from .gl.shaderlib import compile_program
+        from ..gl.shaderlib import compile_program
 
         index = self.index
         prm = index.params

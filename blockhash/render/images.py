@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from .errors import InputError
+from ..errors import InputError
 
 CHANNELS = ("R", "G", "B")
 

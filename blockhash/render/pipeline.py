@@ -17,9 +17,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .caustic import CausticPass, estimate_cpu, estimate_exact
-from .errors import InputError
+from ..errors import InputError
 from .gbuffer import rasterize
-from .index import BlockHashIndex
+from ..index.block_hash_index import BlockHashIndex
 from .shading import SceneRays, direct_light, shading_points
 
 METHODS = ("bh", "kdtree", "cpu")
@@ -59,7 +59,7 @@ def _receiver_materials(scene):
 
 def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="default",
                  size=None, seed=None, backend=None, progress=False, photon_map=None) -> RenderResult:
-    """Render ``scene`` (see :mod:`blockhash.scene`).
+    """Render ``scene`` (see :mod:`blockhash.render.scene`).
 
     Parameters
     ----------

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError
-from .validate import as_points
+from ..errors import InputError
+from ..validate import as_points
 
 #: Codes per axis: positions map to [0, 2**32).
 CODE_RANGE = 2.0**32

@@ -4,7 +4,7 @@ A block is 64 32-bit words: up to ten 6-word photon records in words 0-59,
 then the spare words, of which word 60 holds the number of photons stored
 (the paper keeps the count there) and words 61-63 are zero.  Photons are
 ordered along a 3D Hilbert curve and cut into blocks by one of two builders
-(:mod:`blockhash.btree`): a real B+-tree with leaf compaction, or the compact
+(:mod:`blockhash.index.btree`): a real B+-tree with leaf compaction, or the compact
 static B+-tree bulk build for a known photon set.  Both leave disjoint blocks
 each covering a compact interval of the curve (Figure 7a).
 """
@@ -15,7 +15,7 @@ import numpy as np
 
 from .btree import LeafBlocks, btree_blocks, bulk_blocks
 from .codec import WORDS_PER_PHOTON
-from .errors import InputError
+from ..errors import InputError
 
 #: Words per block: a 64-word burst (section 3.2).
 BLOCK_WORDS = 64

@@ -30,7 +30,7 @@ choose them from the photon set:
        photons fill (blocks straddle bucket borders), capped by the memory bound
        of ``DEFAULT_REFS_PER_PHOTON`` block references per photon.
 
-    Thresholds are nested (:class:`~blockhash.thresholds.ThresholdLayout`), so
+    Thresholds are nested (:class:`~blockhash.index.thresholds.ThresholdLayout`), so
     every bucket holds about that many photons however clustered the caustic is.
 
 The default preset's constants were chosen with ``tools/tune_params.py``; each
@@ -45,9 +45,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .blocks import PHOTONS_PER_BLOCK
-from .errors import CapacityError, InputError
+from ..errors import CapacityError, InputError
 from .thresholds import ThresholdLayout
-from .validate import as_int
+from ..validate import as_int
 
 PRESETS = ("default", "paper")
 #: Upper limits that keep the tables addressable and the shader's arrays small.

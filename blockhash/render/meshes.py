@@ -24,6 +24,10 @@ Do not modify a returned mesh in place (``merge_vertices``, ``fix_normals``,
 ``apply_transform``...): trimesh recomputes ``vertex_normals`` from the faces
 when the geometry changes, which merges the ring's rim into its walls and
 loses the smooth normals.  Use :func:`with_normals` to build a new mesh.
+
+Why this module is long: the bust's profile, its neck and the normals of all three
+shapes are one recipe that the scenes' normative values depend on; split up, each
+piece would need the others' constants.
 """
 
 from __future__ import annotations
@@ -38,7 +42,7 @@ import numpy as np
 import trimesh
 from scipy.interpolate import PchipInterpolator
 
-from .errors import InputError
+from ..errors import InputError
 
 #: The bust has this many triangles at least with the default resolution.
 MIN_BUST_TRIANGLES = 100_000

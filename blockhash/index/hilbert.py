@@ -14,8 +14,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .errors import InputError
-from .validate import as_int
+from ..errors import InputError
+from ..validate import as_int
 
 #: Bits per axis used for the key: 3 * 21 = 63 bits fit an unsigned 64-bit key.
 #: 21 bits over the photon box is a 1/2,097,152 step (0.5 um over 1 m), far finer
@@ -29,7 +29,7 @@ def hilbert_keys(codes, *, bits: int = KEY_BITS_PER_AXIS) -> np.ndarray:
     Parameters
     ----------
     codes : (n, 3) uint32
-        Fixed-point coordinates (see :class:`blockhash.fixedpoint.Quantizer`).
+        Fixed-point coordinates (see :class:`blockhash.index.fixedpoint.Quantizer`).
     bits : int
         Bits per axis kept from the top of each code, 1 <= bits <= 21.
 

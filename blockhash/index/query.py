@@ -5,7 +5,7 @@ shader runs, in arithmetic the shader reproduces bit for bit:
 
 1. quantize the float32 query to uint32 codes (:meth:`Quantizer.quantize_query`)
    and hash it in every table by integer threshold comparisons
-   (:func:`blockhash.thresholds.bucket_of`);
+   (:func:`blockhash.index.thresholds.bucket_of`);
 2. fetch the L buckets and order them by priority alpha, smallest first
    (ties keep table order);
 3. walk the buckets in that order and their valid references in slot order,
@@ -18,7 +18,7 @@ shader runs, in arithmetic the shader reproduces bit for bit:
    position in block order (the shader's candidate slot order).
 
 Block hashing is approximate: there is no (1 + eps) guarantee on the
-distances; :mod:`blockhash.metrics` reports recall and dilation instead.
+distances; :mod:`blockhash.index.metrics` reports recall and dilation instead.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
     ----------
     qcodes : (m, 3) uint32      hashing codes of the queries
     qpos : (m, 3) float32       query positions
-    thresholds : (L, T) uint32  see :mod:`blockhash.thresholds`
+    thresholds : (L, T) uint32  see :mod:`blockhash.index.thresholds`
     P : (3,) int64              buckets per axis
     nested : bool               threshold layout is NESTED
     refs : (L, buckets, B) int32

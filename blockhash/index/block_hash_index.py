@@ -25,7 +25,7 @@ from .hilbert import hilbert_keys
 from .params import BlockHashParams, resolve_params
 from .query import bh_query
 from .thresholds import ThresholdLayout, build_thresholds
-from .validate import as_int, as_points
+from ..validate import as_int, as_points
 
 #: Bytes per 32-bit word.
 WORD = 4
@@ -113,7 +113,7 @@ class BlockHashIndex:
     A : int, keyword-only
         Accuracy multiplier: a query examines about ``A * k`` candidates (>= 1).
     preset : {'default', 'paper'}
-        Parameter choice, see :mod:`blockhash.params`.
+        Parameter choice, see :mod:`blockhash.index.params`.
     L, P, B : int, optional
         Override the preset's tables, buckets per axis (one int or three), refs per bucket.
     layout : {'nested', 'marginal'}, optional
@@ -125,7 +125,7 @@ class BlockHashIndex:
         Photon payload stored in the records (Figure 4).
 
     Block hashing gives no (1 + eps) guarantee on distances; measure recall and
-    dilation with :mod:`blockhash.metrics`.
+    dilation with :mod:`blockhash.index.metrics`.
     """
 
     def __init__(self, positions, *, k: int = 50, A: int = 8, preset: str = "default",
@@ -265,21 +265,6 @@ class BlockHashIndex:
         if k is not None and not isinstance(k, (list, tuple, np.ndarray)) and k_eff == 1:
             distances, indices = distances[..., 0], indices[..., 0]
         return distances, indices
-
-    def query_gl(self, points, k=None, *, A=None, variant="default", backend=None):
-        """The same query answered by the GLSL fragment shader (paper section 7).
-
-        Returns ``(distances, indices)`` of shape (m, k), equal to :meth:`query`'s for
-        the same index (``variant`` with priority 'off' equals ``query(...,
-        by_priority=False)``).  The textures are uploaded once per backend and kept.
-        """
-        from .gl.lookup import GLLookup
-
-        lookups = self.__dict__.setdefault("_gl_lookups", {})
-        key = backend or "auto"
-        if key not in lookups:
-            lookups[key] = GLLookup(self, backend=backend)
-        return lookups[key].query(points, k=k, A=A, variant=variant)
 
 
 __all__ = ["BlockHashIndex", "IndexStats", "OrphanWarning"]

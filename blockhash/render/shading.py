@@ -1,7 +1,7 @@
 """Shading points and direct light (the non-caustic part of the image).
 
 Ray queries go through the photon tracer's embree scene
-(:class:`blockhash.tracing.EmbreeGeometry`, embreex called directly).  Perfect mirrors seen by the camera are resolved by one
+(:class:`blockhash.render.raycast.EmbreeGeometry`, embreex called directly).  Perfect mirrors seen by the camera are resolved by one
 reflection: the pixel's shading point moves to what the mirror reflects, with the
 mirror's reflectance as path weight (up to ``MAX_MIRROR_BOUNCES``).  Direct light
 is point and spot lights with shadow rays, through the modified Phong BRDF.
@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .caustic import ShadingPoints, phong_brdf
-from .tracing import RAY_OFFSET, EmbreeGeometry, surface_hits
+from .raycast import RAY_OFFSET, EmbreeGeometry, surface_hits
 
 #: Mirror-to-mirror reflections followed for camera rays.
 MAX_MIRROR_BOUNCES = 4
