@@ -27,11 +27,15 @@ LINE_STRIDE = 100_000
 
 
 def glsl_dir() -> Path:
-    """The directory of the shader library, in a checkout or an installed wheel."""
-    try:
-        path = Path(str(resources.files("blockhash.glsl")))
-    except ModuleNotFoundError:
-        path = Path(__file__).resolve().parents[2] / "glsl"
+    """The directory of the shader library: a checkout's ``glsl/`` beside this package
+    when there is one (so every checkout, worktree or editable install compiles its own
+    shaders), else the installed wheel's ``blockhash.glsl``."""
+    path = Path(__file__).resolve().parents[2] / "glsl"
+    if not (path / "bh_lookup.glsl").is_file():
+        try:
+            path = Path(str(resources.files("blockhash.glsl")))
+        except ModuleNotFoundError:
+            pass
     if not (path / "bh_lookup.glsl").is_file():
         raise GLUnavailableError(
             f"the GLSL library was not found at {path} (bh_lookup.glsl missing); reinstall "
