@@ -2,9 +2,12 @@
 // Takes: the query's float32 position.  Returns: its uint32 fixed-point codes
 // (bh_quantize) and its bucket in table t (bh_bucket_of).
 // Defines: BH_THRESHOLD_SEARCH (linear | binary), BH_PX/BH_PY/BH_PZ buckets per
-// axis, BH_NESTED (0 marginal, 1 nested threshold layout), BH_T thresholds per
-// table row, BH_THR_W threshold texture width (log2).
-// Exactly blockhash/fixedpoint.py quantize_query and blockhash/thresholds.py bucket_of.
+// axis, BH_NESTED (0 marginal, 1 nested threshold layout), BH_ADAPTIVE (1: the
+// adaptive layout's kd-tree rows, which replace the grid), BH_T words per table
+// row, BH_THR_W threshold texture width (log2), BH_MAX_DEPTH (adaptive descent bound).
+// Exactly blockhash/index/fixedpoint.py quantize_query and
+// blockhash/index/thresholds.py bucket_of (adaptive_bucket_of; layout in
+// blockhash/index/adaptive.py).
 #ifndef BH_HASH_GLSL
 #define BH_HASH_GLSL
 #include "bh_fetch.glsl"
@@ -43,6 +46,22 @@ uint bh_count_le(uint base, uint count, uint code) {
 #endif
 }
 
+#if BH_ADAPTIVE
+// Node i: word 2i the threshold; word 2i+1 (left << 3) | axis, or (bucket << 3) | 4.
+uint bh_bucket_of(uint t, uvec3 c) {
+    uint row = t * uint(BH_T);
+    uint i = 0u;
+    for (int d = 0; d < BH_MAX_DEPTH; ++d) {
+        uint meta = bh_fetch1(bh_thresholds, BH_THR_W, row + 2u * i + 1u);
+        if ((meta & 4u) != 0u) {
+            return meta >> 3u;
+        }
+        uint thr = bh_fetch1(bh_thresholds, BH_THR_W, row + 2u * i);
+        i = (meta >> 3u) + uint(c[meta & 3u] >= thr);
+    }
+    return 0xFFFFFFFFu;
+}
+#else
 uint bh_bucket_of(uint t, uvec3 c) {
     uint row = t * uint(BH_T);
     uint hx = bh_count_le(row, uint(BH_PX - 1), c.x);
@@ -60,5 +79,6 @@ uint bh_bucket_of(uint t, uvec3 c) {
     uint hz = bh_count_le(row + zs, uint(BH_PZ - 1), c.z);
     return hx + uint(BH_PX) * (hy + uint(BH_PY) * hz);
 }
+#endif
 
 #endif

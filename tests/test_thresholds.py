@@ -6,7 +6,7 @@ from blockhash.index.thresholds import (THRESHOLD_PAD, ThresholdLayout, build_th
                                   hash_codes, row_starts, table_offsets)
 from conftest import photon_set
 
-LAYOUTS = list(ThresholdLayout)
+LAYOUTS = [ThresholdLayout.MARGINAL, ThresholdLayout.NESTED]  # the grids; adaptive: test_adaptive.py
 
 
 def codes_of(points):

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from ..index.thresholds import ThresholdLayout
+from ..index.thresholds import MAX_DEPTH, ThresholdLayout
 from ..validate import as_int, as_points
 from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer
 from ..index.blocks import PHOTONS_PER_BLOCK
@@ -60,6 +60,7 @@ class GLLookup:
             **variant.defines(),
             "BH_L": prm.L, "BH_B": prm.B, "BH_PX": prm.P[0], "BH_PY": prm.P[1], "BH_PZ": prm.P[2],
             "BH_NESTED": int(prm.layout == ThresholdLayout.NESTED), "BH_T": self.index.thresholds.shape[1],
+            "BH_ADAPTIVE": int(prm.layout == ThresholdLayout.ADAPTIVE), "BH_MAX_DEPTH": MAX_DEPTH,
             "BH_BUCKETS": prm.buckets, "BH_K": k, "BH_CAP": cap, **self.packed.widths,
             "BH_SLOT_BITS": slot_bits(prm.L, prm.B), "BH_FETCH_ONLY": int(fetch_only),
         }

@@ -14,10 +14,11 @@ from __future__ import annotations
 import functools
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .adaptive import build_adaptive
 from .blocks import BLOCK_WORDS, make_blocks, pack_blocks
 from .codec import WORDS_PER_PHOTON, PhotonRecords
 from .hashtables import insert_blocks
@@ -147,7 +148,13 @@ class BlockHashIndex:
         sorted_records = records.records[self.order]
         sorted_codes = np.ascontiguousarray(sorted_records[:, :3])
         prm = self.params
-        self.thresholds, photon_keys = build_thresholds(sorted_codes, prm.P, prm.L, prm.layout)
+        if prm.layout == ThresholdLayout.ADAPTIVE:
+            self.thresholds, photon_keys, buckets = build_adaptive(
+                sorted_codes, L=prm.L, photons_per_bucket=prm.bucket_photons,
+                scale=records.quantizer.step)
+            self.params = prm = replace(prm, adaptive_buckets=buckets)
+        else:
+            self.thresholds, photon_keys = build_thresholds(sorted_codes, prm.P, prm.L, prm.layout)
         t3 = time.perf_counter()
         timings["thresholds"] = t3 - t2
         self.tables = insert_blocks(photon_keys, self.starts, buckets=prm.buckets, B=prm.B)
@@ -249,7 +256,7 @@ class BlockHashIndex:
         prm = self.params
         d2, slots, examined, fetched = bh_query(
             self.quantizer.quantize_query(qf), qf, self.thresholds, np.asarray(prm.P, dtype=np.int64),
-            prm.layout == ThresholdLayout.NESTED, self.tables.refs, self.priority, self.starts,
+            int(prm.layout), self.tables.refs, self.priority, self.starts,
             self._positions, k_eff, A_eff * k_eff, by_priority, slot_bits)
         d2[~finite] = np.inf
         slots[~finite] = -1

@@ -63,6 +63,10 @@ MAX_REFS = 1 << 28
 #: 1.0354/1.0378 at 1.75, 1.0390/1.0397 at 2 (the old value).  Smaller buckets are each
 #: covered by fewer candidates; larger ones spend the A*k budget in fewer tables.
 DEFAULT_PHOTONS_PER_BUCKET = 1.5
+#: The A at which the default preset's buckets hold DEFAULT_PHOTONS_PER_BUCKET * k photons;
+#: they grow in proportion to A, so that the L buckets a query visits hold about its A * k
+#: candidates (the paper's B = ceil(A k / 10 L) rule, with the buckets sized instead).
+ADAPTIVE_REFERENCE_A = 8
 #: Tables.  A query stops after A*k candidates, about 40 blocks, which 2-3 buckets supply, so
 #: tables beyond those mostly buy a better choice by priority: --L 6,7,8 gives 1.0365/1.0395,
 #: 1.0345/1.0372, 1.0347/1.0373 (same runs as above), and the build's threshold and insertion
@@ -127,10 +131,21 @@ class BlockHashParams:
     B: int
     layout: ThresholdLayout = ThresholdLayout.NESTED
     preset: str = "custom"
+    #: ADAPTIVE layout only: target photons per bucket, and the buckets per table that
+    #: the build made (0 until then).
+    bucket_photons: float = 0.0
+    adaptive_buckets: int = 0
+
+    @property
+    def axis(self) -> int:
+        """ADAPTIVE layout: the level-1 axis, the one with the most buckets in P."""
+        return int(np.argmax(self.P))
 
     @property
     def buckets(self) -> int:
-        """Buckets per table."""
+        """Buckets per table (ADAPTIVE: as built, or estimated from N before the build)."""
+        if self.layout == ThresholdLayout.ADAPTIVE:
+            return self.adaptive_buckets
         return self.P[0] * self.P[1] * self.P[2]
 
     @property
@@ -140,6 +155,11 @@ class BlockHashParams:
 
     def __repr__(self) -> str:
         px, py, pz = self.P
+        if self.layout == ThresholdLayout.ADAPTIVE:
+            built = f", buckets={self.adaptive_buckets:,}" if self.adaptive_buckets else ""
+            return (f"BlockHashParams(preset={self.preset!r}, k={self.k}, A={self.A}, L={self.L}, "
+                    f"P1={self.P[self.axis]} on {'xyz'[self.axis]}, "
+                    f"S={self.bucket_photons:g} photons/bucket{built}, B={self.B}, layout=adaptive)")
         return (f"BlockHashParams(preset={self.preset!r}, k={self.k}, A={self.A}, L={self.L}, "
                 f"P=({px}, {py}, {pz}), B={self.B}, layout={self.layout.name.lower()})")
 
@@ -311,6 +331,26 @@ def default_params(positions: np.ndarray, *, k: int, A: int,
     return BlockHashParams(k=k, A=A, L=L, P=P, B=B, layout=ThresholdLayout.NESTED, preset="default")
 
 
+def adaptive_params(positions: np.ndarray, *, k: int, A: int,
+                    photons_per_bucket: float = DEFAULT_PHOTONS_PER_BUCKET,
+                    L: int = DEFAULT_L,
+                    refs_per_photon: float = DEFAULT_REFS_PER_PHOTON,
+                    block_slack: float = DEFAULT_BLOCK_SLACK) -> BlockHashParams:
+    """The default preset: the ADAPTIVE layout (:mod:`.adaptive`) with buckets of
+    ``photons_per_bucket * k`` photons; level 1 cuts the axis that
+    :func:`buckets_per_axis` gives the most buckets, into that many slabs."""
+    n = len(positions)
+    S = max(PHOTONS_PER_BLOCK, photons_per_bucket * k * A / ADAPTIVE_REFERENCE_A)
+    sample = photon_sample(positions)
+    lo, hi = np.percentile(sample, EXTENT_PERCENTILES, axis=0)
+    P = buckets_per_axis(hi - lo, max(1.0, n / S))
+    B_need = math.ceil(block_slack * S / PHOTONS_PER_BLOCK)
+    B_budget = max(1, int(refs_per_photon * S / L))
+    B = max(1, min(B_need, B_budget, MAX_B))
+    return BlockHashParams(k=k, A=A, L=L, P=P, B=B, layout=ThresholdLayout.ADAPTIVE,
+                           preset="default", bucket_photons=float(S))
+
+
 def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",
                    L=None, P=None, B=None, layout=None) -> BlockHashParams:
     """Validate the options and return the preset's parameters with overrides applied."""
@@ -320,7 +360,7 @@ def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",
     if preset not in PRESETS:
         raise InputError(f"preset={preset!r} is not known; choose one of {', '.join(PRESETS)}")
     params = (paper_params(n, k=k, A=A) if preset == "paper"
-              else default_params(positions, k=k, A=A))
+              else adaptive_params(positions, k=k, A=A))
     changes = {}
     if L is not None:
         changes["L"] = as_int(L, "L", minimum=1, maximum=MAX_L)
@@ -330,6 +370,8 @@ def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",
         if len(P) != 3:
             raise InputError(f"P={P!r} must be one int or three (Px, Py, Pz)")
         changes["P"] = tuple(as_int(p, f"P[{i}]", minimum=1, maximum=MAX_P) for i, p in enumerate(P))
+        if layout is None and params.layout == ThresholdLayout.ADAPTIVE:
+            changes["layout"] = ThresholdLayout.NESTED  # a grid of P buckets per axis was asked for
     if B is not None:
         changes["B"] = as_int(B, "B", minimum=1, maximum=MAX_B)
     if layout is not None:
@@ -341,8 +383,11 @@ def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",
         params = replace(params, preset=f"{params.preset}+overrides", **changes)
     if params.L > MAX_L or params.B > MAX_B:
         raise InputError(f"{params!r} exceeds L <= {MAX_L}, B <= {MAX_B}; pass smaller L or B")
-    if params.refs > MAX_REFS:
+    refs = params.refs
+    if params.layout == ThresholdLayout.ADAPTIVE:  # buckets are known after the build: estimate
+        refs = params.L * params.B * math.ceil(2 * n / params.bucket_photons)
+    if refs > MAX_REFS:
         raise CapacityError(
-            f"{params!r} needs {params.refs:,} block references > {MAX_REFS:,}; "
+            f"{params!r} needs {refs:,} block references > {MAX_REFS:,}; "
             "use smaller P, L or B")
     return params

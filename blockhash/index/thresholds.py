@@ -46,6 +46,8 @@ from enum import IntEnum
 import numba
 import numpy as np
 
+from ..errors import InputError
+
 #: Padding for thresholds of empty slabs: codes never reach 2**32 - 1 (the box is
 #: padded, and query codes saturate at 2**32 - 256), so a padded slot never counts.
 THRESHOLD_PAD = np.uint32(0xFFFFFFFF)
@@ -58,6 +60,7 @@ class ThresholdLayout(IntEnum):
 
     MARGINAL = 0
     NESTED = 1
+    ADAPTIVE = 2
 
 
 def table_offsets(L: int) -> np.ndarray:
@@ -89,9 +92,33 @@ def count_le(thresholds, start, count, code):
     return lo
 
 
+#: ADAPTIVE layout (blockhash/index/adaptive.py): the flag of a bucket node, and the deepest
+#: tree a query descends (a loop bound; trees are about log2(N / S) deep).
+LEAF = np.uint32(4)
+MAX_DEPTH = 48
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def adaptive_bucket_of(row, cx, cy, cz):
+    """Bucket of one code triple in one ``ADAPTIVE`` row (:mod:`.adaptive`): descend
+    ``i = left + (code[axis] >= t)`` from node 0 to a bucket node."""
+    i = 0
+    for _ in range(MAX_DEPTH):
+        meta = row[2 * i + 1]
+        if meta & LEAF:
+            return np.int64(meta >> 3)
+        a = meta & 3
+        c = cx if a == 0 else (cy if a == 1 else cz)
+        i = np.int64(meta >> 3) + (1 if c >= row[2 * i] else 0)
+    return np.int64(-1)
+
+
 @numba.njit(cache=True, nogil=True, inline="always")
 def bucket_of(thresholds, px, py, pz, nested, cx, cy, cz):
-    """Bucket ``hx + Px * (hy + Py * hz)`` of one code triple in one table's row."""
+    """Bucket of one code triple in one table's row: ``hx + Px * (hy + Py * hz)`` for the
+    marginal and nested layouts; ``nested`` is the layout's id (0, 1, or 2 = ADAPTIVE)."""
+    if nested == 2:
+        return adaptive_bucket_of(thresholds, cx, cy, cz)
     hx = count_le(thresholds, 0, px - 1, cx)
     ys = px - 1
     zs = ys + (px * (py - 1) if nested else py - 1)
@@ -198,6 +225,9 @@ def build_thresholds(codes, P, L: int, layout: ThresholdLayout) -> tuple[np.ndar
     keys : (L, n) int64, the bucket of every photon in every table (what
         :func:`hash_codes` returns, computed along the way).
     """
+    if layout == ThresholdLayout.ADAPTIVE:
+        raise InputError("build_thresholds builds the grid layouts (marginal, nested); the adaptive "
+                         "layout is built by blockhash.index.adaptive.build_adaptive")
     px, py, pz = (int(p) for p in P)
     _, sy, sz, T = row_starts(P, layout)
     codes = np.ascontiguousarray(codes, dtype=np.uint32)
@@ -228,4 +258,4 @@ def hash_codes(codes, thresholds, P, layout: ThresholdLayout) -> np.ndarray:
     """
     px, py, pz = (int(p) for p in P)
     return _hash_all(np.ascontiguousarray(codes, dtype=np.uint32), np.ascontiguousarray(thresholds),
-                     px, py, pz, layout == ThresholdLayout.NESTED)
+                     px, py, pz, int(layout))

@@ -1,0 +1,243 @@
+"""The adaptive layout: each table hashes by a kd-tree of count thresholds.
+
+The paper's hash (section 3.1) counts the thresholds below a coordinate on each
+axis, with thresholds from that axis' marginal distribution, and a table is the
+product grid.  Photon maps lie on surfaces: a floor, walls, a curved receiver,
+several at once.  A product grid, or the nested grid of
+:class:`~blockhash.index.thresholds.ThresholdLayout` ``NESTED``, cuts every
+slab and column into the same number of buckets, so where one surface holds
+most photons of a slab (a floor under a lit wall; the faces of a room, where
+every photon of a face shares one coordinate) its buckets overflow while the
+others hold few photons.
+
+``ADAPTIVE`` keeps the hash a sequence of threshold comparisons on fixed-point
+codes, but lets every cut choose its axis and its place from the photons it
+splits, as the grid files that section 4.1 cites do:
+
+* a node holding ``c`` photons is a bucket when ``round(c / S) <= 1`` (``S``
+  the target photons per bucket) or when its photons share one position;
+* otherwise it is cut on its *widest* axis: the largest interquartile range of
+  its photons (in metres), or where every interquartile range is zero (most
+  photons on one plane, or one point), the largest 5th-95th percentile range,
+  then the largest full range;
+* the cut puts ``m_left + o`` buckets' worth of photons on the left, where the
+  node needs ``m = round(c / S)`` buckets and ``m_left = m // 2``; ``o`` in
+  [-1/2, 1/2) is the table's offset for that depth (Roberts' R3 sequence, as
+  :func:`~blockhash.index.thresholds.table_offsets`), so that the L tables'
+  bucket borders interleave (section 4.2, Figure 2).  Photons with a code equal
+  to the threshold go right (the paper's ``h(x) = #{t <= x}``); where the cut
+  falls among photons sharing one code, the threshold moves to the side of that
+  run that leaves the counts closer to the target, so a plane is never split
+  and never swallows both children.
+
+Every bucket then holds about ``S`` photons whatever the surfaces, and buckets
+are about as wide as they are long on each surface.  The cuts are computed on a
+seeded sample of ``SAMPLE_PER_BUCKET`` photons per expected bucket (quickselect
+on the sample, linear time per level); every photon is then hashed through the
+tree.  A query descends ``log2(N / S)`` nodes per table, one two-word node read
+each: about the comparisons of the paper's three binary searches.
+
+Row layout of one table, ``2 * nodes`` uint32 words; node ``i`` at ``2 i``::
+
+    word 2i      threshold code t
+    word 2i + 1  inner node: (left child << 3) | axis    (axis 0, 1, 2 = x, y, z)
+                 bucket:     (bucket << 3) | 4
+    descend:     i = left + (code[axis] >= t)
+
+Rows of different tables differ in length and bucket count; they are padded to
+the longest row (``THRESHOLD_PAD``) and the most buckets.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from .thresholds import LEAF, MAX_DEPTH, THRESHOLD_PAD, adaptive_bucket_of, table_offsets
+
+#: Sample photons per expected bucket from which a table's cuts are computed.  A
+#: bucket's count then varies by about 1 / sqrt(32) = 18% around S, which the
+#: slack of B absorbs; the whole sample keeps a table's build near 30 ms at N = 10^6.
+SAMPLE_PER_BUCKET = 32
+#: Photons of a node looked at to choose its axis (a strided subset).
+AXIS_PROBE = 127
+
+
+@numba.njit(cache=True, nogil=True)
+def _select(idx, codes, a, lo, hi, p):
+    """Reorder ``idx[lo:hi]`` so that ``idx[p]`` holds the photon of rank ``p - lo`` on axis
+    ``a``, smaller codes before it and larger after (Hoare's quickselect, median of three)."""
+    while hi - lo > 1:
+        mid = (lo + hi - 1) // 2
+        x, y, z = codes[idx[lo], a], codes[idx[mid], a], codes[idx[hi - 1], a]
+        pivot = max(min(x, y), min(max(x, y), z))
+        i, j = lo, hi - 1
+        while i <= j:
+            while codes[idx[i], a] < pivot:
+                i += 1
+            while codes[idx[j], a] > pivot:
+                j -= 1
+            if i <= j:
+                idx[i], idx[j] = idx[j], idx[i]
+                i += 1
+                j -= 1
+        if p <= j:
+            hi = j + 1
+        elif p >= i:
+            lo = i
+        else:
+            return
+
+
+@numba.njit(cache=True, nogil=True)
+def _spreads(idx, codes, lo, hi, scale):
+    """(3, 3) per axis: interquartile, 5th-95th percentile and full range in metres, from
+    at most ``AXIS_PROBE`` photons of ``idx[lo:hi]`` taken at a fixed stride."""
+    c = hi - lo
+    m = min(c, AXIS_PROBE)
+    out = np.zeros((3, 3))
+    v = np.empty(m, dtype=np.float64)
+    for a in range(3):
+        for r in range(m):
+            v[r] = codes[idx[lo + (r * c) // m], a]
+        v.sort()
+        out[a, 0] = (v[(3 * m) // 4] - v[m // 4]) * scale[a]
+        out[a, 1] = (v[(19 * m) // 20] - v[m // 20]) * scale[a]
+        out[a, 2] = (v[m - 1] - v[0]) * scale[a]
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _widest(spread):
+    """(axis to cut, number of axes the photons spread along), axis -1 when every photon
+    probed shares one position."""
+    for kind in range(3):
+        a = 0
+        dims = 0
+        for j in range(3):
+            if spread[j, kind] > spread[a, kind]:
+                a = j
+            if spread[j, kind] > 0.0:
+                dims += 1
+        if dims > 0:
+            return a, dims
+    return -1, 0
+
+
+@numba.njit(cache=True, nogil=True)
+def _build_tree(codes, idx, S, offsets, scale):
+    """Nodes (2 words each) and bucket count of one table over the sample ``codes[idx]``."""
+    M = idx.shape[0]
+    nodes = np.empty(2 * (2 * M + 1), dtype=np.uint32)
+    stack = np.empty((MAX_DEPTH + 2, 4), dtype=np.int64)  # node, lo, hi, buckets wanted
+    stack[0] = (0, 0, M, max(1, int(np.round(M / S))))
+    depth = np.zeros(2 * M + 1, dtype=np.int64)
+    top = 1
+    used = 1
+    buckets = 0
+    while top > 0:
+        top -= 1
+        node, lo, hi, m = stack[top]
+        c = hi - lo
+        a = -1
+        dims = 0
+        if m >= 2 and c >= 2 and depth[node] < MAX_DEPTH - 1:
+            a, dims = _widest(_spreads(idx, codes, lo, hi, scale))
+        split = -1
+        t = np.uint32(0)
+        if a >= 0:
+            # Shift the cut by up to half a layer of buckets along the axis: m ** (1 / dims)
+            # layers, at least the two children.
+            layers = max(2.0, m ** (1.0 / dims))
+            target = c * (0.5 + offsets[depth[node] % offsets.shape[0]] / layers)
+            p = min(max(int(target), 0), c - 1)
+            _select(idx, codes, a, lo, hi, lo + p)
+            v = codes[idx[lo + p], a]
+            below = 0
+            equal = 0
+            for r in range(lo, hi):
+                x = codes[idx[r], a]
+                if x < v:
+                    below += 1
+                elif x == v:
+                    equal += 1
+            # Threshold v puts the run of code v right (left = below); v + 1 puts it left.
+            if below == 0 or (below + equal < c and abs(below + equal - target) < abs(below - target)):
+                if below + equal < c:
+                    t = np.uint32(v + 1)
+                    split = below + equal
+            else:
+                t = v
+                split = below
+            if split > 0:
+                # Partition idx[lo:hi] by code < t (selection left it only roughly so).
+                i, j = lo, hi - 1
+                while i <= j:
+                    if codes[idx[i], a] < t:
+                        i += 1
+                    else:
+                        idx[i], idx[j] = idx[j], idx[i]
+                        j -= 1
+        if split <= 0:
+            nodes[2 * node] = 0
+            nodes[2 * node + 1] = (np.uint32(buckets) << 3) | LEAF
+            buckets += 1
+            continue
+        left = used
+        used += 2
+        nodes[2 * node] = t
+        nodes[2 * node + 1] = (np.uint32(left) << 3) | np.uint32(a)
+        depth[left] = depth[left + 1] = depth[node] + 1
+        m_left = min(max(int(np.round(m * split / c)), 1), m - 1)
+        stack[top] = (left + 1, lo + split, hi, m - m_left)
+        stack[top + 1] = (left, lo, lo + split, m_left)
+        top += 2
+    return nodes[:2 * used], buckets
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _hash_all(codes, rows):
+    L = rows.shape[0]
+    n = codes.shape[0]
+    keys = np.empty((L, n), dtype=np.int64)
+    for j in numba.prange(n):
+        for t in range(L):
+            keys[t, j] = adaptive_bucket_of(rows[t], codes[j, 0], codes[j, 1], codes[j, 2])
+    return keys
+
+
+def build_adaptive(codes, *, L: int, photons_per_bucket: float, scale,
+                   seed: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
+    """Rows of ``L`` adaptive tables over ``codes``.
+
+    Parameters
+    ----------
+    codes : (n, 3) uint32      photon position codes
+    L : int                    tables
+    photons_per_bucket : float target photons per bucket, S (> 0)
+    scale : (3,) float         metres per code step on each axis (extents compare in metres)
+    seed : int                 seed of the sample the cuts are computed on
+
+    Returns
+    -------
+    thresholds : (L, T) uint32 rows, padded with ``THRESHOLD_PAD``
+    keys : (L, n) int64 bucket of every photon in every table
+    buckets : int              buckets per table (the largest table's count)
+    """
+    codes = np.ascontiguousarray(codes, dtype=np.uint32)
+    n = len(codes)
+    S = float(photons_per_bucket)
+    M = min(n, int(SAMPLE_PER_BUCKET * max(1.0, n / S)))
+    rng = np.random.default_rng(seed)
+    sample = np.sort(rng.choice(n, M, replace=False)) if M < n else np.arange(n)
+    S_sample = S * M / n
+    offsets = table_offsets(L * MAX_DEPTH)[:, 0].reshape(MAX_DEPTH, L).T.copy()
+    scale = np.asarray(scale, dtype=np.float64)
+    rows = []
+    for t in range(L):
+        rows.append(_build_tree(codes, sample.copy(), S_sample, offsets[t], scale))
+    T = max(len(r) for r, _ in rows)
+    out = np.full((L, T), THRESHOLD_PAD, dtype=np.uint32)
+    for t, (row, _) in enumerate(rows):
+        out[t, :len(row)] = row
+    return out, _hash_all(codes, out), max(b for _, b in rows)
