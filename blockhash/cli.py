@@ -136,16 +136,52 @@ def cmd_render(args) -> int:
     return 0
 
 
-def cmd_compare(args) -> int:
-    from .render.images import compare_images
+def _limit(text: str) -> tuple[str, float]:
+    """'0.05' -> ('*', 0.05); 'caustic=0.05' -> ('caustic', 0.05)."""
+    layer, _, value = text.rpartition("=")
+    try:
+        number = float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a number or LAYER=NUMBER such as "
+                                         "caustic=0.05") from None
+    if not number >= 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: the limit must be a number >= 0")
+    return layer or "*", number
 
-    results = compare_images(args.a, args.b, diff_path=args.diff)
-    print(f"{'layer':<10} {'rms':>12} {'relative rms':>13} {'max':>12}")
-    for layer, r in results.items():
-        print(f"{layer:<10} {r['rms']:>12.6g} {r['relative_rms']:>13.6g} {r['max']:>12.6g}")
+
+def _limits(pairs) -> dict | None:
+    return dict(pairs) if pairs else None
+
+
+def cmd_compare(args) -> int:
+    import json
+
+    from .render.imagediff import compare_layers, write_pictures
+    from .render.images import write_exr
+
+    result = compare_layers(args.a, args.b, max_rms=_limits(args.max_rms),
+                            max_rel_rms=_limits(args.max_rel_rms), max_flip=_limits(args.max_flip),
+                            mask=args.mask)
+    # With --json - stdout carries the JSON alone; the table goes to stderr.
+    report = sys.stderr if args.json == "-" else sys.stdout
+    print(result.table(), file=report)
     if args.diff:
-        print(f"difference image: {args.diff}")
-    return 0
+        write_exr(args.diff, {name: np.abs(result.a[name] - result.b[name]) for name in result.a})
+        print(f"difference image: {args.diff}", file=report)
+    for path in write_pictures(result, heatmap=args.heatmap, strip=args.strip, error=args.error):
+        print(f"{args.error} error picture: {path}", file=report)
+    if args.json:
+        text = json.dumps(result.to_json(), indent=2)
+        if args.json == "-":
+            print(text)
+        else:
+            Path(args.json).write_text(text + "\n")
+    for failure in result.failures:
+        print(f"FAIL {failure}", file=sys.stderr)
+    if result.limits:
+        print("pass: every layer within its limits" if result.passed
+              else f"fail: {len(result.failures)} limit(s) exceeded", file=report)
+    return 0 if result.passed else 1
 
 
 def cmd_preview(args) -> int:
@@ -222,11 +258,33 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, help="photon seed (default: the scene's)")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
     p.set_defaults(func=cmd_render)
-    p = sub.add_parser("compare", help="RMS, relative RMS and max error per layer of two images",
-                       description="Compare two EXR images layer by layer (OpenImageIO); "
-                                   "relative RMS is RMS(A - B) / RMS(B).")
+    p = sub.add_parser("compare", help="per-layer RMS, relative RMS, max and FLIP error; limits "
+                                       "set the exit status",
+                       description="Compare image A with the reference B layer by layer: RMS, "
+                                   "relative RMS (RMS(A - B) / RMS(B)), max error and mean FLIP "
+                                   "(NVIDIA's perceptual difference of the tone-mapped layers). "
+                                   "Exit status: 0 when every layer is within the limits given, "
+                                   "1 when one is not (each failure is printed), 2 on bad input "
+                                   "(missing file, different sizes or layers).",
+                       epilog="Limits take one number for every layer or LAYER=NUMBER, repeated: "
+                              "--max-rel-rms 0.1 --max-rel-rms direct=1e-4.")
     p.add_argument("a")
     p.add_argument("b", help="the reference")
+    for option, what in (("--max-rms", "RMS(A - B)"), ("--max-rel-rms", "RMS(A - B) / RMS(B)"),
+                         ("--max-flip", "mean FLIP, 0..1")):
+        p.add_argument(option, type=_limit, action="append", metavar="[LAYER=]LIMIT",
+                       help=f"largest {what} that passes")
+    p.add_argument("--mask", metavar="LAYER_OR_IMAGE",
+                   help="compare only where this layer of A, or this image, is non-zero")
+    p.add_argument("--json", metavar="PATH",
+                   help="write the metrics, limits and failures as JSON to PATH ('-': stdout, "
+                        "and the table goes to stderr)")
+    p.add_argument("--heatmap", metavar="PNG", help="write a false-colour error map per layer, "
+                                                    "with a colour bar")
+    p.add_argument("--strip", metavar="PNG", help="write A | B | error side by side, a row per layer")
+    p.add_argument("--error", choices=("flip", "abs"), default="flip",
+                   help="what --heatmap and --strip show: FLIP per pixel (default) or the "
+                        "largest absolute channel error")
     p.add_argument("--diff", help="write |A - B| per layer to this EXR")
     p.set_defaults(func=cmd_compare)
     p = sub.add_parser("preview", help="a quick pyrender view of a scene (camera, objects, lights)",
