@@ -184,6 +184,35 @@ def cmd_compare(args) -> int:
     return 0 if result.passed else 1
 
 
+def cmd_tolerance(args) -> int:
+    import json
+
+    from .render.scene_toml import load_scene
+    from .render.tolerance import seed_tolerances
+
+    scene = load_scene(args.scene)
+    report = seed_tolerances(scene, seeds=args.seeds, first_seed=args.first_seed,
+                             photons=args.photons, size=args.size, k=args.k, A=args.A,
+                             method=args.method, margin=args.margin, backend=args.backend,
+                             progress=lambda s: print(s, file=sys.stderr))
+    out = sys.stderr if args.json == "-" else sys.stdout
+    print(report.table(), file=out)
+    print(f"proposed: blockhash compare A.exr B.exr {report.options()}", file=out)
+    if args.heatmap:
+        from .render.plots import save_heatmap
+
+        save_heatmap(args.heatmap, report.spread_maps, label="std over seeds",
+                     title=f"{args.scene}: per-pixel spread over {args.seeds} seeds")
+        print(f"spread map: {args.heatmap}", file=out)
+    if args.json:
+        text = json.dumps(report.to_json(), indent=2)
+        if args.json == "-":
+            print(text)
+        else:
+            Path(args.json).write_text(text + "\n")
+    return 0
+
+
 def cmd_preview(args) -> int:
     from .render.images import write_rgb8
     from .render.preview import preview
@@ -287,6 +316,25 @@ def build_parser() -> argparse.ArgumentParser:
                         "largest absolute channel error")
     p.add_argument("--diff", help="write |A - B| per layer to this EXR")
     p.set_defaults(func=cmd_compare)
+    p = sub.add_parser("tolerance", help="propose compare limits from the noise between photon seeds",
+                       description="Render a scene with several photon seeds at a small size, "
+                                   "compare every pair of seeds (RMS, relative RMS, FLIP), measure "
+                                   "the per-pixel spread, and propose limits for blockhash compare "
+                                   "and assert_images_close: the largest pair value times --margin.")
+    p.add_argument("scene", help="scene file (TOML), e.g. scenes/ring.toml")
+    p.add_argument("--seeds", type=int, default=4, help="number of photon seeds (default 4)")
+    p.add_argument("--first-seed", type=int, default=0, help="seeds are FIRST, FIRST+1, ... (default 0)")
+    p.add_argument("--photons", type=int, help="caustic photons to store (default: the scene's)")
+    p.add_argument("--size", type=_size, default=(64, 64), help="image size (default 64x64)")
+    p.add_argument("--k", type=int, help="photons per estimate (default: the scene's)")
+    p.add_argument("--A", type=int, help="accuracy multiplier (default: the scene's)")
+    p.add_argument("--method", choices=("bh", "kdtree", "cpu"), default="bh")
+    p.add_argument("--margin", type=float, default=1.5,
+                   help="proposed limit = largest seed-pair value x MARGIN (default 1.5)")
+    p.add_argument("--json", metavar="PATH", help="write the report as JSON to PATH ('-': stdout)")
+    p.add_argument("--heatmap", metavar="PNG", help="write the per-pixel spread maps")
+    p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
+    p.set_defaults(func=cmd_tolerance)
     p = sub.add_parser("preview", help="a quick pyrender view of a scene (camera, objects, lights)",
                        description="Render the scene with pyrender in a separate process, to check "
                                    "the camera, objects and lights before a real render.")

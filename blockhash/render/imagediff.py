@@ -113,19 +113,18 @@ def normalise_limits(limits, layers, *, metric: str) -> dict[str, float]:
     if unknown:
         raise InputError(f"{option} names layer(s) {unknown} that the images do not have; "
                          f"their layers are {', '.join(sorted(layers))}")
-    out = {}
-    for layer in layers:
-        value = limits.get(layer, limits.get("*"))
-        if value is None:
-            continue
+    checked = {}
+    for key, value in limits.items():
+        where = f"{option} is" if key == "*" else f"{option} for layer {key!r} is"
         try:
-            value = float(value)
+            number = float(value)
         except (TypeError, ValueError):
-            raise InputError(f"{option} for layer {layer!r} is {value!r}; give a number") from None
-        if not value >= 0:
-            raise InputError(f"{option} for layer {layer!r} is {value}; give a number >= 0")
-        out[layer] = value
-    return out
+            raise InputError(f"{where} {value!r}; give a number") from None
+        if not number >= 0:
+            raise InputError(f"{where} {number}; give a number >= 0")
+        checked[key] = number
+    return {layer: checked.get(layer, checked.get("*")) for layer in layers
+            if layer in checked or "*" in checked}
 
 
 def flip_map(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -22,7 +22,9 @@ def write_exr(path, layers: dict[str, np.ndarray]) -> None:
     """Write ``{name: (h, w, 3) float}`` as one float EXR with channels name.R/G/B."""
     names = list(layers)
     h, w, _ = layers[names[0]].shape
-    data = np.concatenate([np.asarray(layers[n], dtype=np.float32) for n in names], axis=2)
+    # Contiguous whatever the inputs' strides: OpenImageIO refuses non-contiguous channels.
+    data = np.ascontiguousarray(np.concatenate([np.asarray(layers[n], dtype=np.float32)
+                                                for n in names], axis=2))
     spec = oiio.ImageSpec(w, h, data.shape[2], oiio.FLOAT)
     spec.channelnames = tuple(f"{n}.{c}" for n in names for c in CHANNELS)
     spec.attribute("compression", "zip")
@@ -64,8 +66,11 @@ def _write(path, spec, data) -> None:
     out = oiio.ImageOutput.create(str(path))
     if out is None or not out.open(str(path), spec):
         raise InputError(f"cannot write {path}: {oiio.geterror()}; check the directory and extension")
-    out.write_image(data)
+    ok = out.write_image(data)
+    error = out.geterror()
     out.close()
+    if not ok:
+        raise InputError(f"cannot write {path}: {error}")
 
 
 def read_layers(path) -> dict[str, np.ndarray]:
