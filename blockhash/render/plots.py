@@ -35,9 +35,7 @@ def _figure(rows: int, cols: int):
 def _cmap():
     from matplotlib import colormaps
 
-    cmap = colormaps[CMAP].copy()
-    cmap.set_bad(MASKED)
-    return cmap
+    return colormaps[CMAP].with_extremes(bad=MASKED)
 
 
 def _check_maps(errors: dict) -> dict[str, np.ndarray]:
