@@ -168,8 +168,10 @@ def cmd_compare(args) -> int:
     if args.diff:
         write_exr(args.diff, {name: np.abs(result.a[name] - result.b[name]) for name in result.a})
         print(f"difference image: {args.diff}", file=report)
-    for path in write_pictures(result, heatmap=args.heatmap, strip=args.strip, error=args.error):
-        print(f"{args.error} error picture: {path}", file=report)
+    write_pictures(result, heatmap=args.heatmap, strip=args.strip, error=args.error, vmax=args.vmax)
+    for what, path in (("heat map", args.heatmap), ("strip (A | B | error)", args.strip)):
+        if path:
+            print(f"{what}, {args.error} error: {path}", file=report)
     if args.json:
         text = json.dumps(result.to_json(), indent=2)
         if args.json == "-":
@@ -314,6 +316,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--error", choices=("flip", "abs"), default="flip",
                    help="what --heatmap and --strip show: FLIP per pixel (default) or the "
                         "largest absolute channel error")
+    p.add_argument("--vmax", type=float, help="top of the colour bars (default: 1 for FLIP, each "
+                                              "layer's 99th percentile for abs)")
     p.add_argument("--diff", help="write |A - B| per layer to this EXR")
     p.set_defaults(func=cmd_compare)
     p = sub.add_parser("tolerance", help="propose compare limits from the noise between photon seeds",

@@ -75,7 +75,8 @@ def test_heatmap_and_strip_are_written(pair, tmp_path, capsys):
     for path in (heat, strip):
         spec = oiio.ImageInput.open(str(path)).spec()
         assert spec.width > 300 and spec.height > 200
-    assert f"abs error picture: {heat}" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert f"heat map, abs error: {heat}" in out and f"strip (A | B | error), abs error: {strip}" in out
 
 
 def test_missing_file_exits_2_naming_it(pair, tmp_path, capsys):

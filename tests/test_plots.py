@@ -59,3 +59,12 @@ def test_bad_maps_and_paths_are_refused(tmp_path):
     img = {"d": np.zeros((5, 4, 3))}
     with pytest.raises(InputError, match=r"layer 'd' of A is 4x5 but its error map is 4x4"):
         save_strip(tmp_path / "s.png", img, img, {"d": np.zeros((4, 4))}, label="e")
+
+
+def test_default_scale_is_the_99th_percentile_so_one_outlier_does_not_blacken_the_map(tmp_path):
+    e = np.tile(np.linspace(0.0, 1.0, 64), (64, 1))
+    e[0, 0] = 1000.0
+    img = pixels(save_heatmap(tmp_path / "h.png", {"d": e}, label="e"))
+    assert has_colour(img, rgb8(0.5))               # the ramp's middle keeps its colour
+    flat = pixels(save_heatmap(tmp_path / "f.png", {"d": e}, label="e", vmax=1000.0))
+    assert not has_colour(flat[:, : flat.shape[1] * 3 // 4], rgb8(0.5))

@@ -237,12 +237,15 @@ def compare_layers(a, b, *, max_rms=None, max_rel_rms=None, max_flip=None, mask=
                       mask=keep, flip_maps=flips, names=names)
 
 
-def write_pictures(result: Comparison, *, heatmap=None, strip=None, error: str = "flip") -> list[Path]:
+def write_pictures(result: Comparison, *, heatmap=None, strip=None, error: str = "flip",
+                   vmax: float | None = None) -> list[Path]:
     """Write the heat map and/or the A | B | error strip of ``result``; return the paths.
 
     error : {'flip', 'abs'}
         FLIP per pixel (0..1, the same scale for every image), or the largest absolute
-        channel error (radiance units, scaled to each layer's maximum).
+        channel error (radiance units).
+    vmax : float, optional
+        Top of the colour bars; default 1 for FLIP, each layer's 99th percentile for 'abs'.
     """
     from .plots import save_heatmap, save_strip
 
@@ -252,7 +255,8 @@ def write_pictures(result: Comparison, *, heatmap=None, strip=None, error: str =
     if result.mask is not None:
         maps = {k: np.where(result.mask, v, np.nan) for k, v in maps.items()}
     label = "FLIP" if error == "flip" else "|A - B| (max over channels)"
-    vmax = 1.0 if error == "flip" else None
+    if vmax is None and error == "flip":
+        vmax = 1.0
     written = []
     if heatmap:
         written.append(save_heatmap(heatmap, maps, label=label, vmax=vmax,

@@ -50,12 +50,19 @@ def _check_maps(errors: dict) -> dict[str, np.ndarray]:
     return out
 
 
+#: Default top of an error colour bar: this percentile of the map, so that a few outlier
+#: pixels do not paint the rest black (larger values get the top colour, and the bar an arrow).
+TOP_PERCENTILE = 99.0
+
+
 def _scale(e: np.ndarray, vmax: float | None) -> float:
     if vmax is not None:
         return vmax
     finite = e[np.isfinite(e)]
-    top = float(finite.max()) if finite.size else 0.0
-    return top if top > 0 else 1.0
+    for top in ((np.percentile(finite, TOP_PERCENTILE), finite.max()) if finite.size else ()):
+        if top > 0:
+            return float(top)
+    return 1.0
 
 
 def _save(fig, path) -> Path:
@@ -67,11 +74,13 @@ def _save(fig, path) -> Path:
 
 
 def _error_panel(fig, ax, e, *, label, vmax, title):
-    im = ax.imshow(np.ma.masked_invalid(e), cmap=_cmap(), vmin=0.0, vmax=_scale(e, vmax),
+    top = _scale(e, vmax)
+    im = ax.imshow(np.ma.masked_invalid(e), cmap=_cmap(), vmin=0.0, vmax=top,
                    interpolation="nearest")
     ax.set_title(title, fontsize=9)
     ax.set_axis_off()
-    fig.colorbar(im, ax=ax, shrink=0.85, label=label)
+    over = bool(np.nanmax(e) > top) if np.isfinite(e).any() else False
+    fig.colorbar(im, ax=ax, shrink=0.85, label=label, extend="max" if over else "neither")
 
 
 def save_heatmap(path, errors: dict, *, label: str, vmax: float | None = None,
@@ -79,7 +88,7 @@ def save_heatmap(path, errors: dict, *, label: str, vmax: float | None = None,
     """One false-colour panel with a colour bar per layer of ``errors`` ({layer: (h, w)}).
 
     vmax : float, optional
-        Top of every colour bar (1 for FLIP); default each layer's own maximum.
+        Top of every colour bar (1 for FLIP); default each layer's 99th percentile.
     """
     errors = _check_maps(errors)
     fig, axes = _figure(1, len(errors))
