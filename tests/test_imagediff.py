@@ -132,8 +132,10 @@ def test_flip_sees_a_visible_change_and_ignores_the_exposure():
     strong, weak = flip_map(a, b), flip_map(faint, b)
     assert strong[24, 24] > 0.3 and strong.mean() > 5 * weak.mean()
     assert strong[2, 2] < 0.05                   # far from the square, no error
-    # One exposure for both (B's white point): scaling both images leaves FLIP unchanged.
+    # One exposure for both (B's white point): scaling both images leaves FLIP unchanged,
+    # and an image twice as bright as its reference does not tone-map to the same picture.
     assert flip_map(10 * a, 10 * b) == pytest.approx(strong, abs=2e-3)
+    assert flip_map(0.5 * b, b).mean() > 0.1
 
 
 def test_compare_images_keeps_its_short_form(tmp_path):
