@@ -146,3 +146,22 @@ def test_compare_images_keeps_its_short_form(tmp_path):
     assert set(out) == {"direct", "caustic"} and out["direct"]["rms"] > 0
     diff = read_layers(tmp_path / "d.exr")
     assert np.allclose(diff["direct"], np.abs(a["direct"] - b["direct"]), atol=1e-6)
+
+
+def test_png_alpha_is_left_out_and_grey_images_compare_as_rgb(tmp_path):
+    spec = oiio.ImageSpec(8, 6, 4, oiio.UINT8)
+    rgba = np.zeros((6, 8, 4), np.uint8)
+    rgba[..., 3] = 255                       # opaque everywhere
+    rgba[:3, :, 0] = 200                     # red in the top half only
+    out = oiio.ImageOutput.create(str(tmp_path / "m.png"))
+    assert out.open(str(tmp_path / "m.png"), spec) and out.write_image(rgba)
+    out.close()
+    assert read_layers(tmp_path / "m.png")["rgb"].shape == (6, 8, 3)
+    a = {"rgb": np.zeros((6, 8, 3), np.float32)}
+    b = {"rgb": np.zeros((6, 8, 3), np.float32)}
+    a["rgb"][3:] = 1.0                       # differs only where the mask is black
+    r = compare_layers(a, b, max_rms=0.0, mask=str(tmp_path / "m.png"))
+    assert r.passed and r.mask.sum() == 24
+    grey = oiio.ImageBuf(oiio.ImageSpec(8, 6, 1, oiio.FLOAT))
+    grey.write(str(tmp_path / "g.exr"))
+    assert compare_layers(tmp_path / "g.exr", b).metrics["rgb"]["rms"] == 0

@@ -45,19 +45,23 @@ FLIP_PPD = 67.0
 def as_layers(image, *, name: str) -> dict[str, np.ndarray]:
     """A path, ``{layer: array}`` or one array -> ``{layer: (h, w, 3) float32}``.
 
-    An (h, w) array becomes three equal channels; a bare array is the layer ``rgb``.
+    An (h, w) array or a one-channel layer (a grey image) becomes three equal channels; a bare
+    array is the layer ``rgb``.
     """
     if isinstance(image, (str, Path)):
-        return read_layers(image)
-    items = image.items() if isinstance(image, dict) else [("rgb", image)]
+        items = read_layers(image).items()
+    else:
+        items = image.items() if isinstance(image, dict) else [("rgb", image)]
     out = {}
     for layer, arr in items:
         arr = np.asarray(arr, dtype=np.float32)
         if arr.ndim == 2:
-            arr = np.repeat(arr[..., None], 3, axis=2)
+            arr = arr[..., None]
+        if arr.ndim == 3 and arr.shape[2] == 1:
+            arr = np.repeat(arr, 3, axis=2)
         if arr.ndim != 3 or arr.shape[2] != 3:
             raise InputError(f"{name}: layer {layer!r} has shape {arr.shape}; expected (h, w, 3) "
-                             "or (h, w)")
+                             "or (h, w): compare RGB layers")
         out[layer] = arr
     if not out:
         raise InputError(f"{name}: no layer to compare")

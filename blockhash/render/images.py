@@ -74,7 +74,11 @@ def _write(path, spec, data) -> None:
 
 
 def read_layers(path) -> dict[str, np.ndarray]:
-    """{layer: (h, w, 3) float32} from an EXR written by :func:`write_exr` (or any RGB image)."""
+    """{layer: (h, w, c) float32} from an EXR written by :func:`write_exr` (c = 3) or any image.
+
+    Channels ``layer.X`` form the layer ``layer``; unprefixed ones (R, G, B of a PNG) the layer
+    ``rgb``.  An alpha channel (``A``) is left out of a layer that has other channels.
+    """
     if not Path(path).is_file():
         raise InputError(f"{path}: no such image file")
     buf = oiio.ImageBuf(str(path))
@@ -83,9 +87,12 @@ def read_layers(path) -> dict[str, np.ndarray]:
     pixels = buf.get_pixels(oiio.FLOAT)
     names = list(buf.spec().channelnames)
     layers: dict[str, list] = {}
+    alphas: dict[str, list] = {}
     for i, name in enumerate(names):
         layer, _, chan = name.rpartition(".")
-        layers.setdefault(layer or "rgb", []).append(i)
+        (alphas if chan == "A" else layers).setdefault(layer or "rgb", []).append(i)
+    for layer, idx in alphas.items():
+        layers.setdefault(layer, idx)
     return {layer: pixels[..., idx] for layer, idx in layers.items()}
 
 
