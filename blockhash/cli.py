@@ -153,9 +153,33 @@ def _limits(pairs) -> dict | None:
     return dict(pairs) if pairs else None
 
 
-def cmd_compare(args) -> int:
+def _emit_json(dest: str, data: dict) -> None:
+    """Print ``data`` as JSON (``dest`` '-') or write it to the file ``dest``; infinite and NaN
+    numbers become the strings "inf", "-inf", "nan" (standard JSON has no such numbers)."""
     import json
+    import math
 
+    def finite(x):
+        if isinstance(x, float) and not math.isfinite(x):
+            return str(x)
+        if isinstance(x, dict):
+            return {k: finite(v) for k, v in x.items()}
+        if isinstance(x, (list, tuple)):
+            return [finite(v) for v in x]
+        return x
+
+    text = json.dumps(finite(data), indent=2, allow_nan=False)
+    if dest == "-":
+        print(text)
+        return
+    try:
+        Path(dest).write_text(text + "\n")
+    except OSError as exc:
+        raise InputError(f"--json {dest}: cannot write it ({exc.strerror}); give a writable path "
+                         "or '-' for stdout") from None
+
+
+def cmd_compare(args) -> int:
     from .render.imagediff import compare_layers, write_pictures
     from .render.images import write_exr
 
@@ -173,11 +197,7 @@ def cmd_compare(args) -> int:
         if path:
             print(f"{what}, {args.error} error: {path}", file=report)
     if args.json:
-        text = json.dumps(result.to_json(), indent=2)
-        if args.json == "-":
-            print(text)
-        else:
-            Path(args.json).write_text(text + "\n")
+        _emit_json(args.json, result.to_json())
     for failure in result.failures:
         print(f"FAIL {failure}", file=sys.stderr)
     if result.limits:
@@ -187,8 +207,6 @@ def cmd_compare(args) -> int:
 
 
 def cmd_tolerance(args) -> int:
-    import json
-
     from .render.scene_toml import load_scene
     from .render.tolerance import seed_tolerances
 
@@ -207,11 +225,7 @@ def cmd_tolerance(args) -> int:
                      title=f"{args.scene}: per-pixel spread over {args.seeds} seeds")
         print(f"spread map: {args.heatmap}", file=out)
     if args.json:
-        text = json.dumps(report.to_json(), indent=2)
-        if args.json == "-":
-            print(text)
-        else:
-            Path(args.json).write_text(text + "\n")
+        _emit_json(args.json, report.to_json())
     return 0
 
 
@@ -309,7 +323,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="compare only where this layer of A, or this image, is non-zero")
     p.add_argument("--json", metavar="PATH",
                    help="write the metrics, limits and failures as JSON to PATH ('-': stdout, "
-                        "and the table goes to stderr)")
+                        "and the table goes to stderr); infinite values are the string \"inf\"")
     p.add_argument("--heatmap", metavar="PNG", help="write a false-colour error map per layer, "
                                                     "with a colour bar")
     p.add_argument("--strip", metavar="PNG", help="write A | B | error side by side, a row per layer")

@@ -105,3 +105,23 @@ def test_a_malformed_limit_exits_2(pair, capsys, value, why):
     with pytest.raises(SystemExit) as exc:
         main(["compare", *pair, "--max-rms", value])
     assert exc.value.code == 2 and why in capsys.readouterr().err
+
+
+def test_an_unwritable_json_path_exits_2(pair, tmp_path, capsys):
+    assert main(["compare", *pair, "--json", str(tmp_path / "no" / "r.json")]) == 2
+    assert "r.json: cannot write it (No such file or directory)" in capsys.readouterr().err
+
+
+def test_json_spells_infinite_values_as_strings(tmp_path, capsys):
+    write_exr(tmp_path / "a.exr", {"rgb": np.ones((4, 4, 3))})
+    write_exr(tmp_path / "b.exr", {"rgb": np.zeros((4, 4, 3))})
+    assert main(["compare", str(tmp_path / "a.exr"), str(tmp_path / "b.exr"), "--json", "-",
+                 "--max-rel-rms", "1"]) == 1
+    report = json.loads(capsys.readouterr().out)
+    assert report["layers"]["rgb"]["relative_rms"] == "inf"
+    assert report["failures"][0]["value"] == "inf"
+
+
+def test_an_unwritable_heatmap_path_exits_2(pair, tmp_path, capsys):
+    assert main(["compare", *pair, "--heatmap", str(tmp_path / "no" / "h.png")]) == 2
+    assert "directory" in capsys.readouterr().err
