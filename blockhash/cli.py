@@ -316,7 +316,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("a")
     p.add_argument("b", help="the reference")
     for option, what in (("--max-rms", "RMS(A - B)"), ("--max-rel-rms", "RMS(A - B) / RMS(B)"),
-                         ("--max-flip", "mean FLIP, 0..1")):
+                         ("--max-flip", "mean FLIP (0..1)")):
         p.add_argument(option, type=_limit, action="append", metavar="[LAYER=]LIMIT",
                        help=f"largest {what} that passes")
     p.add_argument("--mask", metavar="LAYER_OR_IMAGE",
