@@ -2,8 +2,9 @@ import math
 
 import pytest
 
-from blockhash.index.params import (DEFAULT_REFS_PER_PHOTON, buckets_per_axis, default_params,
-                              paper_params, resolve_params)
+from blockhash.index.params import (ADAPTIVE_REFERENCE_A, DEFAULT_PHOTONS_PER_BUCKET,
+                                    DEFAULT_REFS_PER_PHOTON, adaptive_params,
+                                    paper_params, resolve_params)
 from blockhash.index.thresholds import ThresholdLayout
 from conftest import photon_set
 
@@ -21,27 +22,19 @@ def test_paper_example_of_section_5():
     assert paper_params(2_000_000, k=50, A=16).B == 6
 
 
-def test_flat_axis_gets_one_bucket_and_the_others_share_the_rest():
-    assert buckets_per_axis([1.0, 0.0, 1.0], 400) == (20, 1, 20)
-    assert buckets_per_axis([2.0, 0.001, 1.0], 200) == (20, 1, 10)
-    assert buckets_per_axis([1.0, 1.0, 1.0], 1000) == (10, 10, 10)
+@pytest.mark.parametrize("A", [1, 2, 8, 64])
+def test_default_buckets_follow_A_and_memory_stays_bounded(A):
+    pts = photon_set("caustic", 20_000)
+    p = adaptive_params(pts, k=50, A=A)
+    assert p.layout == ThresholdLayout.ADAPTIVE and p.probe
+    assert p.bucket_photons == max(10, DEFAULT_PHOTONS_PER_BUCKET * 50 * A / ADAPTIVE_REFERENCE_A)
+    # B references per bucket of S photons: L B / S references per photon, at every A.
+    assert p.L * p.B / p.bucket_photons <= DEFAULT_REFS_PER_PHOTON
 
 
-@pytest.mark.parametrize("name,flat_y", [("caustic", True), ("planar", True), ("uniform", False)])
-def test_default_preset_adapts_to_the_distribution(name, flat_y):
-    pts = photon_set(name, 100_000)
-    p = default_params(pts, k=50, A=8)
-    assert (p.P[1] == 1) == flat_y
-    assert p.layout == ThresholdLayout.NESTED
-    # About 2k photons per bucket, and the memory bound holds.
-    assert 50 <= len(pts) / p.buckets <= 200
-    assert p.refs / len(pts) <= DEFAULT_REFS_PER_PHOTON
-
-
-def test_default_tables_do_not_depend_on_A():
-    pts = photon_set("caustic", 50_000)
-    a, b = default_params(pts, k=50, A=1), default_params(pts, k=50, A=16)
-    assert (a.L, a.P, a.B) == (b.L, b.P, b.B)
+def test_paper_preset_does_not_probe():
+    pts = photon_set("uniform", 5_000)
+    assert not resolve_params(pts, k=8, A=4, preset="paper").probe
 
 
 def test_overrides_replace_only_what_is_given():

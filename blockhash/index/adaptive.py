@@ -31,10 +31,10 @@ splits, as the grid files that section 4.1 cites do:
   and never swallows both children.
 
 Every bucket then holds about ``S`` photons whatever the surfaces, and buckets
-are about as wide as they are long on each surface.  The cuts are computed on a
-seeded sample of ``SAMPLE_PER_BUCKET`` photons per expected bucket (quickselect
-on the sample, linear time per level); every photon is then hashed through the
-tree.  A query descends ``log2(N / S)`` nodes per table, one two-word node read
+are about as wide as they are long on each surface.  Each table is built over
+all photons, partitioning a copy of their codes in place (quickselect, linear
+time per level, tables on parallel threads); a photon's bucket is where its
+partition ends.  A query descends ``log2(N / S)`` nodes per table, one two-word node read
 each: about the comparisons of the paper's three binary searches.
 
 Row layout of one table, ``2 * nodes`` uint32 words; node ``i`` at ``2 i``::
@@ -50,35 +50,45 @@ the longest row (``THRESHOLD_PAD``) and the most buckets.
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 import numba
 import numpy as np
 
-from .thresholds import LEAF, MAX_DEPTH, THRESHOLD_PAD, adaptive_bucket_of, table_offsets
+from .thresholds import LEAF, MAX_DEPTH, THRESHOLD_PAD, table_offsets
 
-#: Sample photons per expected bucket from which a table's cuts are computed.  A
-#: bucket's count then varies by about 1 / sqrt(32) = 18% around S, which the
-#: slack of B absorbs; the whole sample keeps a table's build near 30 ms at N = 10^6.
-SAMPLE_PER_BUCKET = 32
+#: Nodes larger than this take their cut's code from a strided sample of this many photons
+#: (one sort) instead of a quickselect over all of them.
+SELECT_SAMPLE = 2047
 #: Photons of a node looked at to choose its axis (a strided subset).
-AXIS_PROBE = 127
+AXIS_PROBE = 31
 
 
 @numba.njit(cache=True, nogil=True)
-def _select(idx, codes, a, lo, hi, p):
-    """Reorder ``idx[lo:hi]`` so that ``idx[p]`` holds the photon of rank ``p - lo`` on axis
-    ``a``, smaller codes before it and larger after (Hoare's quickselect, median of three)."""
+def _swap(c, ids, i, j):
+    for a in range(3):
+        c[i, a], c[j, a] = c[j, a], c[i, a]
+    ids[i], ids[j] = ids[j], ids[i]
+
+
+@numba.njit(cache=True, nogil=True)
+def _select(c, ids, a, lo, hi, p):
+    """Reorder rows ``lo:hi`` of ``c`` (and ``ids``) so that row ``p`` holds the code of rank
+    ``p - lo`` on axis ``a``, smaller codes before it and larger after (Hoare's quickselect,
+    median of three)."""
     while hi - lo > 1:
         mid = (lo + hi - 1) // 2
-        x, y, z = codes[idx[lo], a], codes[idx[mid], a], codes[idx[hi - 1], a]
+        x, y, z = c[lo, a], c[mid, a], c[hi - 1, a]
         pivot = max(min(x, y), min(max(x, y), z))
         i, j = lo, hi - 1
         while i <= j:
-            while codes[idx[i], a] < pivot:
+            while c[i, a] < pivot:
                 i += 1
-            while codes[idx[j], a] > pivot:
+            while c[j, a] > pivot:
                 j -= 1
             if i <= j:
-                idx[i], idx[j] = idx[j], idx[i]
+                _swap(c, ids, i, j)
                 i += 1
                 j -= 1
         if p <= j:
@@ -90,16 +100,16 @@ def _select(idx, codes, a, lo, hi, p):
 
 
 @numba.njit(cache=True, nogil=True)
-def _spreads(idx, codes, lo, hi, scale):
+def _spreads(c, lo, hi, scale):
     """(3, 3) per axis: interquartile, 5th-95th percentile and full range in metres, from
-    at most ``AXIS_PROBE`` photons of ``idx[lo:hi]`` taken at a fixed stride."""
-    c = hi - lo
-    m = min(c, AXIS_PROBE)
+    at most ``AXIS_PROBE`` rows of ``c[lo:hi]`` taken at a fixed stride."""
+    n = hi - lo
+    m = min(n, AXIS_PROBE)
     out = np.zeros((3, 3))
     v = np.empty(m, dtype=np.float64)
     for a in range(3):
         for r in range(m):
-            v[r] = codes[idx[lo + (r * c) // m], a]
+            v[r] = c[lo + (r * n) // m, a]
         v.sort()
         out[a, 0] = (v[(3 * m) // 4] - v[m // 4]) * scale[a]
         out[a, 1] = (v[(19 * m) // 20] - v[m // 20]) * scale[a]
@@ -125,62 +135,76 @@ def _widest(spread):
 
 
 @numba.njit(cache=True, nogil=True)
-def _build_tree(codes, idx, S, offsets, scale):
-    """Nodes (2 words each) and bucket count of one table over the sample ``codes[idx]``."""
-    M = idx.shape[0]
-    nodes = np.empty(2 * (2 * M + 1), dtype=np.uint32)
+def _build_tree(codes, S, offsets, scale):
+    """Nodes (2 words each), the bucket of every photon and the bucket count of one table."""
+    n = codes.shape[0]
+    c = codes.copy()
+    ids = np.arange(n)
+    keys = np.empty(n, dtype=np.int64)
+    cap = 2 * max(1, int(np.round(n / S))) + 64
+    nodes = np.empty(2 * cap, dtype=np.uint32)
+    depth = np.zeros(cap, dtype=np.int64)
     stack = np.empty((MAX_DEPTH + 2, 4), dtype=np.int64)  # node, lo, hi, buckets wanted
-    stack[0] = (0, 0, M, max(1, int(np.round(M / S))))
-    depth = np.zeros(2 * M + 1, dtype=np.int64)
+    stack[0] = (0, 0, n, max(1, int(np.round(n / S))))
+    buf = np.empty(SELECT_SAMPLE, dtype=np.uint32)
     top = 1
     used = 1
     buckets = 0
     while top > 0:
         top -= 1
         node, lo, hi, m = stack[top]
-        c = hi - lo
+        size = hi - lo
         a = -1
         dims = 0
-        if m >= 2 and c >= 2 and depth[node] < MAX_DEPTH - 1:
-            a, dims = _widest(_spreads(idx, codes, lo, hi, scale))
+        if m >= 2 and size >= 2 and depth[node] < MAX_DEPTH - 1 and used + 2 <= cap:
+            a, dims = _widest(_spreads(c, lo, hi, scale))
         split = -1
         t = np.uint32(0)
         if a >= 0:
             # Shift the cut by up to half a layer of buckets along the axis: m ** (1 / dims)
             # layers, at least the two children.
             layers = max(2.0, m ** (1.0 / dims))
-            target = c * (0.5 + offsets[depth[node] % offsets.shape[0]] / layers)
-            p = min(max(int(target), 0), c - 1)
-            _select(idx, codes, a, lo, hi, lo + p)
-            v = codes[idx[lo + p], a]
+            target = size * (0.5 + offsets[depth[node] % offsets.shape[0]] / layers)
+            if size > SELECT_SAMPLE:
+                # The cut's code from a strided sample: its rank is off by about
+                # size / sqrt(SELECT_SAMPLE), under 3% of the node.
+                for r in range(SELECT_SAMPLE):
+                    buf[r] = c[lo + (r * size) // SELECT_SAMPLE, a]
+                buf.sort()
+                v = buf[min(int(target / size * SELECT_SAMPLE), SELECT_SAMPLE - 1)]
+            else:
+                p = min(max(int(target), 0), size - 1)
+                _select(c, ids, a, lo, hi, lo + p)
+                v = c[lo + p, a]
             below = 0
             equal = 0
             for r in range(lo, hi):
-                x = codes[idx[r], a]
+                x = c[r, a]
                 if x < v:
                     below += 1
                 elif x == v:
                     equal += 1
             # Threshold v puts the run of code v right (left = below); v + 1 puts it left.
-            if below == 0 or (below + equal < c and abs(below + equal - target) < abs(below - target)):
-                if below + equal < c:
+            if below == 0 or (below + equal < size and abs(below + equal - target) < abs(below - target)):
+                if below + equal < size:
                     t = np.uint32(v + 1)
                     split = below + equal
             else:
                 t = v
                 split = below
             if split > 0:
-                # Partition idx[lo:hi] by code < t (selection left it only roughly so).
                 i, j = lo, hi - 1
                 while i <= j:
-                    if codes[idx[i], a] < t:
+                    if c[i, a] < t:
                         i += 1
                     else:
-                        idx[i], idx[j] = idx[j], idx[i]
+                        _swap(c, ids, i, j)
                         j -= 1
         if split <= 0:
             nodes[2 * node] = 0
             nodes[2 * node + 1] = (np.uint32(buckets) << 3) | LEAF
+            for r in range(lo, hi):
+                keys[ids[r]] = buckets
             buckets += 1
             continue
         left = used
@@ -188,26 +212,15 @@ def _build_tree(codes, idx, S, offsets, scale):
         nodes[2 * node] = t
         nodes[2 * node + 1] = (np.uint32(left) << 3) | np.uint32(a)
         depth[left] = depth[left + 1] = depth[node] + 1
-        m_left = min(max(int(np.round(m * split / c)), 1), m - 1)
+        m_left = min(max(int(np.round(m * split / size)), 1), m - 1)
         stack[top] = (left + 1, lo + split, hi, m - m_left)
         stack[top + 1] = (left, lo, lo + split, m_left)
         top += 2
-    return nodes[:2 * used], buckets
+    return nodes[:2 * used], keys, buckets
 
 
-@numba.njit(cache=True, nogil=True, parallel=True)
-def _hash_all(codes, rows):
-    L = rows.shape[0]
-    n = codes.shape[0]
-    keys = np.empty((L, n), dtype=np.int64)
-    for j in numba.prange(n):
-        for t in range(L):
-            keys[t, j] = adaptive_bucket_of(rows[t], codes[j, 0], codes[j, 1], codes[j, 2])
-    return keys
-
-
-def build_adaptive(codes, *, L: int, photons_per_bucket: float, scale,
-                   seed: int = 0) -> tuple[np.ndarray, np.ndarray, int]:
+def build_adaptive(codes, *, L: int, photons_per_bucket: float,
+                   scale) -> tuple[np.ndarray, np.ndarray, int]:
     """Rows of ``L`` adaptive tables over ``codes``.
 
     Parameters
@@ -216,7 +229,6 @@ def build_adaptive(codes, *, L: int, photons_per_bucket: float, scale,
     L : int                    tables
     photons_per_bucket : float target photons per bucket, S (> 0)
     scale : (3,) float         metres per code step on each axis (extents compare in metres)
-    seed : int                 seed of the sample the cuts are computed on
 
     Returns
     -------
@@ -225,19 +237,16 @@ def build_adaptive(codes, *, L: int, photons_per_bucket: float, scale,
     buckets : int              buckets per table (the largest table's count)
     """
     codes = np.ascontiguousarray(codes, dtype=np.uint32)
-    n = len(codes)
-    S = float(photons_per_bucket)
-    M = min(n, int(SAMPLE_PER_BUCKET * max(1.0, n / S)))
-    rng = np.random.default_rng(seed)
-    sample = np.sort(rng.choice(n, M, replace=False)) if M < n else np.arange(n)
-    S_sample = S * M / n
     offsets = table_offsets(L * MAX_DEPTH)[:, 0].reshape(MAX_DEPTH, L).T.copy()
     scale = np.asarray(scale, dtype=np.float64)
-    rows = []
-    for t in range(L):
-        rows.append(_build_tree(codes, sample.copy(), S_sample, offsets[t], scale))
-    T = max(len(r) for r, _ in rows)
+    S = float(photons_per_bucket)
+    workers = max(1, min(L, os.cpu_count() or 1))
+    with ThreadPoolExecutor(max_workers=workers) as pool:  # numba releases the GIL (nogil)
+        tables = list(pool.map(lambda t: _build_tree(codes, S, offsets[t], scale), range(L)))
+    T = max(len(r) for r, _, _ in tables)
     out = np.full((L, T), THRESHOLD_PAD, dtype=np.uint32)
-    for t, (row, _) in enumerate(rows):
+    keys = np.empty((L, len(codes)), dtype=np.int64)
+    for t, (row, k, _) in enumerate(tables):
         out[t, :len(row)] = row
-    return out, _hash_all(codes, out), max(b for _, b in rows)
+        keys[t] = k
+    return out, keys, max(b for _, _, b in tables)

@@ -215,7 +215,8 @@ class BlockHashIndex:
             reference_bytes=prm.refs * WORD, threshold_bytes=self.thresholds.size * WORD,
             priority_bytes=prm.L * prm.buckets * WORD)
 
-    def query(self, points, k=None, *, A=None, by_priority: bool = True, slot_bits: int = 0):
+    def query(self, points, k=None, *, A=None, by_priority: bool = True, slot_bits: int = 0,
+              probe: bool | None = None):
         """Approximate k nearest photons, like ``scipy.spatial.cKDTree.query``.
 
         Parameters
@@ -236,6 +237,9 @@ class BlockHashIndex:
             the candidate's number; passing its value (``gl.lookup.slot_bits(L, B)``)
             reproduces that variant exactly.  Neighbours then differ from the exact
             selection only where squared distances agree to 2**-(23 - slot_bits).
+        probe : bool, optional
+            Multi-probe beyond the query's own buckets while the cap allows
+            (:mod:`blockhash.index.query`); default: the preset's (on for 'default').
 
         Returns
         -------
@@ -257,7 +261,8 @@ class BlockHashIndex:
         d2, slots, examined, fetched = bh_query(
             self.quantizer.quantize_query(qf), qf, self.thresholds, np.asarray(prm.P, dtype=np.int64),
             int(prm.layout), self.tables.refs, self.priority, self.starts,
-            self._positions, k_eff, A_eff * k_eff, by_priority, slot_bits)
+            self._positions, k_eff, A_eff * k_eff, by_priority, slot_bits,
+            prm.probe if probe is None else bool(probe), self.quantizer.step.astype(np.float32))
         d2[~finite] = np.inf
         slots[~finite] = -1
         self.counters = {

@@ -1,40 +1,28 @@
 """Block Hashing parameters and their presets (paper section 5).
 
-``BlockHashParams`` holds k, A, L, P (buckets per axis) and B.  Two presets
-choose them from the photon set:
+``BlockHashParams`` holds k, A, L, P (buckets per axis, grid layouts) and B.
+Two presets choose them:
 
 ``paper``
     Exactly section 5: ``L = P = round(ln N)`` on every axis and
-    ``B = ceil(A k / (10 L))``, marginal thresholds.  Kept so that the
-    paper's figures can be reproduced.  ``P = ln N`` grows much more slowly than the ``(N / k)^(1/3)``
-    that puts about k photons in a bucket, so accuracy falls as N grows, and on
-    a planar caustic only ``P^2`` of the ``P^3`` buckets are live.
+    ``B = ceil(A k / (10 L))``, marginal thresholds, buckets visited by priority
+    alpha, no probing.  Kept so that the paper's figures can be reproduced.
+    ``P = ln N`` grows much more slowly than the ``(N / k)^(1/3)`` that puts
+    about k photons in a bucket, so accuracy falls as N grows, and on a planar
+    caustic only ``P^2`` of the ``P^3`` buckets are live.
 
 ``default``
-    Sizes buckets to the photon distribution, in four steps:
+    The adaptive layout (:mod:`blockhash.index.adaptive`): each table a kd-tree
+    of count thresholds with buckets of ``S`` photons on whatever surfaces the
+    photons lie; buckets visited deepest first and multi-probed across their
+    nearest borders (:mod:`blockhash.index.query`).  A is the one knob:
+    ``S = DEFAULT_PHOTONS_PER_BUCKET * k * A / ADAPTIVE_REFERENCE_A`` grows with
+    the candidate budget ``A k``, and ``B`` with ``S``, so the memory per photon
+    stays about ``L B / S`` at every A.
 
-    1. the number of buckets is set so that a bucket holds about
-       ``DEFAULT_PHOTONS_PER_BUCKET * k`` photons;
-    2. each axis gets buckets in proportion to its robust extent (the 5th-95th
-       percentile range); an axis thinner than one bucket gets a single bucket
-       (a caustic on a floor hashes in x and z only), and so does an axis on
-       which one plane holds more than ``PLANE_SHARE`` of the photons (a floor
-       with a lit wall: quantile thresholds cannot split photons that share one
-       coordinate, so splitting that axis only overfills the floor's buckets);
-    3. the buckets are rebalanced over the live axes so that the nested grid's
-       buckets are less elongated (:func:`balance_nested_shape`): nested
-       thresholds cut x into slabs from the x marginal alone, so in dense
-       regions (a caustic band, a cluster) buckets come out wide in x and thin
-       in the axes split later;
-    4. ``B`` holds up to ``DEFAULT_BLOCK_SLACK`` times the blocks that a bucket's
-       photons fill (blocks straddle bucket borders), capped by the memory bound
-       of ``DEFAULT_REFS_PER_PHOTON`` block references per photon.
-
-    Thresholds are nested (:class:`~blockhash.index.thresholds.ThresholdLayout`), so
-    every bucket holds about that many photons however clustered the caustic is.
-
-The default preset's constants were chosen with ``tools/tune_params.py``; each
-says which measurement fixed it.  Every parameter can be overridden by keyword.
+Constants were chosen with ``tools/eval_accuracy.py`` on its TUNE photon maps
+(uniform, clustered, caustic, the ring scene's) and are reported on maps that
+chose nothing (BENCHMARKS.md).  Every parameter can be overridden by keyword.
 """
 
 from __future__ import annotations
@@ -62,7 +50,7 @@ MAX_REFS = 1 << 28
 #: docstring): mean average dilation 1.0377/1.0394 at 1.25, 1.0345/1.0372 at 1.5,
 #: 1.0354/1.0378 at 1.75, 1.0390/1.0397 at 2 (the old value).  Smaller buckets are each
 #: covered by fewer candidates; larger ones spend the A*k budget in fewer tables.
-DEFAULT_PHOTONS_PER_BUCKET = 1.5
+DEFAULT_PHOTONS_PER_BUCKET = 0.75
 #: The A at which the default preset's buckets hold DEFAULT_PHOTONS_PER_BUCKET * k photons;
 #: they grow in proportion to A, so that the L buckets a query visits hold about its A * k
 #: candidates (the paper's B = ceil(A k / 10 L) rule, with the buckets sized instead).
@@ -79,36 +67,6 @@ DEFAULT_REFS_PER_PHOTON = 2.4
 #: --slack 2,2.5,3,3.5 (same runs): 1.0398/1.0410, 1.0364/1.0392, 1.0345/1.0372, 1.0346/1.0368;
 #: 3 takes nearly all of the gain at 2.15 references per photon (3.5 nears the cap above: 2.34).
 DEFAULT_BLOCK_SLACK = 3.0
-#: Percentiles bounding an axis' robust extent: 5% of photons off the plane do not
-#: make an axis live.
-EXTENT_PERCENTILES = (5.0, 95.0)
-#: Photons sampled (without replacement, seeded) to measure extents, planes and bucket shapes.
-EXTENT_SAMPLE = 200_000
-#: An axis on which more than this share of the photons share one coordinate gets one bucket.
-#: Measured on caustic-like floors with a lit ring wall of growing weight (N = 3 x 10^5, k = 50,
-#: tools/tune_params.py --data caustic-wallNN): with 94%, 88% and 75% of the photons on the floor
-#: one y bucket beats splitting y (mean average dilation 1.029 vs 1.105, 1.057 vs 1.418, 1.171 vs
-#: 1.396); with 48% and 24% splitting y wins (1.184 vs 1.606, 1.071 vs 2.197).
-PLANE_SHARE = 0.5
-#: "One coordinate" means within this fraction of the largest robust extent: far below any bucket
-#: side (MAX_P buckets per axis), far above the rounding of a float64 ray-plane hit (~1e-16).
-PLANE_TOLERANCE = 1e-6
-#: Strength of the nested-shape rebalancing (:func:`balance_nested_shape`); 1 would equalise the
-#: buckets' mean log2 spread over the live axes as measured on the coarse grid below.
-#: --shape 0,0.5,0.75,1,1.5,2 (N = 10^6, k = 50, 20,000 queries, seed 0): caustic-like
-#: 1.0448/1.0380/1.0358/1.0355/1.0396/1.0481, 'clustered' 1.1038/1.0546/1.0415/1.0323/1.0361/1.0425.
-#: With caustic-like queries drawn apart from the photons (--query-mode seed, as
-#: tests/test_index.py draws them: other hot spots, so more queries in the dim background, where
-#: balancing makes buckets taller), seeds 3 and 4 (50,000 queries): 1.0500/1.0561 at 0.5,
-#: 1.0490/1.0579 at 0.75, 1.0505/1.0609 at 1.  0.75 is the compromise.
-SHAPE_STRENGTH = 0.75
-#: Photons (at most, a seeded sample) on which planes and bucket shapes are measured, and photons
-#: per bucket of the coarse grid that measures shapes: 16 give each bucket a usable spread, and
-#: 50,000 photons keep both measurements near 30 ms at N = 10^6 (the build takes ~1.1 s).
-SHAPE_SAMPLE = 50_000
-SHAPE_PHOTONS_PER_BUCKET = 16
-
-
 @dataclass(frozen=True)
 class BlockHashParams:
     """Parameters of a block hashing index.
@@ -135,11 +93,9 @@ class BlockHashParams:
     #: the build made (0 until then).
     bucket_photons: float = 0.0
     adaptive_buckets: int = 0
-
-    @property
-    def axis(self) -> int:
-        """ADAPTIVE layout: the level-1 axis, the one with the most buckets in P."""
-        return int(np.argmax(self.P))
+    #: Multi-probe the buckets beyond the query's own when the candidate cap allows
+    #: (:mod:`blockhash.index.query`, step 4).
+    probe: bool = False
 
     @property
     def buckets(self) -> int:
@@ -158,8 +114,8 @@ class BlockHashParams:
         if self.layout == ThresholdLayout.ADAPTIVE:
             built = f", buckets={self.adaptive_buckets:,}" if self.adaptive_buckets else ""
             return (f"BlockHashParams(preset={self.preset!r}, k={self.k}, A={self.A}, L={self.L}, "
-                    f"P1={self.P[self.axis]} on {'xyz'[self.axis]}, "
-                    f"S={self.bucket_photons:g} photons/bucket{built}, B={self.B}, layout=adaptive)")
+                    f"S={self.bucket_photons:g} photons/bucket{built}, B={self.B}, layout=adaptive"
+                    f"{', probe' if self.probe else ''})")
         return (f"BlockHashParams(preset={self.preset!r}, k={self.k}, A={self.A}, L={self.L}, "
                 f"P=({px}, {py}, {pz}), B={self.B}, layout={self.layout.name.lower()})")
 
@@ -170,27 +126,6 @@ def paper_params(n: int, *, k: int, A: int) -> BlockHashParams:
     B = math.ceil(A * k / (PHOTONS_PER_BLOCK * lnN))
     return BlockHashParams(k=k, A=A, L=lnN, P=(lnN, lnN, lnN), B=B,
                            layout=ThresholdLayout.MARGINAL, preset="paper")
-
-
-def photon_sample(positions: np.ndarray, *, sample: int = EXTENT_SAMPLE, seed: int = 0) -> np.ndarray:
-    """At most ``sample`` photons drawn without replacement (in random order), seeded."""
-    if len(positions) > sample:
-        return positions[np.random.default_rng(seed).choice(len(positions), sample, replace=False)]
-    return positions
-
-
-def plane_shares(positions: np.ndarray, tolerance: float) -> np.ndarray:
-    """(3,) largest share of photons whose coordinate on each axis lies within ``tolerance``
-    of one value (1.0 on an axis where all photons share one coordinate)."""
-    n = len(positions)
-    out = np.zeros(3)
-    if n == 0:
-        return out
-    for a in range(3):
-        v = np.sort(positions[:, a])
-        inside = np.searchsorted(v, v + tolerance, side="right") - np.arange(n)
-        out[a] = inside.max() / n
-    return out
 
 
 def buckets_per_axis(extents, cells: float) -> tuple[int, int, int]:
@@ -213,122 +148,13 @@ def buckets_per_axis(extents, cells: float) -> tuple[int, int, int]:
     return tuple(int(min(p, MAX_P)) for p in P)
 
 
-def nested_cells(sample: np.ndarray, P) -> np.ndarray:
-    """(m,) bucket of each photon of ``sample`` in an equal-count nested grid.
-
-    The grid is the one ``ThresholdLayout.NESTED`` builds with ``P`` buckets per
-    axis and no table offset: x slabs of equal count, then y per slab, then z
-    per (x, y) column, each from the photons it splits.
-    """
-    m = len(sample)
-    g = np.zeros(m, dtype=np.int64)
-    for a in range(3):
-        p = int(P[a])
-        if p == 1:
-            continue
-        order = np.argsort(sample[:, a], kind="stable")
-        if g.any():
-            rank = np.empty(m, dtype=np.int64)
-            rank[order] = np.arange(m)
-            order = np.argsort(g * m + rank)
-        gs = g[order]
-        count = np.bincount(gs)
-        pos = np.arange(m) - (np.cumsum(count) - count)[gs]
-        g[order] = gs * p + pos * p // count[gs]
-    return g
-
-
-def nested_log_spread(sample: np.ndarray, P) -> np.ndarray:
-    """(3,) mean over the buckets of :func:`nested_cells` of log2 of the photons'
-    standard deviation along each axis.
-
-    NaN on axes with one bucket, and on every axis when fewer than 32 buckets,
-    or fewer than 90% of those holding two photons or more, have a spread on
-    every split axis: buckets flat along a split axis (a floor inside a 3D grid)
-    have no shape to measure, and where they are common the grid's shape is set
-    by that plane rather than by the photon density.
-    """
-    live = [a for a in range(3) if P[a] > 1]
-    out = np.full(3, np.nan)
-    if not live or len(sample) < 2:
-        return out
-    g = nested_cells(sample, P)
-    nb = int(g.max()) + 1
-    c = np.bincount(g, minlength=nb).astype(np.float64)
-    var = np.zeros((3, nb))
-    for a in live:
-        mean = np.bincount(g, sample[:, a], nb) / np.maximum(c, 1.0)
-        var[a] = np.bincount(g, sample[:, a] ** 2, nb) / np.maximum(c, 1.0) - mean * mean
-    filled = c >= 2
-    ok = filled & np.all(var[live] > 0, axis=0)
-    if ok.sum() >= max(32, 0.9 * filled.sum()):
-        for a in live:
-            out[a] = np.mean(0.5 * np.log2(var[a, ok]))
-    return out
-
-
-def balance_nested_shape(sample: np.ndarray, P, cells: float, *,
-                         strength: float = SHAPE_STRENGTH) -> tuple[int, int, int]:
-    """Move buckets between the live axes so that nested buckets are less elongated.
-
-    Nested thresholds cut x by its marginal alone, so a slab is as wide in a
-    dense caustic band as in the dim background around it; the later axes, split
-    per slab or column, then cut the band finely and the background coarsely.
-    Photon-weighted, buckets come out too wide in x: the geometric mean of the
-    buckets' x / z spread is ~2.9 on the caustic-like set at P = (95, 1, 106), and
-    on 'clustered' at P = (22, 19, 24) the x, y, z spreads are ~3.4, ~0.8 and ~0.4
-    times their geometric mean.
-
-    ``sample`` is a random sample of the photons (at most ``SHAPE_SAMPLE`` keep
-    this near 20 ms).  The spread is measured on a grid with the proportions of
-    ``P`` and about ``SHAPE_PHOTONS_PER_BUCKET`` photons of ``sample`` per bucket
-    (:func:`nested_log_spread`); each live axis' bucket count is multiplied by
-    ``2 ** (strength * d)``, ``d`` being its excess log2 spread over the mean of
-    the live axes, which keeps the total.  Uniform data measure ``|d| < 0.03``.
-    """
-    live = [a for a in range(3) if P[a] > 1]
-    if strength == 0 or len(live) < 2:
-        return tuple(int(p) for p in P)
-    f = min(1.0, len(sample) / SHAPE_PHOTONS_PER_BUCKET / max(cells, 1.0)) ** (1.0 / len(live))
-    spread = nested_log_spread(sample, [max(2, round(P[a] * f)) if a in live else 1 for a in range(3)])
-    if np.isnan(spread[live]).any():
-        return tuple(int(p) for p in P)
-    d = spread - np.mean(spread[live])
-    return tuple(int(min(MAX_P, max(2, round(P[a] * 2.0 ** (strength * d[a]))))) if a in live else 1
-                 for a in range(3))
-
-
-def default_params(positions: np.ndarray, *, k: int, A: int,
-                   photons_per_bucket: float = DEFAULT_PHOTONS_PER_BUCKET,
-                   L: int = DEFAULT_L,
-                   refs_per_photon: float = DEFAULT_REFS_PER_PHOTON,
-                   block_slack: float = DEFAULT_BLOCK_SLACK,
-                   plane_share: float = PLANE_SHARE,
-                   shape_strength: float = SHAPE_STRENGTH) -> BlockHashParams:
-    """Distribution-adapted parameters (see the module docstring).
-
-    ``A`` does not change the tables: it only sets how many candidates a query
-    examines, so one index serves every accuracy setting.  The keywords are the
-    preset's constants, exposed for tools/tune_params.py.
-    """
-    n = len(positions)
-    cells = max(1.0, n / (photons_per_bucket * k))
-    sample = photon_sample(positions)
-    lo, hi = np.percentile(sample, EXTENT_PERCENTILES, axis=0)
-    extents = hi - lo
-    small = photon_sample(sample, sample=SHAPE_SAMPLE, seed=1)
-    planes = plane_shares(small, PLANE_TOLERANCE * float(extents.max()))
-    flat = planes > plane_share
-    if not flat.all():
-        # All three flat is a point, not a plane: leave that to the extents.
-        extents = np.where(flat, 0.0, extents)
-    P = buckets_per_axis(extents, cells)
-    P = balance_nested_shape(small, P, cells, strength=shape_strength)
-    buckets = P[0] * P[1] * P[2]
-    B_need = math.ceil(block_slack * (n / buckets) / PHOTONS_PER_BLOCK)
-    B_budget = max(1, int(refs_per_photon * n / (L * buckets)))
-    B = max(1, min(B_need, B_budget, MAX_B))
-    return BlockHashParams(k=k, A=A, L=L, P=P, B=B, layout=ThresholdLayout.NESTED, preset="default")
+def grid_params(positions: np.ndarray, params: BlockHashParams, layout) -> BlockHashParams:
+    """The default preset on a grid layout (``layout=`` given without ``P=``): buckets of the
+    same S photons, spread over the axes by their 5th-95th percentile extents."""
+    sample = positions[::max(1, len(positions) // 200_000)]
+    lo, hi = np.percentile(sample, (5.0, 95.0), axis=0)
+    P = buckets_per_axis(hi - lo, len(positions) / params.bucket_photons)
+    return replace(params, P=P, layout=layout, probe=False, bucket_photons=0.0)
 
 
 def adaptive_params(positions: np.ndarray, *, k: int, A: int,
@@ -337,18 +163,13 @@ def adaptive_params(positions: np.ndarray, *, k: int, A: int,
                     refs_per_photon: float = DEFAULT_REFS_PER_PHOTON,
                     block_slack: float = DEFAULT_BLOCK_SLACK) -> BlockHashParams:
     """The default preset: the ADAPTIVE layout (:mod:`.adaptive`) with buckets of
-    ``photons_per_bucket * k`` photons; level 1 cuts the axis that
-    :func:`buckets_per_axis` gives the most buckets, into that many slabs."""
-    n = len(positions)
+    ``S = photons_per_bucket * k * A / ADAPTIVE_REFERENCE_A`` photons (at least a block's)."""
     S = max(PHOTONS_PER_BLOCK, photons_per_bucket * k * A / ADAPTIVE_REFERENCE_A)
-    sample = photon_sample(positions)
-    lo, hi = np.percentile(sample, EXTENT_PERCENTILES, axis=0)
-    P = buckets_per_axis(hi - lo, max(1.0, n / S))
     B_need = math.ceil(block_slack * S / PHOTONS_PER_BLOCK)
     B_budget = max(1, int(refs_per_photon * S / L))
     B = max(1, min(B_need, B_budget, MAX_B))
-    return BlockHashParams(k=k, A=A, L=L, P=P, B=B, layout=ThresholdLayout.ADAPTIVE,
-                           preset="default", bucket_photons=float(S))
+    return BlockHashParams(k=k, A=A, L=L, P=(1, 1, 1), B=B, layout=ThresholdLayout.ADAPTIVE,
+                           preset="default", bucket_photons=float(S), probe=True)
 
 
 def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",
@@ -379,8 +200,16 @@ def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",
         if str(layout).lower() not in names:
             raise InputError(f"layout={layout!r} is not known; choose one of {', '.join(names)}")
         changes["layout"] = ThresholdLayout[str(layout).upper()]
+        if P is None and params.layout == ThresholdLayout.ADAPTIVE and \
+                changes["layout"] != ThresholdLayout.ADAPTIVE:
+            params = grid_params(positions, params, changes.pop("layout"))
+            changes["P"] = params.P
     if changes:
         params = replace(params, preset=f"{params.preset}+overrides", **changes)
+    if params.layout != ThresholdLayout.ADAPTIVE:  # probing follows the adaptive layout's cuts
+        params = replace(params, probe=False, bucket_photons=0.0)
+    elif params.bucket_photons == 0.0:  # the paper's preset on the adaptive layout
+        params = replace(params, bucket_photons=adaptive_params(positions, k=k, A=A).bucket_photons)
     if params.L > MAX_L or params.B > MAX_B:
         raise InputError(f"{params!r} exceeds L <= {MAX_L}, B <= {MAX_B}; pass smaller L or B")
     refs = params.refs

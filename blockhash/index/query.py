@@ -12,7 +12,15 @@ shader runs, in arithmetic the shader reproduces bit for bit:
    skipping blocks already taken, until at least ``A * k`` candidate photons
    have been taken (the check is made before each block, so a query examines
    at most ``A * k + 9`` photons);
-4. keep the k nearest candidates by float32 squared distance
+4. multi-probe (``probe``, adaptive layout; query-directed probing after Lv et
+   al., VLDB 2007): while the cap allows, take the blocks of the bucket across
+   the nearest cut of the query's path in each table (tables in the same
+   order), then across the second nearest, up to ``PROBE_CUTS``: the query's
+   code on the cut's axis is replaced by the code just across the cut, and the
+   tree descended again.  In the adaptive layout, "priority" in step 2 is the
+   query's distance to the nearest cut of its path, largest first (the table
+   whose bucket holds the query deepest inside);
+5. keep the k nearest candidates by float32 squared distance
    ``((dx*dx + dy*dy) + dz*dz)`` with ``d = p - q`` and ``p`` the decoded
    float32 photon position; equal distances are ordered by the photon's
    position in block order (the shader's candidate slot order).
@@ -26,12 +34,65 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .thresholds import bucket_of
+from .thresholds import PROBE_CUTS, adaptive_bucket_of, adaptive_descend, bucket_of
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _take(ti, key, refs, starts, positions, qx, qy, qz, taken, ntaken, count, cap, k, bd, bs,
+          packed, mask, slot_bits, bits, bits_u):
+    """Take the blocks of bucket ``key`` of table ``ti`` not yet taken, while under the cap."""
+    B = refs.shape[2]
+    for r in range(B):
+        if count >= cap:
+            break
+        blk = refs[ti, key, r]
+        if blk < 0:
+            break
+        dup = False
+        for j in range(ntaken):
+            if taken[j] == blk:
+                dup = True
+                break
+        if dup:
+            continue
+        taken[ntaken] = blk
+        ntaken += 1
+        for s in range(starts[blk], starts[blk + 1]):
+            count += 1
+            dx = positions[s, 0] - qx
+            dy = positions[s, 1] - qy
+            dz = positions[s, 2] - qz
+            dd = (dx * dx + dy * dy) + dz * dz
+            if slot_bits > 0:
+                bits[0] = dd
+                pkey = (bits_u[0] & ~mask) | np.uint32((ntaken - 1) * 10 + (s - starts[blk]))
+                if pkey < packed[k - 1]:
+                    j = k - 1
+                    while j > 0 and packed[j - 1] > pkey:
+                        packed[j] = packed[j - 1]
+                        j -= 1
+                    packed[j] = pkey
+                continue
+            if dd < bd[k - 1] or (dd == bd[k - 1] and s < bs[k - 1]) or bs[k - 1] < 0:
+                j = k - 1
+                while j > 0 and (bs[j - 1] < 0 or bd[j - 1] > dd or (bd[j - 1] == dd and bs[j - 1] > s)):
+                    bd[j] = bd[j - 1]
+                    bs[j] = bs[j - 1]
+                    j -= 1
+                bd[j] = dd
+                bs[j] = s
+    return ntaken, count
+
+
+def max_taken(L: int, B: int, cap: int, probe: bool) -> int:
+    """Most blocks one query can take: L * B from its own buckets, any number with probes,
+    and never more than the cap allows (full blocks of 10 until the cap, one partial)."""
+    return int(cap // 10 + 2 if probe else min(L * B, cap // 10 + 2))
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
 def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positions, k, cap,
-             by_priority=True, slot_bits=0):
+             by_priority=True, slot_bits=0, probe=False, step=None):
     """Approximate k nearest photons of each query.
 
     Parameters
@@ -48,6 +109,8 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
     k : int                     neighbours kept
     cap : int                   A * k, candidates examined before stopping
     by_priority : bool          order buckets by priority (False: table order, a shader variant)
+    probe : bool                multi-probe after the query's own buckets (step 4, the
+                                adaptive layout); needs the quantizer's ``step`` (3,) float32
     slot_bits : int             0: select by exact (distance, slot).  > 0: the shader's
                                 packed selection, keys (distance bits with the low
                                 ``slot_bits`` bits replaced by the candidate's number,
@@ -68,23 +131,39 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
     examined = np.zeros(m, dtype=np.int32)
     fetched = np.zeros(m, dtype=np.int32)
     mask = np.uint32((1 << slot_bits) - 1) if slot_bits > 0 else np.uint32(0)
+    adaptive = nested == 2
     for qi in numba.prange(m):
         packed = np.full(k, np.uint32(0xFFFFFFFF), dtype=np.uint32)
         bits = np.empty(1, dtype=np.float32)
         bits_u = bits.view(np.uint32)
         keys = np.empty(L, dtype=np.int64)
         order = np.empty(L, dtype=np.int64)
-        taken = np.empty(L * B, dtype=np.int32)
+        taken = np.empty(cap // 10 + 2 if probe else min(L * B, cap // 10 + 2), dtype=np.int32)
+        pc = np.empty(3, dtype=np.uint32)
+        cut_axis = np.empty((L, PROBE_CUTS), dtype=np.int64)
+        cut_code = np.empty((L, PROBE_CUTS), dtype=np.uint32)
+        cut_gap = np.empty((L, PROBE_CUTS), dtype=np.float32)
         ntaken = 0
         for t in range(L):
-            key = bucket_of(thresholds[t], P[0], P[1], P[2], nested,
-                            qcodes[qi, 0], qcodes[qi, 1], qcodes[qi, 2])
+            if adaptive:
+                key = adaptive_descend(thresholds[t], qcodes[qi, 0], qcodes[qi, 1], qcodes[qi, 2],
+                                       step, cut_axis[t], cut_code[t], cut_gap[t])
+                depth = cut_gap[t, 0]
+            else:
+                key = bucket_of(thresholds[t], P[0], P[1], P[2], nested,
+                                qcodes[qi, 0], qcodes[qi, 1], qcodes[qi, 2])
             keys[t] = key
-            # Stable insertion by priority.
+            # Stable insertion by priority: alpha ascending, or (adaptive) the query's
+            # distance to its bucket's nearest cut descending.
             j = t
-            while by_priority and j > 0 and priority[order[j - 1], keys[order[j - 1]]] > priority[t, key]:
-                order[j] = order[j - 1]
-                j -= 1
+            if adaptive:
+                while by_priority and j > 0 and cut_gap[order[j - 1], 0] < depth:
+                    order[j] = order[j - 1]
+                    j -= 1
+            else:
+                while by_priority and j > 0 and priority[order[j - 1], keys[order[j - 1]]] > priority[t, key]:
+                    order[j] = order[j - 1]
+                    j -= 1
             order[j] = t
         bd = d2[qi]
         bs = slots[qi]
@@ -94,46 +173,24 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
         qz = qpos[qi, 2]
         for oi in range(L):
             t = order[oi]
-            key = keys[t]
-            for r in range(B):
-                if count >= cap:
-                    break
-                blk = refs[t, key, r]
-                if blk < 0:
-                    break
-                dup = False
-                for j in range(ntaken):
-                    if taken[j] == blk:
-                        dup = True
+            ntaken, count = _take(t, keys[t], refs, starts, positions, qx, qy, qz, taken, ntaken,
+                                  count, cap, k, bd, bs, packed, mask, slot_bits, bits, bits_u)
+        if probe and adaptive:
+            for j in range(PROBE_CUTS):
+                for oi in range(L):
+                    if count >= cap:
                         break
-                if dup:
-                    continue
-                taken[ntaken] = blk
-                ntaken += 1
-                for s in range(starts[blk], starts[blk + 1]):
-                    count += 1
-                    dx = positions[s, 0] - qx
-                    dy = positions[s, 1] - qy
-                    dz = positions[s, 2] - qz
-                    dd = (dx * dx + dy * dy) + dz * dz
-                    if slot_bits > 0:
-                        bits[0] = dd
-                        pkey = (bits_u[0] & ~mask) | np.uint32((ntaken - 1) * 10 + (s - starts[blk]))
-                        if pkey < packed[k - 1]:
-                            j = k - 1
-                            while j > 0 and packed[j - 1] > pkey:
-                                packed[j] = packed[j - 1]
-                                j -= 1
-                            packed[j] = pkey
+                    t = order[oi]
+                    if cut_gap[t, j] == np.inf:
                         continue
-                    if dd < bd[k - 1] or (dd == bd[k - 1] and s < bs[k - 1]) or bs[k - 1] < 0:
-                        j = k - 1
-                        while j > 0 and (bs[j - 1] < 0 or bd[j - 1] > dd or (bd[j - 1] == dd and bs[j - 1] > s)):
-                            bd[j] = bd[j - 1]
-                            bs[j] = bs[j - 1]
-                            j -= 1
-                        bd[j] = dd
-                        bs[j] = s
+                    for c in range(3):
+                        pc[c] = qcodes[qi, c]
+                    pc[cut_axis[t, j]] = cut_code[t, j]
+                    key = adaptive_bucket_of(thresholds[t], pc[0], pc[1], pc[2])
+                    if key != keys[t]:
+                        ntaken, count = _take(t, key, refs, starts, positions, qx, qy, qz, taken,
+                                              ntaken, count, cap, k, bd, bs, packed, mask,
+                                              slot_bits, bits, bits_u)
         if slot_bits > 0:
             for i in range(k):
                 if packed[i] == np.uint32(0xFFFFFFFF):

@@ -113,6 +113,45 @@ def adaptive_bucket_of(row, cx, cy, cz):
     return np.int64(-1)
 
 
+#: Cuts nearest to the query, per table, that a multi-probe query may cross (PROBE_CUTS).
+PROBE_CUTS = 3
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def adaptive_descend(row, cx, cy, cz, step, cut_axis, cut_code, cut_gap):
+    """Like :func:`adaptive_bucket_of`, and also the ``PROBE_CUTS`` cuts on the path nearest
+    to the query: ``cut_gap`` (ascending, float32 metres ``|code - t| * step[axis]``, inf
+    where unused), ``cut_axis`` and ``cut_code``, the code on the cut's other side (``t - 1``
+    when the query went right, ``t`` when it went left).  Returns the bucket."""
+    for j in range(PROBE_CUTS):
+        cut_gap[j] = np.float32(np.inf)
+        cut_axis[j] = 0
+        cut_code[j] = 0
+    i = 0
+    for _ in range(MAX_DEPTH):
+        meta = row[2 * i + 1]
+        if meta & LEAF:
+            return np.int64(meta >> 3)
+        a = meta & 3
+        c = cx if a == 0 else (cy if a == 1 else cz)
+        t = row[2 * i]
+        right = c >= t
+        gap = np.float32(c - t if right else t - c) * step[a]
+        j = PROBE_CUTS
+        while j > 0 and cut_gap[j - 1] > gap:
+            if j < PROBE_CUTS:
+                cut_gap[j] = cut_gap[j - 1]
+                cut_axis[j] = cut_axis[j - 1]
+                cut_code[j] = cut_code[j - 1]
+            j -= 1
+        if j < PROBE_CUTS:
+            cut_gap[j] = gap
+            cut_axis[j] = a
+            cut_code[j] = t - 1 if right else t
+        i = np.int64(meta >> 3) + (1 if right else 0)
+    return np.int64(-1)
+
+
 @numba.njit(cache=True, nogil=True, inline="always")
 def bucket_of(thresholds, px, py, pz, nested, cx, cy, cz):
     """Bucket of one code triple in one table's row: ``hx + Px * (hy + Py * hz)`` for the

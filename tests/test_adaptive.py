@@ -1,0 +1,100 @@
+"""The adaptive layout: kd-tree rows whose buckets hold about S photons on any surface."""
+
+import numpy as np
+import pytest
+
+from blockhash import BlockHashIndex
+from blockhash.index.adaptive import build_adaptive
+from blockhash.index.fixedpoint import Quantizer
+from blockhash.index.photon_maps import MAPS
+from blockhash.index.thresholds import LEAF, ThresholdLayout, hash_codes
+
+S = 40.0
+
+
+def encoded(name, n, seed=0):
+    points = MAPS[name].photons(n, np.random.default_rng(seed))
+    q = Quantizer.for_points(points)
+    return q.encode(points), q
+
+
+def descend(row, code):
+    """The documented descent, in plain Python."""
+    i = 0
+    while True:
+        meta = int(row[2 * i + 1])
+        if meta & int(LEAF):
+            return meta >> 3
+        i = (meta >> 3) + int(int(code[meta & 3]) >= int(row[2 * i]))
+
+
+@pytest.mark.parametrize("name", ["uniform", "plane", "room", "sphere"])
+def test_keys_are_the_documented_descent(name):
+    codes, q = encoded(name, 4000)
+    rows, keys, buckets = build_adaptive(codes, L=3, photons_per_bucket=S, scale=q.step)
+    for t in range(3):
+        for j in range(0, len(codes), 37):
+            assert keys[t, j] == descend(rows[t], codes[j])
+    np.testing.assert_array_equal(hash_codes(codes, rows, (1, 1, 1), ThresholdLayout.ADAPTIVE), keys)
+    assert keys.min() >= 0 and keys.max() < buckets
+
+
+@pytest.mark.parametrize("name", ["uniform", "plane", "caustic", "room", "tilted", "sphere"])
+def test_buckets_hold_about_S_photons_on_every_surface(name):
+    n = 60_000
+    codes, q = encoded(name, n)
+    _, keys, buckets = build_adaptive(codes, L=2, photons_per_bucket=S, scale=q.step)
+    assert abs(buckets - n / S) <= 0.05 * n / S
+    for t in range(2):
+        counts = np.bincount(keys[t], minlength=buckets)
+        # Offsets move cuts by up to half a layer of buckets: counts stay within a few S,
+        # and the median near S.
+        assert 0.6 * S <= np.median(counts) <= 1.4 * S
+        assert counts.max() <= 3 * S, f"table {t}: a bucket of {counts.max()} photons"
+
+
+def test_floor_and_ceiling_photons_never_share_a_bucket():
+    """The room's floor (y = 0) and ceiling are planes of equal y codes: cuts separate them."""
+    codes, q = encoded("room", 40_000)
+    rows, keys, _ = build_adaptive(codes, L=3, photons_per_bucket=S, scale=q.step)
+    floor = codes[:, 1] == codes[:, 1].min()
+    ceiling = codes[:, 1] == codes[:, 1].max()
+    assert floor.sum() > 1000 and ceiling.sum() > 1000
+    for t in range(3):
+        assert not np.intersect1d(keys[t, floor], keys[t, ceiling]).size
+
+
+def test_tables_differ():
+    codes, q = encoded("uniform", 20_000)
+    rows, keys, _ = build_adaptive(codes, L=3, photons_per_bucket=S, scale=q.step)
+    assert not np.array_equal(keys[0], keys[1]) and not np.array_equal(keys[1], keys[2])
+
+
+def test_identical_photons_make_one_bucket():
+    codes = np.full((500, 3), 12345, dtype=np.uint32)
+    rows, keys, buckets = build_adaptive(codes, L=2, photons_per_bucket=S, scale=np.ones(3))
+    assert buckets == 1 and (keys == 0).all()
+
+
+def test_build_is_deterministic():
+    codes, q = encoded("caustic", 20_000)
+    a = build_adaptive(codes, L=2, photons_per_bucket=S, scale=q.step)
+    b = build_adaptive(codes, L=2, photons_per_bucket=S, scale=q.step)
+    np.testing.assert_array_equal(a[0], b[0])
+    np.testing.assert_array_equal(a[1], b[1])
+
+
+def test_default_preset_uses_it_and_reports_its_buckets():
+    pts = MAPS["room"].photons(30_000, np.random.default_rng(1))
+    index = BlockHashIndex(pts, k=20, A=4)
+    prm = index.params
+    assert prm.layout == ThresholdLayout.ADAPTIVE and prm.preset == "default"
+    assert prm.buckets == index.tables.refs.shape[1] > 0
+    assert "layout=adaptive" in repr(prm) and f"buckets={prm.buckets:,}" in repr(prm)
+    assert index.stats.orphans == 0
+
+
+def test_grid_overrides_switch_to_the_nested_layout():
+    pts = MAPS["uniform"].photons(5_000, np.random.default_rng(1))
+    index = BlockHashIndex(pts, k=8, A=4, P=4)
+    assert index.params.layout == ThresholdLayout.NESTED and index.params.P == (4, 4, 4)
