@@ -17,6 +17,11 @@ only; the REPORT maps were never used to choose anything.
     python tools/eval_accuracy.py                      # every map, N = 10^6 (about 20 min here)
     python tools/eval_accuracy.py --quick              # N = 10^5, A in {1, 8, 64}
     python tools/eval_accuracy.py --maps tilted,room --A 8 --json out.json
+    python tools/eval_accuracy.py --tune --photons 3e5 --A 8 --ppb 0.5,0.75,1,1.5 --L 5,7,9
+
+``--ppb``, ``--L`` and ``--slack`` sweep the default preset's constants (photons per bucket
+as a multiple of k at A = 8, tables, block slack) over their product; ``--tune`` restricts
+the maps to the TUNE set.
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ from scipy.spatial import cKDTree
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+import blockhash.index.params as bp  # noqa: E402
 from blockhash import BlockHashIndex, OrphanWarning  # noqa: E402
 from blockhash.index.metrics import accuracy, exact_knn  # noqa: E402
 from blockhash.index.photon_maps import MAPS, PhotonMap, moved, queries, scaled  # noqa: E402
@@ -101,18 +107,21 @@ def timed(fn):
     return time.perf_counter() - t0, out
 
 
-def evaluate(name: str, n: int, m: int, k: int, As, presets) -> list[dict]:
+def evaluate(name: str, n: int, m: int, k: int, As, presets, configs=({},)) -> list[dict]:
     pm = photon_map(name)
     pts = pm.photons(n, np.random.default_rng(0))
     q = queries(pm, m, np.random.default_rng(1))
     t_kd, _ = timed(lambda: cKDTree(pts))
     rows = []
     exact = None
-    for preset in presets:
-        for A in As:
+    shipped = bp.adaptive_params
+    for preset, A, config in [(p, A, c) for p in presets for c in (configs if p == "default" else ({},))
+                              for A in As]:
+            bp.adaptive_params = lambda positions, k, A, c=config: shipped(positions, k=k, A=A, **c)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", OrphanWarning)
                 t_build, index = timed(lambda: BlockHashIndex(pts, k=k, A=A, preset=preset))
+            bp.adaptive_params = shipped
             if exact is None:
                 exact = exact_knn(index.positions, q, k)
             t_query, found = timed(lambda: index.query(q))
@@ -123,6 +132,7 @@ def evaluate(name: str, n: int, m: int, k: int, As, presets) -> list[dict]:
             s = index.stats
             rows.append({
                 "map": name, "set": "tune" if name in TUNE else "report", "preset": preset,
+                "config": config,
                 "photons": n, "queries": m, "k": k, "A": A,
                 "fn_mean": acc.fn_fraction, "fn_p90": acc.false_negatives["p90"] / k,
                 "fn_on": on.fn_fraction, "fn_off": off.fn_fraction,
@@ -134,7 +144,7 @@ def evaluate(name: str, n: int, m: int, k: int, As, presets) -> list[dict]:
                 "orphans": s.orphans, "params": repr(s.params),
             })
             r = rows[-1]
-            print(f"{name:12s} {preset:7s} A={A:<3d} fn {100 * r['fn_mean']:5.2f}% "
+            print(f"{name:12s} {preset:7s} {config or ''} A={A:<3d} fn {100 * r['fn_mean']:5.2f}% "
                   f"(p90 {100 * r['fn_p90']:5.1f}%, on {100 * r['fn_on']:5.2f}%, off "
                   f"{100 * r['fn_off']:5.2f}%)  dil {r['avg_dilation']:.3f}/{r['max_dilation']:.3f}  "
                   f"cand {r['candidates']:6.0f}  refs/ph {r['refs_per_photon']:.2f}  build "
@@ -166,17 +176,28 @@ def main(argv=None) -> int:
     ap.add_argument("--A", default="1,2,4,8,16,32,64")
     ap.add_argument("--presets", default=",".join(PRESETS))
     ap.add_argument("--quick", action="store_true", help="N = 10^5, 4,000 queries, A in 1, 8, 64")
+    ap.add_argument("--ppb", help="sweep: photons per bucket / k at A = 8 (comma-separated)")
+    ap.add_argument("--L", help="sweep: tables")
+    ap.add_argument("--slack", help="sweep: block slack")
+    ap.add_argument("--tune", action="store_true", help="only the TUNE maps")
     ap.add_argument("--json", help="write the rows (and the machine) here")
     ap.add_argument("--markdown", help="write the table here")
     args = ap.parse_args(argv)
     if args.quick:
         args.photons, args.queries, args.A = 1e5, 4000, "1,8,64"
     As = [int(a) for a in args.A.split(",")]
+    sweeps = [[(key, float(v) if key != "L" else int(v)) for v in text.split(",")]
+              for key, text in (("photons_per_bucket", args.ppb), ("L", args.L),
+                                ("block_slack", args.slack)) if text]
+    configs = [dict(c) for c in __import__("itertools").product(*sweeps)] or [{}]
+    if args.tune:
+        args.maps = ",".join(TUNE)
     rows = []
     # Compile numba's paths on a tiny input first, so the first build is not timed with them.
     BlockHashIndex(MAPS["uniform"].photons(5000, np.random.default_rng(9)), k=8, A=2).query(np.zeros((4, 3)))
     for name in args.maps.split(","):
-        rows += evaluate(name, int(args.photons), args.queries, args.k, As, args.presets.split(","))
+        rows += evaluate(name, int(args.photons), args.queries, args.k, As, args.presets.split(","),
+                         configs)
     table = markdown(rows)
     print(table)
     if args.markdown:

@@ -45,27 +45,38 @@ MAX_B = 256
 #: Block references allowed in the whole index: 2**28 refs is 1 GiB of int32.
 MAX_REFS = 1 << 28
 
-#: Photons per bucket, as a multiple of k.  tools/tune_params.py --ppb (caustic-like, N = 10^6,
-#: k = 50, A = 8, 50,000 queries drawn with the photons, seeds 0 and 3; commands in its
-#: docstring): mean average dilation 1.0377/1.0394 at 1.25, 1.0345/1.0372 at 1.5,
-#: 1.0354/1.0378 at 1.75, 1.0390/1.0397 at 2 (the old value).  Smaller buckets are each
-#: covered by fewer candidates; larger ones spend the A*k budget in fewer tables.
-DEFAULT_PHOTONS_PER_BUCKET = 0.75
+#: Default preset, measured with tools/eval_accuracy.py on its TUNE maps only (uniform,
+#: clustered, caustic, the ring scene's; N = 3 x 10^5, k = 50, 6,000 queries, A = 8):
+#:
+#:     python tools/eval_accuracy.py --tune --photons 3e5 --queries 6000 --A 8 \
+#:         --presets default --ppb 0.5,0.75,1,1.5 --L 5,7,9
+#:     python tools/eval_accuracy.py --tune --photons 3e5 --queries 6000 --A 1,8,64 \
+#:         --presets default --ppb 0.25,0.35,0.5 --L 5
+#:
+#: Photons per bucket, as a multiple of k at A = ADAPTIVE_REFERENCE_A.  Mean false negatives
+#: at L = 5 fell with smaller buckets, uniform / clustered / caustic / ring: 3.7 / 31.8 / 3.2
+#: / 8.7% at 1.5, 2.1 / 29.8 / 1.9 / 7.3% at 1, 1.2 / 28.1 / 1.2 / 6.8% at 0.75, 0.5 / 26.0
+#: / 0.7 / 6.3% at 0.5; at 0.35 and 0.25 buckets of two or three blocks leave the budget
+#: unspent (caustic examined 256 and 188 of 400 candidates) and uniform and ring get no
+#: better or worse (1.5 / 8.4% at 0.25).  Smaller buckets are visited in more tables and
+#: probes; the A k budget is then spent nearer the query.
+DEFAULT_PHOTONS_PER_BUCKET = 0.5
 #: The A at which the default preset's buckets hold DEFAULT_PHOTONS_PER_BUCKET * k photons;
-#: they grow in proportion to A, so that the L buckets a query visits hold about its A * k
+#: they grow in proportion to A, so that the buckets a query visits hold about its A * k
 #: candidates (the paper's B = ceil(A k / 10 L) rule, with the buckets sized instead).
 ADAPTIVE_REFERENCE_A = 8
-#: Tables.  A query stops after A*k candidates, about 40 blocks, which 2-3 buckets supply, so
-#: tables beyond those mostly buy a better choice by priority: --L 6,7,8 gives 1.0365/1.0395,
-#: 1.0345/1.0372, 1.0347/1.0373 (same runs as above), and the build's threshold and insertion
-#: passes grow linearly with L, so 7 tables build ~10% faster than 8 at the same accuracy.
-DEFAULT_L = 7
-#: The issue's memory bound is 2.5 block references per photon; keep a margin.
+#: Tables.  With probing, more tables change little (same runs, ppb 0.5: L = 5, 7, 9 give
+#: 0.46 / 0.39 / 0.51% on uniform, 26.0 / 25.4 / 25.3% on clustered, 0.73 / 0.72 / 0.74% on
+#: caustic, 6.3 / 6.4 / 6.3% on ring), and the build and the memory grow with L: 5.
+DEFAULT_L = 5
+#: A memory bound on block references per photon (the index issue's target is 2.5).
 DEFAULT_REFS_PER_PHOTON = 2.4
-#: B holds up to this many times the blocks that a bucket's photons fill.  Full buckets drop
-#: the blocks that straddle their border, and queries near the border need exactly those.
-#: --slack 2,2.5,3,3.5 (same runs): 1.0398/1.0410, 1.0364/1.0392, 1.0345/1.0372, 1.0346/1.0368;
-#: 3 takes nearly all of the gain at 2.15 references per photon (3.5 nears the cap above: 2.34).
+#: B holds up to this many times the blocks that a bucket's photons fill.  Blocks straddle
+#: bucket borders: a bucket of S photons touches a median 2.4 S / 10 blocks at S = 25 and
+#: 1.5 S / 10 at S = 200 on the caustic map, so small buckets overflow (the slot of a block
+#: that sits in more buckets is given up first, section 4.3).  --slack 3,5 (same maps, A = 1,
+#: 8, 64) changed mean false negatives by at most 0.9 points, at 1.5-1.6 against 2.0-2.4
+#: references per photon: 3.
 DEFAULT_BLOCK_SLACK = 3.0
 @dataclass(frozen=True)
 class BlockHashParams:
