@@ -19,6 +19,7 @@ import numpy as np
 from ..index.codec import decode_directions, decode_powers, unpack_records
 from ..errors import InputError
 from ..gl.context import bind_textures, check_gl, draw_fullscreen, home_framebuffer
+from ..gl.limits import check_lookup
 from ..gl.lookup import GLLookup, slot_bits
 from ..gl.shaderlib import Variant
 
@@ -154,6 +155,7 @@ class CausticPass:
         h, w = points.shape
         kd, ks, e = _material_table(materials)
         ctx = self.ctx
+        check_lookup(ctx, prm, Variant.parse(variant), k, A)
         with ctx:
             prog = compile_program(ctx, "caustic_pass.frag",
                                    self.lookup.defines(Variant.parse(variant), k, A * k))
