@@ -119,8 +119,8 @@ class GLLookup:
                 self._run(chunk, v, k, A * k, pairs[first:first + len(chunk)],
                           counts[first:first + len(chunk)], fetch_only)
         slots = pairs[..., 1].astype(np.int64)
-        found = slots != NO_SLOT
         d2 = pairs[..., 0].copy().view(np.float32)
+        found = (slots != NO_SLOT) & np.isfinite(d2)  # overflowed distances: missing, as on the CPU
         distances = np.where(found, np.sqrt(d2.astype(np.float64)), np.inf)
         indices = np.where(found, index.order[np.where(found, slots, 0)], n)
         finite = np.isfinite(q).all(axis=1)
