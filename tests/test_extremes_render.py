@@ -116,6 +116,15 @@ def test_a_mirror_no_photon_reaches_is_a_clear_error():
         trace_caustic_photons(scene(light="[0.0, -1.0, 0.0]"), 100, max_emitted=20_000)
 
 
+def test_k_above_the_shader_limit_is_refused_before_tracing(monkeypatch):
+    import blockhash.render.tracing as tracing
+
+    monkeypatch.setattr(tracing, "trace_caustic_photons", lambda *a, **k: pytest.fail("traced anyway"))
+    with pytest.raises(InputError, match=r"k=129 is above the lookup shader's limit MAX_K=128; "
+                                         r"use k <= 128, or method='cpu' or 'kdtree'"):
+        render_scene(scene(), k=129, size=(4, 4))
+
+
 def test_fewer_photons_than_k_is_a_clear_error():
     context_or_skip("egl")
     with pytest.raises(InputError, match=r"only 5 caustic photons were stored, fewer than k=8; "
