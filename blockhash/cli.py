@@ -77,8 +77,13 @@ def cmd_info(args) -> int:
     from .gl.context import get_context, gl_info
 
     ctx = get_context(args.backend)
+    from .gl.limits import LOOP_LIMIT, MAX_K, is_llvmpipe
+
     with ctx:
         info = gl_info(ctx)
+    info["lookup MAX_K"] = MAX_K
+    info["lookup loop limit"] = (f"{LOOP_LIMIT:,} iterations (llvmpipe; bounds A*k)" if is_llvmpipe(ctx)
+                                 else "none")
     width = max(len(k) for k in info)
     for key, value in info.items():
         print(f"{key:<{width}}  {value}")

@@ -170,3 +170,12 @@ def test_random_bytes_as_a_scene_file_are_an_input_error(tmp_path_factory, data)
     path.write_bytes(data)
     with pytest.raises(InputError, match=r"scene\.toml: "):
         load_scene(path)
+
+
+def test_info_states_the_lookup_shader_limits(capsys):
+    from conftest import context_or_skip
+
+    context_or_skip("egl")
+    assert main(["info", "--backend", "egl"]) == 0
+    out = capsys.readouterr().out
+    assert "lookup MAX_K" in out and "128" in out and "lookup loop limit" in out
