@@ -182,7 +182,7 @@ def test_all_photons_at_one_point():
 
 # --------------------------------------------------------------------------- scale and offset
 
-@pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1.0, 0.0), (1e4, 0.0), (1.0, 1e4),
+@pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1.0, 0.0), (1e4, 0.0), (1.0, 1e4), (1e4, 1e4), (0.1, 1e4),
                                            (10.0, -1e4), (1e-3, 1.0)])
 def test_decode_error_and_neighbours_within_the_stated_bound(scale, offset):
     rng = np.random.default_rng(3)
