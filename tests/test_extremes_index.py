@@ -218,12 +218,26 @@ def test_the_smallest_resolvable_box_builds():
 
 # --------------------------------------------------------------------------- queries
 
-def test_queries_on_thresholds_outside_far_away_and_not_finite():
+def threshold_codes(index):
+    """Codes that are thresholds of the first table (nested grid, or the adaptive tree)."""
+    row = index.thresholds[0]
+    if index.params.layout.name == "ADAPTIVE":  # pairs (threshold, meta); meta bit 2: a leaf
+        inner = (row[1::2] & 4) == 0
+        return row[0::2][inner][:24].astype(np.uint32)
+    return row[:24].astype(np.uint32)
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+@pytest.mark.parametrize("layout", ["nested", "adaptive"])
+def test_queries_on_thresholds_outside_far_away_and_not_finite(layout):
     rng = np.random.default_rng(4)
     pts = rng.random((20_000, 3))
-    index = BlockHashIndex(pts, k=8, A=8, preset="default", P=(8, 8, 8), layout="nested")
-    # Points whose hash codes equal threshold codes exactly (the bucket border).
-    thr = index.thresholds[0, :24].astype(np.uint32)
+    grid = {"P": (8, 8, 8), "layout": "nested"} if layout == "nested" else {}
+    index = BlockHashIndex(pts, k=8, A=8, **grid)
+    assert index.params.layout.name == layout.upper()
+    # Points whose hash codes equal threshold codes (the bucket borders), up to float32.
+    thr = threshold_codes(index)
+    assert len(thr) > 3
     on = index.quantizer.decode(np.stack([thr, thr, thr], axis=1))
     far = np.array([[1e30, 0, 0], [-1e30, 5, 5], [3.0, 3.0, 3.0], [-0.5, 0.5, 0.5]])
     bad = np.array([[np.nan, 0, 0], [np.inf, 0, 0], [0, -np.inf, 0]])

@@ -151,6 +151,7 @@ class Quantizer:
         by the caller before this point.
         """
         q = np.asarray(points, dtype=np.float32)
-        t = (q - self.lo) * self.inv_step
+        with np.errstate(over="ignore"):  # far points overflow to inf and saturate, as in GLSL
+            t = (q - self.lo) * self.inv_step
         t = np.minimum(np.maximum(t, np.float32(0.0)), FLOAT32_BELOW_2_32)
         return t.astype(np.uint32)
