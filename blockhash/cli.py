@@ -77,8 +77,13 @@ def cmd_info(args) -> int:
     from .gl.context import get_context, gl_info
 
     ctx = get_context(args.backend)
+    from .gl.limits import LOOP_LIMIT, MAX_K, is_llvmpipe
+
     with ctx:
         info = gl_info(ctx)
+    info["lookup MAX_K"] = MAX_K
+    info["lookup loop limit"] = (f"{LOOP_LIMIT:,} iterations (llvmpipe; bounds A*k)" if is_llvmpipe(ctx)
+                                 else "none")
     width = max(len(k) for k in info)
     for key, value in info.items():
         print(f"{key:<{width}}  {value}")
@@ -110,13 +115,33 @@ def _size(text: str) -> tuple[int, int]:
     return w, h
 
 
+def _writable(path: Path, flag: str) -> Path:
+    """``path`` if a file can be written there, else an InputError naming ``flag``
+    (checked before long work, so that a typo does not cost a render)."""
+    import os
+
+    folder = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise InputError(f"{flag} {path}: is a directory; give a file name such as {path / 'out.exr'}")
+    if not folder.is_dir():
+        raise InputError(f"{flag} {path}: the folder {folder} does not exist; create it or give "
+                         "another path")
+    if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise InputError(f"{flag} {path}: not writable (permission denied); give a writable path")
+    return path
+
+
 def cmd_render(args) -> int:
     from .render.images import write_exr, write_png
     from .render.pipeline import render_scene
     from .render.scene_toml import load_scene
 
-    scene = load_scene(args.scene)
     out = Path(args.output or Path(args.scene).with_suffix(".exr").name)
+    if out.suffix.lower() != ".exr":
+        raise InputError(f"--output {out}: expected a .exr file name (the PNG preview is written "
+                         "beside it)")
+    _writable(out, "--output")
+    scene = load_scene(args.scene)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = render_scene(scene, photons=args.photons, k=args.k, A=args.A, method=args.method,
@@ -234,9 +259,9 @@ def cmd_preview(args) -> int:
     from .render.preview import preview
     from .render.scene_toml import load_scene
 
+    out = _writable(Path(args.output or Path(args.scene).with_suffix(".preview.png").name), "--output")
     scene = load_scene(args.scene)
     colour, _ = preview(scene, size=args.size)
-    out = Path(args.output or Path(args.scene).with_suffix(".preview.png").name)
     h, w, _ = colour.shape
     write_rgb8(out, colour)
     print(f"preview of {args.scene}: {out} ({w} x {h}, pyrender)")
@@ -369,6 +394,11 @@ def main(argv=None) -> int:
         return args.func(args)
     except BlockHashError as exc:
         print(f"blockhash {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a file the checks above did not foresee: one line, no traceback
+        where = f" {exc.filename}" if exc.filename else ""
+        print(f"blockhash {args.command}: error:{where} {exc.strerror or exc}; check the path and "
+              "its permissions", file=sys.stderr)
         return 2
 
 

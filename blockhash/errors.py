@@ -30,4 +30,10 @@ class CapacityError(BlockHashError, RuntimeError):
 
 
 class GLUnavailableError(BlockHashError, RuntimeError):
-    """No usable OpenGL context, or a shader failed to compile or link."""
+    """No usable OpenGL context."""
+
+
+class ShaderCompileError(BlockHashError, RuntimeError):
+    """A shader of the library failed to compile or link: the message names the
+    file:line of each compiler message, the variant and the active defines.
+    Not a GLUnavailableError: the context works, the program does not."""

@@ -5,7 +5,10 @@
 // f = kd/pi + ks (e+2)/(2 pi) cos^e(alpha)), and bh_best from bh_lookup.
 // Returns: L = sum f_r(wi, wo) Phi_p / (pi r^2) over the found photons that
 // arrive from the front (dot(-d_p, n) > 0), r the distance to the farthest of
-// them (the k-th when k were found).  Powers are float16 times bh_power_scale.
+// them (the k-th when k were found), but never below sqrt(caustic_min_r2), the
+// photon map's position error (blockhash/render/caustic.py min_radius): photons
+// that coincide with the shading point give a large finite radiance, not 0 or inf.
+// Powers are float16 times bh_power_scale.
 // Defines: BH_K.  The CPU reference is blockhash/caustic.py estimate_cpu.
 #ifndef CAUSTIC_ESTIMATE_GLSL
 #define CAUSTIC_ESTIMATE_GLSL
@@ -14,6 +17,7 @@
 
 #define CAUSTIC_PI 3.14159265358979
 uniform float bh_power_scale;
+uniform float caustic_min_r2;
 
 // Jensen's polar code: theta byte | phi byte << 8, decoded at the cell centre, pole +y.
 vec3 caustic_polar(uint code) {
@@ -36,7 +40,7 @@ vec3 caustic_radiance(vec3 q, vec3 n, vec3 wo, vec3 kd, vec3 ks, float e) {
         if (key.y == 0xFFFFFFFFu) {
             break;
         }
-        r2 = uintBitsToFloat(key.x);
+        r2 = max(uintBitsToFloat(key.x), caustic_min_r2);
         uint b = key.y / 10u;
         uint j = key.y % 10u;
         uint texel = b * uint(BH_BLOCK_TEXELS) + ((6u * j + 3u) >> 2u);

@@ -1,6 +1,6 @@
 // caustic_pass.frag: the caustic pass, one fragment per pixel (paper section 7).
 // Takes: shading points per pixel: cp_position (RGBA32F: xyz, material id or -1
-// for none), cp_normal (RGBA32F: unit normal, scalar weight), cp_view (RGBA32F:
+// for none; a NaN or infinite position gets no caustic), cp_normal (RGBA32F: unit normal, scalar weight), cp_view (RGBA32F:
 // unit direction toward the viewer); a table of up to 16 modified Phong
 // materials.  Returns: caustic radiance times the path weight (RGBA32F).
 // Defines: everything bh_lookup.glsl takes (the lookup variant included).
@@ -20,8 +20,8 @@ void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     vec4 pos = texelFetch(cp_position, px, 0);
     frag_color = vec4(0.0, 0.0, 0.0, 1.0);
-    if (pos.w < 0.0) {
-        return;
+    if (pos.w < 0.0 || any(isnan(pos.xyz)) || any(isinf(pos.xyz))) {
+        return;  // no surface, or a point that is not finite: no caustic (as on the CPU)
     }
     vec4 nw = texelFetch(cp_normal, px, 0);
     vec3 wo = texelFetch(cp_view, px, 0).xyz;

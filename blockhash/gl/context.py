@@ -64,6 +64,8 @@ def get_context(backend: str | None = None) -> moderngl.Context:
             failures.append(f"{name}: {exc}")
             continue
         ctx.extra = {**(ctx.extra or {}), "backend": name}
+        with ctx:
+            _ = ctx.info  # cached now, while current: read later under another context it is junk
         _contexts[name] = ctx
         return ctx
     packages = " / ".join(f"{name}: {PACKAGES[name]}" for name in tries)

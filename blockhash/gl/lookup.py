@@ -18,6 +18,7 @@ from ..index.thresholds import MAX_DEPTH, ThresholdLayout
 from ..validate import as_int, as_points
 from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer
 from ..index.blocks import PHOTONS_PER_BLOCK
+from .limits import check_lookup
 from .packing import pack_index
 from .shaderlib import Variant, compile_program
 
@@ -104,6 +105,7 @@ class GLLookup:
                                                      hint=f"use k <= N={n:,}")
         A = index.params.A if A is None else as_int(A, "A", minimum=1)
         v = variant if isinstance(variant, Variant) else Variant.parse(variant)
+        check_lookup(self.ctx, index.params, v, k, A)  # k and loop limits, before any compile
         q = as_points(points, "points", dtype=np.float32, finite=False)
         m = len(q)
         pairs = np.empty((m, k, 2), dtype=np.uint32)
@@ -117,8 +119,8 @@ class GLLookup:
                 self._run(chunk, v, k, A * k, pairs[first:first + len(chunk)],
                           counts[first:first + len(chunk)], fetch_only)
         slots = pairs[..., 1].astype(np.int64)
-        found = slots != NO_SLOT
         d2 = pairs[..., 0].copy().view(np.float32)
+        found = (slots != NO_SLOT) & np.isfinite(d2)  # overflowed distances: missing, as on the CPU
         distances = np.where(found, np.sqrt(d2.astype(np.float64)), np.inf)
         indices = np.where(found, index.order[np.where(found, slots, 0)], n)
         finite = np.isfinite(q).all(axis=1)

@@ -18,7 +18,7 @@ from dataclasses import dataclass, fields
 from importlib import resources
 from pathlib import Path
 
-from ..errors import GLUnavailableError, InputError
+from ..errors import GLUnavailableError, InputError, ShaderCompileError
 
 GLSL_VERSION = "#version 450 core"
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
@@ -186,7 +186,8 @@ def compile_program(ctx, fragment: str, defines: dict[str, object], *, vertex: s
     """Compile ``fragment`` (a file of the library) with ``defines`` into a moderngl Program.
 
     Programs are cached per context and source; callers must not release them.  A
-    failed compile raises GLUnavailableError naming file:line and the active defines.
+    failed compile raises ShaderCompileError naming file:line, the variant (when the
+    defines select one) and the active defines.
     """
     import moderngl
 
@@ -198,10 +199,20 @@ def compile_program(ctx, fragment: str, defines: dict[str, object], *, vertex: s
         program = ctx.program(vertex_shader=vertex or FULLSCREEN_VS, fragment_shader=src.text)
     except moderngl.Error as exc:
         active = ", ".join(f"{k}={v}" for k, v in defines.items())
-        raise GLUnavailableError(f"{fragment} failed to compile: {src.locate(str(exc)).strip()}\n"
-                                 f"active defines: {active}") from None
+        raise ShaderCompileError(f"{fragment} failed to compile{_variant_of(defines)}: "
+                                 f"{src.locate(str(exc)).strip()}\nactive defines: {active}") from None
     _PROGRAMS[key] = program
     return program
+
+
+def _variant_of(defines: dict) -> str:
+    """' (variant NAME)' when ``defines`` hold every variant selector, else ''."""
+    names = []
+    for selector, options in CHOICES.values():
+        if selector not in defines:
+            return ""
+        names.append(next((n for n, i in options.items() if i == defines[selector]), "?"))
+    return f" (variant {'-'.join(names)})"
 
 
 #: A triangle covering the viewport; no vertex attributes.

@@ -223,7 +223,8 @@ class BlockHashIndex:
         ----------
         points : (m, 3) or (3,) float
             Query points.  Rows with NaN or inf get no neighbours (distance inf,
-            index N), as the shader returns for a background pixel.
+            index N), as the shader returns for a background pixel; so do neighbours
+            whose float32 squared distance overflows (queries ~1.8e19 m away).
         k : int, optional
             Neighbours per query, 1 <= k <= N (default: the k the index was built for).
         A : int, optional
@@ -271,7 +272,9 @@ class BlockHashIndex:
             "query.blocks.mean": float(fetched[finite].mean()) if finite.any() else 0.0,
         }
         distances = np.sqrt(d2.astype(np.float64))
-        indices = np.where(slots >= 0, self.order[np.maximum(slots, 0)], n)
+        # A squared distance that overflows float32 (a query ~1.8e19 m away) orders
+        # nothing: report that neighbour as missing, like the shader's caller does.
+        indices = np.where((slots >= 0) & np.isfinite(d2), self.order[np.maximum(slots, 0)], n)
         if single:
             distances, indices = distances[0], indices[0]
         if k is not None and not isinstance(k, (list, tuple, np.ndarray)) and k_eff == 1:

@@ -19,8 +19,22 @@ import numpy as np
 from ..index.codec import decode_directions, decode_powers, unpack_records
 from ..errors import InputError
 from ..gl.context import bind_textures, check_gl, draw_fullscreen, home_framebuffer
+from ..gl.limits import check_lookup
 from ..gl.lookup import GLLookup, slot_bits
 from ..gl.shaderlib import Variant
+
+def min_radius(index) -> float:
+    """The smallest radius the density estimate divides by: the photon map's decode
+    error bound (:attr:`Quantizer.decode_error`, largest axis).  Photon positions are
+    not known more closely, and the floor keeps ``Phi / (pi r^2)`` finite where the k
+    nearest photons coincide with the shading point (r = 0 would give 0 or inf)."""
+    return float(index.quantizer.decode_error.max())
+
+
+def min_r2(index) -> float:
+    """``min_radius(index) ** 2`` rounded to float32, as the shader receives it."""
+    return float(np.float32(min_radius(index) ** 2))
+
 
 #: Materials a caustic pass can hold (uniform arrays in caustic_pass.frag).
 MAX_MATERIALS = 16
@@ -115,7 +129,8 @@ def estimate_from_neighbours(index, points: ShadingPoints, materials, search, k)
     front = (np.sum(wi * n, axis=1) > 0) & found.ravel()
     contrib = np.where(front[:, None], f * power, 0.0).reshape(len(q), k, 3).sum(axis=1)
     last = np.where(found.any(axis=1), found.sum(axis=1) - 1, 0)
-    r2 = np.where(found.any(axis=1), d[np.arange(len(q)), last].astype(np.float64) ** 2, 0.0)
+    r2 = np.where(found.any(axis=1), np.maximum(d[np.arange(len(q)), last].astype(np.float64) ** 2,
+                                                min_r2(index)), 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
         L = np.where(r2[:, None] > 0, contrib / (np.pi * r2[:, None]), 0.0)
     out[live] = L * points.weight.reshape(-1, 3)[live]
@@ -154,6 +169,7 @@ class CausticPass:
         h, w = points.shape
         kd, ks, e = _material_table(materials)
         ctx = self.ctx
+        check_lookup(ctx, prm, Variant.parse(variant), k, A)
         with ctx:
             prog = compile_program(ctx, "caustic_pass.frag",
                                    self.lookup.defines(Variant.parse(variant), k, A * k))
@@ -168,6 +184,7 @@ class CausticPass:
             check_gl(ctx, f"allocating the {w} x {h} caustic pass")
             try:
                 self.lookup.set_uniforms(prog)
+                prog["caustic_min_r2"].value = min_r2(index)
                 pad = MAX_MATERIALS - len(kd)
                 prog["cp_kd"].value = [tuple(r) for r in np.vstack([kd, np.zeros((pad, 3))])]
                 prog["cp_ks"].value = [tuple(r) for r in np.vstack([ks, np.zeros((pad, 3))])]

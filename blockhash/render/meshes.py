@@ -127,6 +127,11 @@ def load_mesh(path, *, normals: str = "auto") -> trimesh.Trimesh:
     offsets = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
     vertices = np.concatenate([p[0] for p in parts])
     faces = np.concatenate([p[1] + o for p, o in zip(parts, offsets)])
+    bad = ~np.isfinite(vertices).all(axis=1)
+    if bad.any():  # before trimesh merges vertices, which casts NaN to int
+        raise InputError(f"the mesh file {str(path)!r} has NaN or infinite vertex coordinates "
+                         f"({int(bad.sum()):,} vertices, the first is vertex {int(np.argmax(bad)) + 1}); "
+                         "fix the mesh")
     if normals == "auto" and all(p[2] is not None for p in parts):
         return with_normals(vertices, faces, np.concatenate([p[2] for p in parts]))
     mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False, validate=False)

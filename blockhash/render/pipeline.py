@@ -18,6 +18,7 @@ import numpy as np
 
 from .caustic import CausticPass, estimate_cpu, estimate_exact
 from ..errors import InputError
+from ..gl.limits import MAX_K
 from .gbuffer import rasterize
 from ..index.block_hash_index import BlockHashIndex
 from .shading import SceneRays, direct_light, shading_points
@@ -81,6 +82,9 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
     settings = scene.photons
     k = settings.k if k is None else k
     A = settings.A if A is None else A
+    if method == "bh" and k > MAX_K:  # refused before hours of tracing, not after
+        raise InputError(f"k={k} is above the lookup shader's limit MAX_K={MAX_K}; use k <= "
+                         f"{MAX_K}, or method='cpu' or 'kdtree'")
     timings, info = {}, {}
     t0 = time.perf_counter()
     if photon_map is None and scene.specular_objects:

@@ -169,6 +169,9 @@ def _trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int)
     parts = []
     rays = 0
     offset = RAY_OFFSET * geom.scale
+    # Start at the offset along the ray, as after a bounce: a light lying on a surface (a
+    # lamp on the floor) would otherwise hit that surface at t = 0 with every photon.
+    o = o + d * offset
     for bounce in range(max_bounces + 1):
         if idx.size == 0:
             break

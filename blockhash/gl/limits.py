@@ -1,0 +1,108 @@
+"""Limits of the Block Hashing lookup shader, checked before anything is compiled.
+
+Two limits bound what ``GLLookup.query`` and the caustic pass accept:
+
+``MAX_K`` (128)
+    The packed selection (glsl/bh_select_packed.glsl, the default variant) keeps
+    the k best keys in registers through a table of unrolled compare-exchange
+    groups (``BH_PK_GROUPS``) written out up to 128 slots; above it the shader
+    stops at ``#error``.  The other selections keep ``uvec2 bh_best[k]`` in a
+    local array whose compile time grows fast with its size (DESIGN.md), and the
+    caustic pass reads ``bh_best`` too, so one limit holds for every variant.
+    The CPU reference (:meth:`BlockHashIndex.query`) has no such limit.
+
+``LOOP_LIMIT`` (llvmpipe only)
+    Mesa's llvmpipe silently ends every loop of a shader invocation once 65,535
+    iterations have run in total across its loops (loops of at most 32 constant
+    iterations are unrolled and do not count).  A lookup that ran into it would
+    return fewer candidates than the CPU reference, without an error.
+    :func:`loop_iterations` bounds the iterations of one lookup from above
+    (the loops of glsl/bh_lookup.glsl, bh_hash.glsl, bh_buckets.glsl,
+    bh_select.glsl and bh_query.frag); a lookup whose bound exceeds the limit is
+    refused on llvmpipe.  Measured here (N = 20,000 uniform and caustic-like,
+    default preset): k = 8, A = 128 (bound 41,000) and k = 50, A = 24 (bound
+    57,600) return exactly the CPU reference's neighbours and candidate counts;
+    k = 8, A = 240 and k = 50, A = 32 (bounds above 65,535) lose candidates.
+    Other drivers (an NVIDIA GPU through EGL) have no such limit.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..errors import CapacityError, InputError
+from ..index.thresholds import MAX_DEPTH, ThresholdLayout
+
+#: Largest k the lookup shader keeps (the packed selection's unrolled table ends at 128).
+MAX_K = 128
+#: llvmpipe's total loop iterations per shader invocation (Mesa gallivm).
+LOOP_LIMIT = 65535
+#: Bits of a binary threshold search per axis: thresholds per row are below 2**13.
+_SEARCH_STEPS = 13
+
+
+def is_llvmpipe(ctx) -> bool:
+    """True when ``ctx`` renders with Mesa's llvmpipe (which has the loop limit)."""
+    return "llvmpipe" in str(ctx.info.get("GL_RENDERER", "")).lower()
+
+
+def loop_iterations(params, variant, k: int, cap: int) -> int:
+    """An upper bound on the loop iterations one lookup runs in the shader.
+
+    ``R = L * B`` block references can be visited; each scans the blocks already
+    taken for duplicates (at most ``min(R, ceil(cap / 10) + 1)`` of them); the
+    candidate loop runs at most ``cap + 10`` times; insertion selection adds up
+    to k shifts per candidate; hashing, the priority sort and the output add
+    ``L * (hash steps) + L * L + k``.
+    """
+    L, B = params.L, params.B
+    refs = L * B
+    taken = min(refs, math.ceil(cap / 10) + 1)
+    if getattr(variant, "search", "binary") == "linear":
+        hash_steps = int(sum(params.P))
+    else:
+        hash_steps = 3 * _SEARCH_STEPS
+    if params.layout == ThresholdLayout.ADAPTIVE:
+        hash_steps = MAX_DEPTH  # the kd-tree descent: a constant loop, too long to unroll
+    total = L * hash_steps + L * L + refs * (1 + taken) + cap + 10 + k
+    if getattr(variant, "select", "packed") == "insertion":
+        total += (cap + 10) * k
+    return int(total)
+
+
+def largest_A(params, variant, k: int) -> int:
+    """The largest A whose lookup keeps within ``LOOP_LIMIT`` (0 if none does)."""
+    lo, hi = 0, 1
+    while loop_iterations(params, variant, k, hi * k) <= LOOP_LIMIT and hi < 1 << 20:
+        lo, hi = hi, hi * 2
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if loop_iterations(params, variant, k, mid * k) <= LOOP_LIMIT:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def check_lookup(ctx, params, variant, k: int, A: int) -> None:
+    """Raise before compiling when the shader cannot run this lookup exactly.
+
+    InputError for k above :data:`MAX_K`; CapacityError on llvmpipe when the
+    lookup could run into its loop limit and silently lose candidates.
+    """
+    if k > MAX_K:
+        raise InputError(
+            f"k={k:,} is above the lookup shader's limit MAX_K={MAX_K} (the selection keeps the "
+            f"k best in unrolled registers, glsl/bh_select_packed.glsl); use k <= {MAX_K}, or "
+            "the CPU query BlockHashIndex.query, or the kd-tree shader (GLKdTree, k <= 512)")
+    if ctx is not None and is_llvmpipe(ctx):
+        need = loop_iterations(params, variant, k, A * k)
+        if need > LOOP_LIMIT:
+            best = largest_A(params, variant, k)
+            way = (f"use A <= {best}" if best >= 1 else "use a smaller k, L or B")
+            raise CapacityError(
+                f"the lookup with k={k}, A={A} (A*k={A * k:,} candidates), L={params.L}, "
+                f"B={params.B}, variant {getattr(variant, 'name', variant)} may run up to "
+                f"{need:,} shader loop iterations, above llvmpipe's {LOOP_LIMIT:,} (beyond it "
+                f"llvmpipe silently stops the loops and neighbours go missing); {way}, or the "
+                "CPU query BlockHashIndex.query, or a GPU driver")

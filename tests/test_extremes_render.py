@@ -1,0 +1,154 @@
+"""The renderer at the extremes of its scenes and images (docs/extremes.md): tiny images,
+few photons, every case either a finite non-negative image or a clear error."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from blockhash import CapacityError, InputError
+from blockhash.render.gbuffer import rasterize
+from blockhash.render.pipeline import NoCausticWarning, render_scene
+from blockhash.render.scene_toml import parse_scene
+from conftest import context_or_skip
+
+RING = """
+[camera]
+eye = {eye}
+target = {target}
+fov_y_deg = 38.0
+width = 16
+height = 16
+
+[materials.floor]
+kind = "phong"
+kd = 0.55
+ks = 0.25
+n = 20.0
+
+[materials.mirror]
+kind = "mirror"
+reflectance = [0.95, 0.78, 0.45]
+
+[[lights]]
+kind = "point"
+position = {light}
+power = 100.0
+
+[[objects]]
+name = "floor"
+material = "floor"
+[objects.shape]
+kind = "rectangle"
+x = [-1.5, 1.5]
+z = [-1.5, 1.5]
+
+{ring}
+[photons]
+count = 3000
+k = 8
+A = 4
+seed = 1
+"""
+
+RING_OBJECT = """
+[[objects]]
+name = "ring"
+material = "mirror"
+[objects.shape]
+kind = "ring"
+inner_radius = 0.50
+outer_radius = 0.53
+height = 0.30
+segments = 64
+"""
+
+
+def scene(*, eye="[0.0, 1.9, 1.6]", target="[0.0, 0.0, 0.05]", light="[-2.0, 1.0, 0.0]",
+          ring=RING_OBJECT):
+    return parse_scene(RING.format(eye=eye, target=target, light=light, ring=ring))
+
+
+def assert_sane(result, *, caustic=True):
+    for name, layer in result.layers().items():
+        assert np.isfinite(layer).all(), name
+        assert (layer >= 0).all(), name
+    assert result.direct.max() > 0
+    if caustic:
+        assert result.caustic.max() > 0
+
+
+@pytest.mark.parametrize("case", ["camera-inside-ring", "light-inside-ring"])
+def test_extreme_placements_render_finite_images(case):
+    context_or_skip("egl")
+    kw = {"camera-inside-ring": dict(eye="[0.0, 0.15, 0.1]", target="[0.3, 0.0, -0.3]"),
+          "light-inside-ring": dict(light="[0.1, 0.2, 0.0]")}[case]
+    result = render_scene(scene(**kw), photons=2000, size=(16, 16))
+    assert_sane(result)
+    assert result.info["photons_stored"] == 2000
+
+
+def test_light_on_the_floor_reaches_the_ring_and_gets_a_clear_error():
+    # Emission starts off the light's own surface, so the photons reach the ring rather
+    # than all hitting the floor at t = 0; a vertical mirror cannot send light from the
+    # floor's plane back down to it, so there is no caustic, and the error says so.
+    from blockhash.render.tracing import trace_caustic_photons
+
+    with pytest.raises(InputError, match=r"no caustic photon stored after [\d,]+ photons.*"
+                                         r"'direct_diffuse': 0, 'escaped': [1-9].*move the light"):
+        trace_caustic_photons(scene(light="[-1.0, 0.0, 0.0]"), 100, max_emitted=20_000)
+
+
+def test_scene_without_a_mirror_renders_direct_light_only():
+    context_or_skip("egl")
+    with pytest.warns(NoCausticWarning, match="rendering direct light only: the scene has no specular object"):
+        result = render_scene(scene(ring=""), size=(8, 8))
+    assert_sane(result, caustic=False)
+    assert np.all(result.caustic == 0) and result.index is None
+    assert result.info["photons_stored"] == 0
+
+
+def test_a_mirror_no_photon_reaches_is_a_clear_error():
+    # The light is under the floor, which hides the ring from it.
+    with pytest.raises(InputError, match=r"no .*photon|reach"):
+        from blockhash.render.tracing import trace_caustic_photons
+
+        trace_caustic_photons(scene(light="[0.0, -1.0, 0.0]"), 100, max_emitted=20_000)
+
+
+def test_k_above_the_shader_limit_is_refused_before_tracing(monkeypatch):
+    import blockhash.render.tracing as tracing
+
+    monkeypatch.setattr(tracing, "trace_caustic_photons", lambda *a, **k: pytest.fail("traced anyway"))
+    with pytest.raises(InputError, match=r"k=129 is above the lookup shader's limit MAX_K=128; "
+                                         r"use k <= 128, or method='cpu' or 'kdtree'"):
+        render_scene(scene(), k=129, size=(4, 4))
+
+
+def test_fewer_photons_than_k_is_a_clear_error():
+    context_or_skip("egl")
+    with pytest.raises(InputError, match=r"only 5 caustic photons were stored, fewer than k=8; "
+                                         r"trace more photons"):
+        render_scene(scene(), photons=5, size=(4, 4))
+
+
+@pytest.mark.parametrize("size", [(1, 1), (256, 2), (1, 64)])
+def test_tiny_and_very_wide_images(size):
+    context_or_skip("egl")
+    result = render_scene(scene(), photons=1000, size=size)
+    assert result.direct.shape == (size[1], size[0], 3)
+    for layer in result.layers().values():
+        assert np.isfinite(layer).all() and (layer >= 0).all()
+
+
+def test_images_at_the_largest_viewport_and_one_pixel_more():
+    ctx = context_or_skip("egl")
+    limit = min(ctx.info["GL_MAX_TEXTURE_SIZE"], *ctx.info["GL_MAX_VIEWPORT_DIMS"])
+    s = scene()
+    gbuf = rasterize(s.camera, s.objects, size=(limit, 1), backend="egl")
+    assert gbuf.position.shape[:2] == (1, limit)
+    with pytest.raises(CapacityError, match=rf"image size {limit + 1} x 1 is outside 1..{limit:,} per "
+                                            r"side .*render a smaller image"):
+        rasterize(s.camera, s.objects, size=(limit + 1, 1), backend="egl")
+    with pytest.raises(CapacityError, match=r"image size 0 x 4 is outside"):
+        rasterize(s.camera, s.objects, size=(0, 4), backend="egl")
