@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
 from blockhash import BlockHashIndex, OrphanWarning
-from blockhash.index.thresholds import bucket_of
+from transcription import examined_blocks
 
 SHAPES = ("uniform", "clustered", "plane", "line", "duplicates")
 
@@ -35,26 +35,8 @@ def photons(shape, n, seed):
 
 def candidate_slots(index, q, k, A):
     """The photons (slots in block order) the reference examines for one query, rebuilt
-    from the tables: buckets by priority, references in slot order, duplicates skipped,
-    stopping once A*k candidates were taken (query.py steps 1-3)."""
-    prm = index.params
-    codes = index.quantizer.quantize_query(q[None].astype(np.float32))[0]
-    P = np.asarray(prm.P, dtype=np.int64)
-    keys = [bucket_of(index.thresholds[t], P[0], P[1], P[2], int(prm.layout), *codes)
-            for t in range(prm.L)]
-    order = sorted(range(prm.L), key=lambda t: index.priority[t, keys[t]])
-    taken, count = [], 0
-    for t in order:
-        for r in range(prm.B):
-            if count >= A * k:
-                break
-            blk = int(index.tables.refs[t, keys[t], r])
-            if blk < 0:
-                break
-            if blk in taken:
-                continue
-            taken.append(blk)
-            count += int(index.starts[blk + 1] - index.starts[blk])
+    from the tables by the plain-Python transcription of query.py's steps 1-4."""
+    taken = examined_blocks(index, q, k, A)
     return np.concatenate([np.arange(index.starts[b], index.starts[b + 1]) for b in taken])
 
 
