@@ -28,7 +28,9 @@ splits, as the grid files that section 4.1 cites do:
   to the threshold go right (the paper's ``h(x) = #{t <= x}``); where the cut
   falls among photons sharing one code, the threshold moves to the side of that
   run that leaves the counts closer to the target, so a plane is never split
-  and never swallows both children.
+  and never swallows both children; the threshold lies mid-way in the gap
+  between the codes on its two sides, so that a query a few codes off a plane
+  (float rounding of a shading point) hashes to the plane's side.
 
 Every bucket then holds about ``S`` photons whatever the surfaces, and buckets
 are about as wide as they are long on each surface.  Each table is built over
@@ -178,19 +180,27 @@ def _build_tree(codes, S, offsets, scale):
                 v = c[lo + p, a]
             below = 0
             equal = 0
+            max_below = np.uint32(0)
+            min_above = np.uint32(0xFFFFFFFF)
             for r in range(lo, hi):
                 x = c[r, a]
                 if x < v:
                     below += 1
+                    max_below = max(max_below, x)
                 elif x == v:
                     equal += 1
-            # Threshold v puts the run of code v right (left = below); v + 1 puts it left.
+                else:
+                    min_above = min(min_above, x)
+            # The run of code v goes right (left = below) or left (left = below + equal), as
+            # leaves the counts nearer the target; the threshold sits mid-way in the gap to
+            # the next code, so that a query a few codes off a plane of photons (rounding)
+            # still falls on the plane's side.
             if below == 0 or (below + equal < size and abs(below + equal - target) < abs(below - target)):
                 if below + equal < size:
-                    t = np.uint32(v + 1)
+                    t = np.uint32(v + 1 + (min_above - v - 1) // 2)
                     split = below + equal
             else:
-                t = v
+                t = np.uint32(v - (v - max_below - 1) // 2)
                 split = below
             if split > 0:
                 i, j = lo, hi - 1
