@@ -147,3 +147,32 @@ def test_exact_knn_photon_map_agrees_with_the_light_tracer(traced):
     assert rel_rms(img.radiance, exact) < 0.25
     assert rel_rms(est, img.radiance) < 0.3
     assert est.sum() / img.radiance.sum() == pytest.approx(1.0, abs=0.05)
+
+
+def test_projection_inverts_the_pixel_rays():
+    pin = Pinhole.of(mirror_scene().camera, (17, 11))
+    rays = pin.pixel_rays()
+    pix, cos_c = pin.project(pin.eye + 2.5 * rays)
+    np.testing.assert_array_equal(pix, np.arange(17 * 11))
+    np.testing.assert_allclose(cos_c, rays @ pin.forward, rtol=1e-12)
+    assert pin.project(pin.eye - rays[:1])[0][0] == -1  # behind the camera
+
+
+def test_visible_pixels_line_up_with_the_renderers_gbuffer():
+    """A floor only on the camera's left-hand, near side: both must see it in the same pixels."""
+    from conftest import context_or_skip
+
+    context_or_skip("egl")
+    from blockhash.render.gbuffer import rasterize
+
+    base = mirror_scene()
+    v = np.array([[-3.0, 0, 0.2], [0.1, 0, 0.2], [0.1, 0, 3.0], [-3.0, 0, 3.0]])
+    f = np.array([[0, 2, 1], [0, 3, 2]])
+    part = trimesh.Trimesh(v, f, vertex_normals=np.tile([0, 1.0, 0], (4, 1)), process=False)
+    floor = SceneObject("floor", part, base.objects[0].material)
+    scene = Scene(camera=base.camera, lights=base.lights, objects=(floor, base.objects[1]),
+                  photons=base.photons)
+    img = light_trace(scene, 1000)
+    seen = rasterize(scene.camera, scene.objects, backend="egl").object == 0
+    assert 0.1 < seen.mean() < 0.6
+    assert np.mean(img.visible != seen) < 0.05  # edge pixels may differ
