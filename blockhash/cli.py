@@ -162,6 +162,44 @@ def cmd_preview(args) -> int:
     return 0
 
 
+def _int_list(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(float(v)) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected comma-separated integers such as "
+                                         "1000,10000,100000") from None
+
+
+def cmd_tradeoff(args) -> int:
+    from .render.lighttrace import lambertian
+    from .render.scene_toml import load_scene
+    from .tradeoff.report import write_study
+    from .tradeoff.sweep import QUICK, SweepPlan, run_sweep, with_plan
+
+    scene = load_scene(args.scene)
+    if args.lambertian:
+        scene = lambertian(scene)
+    plan = with_plan(QUICK if args.quick else SweepPlan(), photons=args.photons, size=args.size,
+                     grid_A=args.A, ks=args.ks, engine=args.engine,
+                     reference_photons=args.reference_photons)
+    cache = Path(args.cache) if args.cache else Path.home() / ".cache" / "blockhash"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # orphan warnings of small or 'paper' indexes: in the rows
+        study = run_sweep(scene, plan, cache_dir=cache, backend=args.backend,
+                          progress=lambda s: print(s, file=sys.stderr))
+    study["command"] = "blockhash " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["tradeoff"] \
+        else f"blockhash tradeoff {args.scene} -o {args.output}" + (" --quick" if args.quick else "")
+    path = write_study(study, args.output)
+    bh = [r for r in study["rows"] if r["method"] == "bh"]
+    best = min(bh, key=lambda r: r["rel_rms_reference_blur"])
+    print(f"{len(study['rows'])} settings of {args.scene} in {study['seconds_total']:.0f} s -> {path}")
+    print(f"least error against the reference: N={best['photons']:,} k={best['k']} A={best['A']} "
+          f"({best['preset']}/{best['variant']}): relative RMS {best['rel_rms_reference_blur']:.3f} "
+          f"(2 px blur), flux ratio {best['flux_ratio_reference']:.3f}")
+    print(f"report: {Path(args.output) / 'report.md'}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="blockhash", description="Low latency photon mapping with Block Hashing.")
@@ -222,6 +260,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, help="photon seed (default: the scene's)")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
     p.set_defaults(func=cmd_render)
+    p = sub.add_parser("tradeoff", help="measure speed against accuracy over N, k, A, presets, variants",
+                       description="Sweep photon count, k, A, index preset and shader variant on a "
+                                   "scene; time every stage and measure the caustic layer against "
+                                   "exact kNN and an unbiased light-traced reference; write "
+                                   "DIR/tradeoff.json, plots and DIR/report.md.")
+    p.add_argument("scene", help="scene file (TOML) with at least one mirror")
+    p.add_argument("-o", "--output", required=True, help="output directory")
+    p.add_argument("--quick", action="store_true", help="a small sweep (about a minute here)")
+    p.add_argument("--photons", type=_int_list, help="photon counts, e.g. 10000,100000,1000000")
+    p.add_argument("--A", type=_int_list, help="A values of the grid, e.g. 1,2,4,8,16,32,64")
+    p.add_argument("--ks", type=_int_list, help="k values, e.g. 16,50,100")
+    p.add_argument("--size", type=_size, help="image size WIDTHxHEIGHT (default 128x128; quick 48x48)")
+    p.add_argument("--engine", choices=("gl", "cpu"), help="gl: the caustic pass shader (default); "
+                   "cpu: its CPU reference (no shader compiles; CPU times)")
+    p.add_argument("--reference-photons", type=int, help="photons of the light-traced reference")
+    p.add_argument("--lambertian", action="store_true", help="set every Phong material's ks to 0")
+    p.add_argument("--cache", help="cache directory of references (default ~/.cache/blockhash)")
+    p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
+    p.set_defaults(func=cmd_tradeoff)
     p = sub.add_parser("compare", help="RMS, relative RMS and max error per layer of two images",
                        description="Compare two EXR images layer by layer (OpenImageIO); "
                                    "relative RMS is RMS(A - B) / RMS(B).")
