@@ -117,6 +117,8 @@ def cmd_render(args) -> int:
 
     scene = load_scene(args.scene)
     out = Path(args.output or Path(args.scene).with_suffix(".exr").name)
+    if args.time_budget is not None or args.target_error is not None:
+        _choose_settings(args, scene)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = render_scene(scene, photons=args.photons, k=args.k, A=args.A, method=args.method,
@@ -134,6 +136,30 @@ def cmd_render(args) -> int:
         print(info["index"])
     print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
     return 0
+
+
+def _choose_settings(args, scene) -> None:
+    """Fill args.photons, k, A from the scene's trade study for --time-budget / --target-error."""
+    if not scene.specular_objects:
+        print("settings: the scene has no specular object, so no caustic photons are traced and "
+              "no index is built; the budget applies to nothing")
+        return
+    from .tradeoff.budget import choose, study_for
+
+    if args.photons is not None or args.k is not None or args.A is not None:
+        raise InputError("--time-budget / --target-error choose --photons, --k and --A; give "
+                         "either those or a budget, not both")
+    cache = Path(args.cache) if args.cache else Path.home() / ".cache" / "blockhash"
+    study = study_for(scene, cache_dir=cache, study_path=args.tradeoff, backend=args.backend,
+                      progress=lambda s: print(s, file=sys.stderr))
+    w, h = args.size or (scene.camera.width, scene.camera.height)
+    choice = choose(study, pixels=w * h, time_budget=args.time_budget,
+                    target_error=args.target_error)
+    args.photons, args.k, args.A = choice.photons, choice.k, choice.A
+    print(f"settings: photons {choice.photons:,}, k {choice.k}, A {choice.A}: {choice.reason}; "
+          f"predicted {choice.predicted_seconds:.2f} s for trace + index + caustic pass, relative "
+          f"RMS {choice.predicted_error:.3f} against the reference (2 px blur, at the study's "
+          f"{study['size'][0]} x {study['size'][1]})")
 
 
 def cmd_compare(args) -> int:
@@ -173,6 +199,7 @@ def _int_list(text: str) -> tuple[int, ...]:
 def cmd_tradeoff(args) -> int:
     from .render.lighttrace import lambertian
     from .render.scene_toml import load_scene
+    from .tradeoff.budget import remember
     from .tradeoff.report import write_study
     from .tradeoff.sweep import QUICK, SweepPlan, run_sweep, with_plan
 
@@ -189,6 +216,7 @@ def cmd_tradeoff(args) -> int:
                           progress=lambda s: print(s, file=sys.stderr))
     study["command"] = "blockhash " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["tradeoff"] \
         else f"blockhash tradeoff {args.scene} -o {args.output}" + (" --quick" if args.quick else "")
+    remember(study, scene, cache)
     path = write_study(study, args.output)
     bh = [r for r in study["rows"] if r["method"] == "bh"]
     best = min(bh, key=lambda r: r["rel_rms_reference_blur"])
@@ -259,6 +287,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size", type=_size, help="image size WIDTHxHEIGHT (default: the camera's)")
     p.add_argument("--seed", type=int, help="photon seed (default: the scene's)")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
+    p.add_argument("--time-budget", type=float, metavar="SECONDS",
+                   help="choose photons, k and A from the scene's trade study: least error that fits")
+    p.add_argument("--target-error", type=float, metavar="E",
+                   help="choose the fastest setting whose relative RMS against the reference is <= E")
+    p.add_argument("--tradeoff", help="tradeoff.json to choose from (default: the cached study of "
+                   "this scene, else a short calibration run)")
+    p.add_argument("--cache", help="cache directory (default ~/.cache/blockhash)")
     p.set_defaults(func=cmd_render)
     p = sub.add_parser("tradeoff", help="measure speed against accuracy over N, k, A, presets, variants",
                        description="Sweep photon count, k, A, index preset and shader variant on a "
