@@ -216,6 +216,7 @@ def cmd_tradeoff(args) -> int:
                           progress=lambda s: print(s, file=sys.stderr))
     study["command"] = "blockhash " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["tradeoff"] \
         else f"blockhash tradeoff {args.scene} -o {args.output}" + (" --quick" if args.quick else "")
+    study["lambertian"] = bool(args.lambertian)
     remember(study, scene, cache)
     path = write_study(study, args.output)
     bh = [r for r in study["rows"] if r["method"] == "bh"]
