@@ -59,8 +59,10 @@ def write_study(study: dict, out_dir) -> Path:
     path = out / "tradeoff.json"
     path.write_text(json.dumps(study, indent=1, default=float))
     if images:
-        layers = {k: v for k, v in images.items() if k != "mask"}
-        write_exr(out / "images.exr", {k: np.asarray(v, np.float32) for k, v in layers.items()})
+        layers = {k: np.asarray(v, np.float32) for k, v in images.items() if k != "mask"}
+        if "mask" in images:  # the compared pixels, as 1 in every channel
+            layers["mask"] = np.repeat(np.asarray(images["mask"], np.float32)[..., None], 3, axis=2)
+        write_exr(out / "images.exr", layers)
     plots = make_plots(study, images, out)
     (out / "report.md").write_text(report_markdown(study, plots))
     return path
