@@ -203,6 +203,11 @@ def cmd_tradeoff(args) -> int:
     from .tradeoff.report import write_study
     from .tradeoff.sweep import QUICK, SweepPlan, run_sweep, with_plan
 
+    if args.replot:
+        from .tradeoff.report import rewrite_report
+
+        print(f"report: {rewrite_report(args.output)}")
+        return 0
     scene = load_scene(args.scene)
     if args.lambertian:
         scene = lambertian(scene)
@@ -312,6 +317,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "cpu: its CPU reference (no shader compiles; CPU times)")
     p.add_argument("--reference-photons", type=int, help="photons of the light-traced reference")
     p.add_argument("--lambertian", action="store_true", help="set every Phong material's ks to 0")
+    p.add_argument("--replot", action="store_true",
+                   help="only redraw the plots and report.md of DIR from its tradeoff.json")
     p.add_argument("--cache", help="cache directory of references (default ~/.cache/blockhash)")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
     p.set_defaults(func=cmd_tradeoff)

@@ -116,6 +116,10 @@ def report_markdown(study: dict, plots: list[str]) -> str:
     ex = [r for r in study["rows"] if r["method"] != "bh"]
     if ex:
         lines += ["", "## Exact kNN against the reference", "",
+                  "Exact rows' seconds are the whole exact caustic: the k-nearest search (cKDTree "
+                  "on the CPU, or the kd-tree shader) plus the density estimate in numpy, where BH "
+                  "rows run the estimate in the shader; they are upper bounds for an exact pass. "
+                  "`blockhash bench` times the searches alone.", "",
                   "| method | N | k | flux / reference | rel RMS (blur) | seconds |", "|---|---|---|---|---|---|"]
         for r in sorted(ex, key=lambda r: (r["method"], r["k"], r["photons"])):
             lines.append(f"| {r['method']} | {r['photons']:,} | {r['k']} | "

@@ -68,6 +68,25 @@ def write_study(study: dict, out_dir) -> Path:
     return path
 
 
+def rewrite_report(out_dir) -> Path:
+    """Redraw the plots and ``report.md`` of a study directory from its JSON and images."""
+    from ..render.images import read_layers
+
+    out = Path(out_dir)
+    path = out / "tradeoff.json"
+    if not path.is_file():
+        from ..errors import InputError
+        raise InputError(f"--replot {out}: no tradeoff.json there; give a directory written by "
+                         "blockhash tradeoff")
+    study = json.loads(path.read_text())
+    images = read_layers(out / "images.exr") if (out / "images.exr").is_file() else {}
+    if "mask" in images:
+        images["mask"] = images["mask"][..., 0] > 0.5
+    plots = make_plots(study, images, out)
+    (out / "report.md").write_text(report_markdown(study, plots))
+    return out / "report.md"
+
+
 def make_plots(study: dict, images: dict, out: Path) -> list[str]:
     import matplotlib
 

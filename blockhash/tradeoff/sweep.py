@@ -213,7 +213,10 @@ def run_sweep(scene, plan: SweepPlan = QUICK, *, seed=None, cache_dir=None, back
             exact[(n, k)] = _exact_rows(index, points, materials, n, k, t_trace, ref, mask_ref, ss,
                                         rows, backend, plan.kdtree_shader and n == max(plan.photons)
                                         and k == plan.k0)
+            ckd_row = next(r for r in rows[::-1] if r["method"] == "exact-ckdtree")
+            t = time.perf_counter()
             knn[(n, k)] = exact_knn(index.positions, queries, k)
+            ckd_row["seconds"]["search"] = time.perf_counter() - t  # the cKDTree search alone
         # (the fine image is box-filtered to the study's size below)
         if plan.engine == "gl":
             cp = CausticPass(index, backend=backend)
