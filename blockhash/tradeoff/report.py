@@ -116,8 +116,9 @@ def make_plots(study: dict, images: dict, out: Path) -> list[str]:
             ax[3].plot(A, [_time(r) / base for r in rows], "o-", label=preset)
     for a, title in zip(ax, ("false negatives (% of k)", "distance dilation",
                              "caustic relative RMS vs exact kNN",
-                             "time ratio vs exact kNN (" + ("kd-tree shader" if
-                              "exact-kdtree-shader" in exact_t else "cKDTree") + ")")):
+                             "pass time / exact kNN caustic time\n(" + ("kd-tree shader"
+                              if "exact-kdtree-shader" in exact_t else "cKDTree")
+                             + " search + numpy estimate)")):
         a.set_xscale("log", base=2)
         a.set_xlabel("A")
         a.set_title(title, fontsize=9)
