@@ -111,6 +111,9 @@ class SweepPlan:
             if p not in PRESETS:
                 raise InputError(f"preset {p!r} is not known; choose from {', '.join(PRESETS)}")
         object.__setattr__(self, "photons", tuple(sorted(int(n) for n in self.photons)))
+        if self.grid_photons is not None:  # keep the grid on measured N values
+            grid = tuple(n for n in self.grid_photons if n in self.photons)
+            object.__setattr__(self, "grid_photons", grid or (max(self.photons),))
 
 
 #: About a minute on two slow cores with llvmpipe, most of it shader compiles (~4 s per
