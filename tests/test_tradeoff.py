@@ -113,3 +113,14 @@ def test_a_scene_without_mirrors_is_refused(tmp_path):
     path.write_text(text)
     with pytest.raises(InputError, match="no specular"):
         run_sweep(load_scene(path), TINY, progress=lambda _: None)
+
+
+def test_replot_redraws_a_study_and_names_a_missing_one(study, tmp_path, capsys):
+    from blockhash.cli import main
+
+    _, out = study
+    (out / "report.md").unlink()
+    assert main(["tradeoff", str(RING), "-o", str(out), "--replot"]) == 0
+    assert "The paper's claims" in (out / "report.md").read_text()
+    assert main(["tradeoff", str(RING), "-o", str(tmp_path / "none"), "--replot"]) == 2
+    assert "no tradeoff.json there" in capsys.readouterr().err
