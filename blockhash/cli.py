@@ -17,6 +17,7 @@ import numpy as np
 
 from . import __version__
 from .bench import QUERY_SETS
+from .cli_estimate import add_arguments as add_estimate_arguments, options_from
 from .index.datasets import DISTRIBUTIONS
 from .errors import BlockHashError, InputError
 from .index.block_hash_index import BlockHashIndex
@@ -148,7 +149,7 @@ def cmd_render(args) -> int:
         warnings.simplefilter("always")
         result = render_scene(scene, photons=args.photons, k=args.k, A=args.A, method=args.method,
                               variant=args.variant, size=args.size, seed=args.seed,
-                              backend=args.backend, progress=True)
+                              backend=args.backend, progress=True, options=options_from(args))
     for w in caught:
         print(f"WARNING: {w.message}", file=sys.stderr)
     write_exr(out, result.layers())
@@ -157,6 +158,7 @@ def cmd_render(args) -> int:
     info = result.info
     print(f"scene: {args.scene} -> {out} (+ {png.name})")
     print(f"photons stored: {info.get('photons_stored', 0):,} of {info.get('photons_emitted', 0):,} emitted")
+    print(f"density estimate: {info.get('estimate')}")
     if "index" in info:
         print(info["index"])
     print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
@@ -406,6 +408,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tradeoff", help="tradeoff.json to choose from (default: the cached study of "
                    "this scene, else a short calibration run)")
     p.add_argument("--cache", help="cache directory (default ~/.cache/blockhash)")
+    add_estimate_arguments(p)
     p.set_defaults(func=cmd_render)
     p = sub.add_parser("tradeoff", help="measure speed against accuracy over N, k, A, presets, variants",
                        description="Sweep photon count, k, A, index preset and shader variant on a "
