@@ -3,7 +3,8 @@
 For each scene (Phong ``ks`` set to 0, so the receivers are Lambertian as the light
 tracer's comparison assumes no glossy lobe is missing), photon count N and k, one photon
 map is traced and its Block Hashing neighbours found once per pixel (the CPU reference
-of the default shader variant: the same photons the caustic pass finds); every
+of the default shader variant: the same photons the caustic pass finds, or exact kNN
+with cKDTree for the paper's and the default estimate, the lookup's own share); every
 :class:`~blockhash.render.estimate.EstimateOptions` is then evaluated on those same
 neighbours, so the options differ only in the estimate.  Images are rendered at
 ``supersample`` times the size and box-filtered, as in the trade study.
@@ -23,6 +24,7 @@ import numpy as np
 
 from ..gl.lookup import slot_bits
 from ..index.block_hash_index import BlockHashIndex
+from ..index.metrics import exact_knn
 from ..render.caustic import Neighbours
 from ..render.estimate import EstimateOptions
 from ..render.gbuffer import rasterize
@@ -68,6 +70,7 @@ def study_scene(scene, *, photons=(100_000, 1_000_000), ks=(50,), options=None, 
                 cache_dir=None, progress=print) -> dict:
     """Rows of measures for one scene (module docstring); the reference's own noise beside them."""
     options = default_options() if options is None else list(options)
+    exact_options = [options[0], EstimateOptions()]
     scene = lambertian(scene)
     t0 = time.perf_counter()
     ref, path = cached_reference(scene, reference_photons, size=size, cache_dir=cache_dir)
@@ -85,16 +88,23 @@ def study_scene(scene, *, photons=(100_000, 1_000_000), ks=(50,), options=None, 
             index = BlockHashIndex(pm.positions, k=k, A=A, directions=pm.directions,
                                    normals=pm.normals, powers=pm.powers)
             bits = slot_bits(index.params.L, index.params.B)
-            nb = Neighbours.find(index, points, lambda q: index.query(q, k=k, A=A, slot_bits=bits), k)
-            for opt in options:
-                img = box_down(nb.estimate(materials, opt), ss)
-                row = {"scene": scene.path.stem if scene.path else "?", "photons": n, "k": k,
-                       "option": opt.label, **measure(img, ref.radiance, mask, region)}
-                rows.append(row)
-                progress(f"  N={n:,} k={k} {opt.label:28s} flux {row['flux']:.4f} blur "
-                         f"{row['blur']:.4f} | region flux {row['flux_region']:.4f} blur "
-                         f"{row['blur_region']:.4f}")
-            del nb
+            for search, opts in (("bh", options), ("exact", exact_options)):
+                if search == "bh":
+                    nb = Neighbours.find(index, points,
+                                         lambda q: index.query(q, k=k, A=A, slot_bits=bits), k)
+                else:
+                    nb = Neighbours.find(index, points,
+                                         lambda q: exact_knn(index.positions, q, k), k)
+                for opt in opts:
+                    img = box_down(nb.estimate(materials, opt), ss)
+                    row = {"scene": scene.path.stem if scene.path else "?", "photons": n, "k": k,
+                           "search": search, "option": opt.label,
+                           **measure(img, ref.radiance, mask, region)}
+                    rows.append(row)
+                    progress(f"  N={n:,} k={k} {search:5s} {opt.label:28s} flux {row['flux']:.4f} "
+                             f"blur {row['blur']:.4f} | region flux {row['flux_region']:.4f} blur "
+                             f"{row['blur_region']:.4f}")
+                del nb
     # the reference's own noise: its standard error blurred like the images (independent pixels)
     se = ref.stderr
     noise = float(np.sqrt(np.mean(se[region] ** 2)) / np.sqrt(np.mean(ref.radiance[region] ** 2)))
@@ -107,11 +117,12 @@ def study_scene(scene, *, photons=(100_000, 1_000_000), ks=(50,), options=None, 
 
 def markdown_table(studies) -> str:
     """One table of every row of every study."""
-    lines = ["| scene | N | k | option | flux / ref | blurred rel. RMS | flux / ref (region) | "
-             "blurred rel. RMS (region) |", "|---|---|---|---|---|---|---|---|"]
+    lines = ["| scene | N | k | search | option | flux / ref | blurred rel. RMS | flux / ref (region) | "
+             "blurred rel. RMS (region) |", "|---|---|---|---|---|---|---|---|---|"]
     for s in studies:
         for r in s["rows"]:
-            lines.append(f"| {r['scene']} | {r['photons']:,} | {r['k']} | `{r['option']}` | "
+            lines.append(f"| {r['scene']} | {r['photons']:,} | {r['k']} | {r['search']} | "
+                         f"`{r['option']}` | "
                          f"{r['flux']:.4f} | {r['blur']:.4f} | {r['flux_region']:.4f} | "
                          f"{r['blur_region']:.4f} |")
     return "\n".join(lines)
