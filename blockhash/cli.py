@@ -17,6 +17,7 @@ import numpy as np
 
 from . import __version__
 from .bench import QUERY_SETS
+from .cli_estimate import add_arguments as add_estimate_arguments, options_from
 from .index.datasets import DISTRIBUTIONS
 from .errors import BlockHashError, InputError
 from .index.block_hash_index import BlockHashIndex
@@ -142,11 +143,13 @@ def cmd_render(args) -> int:
                          "beside it)")
     _writable(out, "--output")
     scene = load_scene(args.scene)
+    if args.time_budget is not None or args.target_error is not None:
+        _choose_settings(args, scene)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = render_scene(scene, photons=args.photons, k=args.k, A=args.A, method=args.method,
                               variant=args.variant, size=args.size, seed=args.seed,
-                              backend=args.backend, progress=True)
+                              backend=args.backend, progress=True, options=options_from(args))
     for w in caught:
         print(f"WARNING: {w.message}", file=sys.stderr)
     write_exr(out, result.layers())
@@ -155,6 +158,7 @@ def cmd_render(args) -> int:
     info = result.info
     print(f"scene: {args.scene} -> {out} (+ {png.name})")
     print(f"photons stored: {info.get('photons_stored', 0):,} of {info.get('photons_emitted', 0):,} emitted")
+    print(f"density estimate: {info.get('estimate')}")
     if "index" in info:
         print(info["index"])
     print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
@@ -172,6 +176,30 @@ def _limit(text: str) -> tuple[str, float]:
     if not number >= 0:
         raise argparse.ArgumentTypeError(f"{text!r}: the limit must be a number >= 0")
     return layer or "*", number
+
+
+def _choose_settings(args, scene) -> None:
+    """Fill args.photons, k, A from the scene's trade study for --time-budget / --target-error."""
+    if not scene.specular_objects:
+        print("settings: the scene has no specular object, so no caustic photons are traced and "
+              "no index is built; the budget applies to nothing")
+        return
+    from .tradeoff.budget import choose, study_for
+
+    if args.photons is not None or args.k is not None or args.A is not None:
+        raise InputError("--time-budget / --target-error choose --photons, --k and --A; give "
+                         "either those or a budget, not both")
+    cache = Path(args.cache) if args.cache else Path.home() / ".cache" / "blockhash"
+    study = study_for(scene, cache_dir=cache, study_path=args.tradeoff, backend=args.backend,
+                      progress=lambda s: print(s, file=sys.stderr))
+    w, h = args.size or (scene.camera.width, scene.camera.height)
+    choice = choose(study, pixels=w * h, time_budget=args.time_budget,
+                    target_error=args.target_error)
+    args.photons, args.k, args.A = choice.photons, choice.k, choice.A
+    print(f"settings: photons {choice.photons:,}, k {choice.k}, A {choice.A}: {choice.reason}; "
+          f"predicted {choice.predicted_seconds:.2f} s for trace + index + caustic pass, relative "
+          f"RMS {choice.predicted_error:.3f} against the reference (2 px blur, at the study's "
+          f"{study['size'][0]} x {study['size'][1]})")
 
 
 def _limits(pairs) -> dict | None:
@@ -268,6 +296,52 @@ def cmd_preview(args) -> int:
     return 0
 
 
+def _int_list(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(float(v)) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected comma-separated integers such as "
+                                         "1000,10000,100000") from None
+
+
+def cmd_tradeoff(args) -> int:
+    from .render.lighttrace import lambertian
+    from .render.scene_toml import load_scene
+    from .tradeoff.budget import remember
+    from .tradeoff.report import write_study
+    from .tradeoff.sweep import QUICK, SweepPlan, run_sweep, with_plan
+
+    if args.replot:
+        from .tradeoff.report import rewrite_report
+
+        print(f"report: {rewrite_report(args.output)}")
+        return 0
+    scene = load_scene(args.scene)
+    if args.lambertian:
+        scene = lambertian(scene)
+    plan = with_plan(QUICK if args.quick else SweepPlan(), photons=args.photons, size=args.size,
+                     grid_A=args.A, ks=args.ks, engine=args.engine,
+                     reference_photons=args.reference_photons)
+    cache = Path(args.cache) if args.cache else Path.home() / ".cache" / "blockhash"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # orphan warnings of small or 'paper' indexes: in the rows
+        study = run_sweep(scene, plan, cache_dir=cache, backend=args.backend,
+                          progress=lambda s: print(s, file=sys.stderr))
+    study["command"] = "blockhash " + " ".join(sys.argv[1:]) if sys.argv[1:2] == ["tradeoff"] \
+        else f"blockhash tradeoff {args.scene} -o {args.output}" + (" --quick" if args.quick else "")
+    study["lambertian"] = bool(args.lambertian)
+    remember(study, scene, cache)
+    path = write_study(study, args.output)
+    bh = [r for r in study["rows"] if r["method"] == "bh"]
+    best = min(bh, key=lambda r: r["rel_rms_reference_blur"])
+    print(f"{len(study['rows'])} settings of {args.scene} in {study['seconds_total']:.0f} s -> {path}")
+    print(f"least error against the reference: N={best['photons']:,} k={best['k']} A={best['A']} "
+          f"({best['preset']}/{best['variant']}): relative RMS {best['rel_rms_reference_blur']:.3f} "
+          f"(2 px blur), flux ratio {best['flux_ratio_reference']:.3f}")
+    print(f"report: {Path(args.output) / 'report.md'}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="blockhash", description="Low latency photon mapping with Block Hashing.")
@@ -327,7 +401,36 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--size", type=_size, help="image size WIDTHxHEIGHT (default: the camera's)")
     p.add_argument("--seed", type=int, help="photon seed (default: the scene's)")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
+    p.add_argument("--time-budget", type=float, metavar="SECONDS",
+                   help="choose photons, k and A from the scene's trade study: least error that fits")
+    p.add_argument("--target-error", type=float, metavar="E",
+                   help="choose the fastest setting whose relative RMS against the reference is <= E")
+    p.add_argument("--tradeoff", help="tradeoff.json to choose from (default: the cached study of "
+                   "this scene, else a short calibration run)")
+    p.add_argument("--cache", help="cache directory (default ~/.cache/blockhash)")
+    add_estimate_arguments(p)
     p.set_defaults(func=cmd_render)
+    p = sub.add_parser("tradeoff", help="measure speed against accuracy over N, k, A, presets, variants",
+                       description="Sweep photon count, k, A, index preset and shader variant on a "
+                                   "scene; time every stage and measure the caustic layer against "
+                                   "exact kNN and an unbiased light-traced reference; write "
+                                   "DIR/tradeoff.json, plots and DIR/report.md.")
+    p.add_argument("scene", help="scene file (TOML) with at least one mirror")
+    p.add_argument("-o", "--output", required=True, help="output directory")
+    p.add_argument("--quick", action="store_true", help="a small sweep (about a minute here)")
+    p.add_argument("--photons", type=_int_list, help="photon counts, e.g. 10000,100000,1000000")
+    p.add_argument("--A", type=_int_list, help="A values of the grid, e.g. 1,2,4,8,16,32,64")
+    p.add_argument("--ks", type=_int_list, help="k values, e.g. 16,50,100")
+    p.add_argument("--size", type=_size, help="image size WIDTHxHEIGHT (default 128x128; quick 48x48)")
+    p.add_argument("--engine", choices=("gl", "cpu"), help="gl: the caustic pass shader (default); "
+                   "cpu: its CPU reference (no shader compiles; CPU times)")
+    p.add_argument("--reference-photons", type=int, help="photons of the light-traced reference")
+    p.add_argument("--lambertian", action="store_true", help="set every Phong material's ks to 0")
+    p.add_argument("--replot", action="store_true",
+                   help="only redraw the plots and report.md of DIR from its tradeoff.json")
+    p.add_argument("--cache", help="cache directory of references (default ~/.cache/blockhash)")
+    p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
+    p.set_defaults(func=cmd_tradeoff)
     p = sub.add_parser("compare", help="per-layer RMS, relative RMS, max and FLIP error; limits "
                                        "set the exit status",
                        description="Compare image A with the reference B layer by layer: RMS, "

@@ -3,13 +3,20 @@
 // Takes: the shading point q, its unit normal n, the unit direction toward the
 // viewer wo, a modified Phong material (kd, ks, exponent: Lafortune & Willems,
 // f = kd/pi + ks (e+2)/(2 pi) cos^e(alpha)), and bh_best from bh_lookup.
-// Returns: L = sum f_r(wi, wo) Phi_p / (pi r^2) over the found photons that
-// arrive from the front (dot(-d_p, n) > 0), r the distance to the farthest of
-// them (the k-th when k were found), but never below sqrt(caustic_min_r2), the
-// photon map's position error (blockhash/render/caustic.py min_radius): photons
-// that coincide with the shading point give a large finite radiance, not 0 or inf.
-// Powers are float16 times bh_power_scale.
-// Defines: BH_K.  The CPU reference is blockhash/caustic.py estimate_cpu.
+// Returns: L = sum w(d/r) f_r(wi, wo) Phi_p / (pi r^2) over the found photons that
+// arrive from the front (dot(-d_p, n) > 0) and pass the tests below, r the distance
+// to the farthest photon found (the k-th when k were found), but never below
+// sqrt(caustic_min_r2), the photon map's position error (blockhash/render/caustic.py
+// min_radius): photons that coincide with the shading point give a large finite
+// radiance, not 0 or inf.  Powers are float16 times bh_power_scale.
+// Tests (uniforms, -2 = off): the photon's stored surface normal (Fig. 4) must have
+// dot(n_p, n) >= caustic_normal_cos; its height over the tangent plane must be at
+// most caustic_disc * r (Jensen's flattened neighbourhood).
+// Defines: BH_K; CAUSTIC_ESTIMATE 0 paper (all m found) or 1 unbiased (the m-th,
+// which lies on the circle, left out: no m/(m-1) bias); CAUSTIC_FILTER 0 none,
+// 1 cone 3(1-t), 2 epanechnikov 2(1-t^2), 3 silverman 3(1-t^2)^2, t = d/r.
+// The CPU reference is blockhash/render/caustic.py estimate_cpu; the options
+// blockhash/render/estimate.py EstimateOptions.
 #ifndef CAUSTIC_ESTIMATE_GLSL
 #define CAUSTIC_ESTIMATE_GLSL
 #include "bh_blocks.glsl"
@@ -18,6 +25,8 @@
 #define CAUSTIC_PI 3.14159265358979
 uniform float bh_power_scale;
 uniform float caustic_min_r2;
+uniform float caustic_normal_cos;
+uniform float caustic_disc;
 
 // Jensen's polar code: theta byte | phi byte << 8, decoded at the cell centre, pole +y.
 vec3 caustic_polar(uint code) {
@@ -32,15 +41,57 @@ vec3 caustic_phong(vec3 wi, vec3 wo, vec3 n, vec3 kd, vec3 ks, float e) {
     return kd / CAUSTIC_PI + ks * ((e + 2.0) / (2.0 * CAUSTIC_PI)) * pow(c, e);
 }
 
-vec3 caustic_radiance(vec3 q, vec3 n, vec3 wo, vec3 kd, vec3 ks, float e) {
-    vec3 sum = vec3(0.0);
-    float r2 = 0.0;
-    for (int i = 0; i < BH_K; ++i) {
-        uvec2 key = bh_best[i];
-        if (key.y == 0xFFFFFFFFu) {
-            break;
+// Number of photons found: bh_best holds them first, nearest first, then empty keys.
+// A binary search of constant count (unrolled: it adds nothing to llvmpipe's loop budget).
+int caustic_found() {
+    int lo = 0;
+    int hi = BH_K;
+    for (int s = 0; s < 8; ++s) {  // 2^8 > MAX_K = 128
+        if (lo < hi) {
+            int mid = (lo + hi) >> 1;
+            if (bh_best[mid].y == 0xFFFFFFFFu) {
+                hi = mid;
+            } else {
+                lo = mid + 1;
+            }
         }
-        r2 = max(uintBitsToFloat(key.x), caustic_min_r2);
+    }
+    return lo;
+}
+
+// Filter weight from t^2 = (d / r)^2, normalised to mean 1 over the unit disc.
+float caustic_filter(float t2) {
+    t2 = clamp(t2, 0.0, 1.0);
+#if CAUSTIC_FILTER == 0
+    return 1.0;
+#elif CAUSTIC_FILTER == 1
+    return 3.0 * (1.0 - sqrt(t2));
+#elif CAUSTIC_FILTER == 2
+    return 2.0 * (1.0 - t2);
+#elif CAUSTIC_FILTER == 3
+    return 3.0 * (1.0 - t2) * (1.0 - t2);
+#else
+#error unknown CAUSTIC_FILTER
+#endif
+}
+
+vec3 caustic_radiance(vec3 q, vec3 n, vec3 wo, vec3 kd, vec3 ks, float e) {
+    int m = caustic_found();
+    if (m == 0) {
+        return vec3(0.0);
+    }
+    float r2 = max(uintBitsToFloat(bh_best[m - 1].x), caustic_min_r2);
+#if CAUSTIC_ESTIMATE == 0
+    int used = m;      // paper: all m photons
+#elif CAUSTIC_ESTIMATE == 1
+    int used = m - 1;  // unbiased: the m-th, on the circle, left out
+#else
+#error unknown CAUSTIC_ESTIMATE
+#endif
+    float height = caustic_disc * sqrt(r2);
+    vec3 sum = vec3(0.0);
+    for (int i = 0; i < used; ++i) {
+        uvec2 key = bh_best[i];
         uint b = key.y / 10u;
         uint j = key.y % 10u;
         uint texel = b * uint(BH_BLOCK_TEXELS) + ((6u * j + 3u) >> 2u);
@@ -51,12 +102,19 @@ vec3 caustic_radiance(vec3 q, vec3 n, vec3 wo, vec3 kd, vec3 ks, float e) {
         if (dot(wi, n) <= 0.0) {
             continue;
         }
+        if (caustic_normal_cos > -1.5 && dot(caustic_polar(w.x >> 16u), n) < caustic_normal_cos) {
+            continue;  // the photon landed on a surface facing elsewhere
+        }
+        if (caustic_disc > -1.5 && abs(dot(bh_photon_position(b, j) - q, n)) > height) {
+            continue;  // outside the flattened neighbourhood
+        }
         vec2 c12 = unpackHalf2x16(w.y);
         vec2 c34 = unpackHalf2x16(w.z);
         vec3 power = vec3(c12, c34.x) * bh_power_scale;
-        sum += caustic_phong(wi, wo, n, kd, ks, e) * power;
+        float t2 = uintBitsToFloat(key.x) / r2;
+        sum += caustic_filter(t2) * caustic_phong(wi, wo, n, kd, ks, e) * power;
     }
-    return r2 > 0.0 ? sum / (CAUSTIC_PI * r2) : vec3(0.0);
+    return sum / (CAUSTIC_PI * r2);
 }
 
 #endif

@@ -1,10 +1,12 @@
 """Caustic radiance from a Block Hashing photon map: shader pass and CPU reference.
 
 The estimate (glsl/caustic_estimate.glsl) at a shading point with normal n and
-viewer direction wo is ``L = sum f_r(wi, wo) Phi_p / (pi r^2)`` over the found
-photons that arrive from the front (``dot(-d_p, n) > 0``), with r the distance to
-the farthest photon found (the k-th when k were found) and f_r the modified
-Phong BRDF (Lafortune & Willems 1994).  Shading points come as per-pixel arrays
+viewer direction wo is ``L = sum w f_r(wi, wo) Phi_p / (pi r^2)`` over the found
+photons that arrive from the front (``dot(-d_p, n) > 0``) and pass the tests of
+:class:`~.estimate.EstimateOptions` (the photon's stored surface normal, the
+flattened neighbourhood, the unbiased form leaving out the farthest), with r the
+distance to the farthest photon found (the k-th when k were found), w the filter
+weight and f_r the modified Phong BRDF (Lafortune & Willems 1994).  Shading points come as per-pixel arrays
 (position, normal, viewer direction, material id, path weight), so mirrors seen
 by the camera are handled upstream by moving the shading point to what the
 mirror reflects.
@@ -18,6 +20,7 @@ import numpy as np
 
 from ..index.codec import decode_directions, decode_powers, unpack_records
 from ..errors import InputError
+from .estimate import EstimateOptions, photon_weights
 from ..gl.context import bind_textures, check_gl, draw_fullscreen, home_framebuffer
 from ..gl.limits import check_lookup
 from ..gl.lookup import GLLookup, slot_bits
@@ -70,11 +73,11 @@ def phong_brdf(wi, wo, n, kd, ks, e):
 
 
 def estimate_cpu(index, points: ShadingPoints, materials, *, k=None, A=None,
-                 variant: str = "default") -> np.ndarray:
+                 variant: str = "default", options: EstimateOptions | None = None) -> np.ndarray:
     """The CPU reference of the caustic pass: (h, w, 3) float64 radiance.
 
     Uses :meth:`BlockHashIndex.query` in the mode of ``variant`` so that it finds the
-    same photons as the shader.
+    same photons as the shader; ``options`` as :class:`CausticPass.render` takes them.
     """
     v = Variant.parse(variant)
     prm = index.params
@@ -84,57 +87,96 @@ def estimate_cpu(index, points: ShadingPoints, materials, *, k=None, A=None,
     def search(q):
         return index.query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
 
-    return estimate_from_neighbours(index, points, materials, search, k)
+    return estimate_from_neighbours(index, points, materials, search, k, options=options)
 
 
 def estimate_exact(index, points: ShadingPoints, materials, *, k=None, backend=None,
-                   gpu: bool = True) -> np.ndarray:
+                   gpu: bool = True, options: EstimateOptions | None = None) -> np.ndarray:
     """The caustic with the exact k nearest photons: the kd-tree shader (``gpu``) or cKDTree."""
     k = index.params.k if k is None else k
     if gpu:
         from ..gl.kdtree import GLKdTree
 
         tree = GLKdTree(index.positions, backend=backend)
-        return estimate_from_neighbours(index, points, materials, lambda q: tree.query(q, k), k)
+        return estimate_from_neighbours(index, points, materials, lambda q: tree.query(q, k), k,
+                                        options=options)
     from ..index.metrics import exact_knn
 
     return estimate_from_neighbours(index, points, materials,
-                                    lambda q: exact_knn(index.positions, q, k), k)
+                                    lambda q: exact_knn(index.positions, q, k), k, options=options)
 
 
-def estimate_from_neighbours(index, points: ShadingPoints, materials, search, k) -> np.ndarray:
+def estimate_from_neighbours(index, points: ShadingPoints, materials, search, k, *,
+                             options: EstimateOptions | None = None) -> np.ndarray:
     """The density estimate of the module docstring with neighbours from ``search(q)``.
 
     ``search`` maps (m, 3) float32 points to cKDTree-style ``(distances, indices)``.
     """
-    h, w = points.shape
-    mat = points.material.reshape(-1)
-    live = mat >= 0
-    out = np.zeros((h * w, 3))
-    if not live.any():
+    return Neighbours.find(index, points, search, k).estimate(materials, options)
+
+
+@dataclass(frozen=True)
+class Neighbours:
+    """The photons found for every live pixel, decoded once, so that several estimate
+    options can be evaluated on the same search (q live pixels, k slots each)."""
+
+    points: ShadingPoints
+    live: np.ndarray        # (h * w,) bool
+    d2: np.ndarray          # (q, k) float64 squared distances
+    found: np.ndarray       # (q, k) bool
+    r2: np.ndarray          # (q,) float64 squared radius (0 where none was found)
+    wi: np.ndarray          # (q, k, 3) float64 toward where each photon came from
+    normal: np.ndarray      # (q, k, 3) float64 the photon's stored surface normal
+    offset: np.ndarray      # (q, k, 3) float64 photon position minus the shading point
+    power: np.ndarray       # (q, k, 3) float64 watts
+
+    @classmethod
+    def find(cls, index, points: ShadingPoints, search, k) -> "Neighbours":
+        mat = points.material.reshape(-1)
+        live = mat >= 0
+        q = points.position.reshape(-1, 3)[live]
+        nq = len(q)
+        if nq:
+            d, idx = search(q)
+            d, idx = np.asarray(d).reshape(nq, k), np.asarray(idx).reshape(nq, k)
+        else:
+            d, idx = np.zeros((0, k)), np.zeros((0, k), np.int64)
+        found = idx < len(index)
+        safe = np.where(found, index.slot_of[np.minimum(idx, len(index) - 1)], 0).ravel()
+        rec = index.records.records[safe]
+        pcodes, dcodes, ncodes, pbits = unpack_records(rec)
+        wi = -decode_directions(dcodes).astype(np.float64).reshape(nq, k, 3)
+        normal = decode_directions(ncodes).astype(np.float64).reshape(nq, k, 3)
+        pos = index.records.quantizer.decode(pcodes).astype(np.float64).reshape(nq, k, 3)
+        power = decode_powers(pbits, index.records.power_scale)[:, :3].astype(np.float64)
+        d2 = np.where(found, d.astype(np.float64) ** 2, np.inf)
+        last = np.where(found.any(axis=1), found.sum(axis=1) - 1, 0)
+        r2 = np.where(found.any(axis=1), np.maximum(d2[np.arange(nq), last], min_r2(index)), 0.0)
+        return cls(points, live, d2, found, r2, wi, normal,
+                   pos - q.astype(np.float64)[:, None, :], power.reshape(nq, k, 3))
+
+    def estimate(self, materials, options: EstimateOptions | None = None) -> np.ndarray:
+        """(h, w, 3) float64 radiance with ``options`` (None: the defaults)."""
+        options = EstimateOptions() if options is None else options
+        pts = self.points
+        h, w = pts.shape
+        out = np.zeros((h * w, 3))
+        nq, k = self.found.shape
+        if not nq:
+            return out.reshape(h, w, 3)
+        n = pts.normal.reshape(-1, 3)[self.live].astype(np.float64)
+        wo = pts.view.reshape(-1, 3)[self.live].astype(np.float64)
+        weight = photon_weights(options, self.d2, self.r2, self.found, self.wi, self.normal, n,
+                                self.offset)
+        table = _material_table(materials)
+        mid = np.repeat(pts.material.reshape(-1)[self.live], k)
+        f = phong_brdf(self.wi.reshape(-1, 3), np.repeat(wo, k, axis=0), np.repeat(n, k, axis=0),
+                       table[0][mid], table[1][mid], table[2][mid])
+        contrib = (weight.reshape(-1, 1) * f * self.power.reshape(-1, 3)).reshape(nq, k, 3).sum(axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            L = np.where(self.r2[:, None] > 0, contrib / (np.pi * self.r2[:, None]), 0.0)
+        out[self.live] = L * pts.weight.reshape(-1, 3)[self.live]
         return out.reshape(h, w, 3)
-    q = points.position.reshape(-1, 3)[live]
-    d, idx = search(q)
-    d, idx = np.asarray(d).reshape(len(q), k), np.asarray(idx).reshape(len(q), k)
-    found = idx < len(index)
-    safe = np.where(found, index.slot_of[np.minimum(idx, len(index) - 1)], 0)
-    _, dcodes, _, pbits = unpack_records(index.records.records[safe.ravel()])
-    wi = -decode_directions(dcodes).astype(np.float64)
-    power = decode_powers(pbits, index.records.power_scale)[:, :3].astype(np.float64)
-    n = np.repeat(points.normal.reshape(-1, 3)[live], k, axis=0).astype(np.float64)
-    wo = np.repeat(points.view.reshape(-1, 3)[live], k, axis=0).astype(np.float64)
-    table = _material_table(materials)
-    mid = np.repeat(mat[live], k)
-    f = phong_brdf(wi, wo, n, table[0][mid], table[1][mid], table[2][mid])
-    front = (np.sum(wi * n, axis=1) > 0) & found.ravel()
-    contrib = np.where(front[:, None], f * power, 0.0).reshape(len(q), k, 3).sum(axis=1)
-    last = np.where(found.any(axis=1), found.sum(axis=1) - 1, 0)
-    r2 = np.where(found.any(axis=1), np.maximum(d[np.arange(len(q)), last].astype(np.float64) ** 2,
-                                                min_r2(index)), 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        L = np.where(r2[:, None] > 0, contrib / (np.pi * r2[:, None]), 0.0)
-    out[live] = L * points.weight.reshape(-1, 3)[live]
-    return out.reshape(h, w, 3)
 
 
 def _material_table(materials):
@@ -158,8 +200,12 @@ class CausticPass:
         self.seconds = 0.0
 
     def render(self, points: ShadingPoints, materials, *, k=None, A=None,
-               variant: str = "default") -> np.ndarray:
-        """(h, w, 3) float32 caustic radiance, row 0 at the top like ``points``."""
+               variant: str = "default", options: EstimateOptions | None = None) -> np.ndarray:
+        """(h, w, 3) float32 caustic radiance, row 0 at the top like ``points``.
+
+        ``options`` : :class:`~.estimate.EstimateOptions` (None: the defaults), the same
+        that :func:`estimate_cpu` takes.
+        """
         from ..gl.shaderlib import compile_program
 
         index = self.index
@@ -170,9 +216,11 @@ class CausticPass:
         kd, ks, e = _material_table(materials)
         ctx = self.ctx
         check_lookup(ctx, prm, Variant.parse(variant), k, A)
+        options = EstimateOptions() if options is None else options
         with ctx:
             prog = compile_program(ctx, "caustic_pass.frag",
-                                   self.lookup.defines(Variant.parse(variant), k, A * k))
+                                   {**self.lookup.defines(Variant.parse(variant), k, A * k),
+                                    **options.defines()})
             # Textures are bottom-up in GL: flip rows on the way in and out.
             pos = np.concatenate([points.position, points.material[..., None].astype(np.float32)], axis=2)
             nrm = np.concatenate([points.normal, np.ones((h, w, 1), np.float32)], axis=2)
@@ -185,6 +233,8 @@ class CausticPass:
             try:
                 self.lookup.set_uniforms(prog)
                 prog["caustic_min_r2"].value = min_r2(index)
+                for name, value in options.uniforms().items():
+                    prog[name].value = value
                 pad = MAX_MATERIALS - len(kd)
                 prog["cp_kd"].value = [tuple(r) for r in np.vstack([kd, np.zeros((pad, 3))])]
                 prog["cp_ks"].value = [tuple(r) for r in np.vstack([ks, np.zeros((pad, 3))])]

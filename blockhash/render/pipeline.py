@@ -12,11 +12,12 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from .caustic import CausticPass, estimate_cpu, estimate_exact
+from .estimate import EstimateOptions
 from ..errors import InputError
 from ..gl.limits import MAX_K
 from .gbuffer import rasterize
@@ -59,7 +60,9 @@ def _receiver_materials(scene):
 
 
 def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="default",
-                 size=None, seed=None, backend=None, progress=False, photon_map=None) -> RenderResult:
+                 size=None, seed=None, backend=None, progress=False, photon_map=None,
+                 estimate=None, filter=None, normal_cos=None, normal_test=True, disc=None,
+                 options=None) -> RenderResult:
     """Render ``scene`` (see :mod:`blockhash.render.scene`).
 
     Parameters
@@ -73,6 +76,17 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
         Override the camera's image size.
     photon_map : CausticPhotons, optional
         Reuse traced photons (for comparing methods on the same map).
+    estimate : {'unbiased', 'paper'}, optional
+    filter : {'none', 'cone', 'epanechnikov', 'silverman'}, optional
+    normal_cos : float in [-1, 1], optional
+        Threshold of the photon normal test, ``dot(n_photon, n) >= normal_cos``.
+    normal_test : bool
+        False turns the photon normal test off.
+    disc : float >= 0, optional
+        Flattened neighbourhood: photons within ``disc * r`` of the tangent plane.
+    options : EstimateOptions, optional
+        The density estimate's options (:mod:`blockhash.render.estimate`); the keywords
+        above change single fields of it (default: ``EstimateOptions()``).
     """
     from .scene import MirrorMaterial
     from .tracing import trace_caustic_photons
@@ -85,7 +99,12 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
     if method == "bh" and k > MAX_K:  # refused before hours of tracing, not after
         raise InputError(f"k={k} is above the lookup shader's limit MAX_K={MAX_K}; use k <= "
                          f"{MAX_K}, or method='cpu' or 'kdtree'")
+    options = EstimateOptions.of(options, estimate=estimate, filter=filter, normal_cos=normal_cos,
+                                 disc=disc)
+    if not normal_test:
+        options = replace(options, normal_cos=None)
     timings, info = {}, {}
+    info["estimate"] = options.label
     t0 = time.perf_counter()
     if photon_map is None and scene.specular_objects:
         photon_map = trace_caustic_photons(scene, photons or settings.count,
@@ -122,11 +141,14 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
         materials = _receiver_materials(scene)
         t = time.perf_counter()
         if method == "bh":
-            caustic = CausticPass(index, backend=backend).render(points, materials, variant=variant)
+            caustic = CausticPass(index, backend=backend).render(points, materials, variant=variant,
+                                                                 options=options)
         elif method == "cpu":
-            caustic = estimate_cpu(index, points, materials, variant=variant).astype(np.float32)
+            caustic = estimate_cpu(index, points, materials, variant=variant,
+                                   options=options).astype(np.float32)
         else:
-            caustic = estimate_exact(index, points, materials, backend=backend).astype(np.float32)
+            caustic = estimate_exact(index, points, materials, backend=backend,
+                                     options=options).astype(np.float32)
         timings["caustic"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
     return RenderResult(direct=direct.astype(np.float32), caustic=np.asarray(caustic, np.float32),

@@ -148,17 +148,24 @@ class _Batch:
     weights: np.ndarray
     depth: np.ndarray       # (m,) mirror bounces
     rays: int
+    objects: np.ndarray     # (m,) receiving object (index into the scene's objects)
+    geo_normals: np.ndarray  # (m, 3) geometric normals, on the side the photon came from
 
     def cut(self, end: int) -> "_Batch":
         """Keep photons with local index < end."""
         keep = self.stored < end
         return _Batch(self.fate[:end], self.fallbacks[:end], self.stored[keep],
                       self.positions[keep], self.directions[keep], self.normals[keep],
-                      self.weights[keep], self.depth[keep], self.rays)
+                      self.weights[keep], self.depth[keep], self.rays, self.objects[keep],
+                      self.geo_normals[keep])
 
 
-def _trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int) -> _Batch:
-    """Follow a batch of photons through mirrors to their first diffuse hit (vectorised)."""
+def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int) -> _Batch:
+    """Follow a batch of photons through mirrors to their first diffuse hit (vectorised).
+
+    Shared by the photon map (:func:`trace_caustic_photons`) and the light tracer
+    (:mod:`.lighttrace`); ``weights`` are not yet divided by the photons emitted.
+    """
     n = len(origins)
     fate = np.full(n, -1, dtype=np.int8)
     fallbacks = np.zeros(n, dtype=np.uint16)
@@ -185,9 +192,10 @@ def _trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int)
             fate[idx[diffuse]] = DIRECT  # direct light: the renderer's shadow rays do it
         elif diffuse.any():
             fate[idx[diffuse]] = STORED
-            p, ns, _ = surface_hits(geom, face[diffuse], u[diffuse], v[diffuse], d[diffuse])
+            p, ns, ng = surface_hits(geom, face[diffuse], u[diffuse], v[diffuse], d[diffuse])
             parts.append((idx[diffuse], p, d[diffuse], ns, w[diffuse],
-                          np.full(len(p), bounce, dtype=np.uint8)))
+                          np.full(len(p), bounce, dtype=np.uint8),
+                          geom.face_object[face[diffuse]], ng))
         if bounce == max_bounces:
             fate[idx[spec]] = MAX_BOUNCES
             break
@@ -211,12 +219,13 @@ def _trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int)
     if parts:
         cat = [np.concatenate(a) for a in zip(*parts)]
         order = np.argsort(cat[0], kind="stable")
-        s_idx, s_p, s_d, s_n, s_w, s_depth = (a[order] for a in cat)
+        s_idx, s_p, s_d, s_n, s_w, s_depth, s_obj, s_ng = (a[order] for a in cat)
     else:
         s_idx = np.zeros(0, dtype=np.int64)
-        s_p = s_d = s_n = s_w = np.zeros((0, 3))
+        s_p = s_d = s_n = s_w = s_ng = np.zeros((0, 3))
         s_depth = np.zeros(0, dtype=np.uint8)
-    return _Batch(fate, fallbacks, s_idx, s_p, s_d, s_n, s_w, s_depth, rays)
+        s_obj = np.zeros(0, dtype=np.int64)
+    return _Batch(fate, fallbacks, s_idx, s_p, s_d, s_n, s_w, s_depth, rays, s_obj, s_ng)
 
 
 def trace_caustic_photons(scene, n_stored_target: int | None = None, *, seed: int | None = None,
@@ -312,7 +321,7 @@ def trace_caustic_photons(scene, n_stored_target: int | None = None, *, seed: in
             count = min(batch_size, cap - start, guess)
             u = photon_uniforms(seed, start, count)
             origins, dirs, weights, light = emitter.sample(u)
-            batch = _trace_batch(geom, origins, dirs, weights, max_bounces)
+            batch = trace_batch(geom, origins, dirs, weights, max_bounces)
             batches += 1
             traced += count
             rays += batch.rays

@@ -1,0 +1,128 @@
+"""The density estimate's options measured against the light-traced reference.
+
+For each scene (Phong ``ks`` set to 0, so the receivers are Lambertian as the light
+tracer's comparison assumes no glossy lobe is missing), photon count N and k, one photon
+map is traced and its Block Hashing neighbours found once per pixel (the CPU reference
+of the default shader variant: the same photons the caustic pass finds, or exact kNN
+with cKDTree for the paper's and the default estimate, the lookup's own share); every
+:class:`~blockhash.render.estimate.EstimateOptions` is then evaluated on those same
+neighbours, so the options differ only in the estimate.  Images are rendered at
+``supersample`` times the size and box-filtered, as in the trade study.
+
+Measures, per row (:mod:`.measure`): ``flux`` the ratio of summed caustic radiance to the
+reference's over the comparison mask (:meth:`LightTraceImage.comparison_mask`), ``blur``
+the relative RMS after a 2-pixel Gaussian blur over that mask, and ``flux_region`` and
+``blur_region`` the same over the *caustic region*: mask pixels whose blurred reference
+exceeds :data:`REGION_FRACTION` of its 99th percentile.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..gl.lookup import slot_bits
+from ..index.block_hash_index import BlockHashIndex
+from ..index.metrics import exact_knn
+from ..render.caustic import Neighbours
+from ..render.estimate import EstimateOptions
+from ..render.gbuffer import rasterize
+from ..render.lighttrace import cached_reference, lambertian
+from ..render.pipeline import _receiver_materials
+from ..render.scene import MirrorMaterial
+from ..render.shading import SceneRays, shading_points
+from ..render.tracing import trace_caustic_photons
+from .measure import flux_ratio, masked_blur, rel_rms
+from .sweep import box_down
+
+#: The caustic region: blurred reference above this fraction of its 99th percentile.
+REGION_FRACTION = 0.05
+
+
+def default_options() -> list[EstimateOptions]:
+    """The options every study compares: the paper's estimate, then one change at a time."""
+    O = EstimateOptions
+    return [O(estimate="paper", normal_cos=None), O(estimate="unbiased", normal_cos=None),
+            O(estimate="paper", normal_cos=0.5),
+            O(normal_cos=0.0), O(normal_cos=0.5), O(normal_cos=0.9),
+            O(normal_cos=0.5, disc=0.5), O(normal_cos=0.5, disc=0.25),
+            O(normal_cos=0.5, filter="cone"), O(normal_cos=0.5, filter="epanechnikov"),
+            O(normal_cos=0.5, filter="silverman")]
+
+
+def caustic_region(reference, mask) -> np.ndarray:
+    """(h, w) bool: mask pixels where the blurred reference is above REGION_FRACTION of its p99."""
+    b = masked_blur(reference, mask).sum(axis=2)
+    top = float(np.percentile(b[mask], 99)) if mask.any() else 0.0
+    return mask & (b > REGION_FRACTION * top)
+
+
+def measure(image, reference, mask, region) -> dict:
+    return {"flux": flux_ratio(image, reference, mask),
+            "blur": rel_rms(masked_blur(image, mask), masked_blur(reference, mask), mask),
+            "flux_region": flux_ratio(image, reference, region),
+            "blur_region": rel_rms(masked_blur(image, mask), masked_blur(reference, mask), region)}
+
+
+def study_scene(scene, *, photons=(100_000, 1_000_000), ks=(50,), options=None, size=(128, 128),
+                supersample: int = 2, reference_photons: int = 50_000_000, A: int = 8,
+                cache_dir=None, progress=print) -> dict:
+    """Rows of measures for one scene (module docstring); the reference's own noise beside them."""
+    options = default_options() if options is None else list(options)
+    exact_options = [options[0], EstimateOptions()]
+    scene = lambertian(scene)
+    t0 = time.perf_counter()
+    ref, path = cached_reference(scene, reference_photons, size=size, cache_dir=cache_dir)
+    progress(f"{scene.path}: reference {ref!r} ({time.perf_counter() - t0:.0f} s)")
+    mask = ref.comparison_mask()
+    region = caustic_region(ref.radiance, mask)
+    ss = int(supersample)
+    g = rasterize(scene.camera, scene.objects, size=(size[0] * ss, size[1] * ss))
+    points = shading_points(scene.camera, g, scene.objects, SceneRays(scene.objects), (MirrorMaterial,))
+    materials = _receiver_materials(scene)
+    rows = []
+    for n in photons:
+        pm = trace_caustic_photons(scene, n, seed=scene.photons.seed)
+        for k in ks:
+            index = BlockHashIndex(pm.positions, k=k, A=A, directions=pm.directions,
+                                   normals=pm.normals, powers=pm.powers)
+            bits = slot_bits(index.params.L, index.params.B)
+            for search, opts in (("bh", options), ("exact", exact_options)):
+                if search == "bh":
+                    nb = Neighbours.find(index, points,
+                                         lambda q: index.query(q, k=k, A=A, slot_bits=bits), k)
+                else:
+                    nb = Neighbours.find(index, points,
+                                         lambda q: exact_knn(index.positions, q, k), k)
+                for opt in opts:
+                    img = box_down(nb.estimate(materials, opt), ss)
+                    row = {"scene": scene.path.stem if scene.path else "?", "photons": n, "k": k,
+                           "search": search, "option": opt.label,
+                           **measure(img, ref.radiance, mask, region)}
+                    rows.append(row)
+                    progress(f"  N={n:,} k={k} {search:5s} {opt.label:28s} flux {row['flux']:.4f} "
+                             f"blur {row['blur']:.4f} | region flux {row['flux_region']:.4f} blur "
+                             f"{row['blur_region']:.4f}")
+                del nb
+    # the reference's own noise: its standard error blurred like the images (independent pixels)
+    se = ref.stderr
+    noise = float(np.sqrt(np.mean(se[region] ** 2)) / np.sqrt(np.mean(ref.radiance[region] ** 2)))
+    return {"scene": str(scene.path), "size": list(size), "supersample": ss,
+            "reference": {"photons": ref.emitted, "cache": str(path) if path else None,
+                          "pixels_compared": int(mask.sum()), "pixels_region": int(region.sum()),
+                          "rel_noise_region": noise},
+            "rows": rows}
+
+
+def markdown_table(studies) -> str:
+    """One table of every row of every study."""
+    lines = ["| scene | N | k | search | option | flux / ref | blurred rel. RMS | flux / ref (region) | "
+             "blurred rel. RMS (region) |", "|---|---|---|---|---|---|---|---|---|"]
+    for s in studies:
+        for r in s["rows"]:
+            lines.append(f"| {r['scene']} | {r['photons']:,} | {r['k']} | {r['search']} | "
+                         f"`{r['option']}` | "
+                         f"{r['flux']:.4f} | {r['blur']:.4f} | {r['flux_region']:.4f} | "
+                         f"{r['blur_region']:.4f} |")
+    return "\n".join(lines)

@@ -1,0 +1,178 @@
+"""The light tracer (blockhash.render.lighttrace) against an analytic caustic.
+
+A point light at height HL below a plane mirror (y = H, facing down) over a Lambertian
+floor (y = 0): the caustic on the floor is the light's mirror image at y = 2H - HL, times
+the reflectance, so the floor's radiance is exactly ``kd / pi * R * I cos(theta) / d^2``
+from the image point.  Pixels are checked against it within their own standard errors.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from blockhash.errors import InputError
+from blockhash.render.lighttrace import (Pinhole, cached_reference, lambertian, light_trace,
+                                         scene_digest)
+from blockhash.render.scene import (Camera, MirrorMaterial, PhongMaterial, PhotonSettings,
+                                    PointLight, Scene, SceneObject)
+
+H, HL, KD, POWER = 2.0, 0.5, 0.5, 100.0
+REFL = np.array([0.9, 0.6, 0.3])
+LIGHT_X = 0.3  # off the camera's symmetry plane, so a left-right flip would show
+SIZE = 24
+
+
+def quad(y, half, normal):
+    v = np.array([[-half, y, -half], [half, y, -half], [half, y, half], [-half, y, half]], float)
+    f = np.array([[0, 1, 2], [0, 2, 3]])
+    if np.cross(v[1] - v[0], v[2] - v[0]) @ normal < 0:
+        f = f[:, ::-1]
+    return trimesh.Trimesh(v, f, vertex_normals=np.tile(normal, (4, 1)), process=False)
+
+
+def mirror_scene(*, mirror=True, ks=0.0, fov=50.0):
+    floor = SceneObject("floor", quad(0.0, 6.0, np.array([0, 1.0, 0])),
+                        PhongMaterial(kd=np.full(3, KD), ks=np.full(3, ks), n=10.0))
+    objects = [floor]
+    if mirror:
+        objects.append(SceneObject("mirror", quad(H, 1.5, np.array([0, -1.0, 0])), MirrorMaterial(REFL)))
+    cam = Camera(eye=(0.0, 1.2, 1.5), target=(0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0), fov_y_deg=fov,
+                 width=SIZE, height=SIZE)
+    return Scene(camera=cam, lights=(PointLight((LIGHT_X, HL, 0.0), (POWER,) * 3),),
+                 objects=tuple(objects), photons=PhotonSettings(count=1000, k=50, A=8, seed=1,
+                                                                max_bounces=2))
+
+
+def analytic(scene) -> np.ndarray:
+    """(h, w, 3) exact caustic radiance of the floor at the pixel centres."""
+    pin = Pinhole.of(scene.camera)
+    d = pin.pixel_rays()
+    p = pin.eye + (-pin.eye[1] / d[:, 1])[:, None] * d
+    v = p - [LIGHT_X, 2 * H - HL, 0.0]
+    dist = np.linalg.norm(v, axis=1)
+    irradiance = POWER / (4 * np.pi) * (2 * H - HL) / dist ** 3
+    return ((KD / np.pi * irradiance)[:, None] * REFL).reshape(SIZE, SIZE, 3)
+
+
+def rel_rms(image, exact):
+    return float(np.sqrt(np.mean((image - exact) ** 2)) / np.sqrt(np.mean(exact ** 2)))
+
+
+@pytest.fixture(scope="module")
+def traced():
+    scene = mirror_scene()
+    return scene, light_trace(scene, 800_000, seed=5)
+
+
+def test_pixels_match_the_mirror_image_of_the_light_within_their_noise(traced):
+    scene, img = traced
+    exact = analytic(scene)
+    assert img.visible.all()
+    z = (img.radiance - exact) / img.stderr
+    # z-scores of independent pixels: mean square near 1, no outlier past 5 sigma
+    assert 0.8 < np.mean(z ** 2) < 1.25, np.mean(z ** 2)
+    assert np.abs(z).max() < 5.0
+
+
+def test_total_flux_matches_within_the_summed_noise(traced):
+    scene, img = traced
+    exact = analytic(scene)
+    sigma = np.sqrt(np.sum(img.stderr ** 2, axis=(0, 1)))
+    assert np.all(np.abs(img.radiance.sum(axis=(0, 1)) - exact.sum(axis=(0, 1))) < 4 * sigma)
+    assert img.radiance.sum() / exact.sum() == pytest.approx(1.0, abs=0.02)
+
+
+def test_error_falls_as_one_over_sqrt_photons():
+    scene = mirror_scene()
+    exact = analytic(scene)
+    coarse = rel_rms(light_trace(scene, 100_000, seed=11).radiance, exact)
+    fine = rel_rms(light_trace(scene, 1_600_000, seed=12).radiance, exact)
+    assert 3.0 < coarse / fine < 5.4, (coarse, fine)  # sqrt(16) = 4
+
+
+def test_image_does_not_depend_on_the_batch_size():
+    scene = mirror_scene()
+    a = light_trace(scene, 30_000, seed=2, batch_size=7_000)
+    b = light_trace(scene, 30_000, seed=2)
+    np.testing.assert_allclose(a.radiance, b.radiance, rtol=1e-12, atol=0)
+    assert a.radiance.sum() > 0
+
+
+def test_glossy_receiver_differs_and_a_scene_without_mirrors_is_black():
+    glossy = light_trace(mirror_scene(ks=0.4), 50_000, seed=3)
+    plain = light_trace(mirror_scene(), 50_000, seed=3)
+    assert not np.allclose(glossy.radiance, plain.radiance)
+    assert np.all(light_trace(mirror_scene(mirror=False), 1000).radiance == 0)
+
+
+def test_reference_is_cached_by_scene_content(tmp_path):
+    scene = mirror_scene()
+    first, path = cached_reference(scene, 20_000, cache_dir=tmp_path)
+    again, path2 = cached_reference(scene, 20_000, cache_dir=tmp_path)
+    assert path == path2 and path.is_file()
+    np.testing.assert_array_equal(first.radiance, again.radiance)
+    assert scene_digest(scene) != scene_digest(mirror_scene(ks=0.4))
+    assert scene_digest(lambertian(mirror_scene(ks=0.4))) == scene_digest(mirror_scene())
+
+
+def test_photon_count_must_be_positive():
+    with pytest.raises(InputError, match="photons=0"):
+        light_trace(mirror_scene(), 0)
+
+
+def test_exact_knn_photon_map_agrees_with_the_light_tracer(traced):
+    """The renderer's pixels (G-buffer rows, camera) line up with the light tracer's."""
+    from conftest import context_or_skip
+
+    context_or_skip("egl")
+    from blockhash import BlockHashIndex
+    from blockhash.render.caustic import estimate_exact
+    from blockhash.render.gbuffer import rasterize
+    from blockhash.render.pipeline import _receiver_materials
+    from blockhash.render.shading import SceneRays, shading_points
+    from blockhash.render.tracing import trace_caustic_photons
+
+    scene, img = traced
+    photons = trace_caustic_photons(scene, 200_000, seed=4)
+    index = BlockHashIndex(photons.positions, k=50, A=1, directions=photons.directions,
+                           normals=photons.normals, powers=photons.powers)
+    g = rasterize(scene.camera, scene.objects, backend="egl")
+    points = shading_points(scene.camera, g, scene.objects, SceneRays(scene.objects), (MirrorMaterial,))
+    est = estimate_exact(index, points, _receiver_materials(scene), gpu=False)
+    exact = analytic(scene)
+    # k-NN noise ~ 1/sqrt(50) per pixel, bias k/(k-1); both images must match the truth
+    assert rel_rms(est, exact) < 0.2
+    assert rel_rms(img.radiance, exact) < 0.25
+    assert rel_rms(est, img.radiance) < 0.3
+    assert est.sum() / img.radiance.sum() == pytest.approx(1.0, abs=0.05)
+
+
+def test_projection_inverts_the_pixel_rays():
+    pin = Pinhole.of(mirror_scene().camera, (17, 11))
+    rays = pin.pixel_rays()
+    pix, cos_c = pin.project(pin.eye + 2.5 * rays)
+    np.testing.assert_array_equal(pix, np.arange(17 * 11))
+    np.testing.assert_allclose(cos_c, rays @ pin.forward, rtol=1e-12)
+    assert pin.project(pin.eye - rays[:1])[0][0] == -1  # behind the camera
+
+
+def test_visible_pixels_line_up_with_the_renderers_gbuffer():
+    """A floor only on the camera's left-hand, near side: both must see it in the same pixels."""
+    from conftest import context_or_skip
+
+    context_or_skip("egl")
+    from blockhash.render.gbuffer import rasterize
+
+    base = mirror_scene()
+    v = np.array([[-3.0, 0, 0.2], [0.1, 0, 0.2], [0.1, 0, 3.0], [-3.0, 0, 3.0]])
+    f = np.array([[0, 2, 1], [0, 3, 2]])
+    part = trimesh.Trimesh(v, f, vertex_normals=np.tile([0, 1.0, 0], (4, 1)), process=False)
+    floor = SceneObject("floor", part, base.objects[0].material)
+    scene = Scene(camera=base.camera, lights=base.lights, objects=(floor, base.objects[1]),
+                  photons=base.photons)
+    img = light_trace(scene, 1000)
+    seen = rasterize(scene.camera, scene.objects, backend="egl").object == 0
+    assert 0.1 < seen.mean() < 0.6
+    assert np.mean(img.visible != seen) < 0.05  # edge pixels may differ
