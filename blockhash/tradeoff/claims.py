@@ -133,7 +133,8 @@ def report_markdown(study: dict, plots: list[str]) -> str:
                 "error_vs_N.png": "Error against the reference vs photons, per k: noise falls "
                 "with N, blur grows with k.",
                 "strip.png": "Caustic layer at A = 1, 2, 4, 8, 16, exact kNN and the reference "
-                "(largest N, one exposure; paper Figs. 11 and 13)."}
+                "(largest N, one exposure; paper Figs. 11 and 13). The reference leaves out caustics "
+                "seen in mirrors: mirror pixels are black there."}
     for p in plots:
         lines += [f"![{p}]({p})", "", captions.get(p, ""), ""]
     if study.get("notes"):
