@@ -116,3 +116,26 @@ def test_gl_lookup_of_an_index_matches_its_cpu_query(caustic_index):
     lookup = GLLookup(caustic_index, backend="egl")
     d, i = lookup.query(q, variant="binary-branch-on-network")
     np.testing.assert_array_equal(i, caustic_index.query(q)[1])
+
+def test_one_program_serves_every_query_count(caustic_index):
+    """The query count and viewport width are uniforms: a new image size compiles nothing."""
+    context_or_skip("egl")
+    from blockhash.gl import shaderlib
+
+    lookup = GLLookup(caustic_index, backend="egl")
+    q = queries_for("caustic", m=300)
+    assert_same_as_cpu(lookup, caustic_index, q, 8, 4)
+    compiled = len(shaderlib._PROGRAMS)
+    assert_same_as_cpu(lookup, caustic_index, q[:37], 8, 4)
+    assert len(shaderlib._PROGRAMS) == compiled
+    assert len(lookup._programs) == 1
+
+
+def test_timed_draws_report_wall_and_gpu_time_per_draw(caustic_index):
+    context_or_skip("egl")
+    lookup = GLLookup(caustic_index, backend="egl")
+    times = lookup.time_draws(queries_for("caustic", m=64), 8, A=4, repeat=3, warmup=1)
+    assert len(times["wall"]) == len(times["gpu"]) == 3
+    assert all(t > 0 for t in times["wall"]) and all(t > 0 for t in times["gpu"])
+    with pytest.raises(InputError, match="repeat=0 is out of range"):
+        lookup.time_draws(queries_for("caustic", m=64), 8, A=4, repeat=0)

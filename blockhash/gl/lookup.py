@@ -16,13 +16,15 @@ import numpy as np
 from ..errors import InputError
 from ..index.thresholds import ThresholdLayout
 from ..validate import as_int, as_points
-from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer
+from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer, time_draws
 from ..index.blocks import PHOTONS_PER_BLOCK
 from .packing import pack_index
 from .shaderlib import Variant, compile_program
 
 #: Queries per pass are capped so one draw stays short (llvmpipe runs a draw to completion).
 MAX_QUERIES_PER_PASS = 1 << 18
+#: Viewport width of a pass (queries wrap row by row).
+QUERY_WIDTH = 1024
 NO_SLOT = 0xFFFFFFFF
 
 
@@ -79,10 +81,10 @@ class GLLookup:
         if "bh_power_scale" in program:
             program["bh_power_scale"].value = float(self.index.records.power_scale)
 
-    def _program(self, variant: Variant, k: int, cap: int, width: int, count: int,
-                 fetch_only: bool = False):
-        defines = {**self.defines(variant, k, cap, fetch_only=fetch_only),
-                   "BH_QUERY_W": width, "BH_QUERIES": count}
+    def _program(self, variant: Variant, k: int, cap: int, fetch_only: bool = False):
+        """The lookup program; the query count and viewport width are uniforms, so one
+        program serves every image size."""
+        defines = self.defines(variant, k, cap, fetch_only=fetch_only)
         key = tuple(defines.items())
         if key not in self._programs:
             self._programs[key] = compile_program(self.ctx, "bh_query.frag", defines)
@@ -107,8 +109,7 @@ class GLLookup:
         m = len(q)
         pairs = np.empty((m, k, 2), dtype=np.uint32)
         counts = np.empty(m, dtype=np.uint32)
-        limit = self.ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27) // (8 * k)
-        per_pass = max(1, min(MAX_QUERIES_PER_PASS, limit))
+        per_pass = self._per_pass(k)
         self._draw_seconds = 0.0
         with self.ctx:
             for first in range(0, m, per_pass):
@@ -126,38 +127,91 @@ class GLLookup:
         return distances, indices
 
     def _run(self, q, variant, k, cap, pairs_out, counts_out, fetch_only=False):
-        ctx = self.ctx
-        m = len(q)
-        width = min(m, 1024)
-        height = -(-m // width)
-        grid = np.zeros((height * width, 4), dtype=np.float32)
-        grid[:m, :3] = q
-        qtex = ctx.texture((width, height), 4, grid.tobytes(), dtype="f4")
-        qtex.filter = (ctx.NEAREST, ctx.NEAREST)
-        results = ctx.buffer(reserve=m * k * 8)
-        counts = ctx.buffer(reserve=m * 4)
-        color = ctx.renderbuffer((width, height), 4, dtype="f1")
-        fbo = ctx.framebuffer(color_attachments=[color])
-        check_gl(ctx, f"allocating buffers for {m:,} queries x k={k}")
-        try:
-            prog = self._program(variant, k, cap, width, m, fetch_only)
-            self.set_uniforms(prog)
-            bind_textures(prog, {**self.textures(), "bh_queries": qtex})
-            results.bind_to_storage_buffer(0)
-            counts.bind_to_storage_buffer(1)
-            self._draw_seconds += draw_fullscreen(ctx, prog, fbo, (width, height))
-            check_gl(ctx, "the lookup draw")
-            pairs_out[:] = np.frombuffer(results.read(), dtype=np.uint32).reshape(m, k, 2)
-            counts_out[:] = np.frombuffer(counts.read(), dtype=np.uint32)
-        finally:
-            # moderngl rebinds its current framebuffer after creating one: never leave a
-            # framebuffer that is about to be released current.
-            self._home.use()
-            for obj in (qtex, results, counts, fbo, color):
-                obj.release()
+        with _Pass(self, q, variant, k, cap, fetch_only) as p:
+            self._draw_seconds += draw_fullscreen(self.ctx, p.prog, p.fbo, p.size)
+            check_gl(self.ctx, "the lookup draw")
+            pairs_out[:] = np.frombuffer(p.results.read(), dtype=np.uint32).reshape(len(q), k, 2)
+            counts_out[:] = np.frombuffer(p.counts.read(), dtype=np.uint32)
+
+    def time_draws(self, points, k=None, *, A=None, variant="default", fetch_only: bool = False,
+                   repeat: int = 10, warmup: int = 2) -> dict:
+        """Time the lookup's draws the way GPU work is timed; returns the per-draw times.
+
+        The queries are uploaded once; per pass, ``warmup`` draws of the very program
+        that is then timed, and ``repeat`` back-to-back timed draws with no read-back
+        between them (:func:`blockhash.gl.context.time_draws`).  Returns
+        ``{'wall': [...], 'gpu': [...]}``, seconds per draw summed over the passes.
+        """
+        n = len(self.index)
+        k = self.index.params.k if k is None else as_int(k, "k", minimum=1, maximum=n)
+        A = self.index.params.A if A is None else as_int(A, "A", minimum=1)
+        repeat = as_int(repeat, "repeat", minimum=1)
+        v = variant if isinstance(variant, Variant) else Variant.parse(variant)
+        q = as_points(points, "points", dtype=np.float32, finite=False)
+        wall = np.zeros(repeat)
+        gpu = np.zeros(repeat)
+        with self.ctx:
+            for first in range(0, len(q), self._per_pass(k)):
+                chunk = q[first:first + self._per_pass(k)]
+                with _Pass(self, chunk, v, k, A * k, fetch_only) as p:
+                    w, g = time_draws(self.ctx, p.prog, p.fbo, p.size, repeat=repeat, warmup=warmup)
+                    check_gl(self.ctx, "the timed lookup draws")
+                wall += w
+                gpu += g
+        return {"wall": wall.tolist(), "gpu": gpu.tolist()}
+
+    def _per_pass(self, k: int) -> int:
+        limit = self.ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27) // (8 * k)
+        return max(1, min(MAX_QUERIES_PER_PASS, limit))
 
     def release(self):
         with self.ctx:
             self._home.use()
             self.packed.release()
         self._programs.clear()  # the programs stay in shaderlib's cache
+
+
+class _Pass:
+    """The GL objects of one pass of queries: query texture, result buffers, framebuffer,
+    and the program with its uniforms and textures bound; released on exit."""
+
+    def __init__(self, lookup: GLLookup, q, variant, k, cap, fetch_only):
+        ctx = lookup.ctx
+        self.lookup = lookup
+        m = len(q)
+        width = min(m, QUERY_WIDTH)
+        height = -(-m // width)
+        self.size = (width, height)
+        grid = np.zeros((height * width, 4), dtype=np.float32)
+        grid[:m, :3] = q
+        self.qtex = ctx.texture((width, height), 4, grid.tobytes(), dtype="f4")
+        self.qtex.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.results = ctx.buffer(reserve=m * k * 8)
+        self.counts = ctx.buffer(reserve=m * 4)
+        self.color = ctx.renderbuffer((width, height), 4, dtype="f1")
+        self.fbo = ctx.framebuffer(color_attachments=[self.color])
+        ready = False
+        try:
+            check_gl(ctx, f"allocating buffers for {m:,} queries x k={k}")
+            self.prog = lookup._program(variant, k, cap, fetch_only)
+            lookup.set_uniforms(self.prog)
+            self.prog["bh_query_w"].value = width
+            self.prog["bh_queries_n"].value = m
+            bind_textures(self.prog, {**lookup.textures(), "bh_queries": self.qtex})
+            self.results.bind_to_storage_buffer(0)
+            self.counts.bind_to_storage_buffer(1)
+            ready = True
+        finally:
+            if not ready:
+                self.__exit__()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        # moderngl rebinds its current framebuffer after creating one: never leave a
+        # framebuffer that is about to be released current.
+        self.lookup._home.use()
+        for obj in (self.qtex, self.results, self.counts, self.fbo, self.color):
+            obj.release()
+        return False
