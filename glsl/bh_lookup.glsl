@@ -4,7 +4,7 @@
 // number of candidates examined.
 // Defines: everything its includes take, plus BH_CAP (= A * k, candidates
 // examined before stopping; the check precedes each block), BH_DEDUP, and
-// BH_FETCH_ONLY (1: fetch and measure the same candidates but keep none, the
+// BH_TAKEN_MAX (bh_taken.glsl), BH_FETCH_ONLY (1: fetch and measure the same candidates but keep none, the
 // memory floor the benchmark compares with; bh_fetch_sink receives their sum).
 // The CPU oracle is blockhash/query.py bh_query; both give identical results.
 #ifndef BH_LOOKUP_GLSL
@@ -15,16 +15,28 @@
 #include "bh_blocks.glsl"
 #include "bh_select.glsl"
 #include "bh_select_packed.glsl"
+#include "bh_taken.glsl"
 
 uint bh_fetch_sink = 0u;
 
 // A packed key -> (exact squared-distance bits, photon slot), or BH_NO_KEY.
-uvec2 bh_unpack(uint key, vec3 q, uint taken[BH_L * BH_B]) {
+// The taken list is an array (dedup branch, zero) or the register set of bh_taken.glsl.
+#if BH_DEDUP == BH_DEDUP_SET
+#define BH_TAKEN_ARG
+#define BH_TAKEN_PARAM
+#define BH_TAKEN_AT(i) bh_taken_get(i)
+#else
+#define BH_TAKEN_ARG , taken
+#define BH_TAKEN_PARAM , uint taken[BH_L * BH_B]
+#define BH_TAKEN_AT(i) taken[i]
+#endif
+
+uvec2 bh_unpack(uint key, vec3 q BH_TAKEN_PARAM) {
     if (key == BH_PK_EMPTY) {
         return BH_NO_KEY;
     }
     uint cand = key & BH_SLOT_MASK;
-    uint b = taken[cand / 10u];
+    uint b = BH_TAKEN_AT(cand / 10u);
     uint j = cand % 10u;
     vec3 p = bh_photon_position(b, j);
     precise vec3 d = p - q;
@@ -46,7 +58,11 @@ uint bh_lookup(vec3 q) {
     uint order[BH_L];
     uint entries[BH_L];
     bh_order_tables(keys, order, entries);
+#if BH_DEDUP == BH_DEDUP_SET
+    bh_taken_init();
+#else
     uint taken[BH_L * BH_B];
+#endif
     uint ntaken = 0u;
     uint count = 0u;
     for (int oi = 0; oi < BH_L; ++oi) {
@@ -56,11 +72,15 @@ uint bh_lookup(vec3 q) {
                 break;
             }
             uint b = bh_ref(t, keys[t], r);
+#if BH_DEDUP == BH_DEDUP_SET
+            bool dup = bh_taken_has(b);
+#else
             bool dup = false;
             for (uint j = 0u; j < ntaken; ++j) {
                 dup = dup || taken[j] == b;
             }
-#if BH_DEDUP == BH_DEDUP_BRANCH
+#endif
+#if BH_DEDUP == BH_DEDUP_BRANCH || BH_DEDUP == BH_DEDUP_SET
             if (dup) {
                 continue;
             }
@@ -84,7 +104,11 @@ uint bh_lookup(vec3 q) {
 #endif
             }
             if (!dup) {
+#if BH_DEDUP == BH_DEDUP_SET
+                bh_taken_put(ntaken, b);
+#else
                 taken[ntaken] = b;
+#endif
                 ntaken += 1u;
                 count += n;
             }
@@ -92,7 +116,7 @@ uint bh_lookup(vec3 q) {
     }
 #if BH_SELECT == BH_SELECT_PACKED && !BH_FETCH_ONLY
     // Unpack the winners into (exact distance bits, photon slot) keys.
-#define BH_UNPACK1(i) if (i < BH_K) bh_best[i] = bh_unpack(bh_pk[i], q, taken);
+#define BH_UNPACK1(i) if (i < BH_K) bh_best[i] = bh_unpack(bh_pk[i], q BH_TAKEN_ARG);
 #define BH_UNPACK8(i) BH_UNPACK1(i) BH_UNPACK1(i + 1) BH_UNPACK1(i + 2) BH_UNPACK1(i + 3) \
                       BH_UNPACK1(i + 4) BH_UNPACK1(i + 5) BH_UNPACK1(i + 6) BH_UNPACK1(i + 7)
     BH_PK_GROUPS(BH_UNPACK8)

@@ -10,9 +10,12 @@
 #define BH_SEARCH_LINEAR 0
 #define BH_SEARCH_BINARY 1
 
-// Duplicate block removal (section 7: branch, or "multiply redundant photons by zero").
+// Duplicate block removal (section 7: branch, or "multiply redundant photons by zero"),
+// both over a list of taken blocks in a local array; or skip, with the taken blocks in
+// registers (bh_taken.glsl: no variable-indexed array).
 #define BH_DEDUP_BRANCH 0
 #define BH_DEDUP_ZERO 1
+#define BH_DEDUP_SET 2
 
 // Bucket order (section 4.4): by priority alpha, or plain table order.
 #define BH_PRIORITY_OFF 0

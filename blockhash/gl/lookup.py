@@ -33,6 +33,12 @@ def slot_bits(L: int, B: int) -> int:
     return max(1, int(L * B * 10 - 1).bit_length())
 
 
+def taken_bound(L: int, B: int, cap: int) -> int:
+    """Most blocks one query can take: at most L * B references, and (blocks being full
+    but the last, and the cap checked before each block) at most ceil(cap / 10) + 1."""
+    return min(L * B, (cap + 9) // PHOTONS_PER_BLOCK + 1)
+
+
 class GLLookup:
     """A BlockHashIndex uploaded to a GL context.
 
@@ -64,6 +70,7 @@ class GLLookup:
             "BH_NESTED": int(prm.layout == ThresholdLayout.NESTED), "BH_T": self.index.thresholds.shape[1],
             "BH_BUCKETS": prm.buckets, "BH_K": k, "BH_CAP": cap, **self.packed.widths,
             "BH_SLOT_BITS": slot_bits(prm.L, prm.B), "BH_FETCH_ONLY": int(fetch_only),
+            "BH_TAKEN_MAX": taken_bound(prm.L, prm.B, cap),
         }
 
     def textures(self) -> dict:

@@ -98,7 +98,7 @@ def preprocess(name: str, prologue: str = "", *, root: Path | None = None) -> So
 #: Choice -> (GLSL selector define, {name: id}); ids match glsl/bh_variants.glsl.
 CHOICES = {
     "search": ("BH_THRESHOLD_SEARCH", {"linear": 0, "binary": 1}),
-    "dedup": ("BH_DEDUP", {"branch": 0, "zero": 1}),
+    "dedup": ("BH_DEDUP", {"branch": 0, "zero": 1, "set": 2}),
     "priority": ("BH_PRIORITY", {"off": 0, "on": 1}),
     "select": ("BH_SELECT", {"insertion": 0, "network": 1, "packed": 2}),
 }
@@ -109,7 +109,9 @@ class Variant:
     """One shader variant: a named choice per algorithm stage.
 
     search : {'linear', 'binary'}     threshold search (section 7)
-    dedup : {'branch', 'zero'}        duplicate blocks skipped, or "multiplied by zero"
+    dedup : {'branch', 'zero', 'set'} duplicate blocks skipped, or "multiplied by zero" (both
+                                      scan a local array of taken blocks), or skipped with
+                                      the taken blocks in registers (no indexed array)
     priority : {'on', 'off'}          buckets by priority alpha (4.4), or table order
     select : {'insertion', 'network', 'packed'} k-nearest selection (packed: unrolled
                                       network on uint keys, exact up to near-ties that
