@@ -55,23 +55,44 @@ uint bh_lookup(vec3 q) {
     for (int t = 0; t < BH_L; ++t) {
         keys[t] = bh_bucket_of(uint(t), code);
     }
+#if BH_DEDUP == BH_DEDUP_SET
+    // Tables visited by rank, each picked by comparisons over constant indices.
+    uint rank[BH_L];
+    uint entries[BH_L];
+    bh_rank_tables(keys, rank, entries);
+    bh_taken_init();
+#else
     uint order[BH_L];
     uint entries[BH_L];
     bh_order_tables(keys, order, entries);
-#if BH_DEDUP == BH_DEDUP_SET
-    bh_taken_init();
-#else
     uint taken[BH_L * BH_B];
 #endif
     uint ntaken = 0u;
     uint count = 0u;
     for (int oi = 0; oi < BH_L; ++oi) {
+#if BH_DEDUP == BH_DEDUP_SET
+        if (count >= uint(BH_CAP)) {
+            break;
+        }
+        uint t = 0u;
+        uint key = 0u;
+        uint nref = 0u;
+        for (int u = 0; u < BH_L; ++u) {
+            bool here = rank[u] == uint(oi);
+            t = here ? uint(u) : t;
+            key = here ? keys[u] : key;
+            nref = here ? entries[u] : nref;
+        }
+#else
         uint t = order[oi];
-        for (uint r = 0u; r < entries[t]; ++r) {
+        uint key = keys[t];
+        uint nref = entries[t];
+#endif
+        for (uint r = 0u; r < nref; ++r) {
             if (count >= uint(BH_CAP)) {
                 break;
             }
-            uint b = bh_ref(t, keys[t], r);
+            uint b = bh_ref(t, key, r);
 #if BH_DEDUP == BH_DEDUP_SET
             bool dup = bh_taken_has(b);
 #else
