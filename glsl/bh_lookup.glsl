@@ -15,6 +15,7 @@
 #include "bh_blocks.glsl"
 #include "bh_select.glsl"
 #include "bh_select_packed.glsl"
+#include "bh_select_merge.glsl"
 #include "bh_taken.glsl"
 
 uint bh_fetch_sink = 0u;
@@ -44,8 +45,21 @@ uvec2 bh_unpack(uint key, vec3 q BH_TAKEN_PARAM) {
     return uvec2(floatBitsToUint(dd), b * 10u + j);
 }
 
+// The packed key of photon j of block b, the cand-th candidate (select packed, merge).
+uint bh_packed_key(uint b, uint j, vec3 q, uint cand) {
+    vec3 p = bh_photon_position(b, j);
+    precise vec3 d = p - q;
+    precise float dd = (d.x * d.x + d.y * d.y) + d.z * d.z;
+    return (floatBitsToUint(dd) & ~BH_SLOT_MASK) | cand;
+}
+
+// select=merge: block b's keys into the batch, constant slot j, empty beyond its n photons.
+#define BH_MB_TAKE(j) bh_mb[j] = (uint(j) < n) ? bh_packed_key(b, uint(j), q, ntaken * 10u + uint(j)) | kill : BH_PK_EMPTY;
+
 uint bh_lookup(vec3 q) {
-#if BH_SELECT == BH_SELECT_PACKED
+#if BH_SELECT == BH_SELECT_MERGE
+    bh_merge_init();
+#elif BH_SELECT == BH_SELECT_PACKED
     bh_packed_init();
 #else
     bh_select_init();
@@ -112,6 +126,11 @@ uint bh_lookup(vec3 q) {
 #error unknown BH_DEDUP
 #endif
             uint n = bh_block_count(b);
+#if BH_SELECT == BH_SELECT_MERGE && !BH_FETCH_ONLY
+            BH_MB_TAKE(0) BH_MB_TAKE(1) BH_MB_TAKE(2) BH_MB_TAKE(3) BH_MB_TAKE(4)
+            BH_MB_TAKE(5) BH_MB_TAKE(6) BH_MB_TAKE(7) BH_MB_TAKE(8) BH_MB_TAKE(9)
+            bh_merge_block();
+#else
             for (uint j = 0u; j < n; ++j) {
                 vec3 p = bh_photon_position(b, j);
                 precise vec3 d = p - q;
@@ -124,6 +143,7 @@ uint bh_lookup(vec3 q) {
                 bh_select_offer(uvec2(floatBitsToUint(dd) | kill, (b * 10u + j) | kill));
 #endif
             }
+#endif
             if (!dup) {
 #if BH_DEDUP == BH_DEDUP_SET
                 bh_taken_put(ntaken, b);
@@ -135,7 +155,13 @@ uint bh_lookup(vec3 q) {
             }
         }
     }
-#if BH_SELECT == BH_SELECT_PACKED && !BH_FETCH_ONLY
+#if BH_SELECT == BH_SELECT_MERGE && !BH_FETCH_ONLY
+    // Unpack the winners into (exact distance bits, photon slot) keys.
+#define BH_MS_UNPACK1(i) if (i < BH_K) bh_best[i] = bh_unpack(bh_ms[i], q BH_TAKEN_ARG);
+#define BH_MS_UNPACK8(i) BH_MS_UNPACK1(i) BH_MS_UNPACK1(i + 1) BH_MS_UNPACK1(i + 2) BH_MS_UNPACK1(i + 3) \
+                         BH_MS_UNPACK1(i + 4) BH_MS_UNPACK1(i + 5) BH_MS_UNPACK1(i + 6) BH_MS_UNPACK1(i + 7)
+    BH_PK_GROUPS(BH_MS_UNPACK8)  // groups of 8 up to k: bh_best's size
+#elif BH_SELECT == BH_SELECT_PACKED && !BH_FETCH_ONLY
     // Unpack the winners into (exact distance bits, photon slot) keys.
 #define BH_UNPACK1(i) if (i < BH_K) bh_best[i] = bh_unpack(bh_pk[i], q BH_TAKEN_ARG);
 #define BH_UNPACK8(i) BH_UNPACK1(i) BH_UNPACK1(i + 1) BH_UNPACK1(i + 2) BH_UNPACK1(i + 3) \

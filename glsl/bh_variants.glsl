@@ -29,5 +29,8 @@
 #define BH_SELECT_INSERTION 0
 #define BH_SELECT_NETWORK 1
 #define BH_SELECT_PACKED 2
+// The same keys a block at a time: the block's keys sorted, then merged into the list
+// by a bitonic merge (bh_select_merge.glsl); same result as packed.
+#define BH_SELECT_MERGE 3
 
 #endif

@@ -25,7 +25,7 @@ def queries_for(name, m=300, seed=21):
 def assert_same_as_cpu(lookup, index, q, k, A, variant="default"):
     """The variant's neighbours equal the CPU reference run in the same mode."""
     v = Variant.parse(variant)
-    bits = slot_bits(index.params.L, index.params.B) if v.select == "packed" else 0
+    bits = slot_bits(index.params.L, index.params.B) if v.packed_keys else 0
     d, i = lookup.query(q, k=k, A=A, variant=variant)
     dc, ic = index.query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
     dc, ic = dc.reshape(len(q), k), ic.reshape(len(q), k)
@@ -139,3 +139,39 @@ def test_timed_draws_report_wall_and_gpu_time_per_draw(caustic_index):
     assert all(t > 0 for t in times["wall"]) and all(t > 0 for t in times["gpu"])
     with pytest.raises(InputError, match="repeat=0 is out of range"):
         lookup.time_draws(queries_for("caustic", m=64), 8, A=4, repeat=0)
+
+
+@pytest.mark.filterwarnings("ignore::blockhash.OrphanWarning")
+@pytest.mark.parametrize("variant, k, A", [
+    ("binary-set-on-merge", 50, 16), ("binary-set-off-packed", 50, 16), ("linear-zero-on-merge", 50, 16),
+    ("binary-branch-on-merge", 50, 8), ("binary-set-on-merge", 100, 2), ("binary-set-on-merge", 1, 16)])
+def test_register_variants_equal_the_cpu_reference_up_to_the_largest_state(variant, k, A):
+    """The taken-block set at its bound (A * k = 800 candidates: 81 blocks) and the merge
+    network at k = 100 (128 slots) still equal the CPU reference."""
+    context_or_skip("egl")
+    index = BlockHashIndex(photon_set("clustered", 4000), k=k, A=A)
+    lookup = GLLookup(index, backend="egl")
+    assert_same_as_cpu(lookup, index, queries_for("clustered", m=150), k, A, variant=variant)
+
+
+def test_taken_bound_covers_the_most_blocks_a_query_takes():
+    from blockhash.gl.lookup import taken_bound
+
+    # Full blocks of 10, cap checked before each block: 40 blocks reach 400 candidates,
+    # a partial last block can add one more.
+    assert taken_bound(7, 23, 400) == 41
+    assert taken_bound(2, 5, 400) == 10
+    from blockhash.index.query import bh_query
+    from blockhash.index.thresholds import ThresholdLayout
+
+    index = BlockHashIndex(photon_set("clustered", 3000), k=20, A=16)
+    q = queries_for("clustered", m=300)[10:]
+    prm = index.params
+    for A in (1, 3, 16):
+        cap = A * 20
+        *_, fetched = bh_query(index.quantizer.quantize_query(q), q, index.thresholds,
+                               np.asarray(prm.P, dtype=np.int64), prm.layout == ThresholdLayout.NESTED,
+                               index.tables.refs, index.priority, index.starts, index._positions,
+                               20, cap, True, 0)
+        assert fetched.max() <= taken_bound(prm.L, prm.B, cap)
+        assert fetched.max() >= taken_bound(prm.L, prm.B, cap) - 1  # the bound is tight

@@ -100,7 +100,7 @@ CHOICES = {
     "search": ("BH_THRESHOLD_SEARCH", {"linear": 0, "binary": 1}),
     "dedup": ("BH_DEDUP", {"branch": 0, "zero": 1, "set": 2}),
     "priority": ("BH_PRIORITY", {"off": 0, "on": 1}),
-    "select": ("BH_SELECT", {"insertion": 0, "network": 1, "packed": 2}),
+    "select": ("BH_SELECT", {"insertion": 0, "network": 1, "packed": 2, "merge": 3}),
 }
 
 
@@ -113,13 +113,15 @@ class Variant:
                                       scan a local array of taken blocks), or skipped with
                                       the taken blocks in registers (no indexed array)
     priority : {'on', 'off'}          buckets by priority alpha (4.4), or table order
-    select : {'insertion', 'network', 'packed'} k-nearest selection (packed: unrolled
-                                      network on uint keys, exact up to near-ties that
-                                      the CPU reference reproduces with slot_bits)
+    select : {'insertion', 'network', 'packed', 'merge'} k-nearest selection (packed:
+                                      unrolled network on uint keys, exact up to near-ties
+                                      that the CPU reference reproduces with slot_bits;
+                                      merge: the same keys, a block at a time, by a
+                                      bitonic merge)
     """
 
     search: str = "binary"
-    dedup: str = "branch"
+    dedup: str = "set"
     priority: str = "on"
     select: str = "packed"
 
@@ -130,6 +132,11 @@ class Variant:
             if value not in valid:
                 raise InputError(f"variant {f.name}={value!r} is not known; choose one of "
                                  f"{', '.join(valid)}")
+
+    @property
+    def packed_keys(self) -> bool:
+        """Whether the selection keeps packed uint keys (the CPU reference's ``slot_bits`` mode)."""
+        return self.select in ("packed", "merge")
 
     @property
     def name(self) -> str:
