@@ -175,3 +175,19 @@ def test_taken_bound_covers_the_most_blocks_a_query_takes():
                                20, cap, True, 0)
         assert fetched.max() <= taken_bound(prm.L, prm.B, cap)
         assert fetched.max() >= taken_bound(prm.L, prm.B, cap) - 1  # the bound is tight
+
+
+def test_query_width_changes_the_tile_shape_not_the_results(caustic_index):
+    context_or_skip("egl")
+    lookup = GLLookup(caustic_index, backend="egl")
+    q = queries_for("caustic", m=300)
+    d, i = lookup.query(q)
+    for width in (7, 16):
+        d2, i2 = lookup.query(q, width=width)
+        np.testing.assert_array_equal(i, i2)
+        np.testing.assert_array_equal(d, d2)
+    limit = lookup.ctx.info["GL_MAX_TEXTURE_SIZE"]
+    with pytest.raises(InputError, match=r"width=.* is out of range"):
+        lookup.query(q, width=limit + 1)
+    with pytest.raises(CapacityError, match=r"queries at width=1 need .* rows > GL_MAX_TEXTURE_SIZE"):
+        lookup.query(np.zeros((limit + 1, 3), np.float32), width=1)

@@ -119,6 +119,10 @@ def gl_info(ctx: moderngl.Context) -> dict:
     return out
 
 
+#: The GL timer query result as moderngl reads it (32 bits of nanoseconds) saturates here.
+GPU_TIMER_LIMIT_NS = 2**32 - 1
+
+
 def draw_fullscreen(ctx: moderngl.Context, program, fbo, size: tuple[int, int]) -> float:
     """One fullscreen-triangle draw of ``program`` into ``fbo``; returns the draw's seconds.
 
@@ -166,7 +170,9 @@ def time_draws(ctx: moderngl.Context, program, fbo, size: tuple[int, int], *, re
                 vao.render(mode=ctx.TRIANGLES, vertices=3)
             ctx.finish()
             walls.append(time.perf_counter() - start)
-            gpus.append(query.elapsed * 1e-9)
+            # moderngl reads the 32-bit query result, which saturates at 2^32 - 1 ns
+            # (4.29 s, reached only on a software rasterizer): no figure then.
+            gpus.append(query.elapsed * 1e-9 if query.elapsed < GPU_TIMER_LIMIT_NS else float("nan"))
         return walls, gpus
     finally:
         vao.release()

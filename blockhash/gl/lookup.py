@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import CapacityError, InputError
 from ..index.thresholds import ThresholdLayout
 from ..validate import as_int, as_points
 from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer, time_draws
@@ -97,7 +97,8 @@ class GLLookup:
             self._programs[key] = compile_program(self.ctx, "bh_query.frag", defines)
         return self._programs[key]
 
-    def query(self, points, k=None, *, A=None, variant="default", fetch_only: bool = False):
+    def query(self, points, k=None, *, A=None, variant="default", fetch_only: bool = False,
+              width: int | None = None):
         """Approximate k nearest photons computed by the shader; see BlockHashIndex.query.
 
         Returns ``(distances, indices)`` of shape (m, k) (no squeezing); rows with NaN
@@ -105,6 +106,8 @@ class GLLookup:
         examined per query and ``gl.draw_seconds``, the time of the draws alone
         (no compile, upload or read-back).  ``fetch_only`` runs the memory-floor
         shader for benchmarks: same candidates, no selection, no neighbours returned.
+        ``width`` is the queries per viewport row (default 1024): an image's width makes
+        the fragments that run side by side neighbouring pixels (same results).
         """
         index = self.index
         n = len(index)
@@ -122,7 +125,7 @@ class GLLookup:
             for first in range(0, m, per_pass):
                 chunk = q[first:first + per_pass]
                 self._run(chunk, v, k, A * k, pairs[first:first + len(chunk)],
-                          counts[first:first + len(chunk)], fetch_only)
+                          counts[first:first + len(chunk)], fetch_only, width)
         slots = pairs[..., 1].astype(np.int64)
         found = slots != NO_SLOT
         d2 = pairs[..., 0].copy().view(np.float32)
@@ -133,20 +136,21 @@ class GLLookup:
                          "query.candidates.mean": float(counts[finite].mean()) if finite.any() else 0.0}
         return distances, indices
 
-    def _run(self, q, variant, k, cap, pairs_out, counts_out, fetch_only=False):
-        with _Pass(self, q, variant, k, cap, fetch_only) as p:
+    def _run(self, q, variant, k, cap, pairs_out, counts_out, fetch_only=False, width=None):
+        with _Pass(self, q, variant, k, cap, fetch_only, width) as p:
             self._draw_seconds += draw_fullscreen(self.ctx, p.prog, p.fbo, p.size)
             check_gl(self.ctx, "the lookup draw")
             pairs_out[:] = np.frombuffer(p.results.read(), dtype=np.uint32).reshape(len(q), k, 2)
             counts_out[:] = np.frombuffer(p.counts.read(), dtype=np.uint32)
 
     def time_draws(self, points, k=None, *, A=None, variant="default", fetch_only: bool = False,
-                   repeat: int = 10, warmup: int = 2) -> dict:
+                   repeat: int = 10, warmup: int = 2, width: int | None = None) -> dict:
         """Time the lookup's draws the way GPU work is timed; returns the per-draw times.
 
         The queries are uploaded once; per pass, ``warmup`` draws of the very program
         that is then timed, and ``repeat`` back-to-back timed draws with no read-back
-        between them (:func:`blockhash.gl.context.time_draws`).  Returns
+        between them (:func:`blockhash.gl.context.time_draws`); ``width`` as in
+        :meth:`query`.  Returns
         ``{'wall': [...], 'gpu': [...]}``, seconds per draw summed over the passes.
         """
         n = len(self.index)
@@ -160,7 +164,7 @@ class GLLookup:
         with self.ctx:
             for first in range(0, len(q), self._per_pass(k)):
                 chunk = q[first:first + self._per_pass(k)]
-                with _Pass(self, chunk, v, k, A * k, fetch_only) as p:
+                with _Pass(self, chunk, v, k, A * k, fetch_only, width) as p:
                     w, g = time_draws(self.ctx, p.prog, p.fbo, p.size, repeat=repeat, warmup=warmup)
                     check_gl(self.ctx, "the timed lookup draws")
                 wall += w
@@ -182,12 +186,18 @@ class _Pass:
     """The GL objects of one pass of queries: query texture, result buffers, framebuffer,
     and the program with its uniforms and textures bound; released on exit."""
 
-    def __init__(self, lookup: GLLookup, q, variant, k, cap, fetch_only):
+    def __init__(self, lookup: GLLookup, q, variant, k, cap, fetch_only, width=None):
         ctx = lookup.ctx
         self.lookup = lookup
         m = len(q)
-        width = min(m, QUERY_WIDTH)
+        limit = ctx.info.get("GL_MAX_TEXTURE_SIZE", 16384)
+        width = QUERY_WIDTH if width is None else as_int(
+            width, "width", minimum=1, maximum=limit, hint="queries per row of the query texture")
+        width = min(m, width)
         height = -(-m // width)
+        if height > limit:
+            raise CapacityError(f"{m:,} queries at width={width:,} need {height:,} rows > "
+                                f"GL_MAX_TEXTURE_SIZE={limit:,}; use a larger width")
         self.size = (width, height)
         grid = np.zeros((height * width, 4), dtype=np.float32)
         grid[:m, :3] = q
