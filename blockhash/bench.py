@@ -110,6 +110,9 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
     progress(f"{device['renderer']} ({device['gl_version']}); clock: {clk}")
     progress(f"photons {photons:,} ({data}), queries {queries:,} ({query_set}), k={k}; "
              f"{index.params!r}")
+    # An image raster is drawn at its own width, so neighbouring fragments are neighbouring
+    # pixels, as in a caustic pass; a random set keeps the lookup's default width.
+    width = int(np.ceil(np.sqrt(queries))) if query_set == "image" else None
     exact = exact_knn(positions, q, k)
     tree = cKDTree(positions)
     q64 = q.astype(np.float64)
@@ -126,9 +129,9 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
     for A in A_values:
         for name, kwargs in [(f"BH {v}", {"variant": v}) for v in variants] + \
                             [("BH fetch-only floor", {"fetch_only": True})]:
-            times = lookup.time_draws(q, k, A=A, repeat=repeat, warmup=warmup, **kwargs)
+            times = lookup.time_draws(q, k, A=A, repeat=repeat, warmup=warmup, width=width, **kwargs)
             row = {"method": name, "A": A, **summarize(times, clk), **device}
-            _, idx = lookup.query(q, k=k, A=A, **kwargs)
+            _, idx = lookup.query(q, k=k, A=A, width=width, **kwargs)
             row["candidates"] = lookup.counters["query.candidates.mean"]
             if not kwargs.get("fetch_only"):
                 row["fn_percent"] = 100.0 * false_negatives(idx, exact[1], len(index)).mean() / k

@@ -4,7 +4,8 @@
 // number of candidates examined.
 // Defines: everything its includes take, plus BH_CAP (= A * k, candidates
 // examined before stopping; the check precedes each block), BH_DEDUP, and
-// BH_TAKEN_MAX (bh_taken.glsl), BH_FETCH_ONLY (1: fetch and measure the same candidates but keep none, the
+// BH_TAKEN_MAX (bh_taken.glsl), BH_CULL (off | box: skip blocks that cannot hold a
+// neighbour), BH_FETCH_ONLY (1: fetch and measure the same candidates but keep none, the
 // memory floor the benchmark compares with; bh_fetch_sink receives their sum).
 // The CPU oracle is blockhash/query.py bh_query; both give identical results.
 #ifndef BH_LOOKUP_GLSL
@@ -19,6 +20,7 @@
 #include "bh_taken.glsl"
 
 uint bh_fetch_sink = 0u;
+uint bh_culled = 0u;  // blocks culled by the current lookup (BH_CULL box)
 
 // A packed key -> (exact squared-distance bits, photon slot), or BH_NO_KEY.
 // The taken list is an array (dedup branch, zero) or the register set of bh_taken.glsl.
@@ -52,6 +54,28 @@ uint bh_packed_key(uint b, uint j, vec3 q, uint cand) {
     precise float dd = (d.x * d.x + d.y * d.y) + d.z * d.z;
     return (floatBitsToUint(dd) & ~BH_SLOT_MASK) | cand;
 }
+
+// Block culling (BH_CULL box): whether no photon of the block whose head is h can
+// enter the k nearest, because the lower bound of its squared distances exceeds the
+// current k-th key.  Its photons are then neither fetched nor offered; they still count
+// as examined and the block as taken, so the result is the same as without culling.
+#if BH_CULL == BH_CULL_BOX && !BH_FETCH_ONLY
+bool bh_block_far(uvec4 h, vec3 q) {
+    float lb = bh_block_gap2(h, q);
+    uint bits = floatBitsToUint(lb);
+#if BH_SELECT == BH_SELECT_PACKED
+    bool far = lb > 0.0 && bits > (bh_pk[BH_K - 1] | BH_SLOT_MASK);
+#elif BH_SELECT == BH_SELECT_MERGE
+    bool far = lb > 0.0 && bits > (bh_ms[BH_K - 1] | BH_SLOT_MASK);
+#else
+    bool far = lb > 0.0 && bits > bh_best[BH_K - 1].x;
+#endif
+    bh_culled += uint(far);
+    return far;
+}
+#elif BH_CULL != BH_CULL_OFF && BH_CULL != BH_CULL_BOX
+#error unknown BH_CULL
+#endif
 
 // select=merge: block b's keys into the batch, constant slot j, empty beyond its n photons.
 #define BH_MB_TAKE(j) bh_mb[j] = (uint(j) < n) ? bh_packed_key(b, uint(j), q, ntaken * 10u + uint(j)) | kill : BH_PK_EMPTY;
@@ -125,7 +149,14 @@ uint bh_lookup(vec3 q) {
 #else
 #error unknown BH_DEDUP
 #endif
+#if BH_CULL == BH_CULL_BOX && !BH_FETCH_ONLY
+            uvec4 head = bh_block_head(b);
+            uint n = head.x;
+            if (!bh_block_far(head, q)) {
+#else
             uint n = bh_block_count(b);
+            {
+#endif
 #if BH_SELECT == BH_SELECT_MERGE && !BH_FETCH_ONLY
             BH_MB_TAKE(0) BH_MB_TAKE(1) BH_MB_TAKE(2) BH_MB_TAKE(3) BH_MB_TAKE(4)
             BH_MB_TAKE(5) BH_MB_TAKE(6) BH_MB_TAKE(7) BH_MB_TAKE(8) BH_MB_TAKE(9)
@@ -144,6 +175,7 @@ uint bh_lookup(vec3 q) {
 #endif
             }
 #endif
+            }
             if (!dup) {
 #if BH_DEDUP == BH_DEDUP_SET
                 bh_taken_put(ntaken, b);

@@ -3,7 +3,7 @@
 // Returns: for query i, BH_K (squared-distance bits, slot) pairs at
 // results[i * BH_K ...] and the candidates examined at counts[i]; a query with
 // NaN or inf gets no neighbours (with BH_FETCH_ONLY, counts[] gets the
-// candidates plus one bit of the fetched data).  Uniforms: bh_query_w (viewport
+// candidates plus one bit of the fetched data), and the blocks culled at culled[i].  Uniforms: bh_query_w (viewport
 // width), bh_queries_n (queries in this pass): a new image size needs no new program.
 // Defines: everything bh_lookup.glsl takes.
 #include "bh_lookup.glsl"
@@ -14,6 +14,7 @@ uniform uint bh_queries_n;  // queries in this pass
 
 layout(std430, binding = 0) writeonly buffer Results { uvec2 results[]; };
 layout(std430, binding = 1) writeonly buffer Counts { uint counts[]; };
+layout(std430, binding = 2) writeonly buffer Culled { uint culled[]; };  // blocks culled
 
 out vec4 frag_color;
 
@@ -38,4 +39,5 @@ void main() {
 #else
     counts[i] = examined;
 #endif
+    culled[i] = bh_culled;
 }

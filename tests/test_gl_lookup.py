@@ -39,7 +39,14 @@ def caustic_index():
     return BlockHashIndex(photon_set("caustic", 8000), k=8, A=4)
 
 
-@pytest.mark.parametrize("variant", variants())
+#: Every combination of the paper's four stages (cull off), and culling beside each
+#: duplicate removal and selection (the full product with culling would double the compiles).
+TESTED_VARIANTS = [v for v in variants() if not v.endswith("-box")] + [
+    f"binary-{d}-on-{s}-box" for d in ("branch", "zero", "set")
+    for s in ("insertion", "network", "packed", "merge")] + ["linear-set-off-packed-box"]
+
+
+@pytest.mark.parametrize("variant", TESTED_VARIANTS)
 def test_every_variant_equals_the_cpu_reference(caustic_index, variant):
     context_or_skip("egl")
     lookup = GLLookup(caustic_index, backend="egl")
@@ -191,3 +198,32 @@ def test_query_width_changes_the_tile_shape_not_the_results(caustic_index):
         lookup.query(q, width=limit + 1)
     with pytest.raises(CapacityError, match=r"queries at width=1 need .* rows > GL_MAX_TEXTURE_SIZE"):
         lookup.query(np.zeros((limit + 1, 3), np.float32), width=1)
+
+
+@pytest.mark.parametrize("variant", ["default", "binary-branch-on-network-box"])
+def test_culling_skips_blocks_and_keeps_the_neighbours(variant):
+    """Culled blocks (not fetched, not offered) leave every neighbour as the CPU reference
+    has it, and some blocks are culled: a lookup that never culls fails here."""
+    context_or_skip("egl")
+    index = BlockHashIndex(photon_set("caustic", 20000), k=8, A=8)
+    lookup = GLLookup(index, backend="egl")
+    q = queries_for("caustic", m=400)
+    assert_same_as_cpu(lookup, index, q, 8, 8, variant=variant)
+    assert lookup.counters["query.blocks_culled.mean"] > 1.0
+    lookup.query(q, 8, A=8, variant=Variant.parse(variant).name.rsplit("-", 1)[0] + "-off")
+    assert lookup.counters["query.blocks_culled.mean"] == 0.0
+
+
+def test_block_boxes_bound_every_photon_code():
+    from blockhash.gl.packing import block_boxes
+
+    index = BlockHashIndex(photon_set("clustered", 3007), k=8, A=4)
+    words = index.block_words
+    boxes = block_boxes(words)
+    for b in (0, 5, len(words) - 1):
+        n = words[b, 60]
+        codes = words[b, :60].reshape(10, 6)[:n, :3].astype(np.int64)
+        lo = (boxes[b] & 0xFFFF).astype(np.int64) << 16
+        hi = ((boxes[b] >> 16).astype(np.int64) << 16) | 0xFFFF
+        assert (codes >= lo).all() and (codes <= hi).all()
+        assert (codes.min(axis=0) >> 16 == lo >> 16).all()  # tight to 16 bits

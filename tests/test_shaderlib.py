@@ -40,7 +40,7 @@ def test_glsl_ids_match_the_python_registry():
     text = (glsl_dir() / "bh_variants.glsl").read_text()
     ids = dict((m.group(1), int(m.group(2))) for m in re.finditer(r"#define (BH_\w+) (\d+)", text))
     prefixes = {"search": "BH_SEARCH_", "dedup": "BH_DEDUP_", "priority": "BH_PRIORITY_",
-                "select": "BH_SELECT_"}
+                "select": "BH_SELECT_", "cull": "BH_CULL_"}
     for choice, (_, names) in CHOICES.items():
         for name, value in names.items():
             assert ids[prefixes[choice] + name.upper()] == value
@@ -80,11 +80,13 @@ def test_defines_write_out_falsy_values():
 
 def test_variants_list_named_and_every_combination():
     names = variants()
-    assert names[:2] == ["default", "paper"] and len(names) == 2 + 2 * 3 * 2 * 4
+    assert names[:2] == ["default", "paper"] and len(names) == 2 + 2 * 3 * 2 * 4 * 2
     for name in names:
         assert Variant.parse(name).name in names or name in NAMED
     assert Variant.parse("linear-zero-off-insertion").defines() == {
-        "BH_THRESHOLD_SEARCH": 0, "BH_DEDUP": 1, "BH_PRIORITY": 0, "BH_SELECT": 0}
+        "BH_THRESHOLD_SEARCH": 0, "BH_DEDUP": 1, "BH_PRIORITY": 0, "BH_SELECT": 0, "BH_CULL": 0}
+    assert Variant.parse("linear-zero-off-insertion-box").defines()["BH_CULL"] == 1
+    assert Variant.parse("default").name == "binary-set-on-packed-box"
 
 
 @pytest.mark.parametrize("name", ["fast", "linear-zero-on", "linear-zero-on-heap"])

@@ -104,7 +104,8 @@ class GLLookup:
         Returns ``(distances, indices)`` of shape (m, k) (no squeezing); rows with NaN
         or inf get distance inf and index N.  ``self.counters`` holds the candidates
         examined per query and ``gl.draw_seconds``, the time of the draws alone
-        (no compile, upload or read-back).  ``fetch_only`` runs the memory-floor
+        (no compile, upload or read-back), and ``query.blocks_culled.mean``, the blocks
+        skipped by culling (variants with cull 'box').  ``fetch_only`` runs the memory-floor
         shader for benchmarks: same candidates, no selection, no neighbours returned.
         ``width`` is the queries per viewport row (default 1024): an image's width makes
         the fragments that run side by side neighbouring pixels (same results).
@@ -119,13 +120,15 @@ class GLLookup:
         m = len(q)
         pairs = np.empty((m, k, 2), dtype=np.uint32)
         counts = np.empty(m, dtype=np.uint32)
+        culled = np.empty(m, dtype=np.uint32)
         per_pass = self._per_pass(k)
         self._draw_seconds = 0.0
         with self.ctx:
             for first in range(0, m, per_pass):
                 chunk = q[first:first + per_pass]
                 self._run(chunk, v, k, A * k, pairs[first:first + len(chunk)],
-                          counts[first:first + len(chunk)], fetch_only, width)
+                          counts[first:first + len(chunk)], culled[first:first + len(chunk)],
+                          fetch_only, width)
         slots = pairs[..., 1].astype(np.int64)
         found = slots != NO_SLOT
         d2 = pairs[..., 0].copy().view(np.float32)
@@ -133,15 +136,18 @@ class GLLookup:
         indices = np.where(found, index.order[np.where(found, slots, 0)], n)
         finite = np.isfinite(q).all(axis=1)
         self.counters = {"query.points": float(m), "gl.draw_seconds": self._draw_seconds,
-                         "query.candidates.mean": float(counts[finite].mean()) if finite.any() else 0.0}
+                         "query.candidates.mean": float(counts[finite].mean()) if finite.any() else 0.0,
+                         "query.blocks_culled.mean": float(culled[finite].mean()) if finite.any() else 0.0}
         return distances, indices
 
-    def _run(self, q, variant, k, cap, pairs_out, counts_out, fetch_only=False, width=None):
+    def _run(self, q, variant, k, cap, pairs_out, counts_out, culled_out, fetch_only=False,
+             width=None):
         with _Pass(self, q, variant, k, cap, fetch_only, width) as p:
             self._draw_seconds += draw_fullscreen(self.ctx, p.prog, p.fbo, p.size)
             check_gl(self.ctx, "the lookup draw")
             pairs_out[:] = np.frombuffer(p.results.read(), dtype=np.uint32).reshape(len(q), k, 2)
             counts_out[:] = np.frombuffer(p.counts.read(), dtype=np.uint32)
+            culled_out[:] = np.frombuffer(p.culled.read(), dtype=np.uint32)
 
     def time_draws(self, points, k=None, *, A=None, variant="default", fetch_only: bool = False,
                    repeat: int = 10, warmup: int = 2, width: int | None = None) -> dict:
@@ -205,6 +211,7 @@ class _Pass:
         self.qtex.filter = (ctx.NEAREST, ctx.NEAREST)
         self.results = ctx.buffer(reserve=m * k * 8)
         self.counts = ctx.buffer(reserve=m * 4)
+        self.culled = ctx.buffer(reserve=m * 4)
         self.color = ctx.renderbuffer((width, height), 4, dtype="f1")
         self.fbo = ctx.framebuffer(color_attachments=[self.color])
         ready = False
@@ -217,6 +224,7 @@ class _Pass:
             bind_textures(self.prog, {**lookup.textures(), "bh_queries": self.qtex})
             self.results.bind_to_storage_buffer(0)
             self.counts.bind_to_storage_buffer(1)
+            self.culled.bind_to_storage_buffer(2)
             ready = True
         finally:
             if not ready:
@@ -229,6 +237,6 @@ class _Pass:
         # moderngl rebinds its current framebuffer after creating one: never leave a
         # framebuffer that is about to be released current.
         self.lookup._home.use()
-        for obj in (self.qtex, self.results, self.counts, self.fbo, self.color):
+        for obj in (self.qtex, self.results, self.counts, self.culled, self.fbo, self.color):
             obj.release()
         return False

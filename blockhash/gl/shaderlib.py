@@ -101,6 +101,7 @@ CHOICES = {
     "dedup": ("BH_DEDUP", {"branch": 0, "zero": 1, "set": 2}),
     "priority": ("BH_PRIORITY", {"off": 0, "on": 1}),
     "select": ("BH_SELECT", {"insertion": 0, "network": 1, "packed": 2, "merge": 3}),
+    "cull": ("BH_CULL", {"off": 0, "box": 1}),
 }
 
 
@@ -118,12 +119,19 @@ class Variant:
                                       that the CPU reference reproduces with slot_bits;
                                       merge: the same keys, a block at a time, by a
                                       bitonic merge)
+    cull : {'off', 'box'}             blocks farther than the current k-th neighbour (by
+                                      the box in their spare words) skipped, not fetched;
+                                      same results
+
+    A name lists the choices in this order, '-'-separated; a name of the first four
+    (the paper's stages) means cull 'off'.
     """
 
     search: str = "binary"
     dedup: str = "set"
     priority: str = "on"
     select: str = "packed"
+    cull: str = "box"
 
     def __post_init__(self):
         for f in fields(self):
@@ -144,10 +152,13 @@ class Variant:
 
     @classmethod
     def parse(cls, name: str) -> "Variant":
-        """'default', 'paper', or 'search-dedup-priority-select' such as 'linear-zero-on-insertion'."""
+        """'default', 'paper', or 'search-dedup-priority-select[-cull]' such as
+        'linear-zero-on-insertion' (cull off) or 'binary-set-on-packed-box'."""
         if name in NAMED:
             return NAMED[name]
         parts = name.split("-")
+        if len(parts) == len(CHOICES) - 1:
+            parts.append("off")
         if len(parts) != len(CHOICES):
             raise InputError(f"shader variant {name!r} is not known; the variants are: "
                              + ", ".join(variants()))
@@ -167,7 +178,7 @@ class Variant:
 #: Named variants: 'default' is the fastest measured here, 'paper' follows section 7 literally.
 NAMED = {
     "default": Variant(),
-    "paper": Variant(search="linear", dedup="zero", priority="on", select="insertion"),
+    "paper": Variant(search="linear", dedup="zero", priority="on", select="insertion", cull="off"),
 }
 
 
