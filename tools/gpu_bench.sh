@@ -7,9 +7,9 @@
 # Everywhere else it runs the checkout's package with the local GL (Mesa's llvmpipe here):
 #     SMALL=1 bash tools/gpu_bench.sh        # the rehearsal: small sizes, a few minutes
 # Writes to $OUT (default out/gpu_bench): device.txt (nvidia-smi, `blockhash info`),
-# bench_A.txt/.json (every A: BH default, select=merge, the earlier default
-# binary-branch-on-packed and paper beside the fetch-only floor, the exact kd-tree shader and
-# cKDTree, same run), bench_k.txt/.json (k at A = 8), bench_1m.txt/.json
+# bench_A.txt/.json (every A: BH default, its merge selection, it without culling, the
+# earlier default binary-branch-on-packed and paper, beside the fetch-only floor, the exact
+# kd-tree shader and cKDTree, same run), bench_k.txt/.json (k at A = 8), bench_1m.txt/.json
 # (1,048,576 queries), caustic.txt/.json (the ring's caustic pass per stage at 10^6 photons),
 # tests.txt (the GL lookup tests: every variant equals the CPU reference on this device).
 # Figures: min and median of REPEAT back-to-back draws after WARMUP draws of the same program,
@@ -38,11 +38,11 @@ common=(--photons "$PHOTONS" --repeat "$REPEAT" --warmup "$WARMUP")
 step() { echo "== $1 ($(date -u +%H:%M:%S))" >&2; }
 step "device"; bh info >> "$OUT/device.txt" 2>&1; cat "$OUT/device.txt"
 step "A sweep: $QUERIES queries, A=$AS"
-bh bench "${common[@]}" --queries "$QUERIES" --A "$AS" --variants default,binary-set-on-merge,binary-branch-on-packed,paper \
+bh bench "${common[@]}" --queries "$QUERIES" --A "$AS" --variants default,binary-set-on-merge-box,binary-set-on-packed,binary-branch-on-packed,paper \
    --json "$OUT/bench_A.json" | tee "$OUT/bench_A.txt"
 step "k sweep at A=8: k=$KS"
 for k in ${KS//,/ }; do
-  bh bench "${common[@]}" --queries "$QUERIES" --A 8 --k "$k" --no-kdtree --variants default,binary-set-on-merge \
+  bh bench "${common[@]}" --queries "$QUERIES" --A 8 --k "$k" --no-kdtree --variants default,binary-set-on-merge-box \
      --json "$OUT/bench_k$k.json" | tee -a "$OUT/bench_k.txt"
 done
 step "$BIG queries at A=8"
