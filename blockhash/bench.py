@@ -2,7 +2,8 @@
 
 For one photon map and one query set it times, side by side: each BH shader
 variant at each A, the fetch-only shader (same candidate texels, no selection:
-the memory floor), the exact kd-tree shader when available, and scipy's cKDTree
+the memory floor; it fetches every candidate, so a variant that culls blocks can
+run below it), the exact kd-tree shader when available, and scipy's cKDTree
 on the CPU with all workers.  Optionally (``caustic_scene``) it also times the
 stages of a scene's caustic pass.
 
