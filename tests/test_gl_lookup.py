@@ -151,7 +151,8 @@ def test_timed_draws_report_wall_and_gpu_time_per_draw(caustic_index):
 @pytest.mark.filterwarnings("ignore::blockhash.OrphanWarning")
 @pytest.mark.parametrize("variant, k, A", [
     ("binary-set-on-merge", 50, 16), ("binary-set-off-packed", 50, 16), ("linear-zero-on-merge", 50, 16),
-    ("binary-branch-on-merge", 50, 8), ("binary-set-on-merge", 100, 2), ("binary-set-on-merge", 1, 16)])
+    ("binary-branch-on-merge", 50, 8), ("binary-set-on-merge", 100, 2), ("binary-set-on-merge", 1, 16),
+    ("binary-set-on-merge-box", 100, 2)])
 def test_register_variants_equal_the_cpu_reference_up_to_the_largest_state(variant, k, A):
     """The taken-block set at its bound (A * k = 800 candidates: 81 blocks) and the merge
     network at k = 100 (128 slots) still equal the CPU reference."""
@@ -227,3 +228,17 @@ def test_block_boxes_bound_every_photon_code():
         hi = ((boxes[b] >> 16).astype(np.int64) << 16) | 0xFFFF
         assert (codes >= lo).all() and (codes <= hi).all()
         assert (codes.min(axis=0) >> 16 == lo >> 16).all()  # tight to 16 bits
+
+
+@pytest.mark.parametrize("offset", [0.0, 1000.0])
+def test_culling_is_exact_far_from_the_origin(offset):
+    """The culling bound's margin scales with the box's magnitude: a map far from the
+    origin (coarser float32 positions) still gives the CPU reference's neighbours."""
+    context_or_skip("egl")
+    pts = photon_set("clustered", 6000) + np.float32(offset)
+    index = BlockHashIndex(pts, k=16, A=8)
+    lookup = GLLookup(index, backend="egl")
+    q = queries_for("clustered", m=300) + np.float32(offset)
+    q[7] = np.nan
+    assert_same_as_cpu(lookup, index, q, 16, 8)
+    assert lookup.counters["query.blocks_culled.mean"] > 0.0
