@@ -134,6 +134,7 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
             row = {"method": name, "A": A, **summarize(times, clk), **device}
             _, idx = lookup.query(q, k=k, A=A, width=width, **kwargs)
             row["candidates"] = lookup.counters["query.candidates.mean"]
+            row["blocks_culled"] = lookup.counters["query.blocks_culled.mean"]
             if not kwargs.get("fetch_only"):
                 row["fn_percent"] = 100.0 * false_negatives(idx, exact[1], len(index)).mean() / k
             rows.append(row)
