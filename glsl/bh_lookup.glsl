@@ -17,7 +17,9 @@
 #include "bh_select.glsl"
 #include "bh_select_packed.glsl"
 #include "bh_select_merge.glsl"
+#if BH_DEDUP == BH_DEDUP_SET
 #include "bh_taken.glsl"
+#endif
 
 uint bh_fetch_sink = 0u;
 uint bh_culled = 0u;  // blocks culled by the current lookup (BH_CULL box)

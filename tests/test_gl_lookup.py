@@ -242,3 +242,15 @@ def test_culling_is_exact_far_from_the_origin(offset):
     q[7] = np.nan
     assert_same_as_cpu(lookup, index, q, 16, 8)
     assert lookup.counters["query.blocks_culled.mean"] > 0.0
+
+
+@pytest.mark.filterwarnings("ignore::blockhash.OrphanWarning")
+def test_a_candidate_cap_beyond_the_register_set_is_refused_with_the_way_out():
+    context_or_skip("egl")
+    index = BlockHashIndex(photon_set("clustered", 4000), k=100, A=8)  # L * B = 315 > 128
+    lookup = GLLookup(index, backend="egl")
+    q = queries_for("clustered", m=20)
+    with pytest.raises(InputError, match=r"A \* k = 1,600 candidates can take up to 161 blocks.*"
+                                         r"dedup=branch"):
+        lookup.query(q, k=100, A=16)
+    assert_same_as_cpu(lookup, index, q, 100, 16, variant="binary-branch-on-packed-box")

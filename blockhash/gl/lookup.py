@@ -33,6 +33,10 @@ def slot_bits(L: int, B: int) -> int:
     return max(1, int(L * B * 10 - 1).bit_length())
 
 
+#: Taken blocks the register set of dedup=set holds (glsl/bh_taken.glsl).
+MAX_TAKEN_SET = 128
+
+
 def taken_bound(L: int, B: int, cap: int) -> int:
     """Most blocks one query can take: at most L * B references, and (blocks being full
     but the last, and the cap checked before each block) at most ceil(cap / 10) + 1."""
@@ -64,13 +68,19 @@ class GLLookup:
     def defines(self, variant: Variant, k: int, cap: int, *, fetch_only: bool = False) -> dict:
         """The #defines of bh_lookup.glsl for this index, variant, k and candidate cap."""
         prm = self.index.params
+        taken = taken_bound(prm.L, prm.B, cap)
+        if variant.dedup == "set" and taken > MAX_TAKEN_SET:
+            raise InputError(
+                f"A * k = {cap:,} candidates can take up to {taken:,} blocks, more than the "
+                f"{MAX_TAKEN_SET} that dedup=set holds in registers; use a smaller A or k, or a "
+                "variant with dedup=branch (e.g. 'binary-branch-on-packed-box')")
         return {
             **variant.defines(),
             "BH_L": prm.L, "BH_B": prm.B, "BH_PX": prm.P[0], "BH_PY": prm.P[1], "BH_PZ": prm.P[2],
             "BH_NESTED": int(prm.layout == ThresholdLayout.NESTED), "BH_T": self.index.thresholds.shape[1],
             "BH_BUCKETS": prm.buckets, "BH_K": k, "BH_CAP": cap, **self.packed.widths,
             "BH_SLOT_BITS": slot_bits(prm.L, prm.B), "BH_FETCH_ONLY": int(fetch_only),
-            "BH_TAKEN_MAX": taken_bound(prm.L, prm.B, cap),
+            "BH_TAKEN_MAX": taken,
         }
 
     def textures(self) -> dict:
