@@ -2,15 +2,27 @@
 
 For one photon map and one query set it times, side by side: each BH shader
 variant at each A, the fetch-only shader (same candidate texels, no selection:
-the memory floor), the exact kd-tree shader when available, and scipy's cKDTree
-on the CPU with all workers.  GL times are the draws alone (after a warm-up
-that compiles every program); each figure is the median of ``repeat`` runs.
-Recall is measured against the exact neighbours.
+the memory floor; it fetches every candidate, so a variant that culls blocks can
+run below it), the exact kd-tree shader when available, and scipy's cKDTree
+on the CPU with all workers.  Optionally (``caustic_scene``) it also times the
+stages of a scene's caustic pass.
+
+GL figures are taken the way GPU work is timed: per program, ``warmup`` draws of
+the very program that is then timed, then ``repeat`` back-to-back draws with no
+read-back between them, each inside a GL timer query (GPU time) and with the
+pipeline drained after it (wall time); min and median are reported.  The query
+count and width are uniforms, so the warm-up compiles exactly what is timed.
+Rows compare by ``seconds``, the median on the run's clock: GPU time where the
+timer query covers the draw, wall time on Mesa's llvmpipe, whose timer query
+covers only part of the draw (measured: 8 ms against 52 ms wall for one draw).
+Every row carries the GL renderer and version.  Recall is measured against the
+exact neighbours, outside the timing.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import statistics
 import time
 
@@ -22,6 +34,7 @@ from .index.metrics import exact_knn, false_negatives
 
 
 QUERY_SETS = ("image", "random")
+CLOCKS = ("auto", "gpu", "wall")
 
 
 def make_queries(pts: np.ndarray, m: int, kind: str, seed: int, data: str) -> np.ndarray:
@@ -44,16 +57,45 @@ def make_queries(pts: np.ndarray, m: int, kind: str, seed: int, data: str) -> np
     return q[:m].astype(np.float32)
 
 
-def _median_time(fn, repeat):
-    times = []
-    for _ in range(repeat):
-        times.append(fn())
-    return statistics.median(times)
+def device_info(ctx) -> dict:
+    """The GL renderer, vendor, version and backend, and the CPU count, for every result."""
+    from .gl.context import gl_info
+
+    info = gl_info(ctx)
+    return {"renderer": info["renderer"], "vendor": info["vendor"], "gl_version": info["version"],
+            "backend": info["backend"], "cpus": os.cpu_count()}
+
+
+def resolve_clock(clock: str, renderer: str) -> str:
+    """'gpu' or 'wall' for ``clock`` in CLOCKS; 'auto' is wall time on llvmpipe only."""
+    if clock not in CLOCKS:
+        from .errors import InputError
+
+        raise InputError(f"clock={clock!r} is not known; choose one of {', '.join(CLOCKS)}")
+    if clock == "auto":
+        return "wall" if "llvmpipe" in (renderer or "") else "gpu"
+    return clock
+
+
+def summarize(times: dict, clock: str) -> dict:
+    """Min and median of {'wall': [...], 'gpu': [...]} seconds, and ``seconds`` on ``clock``."""
+    out = {"draws": len(times["wall"])}
+    for name, values in times.items():
+        if any(v != v for v in values):  # NaN: a saturated GL timer query (> 4.29 s)
+            out[f"{name}_min"] = out[f"{name}_median"] = None
+            continue
+        out[f"{name}_min"] = min(values)
+        out[f"{name}_median"] = statistics.median(values)
+    if out.get(f"{clock}_median") is None:
+        clock = "wall"
+    out["clock"] = clock
+    out["seconds"] = out[f"{clock}_median"]
+    return out
 
 
 def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2, 4, 8, 16),
-                  variants=("default",), data="caustic", repeat=3, backend=None, seed=0,
-                  kdtree=True, query_set="image", progress=print):
+                  variants=("default",), data="caustic", repeat=10, warmup=2, backend=None, seed=0,
+                  kdtree=True, query_set="image", clock="auto", progress=print):
     """Run the benchmark and return a list of result rows (dicts)."""
     from scipy.spatial import cKDTree
 
@@ -63,75 +105,126 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
     q = make_queries(pts, queries, query_set, seed + 1, data)
     index = BlockHashIndex(pts, k=k, A=max(A_values))
     positions = index.positions.astype(np.float64)
+    lookup = GLLookup(index, backend=backend)
+    device = device_info(lookup.ctx)
+    clk = resolve_clock(clock, device["renderer"])
+    progress(f"{device['renderer']} ({device['gl_version']}); clock: {clk}")
     progress(f"photons {photons:,} ({data}), queries {queries:,} ({query_set}), k={k}; "
              f"{index.params!r}")
+    # An image raster is drawn at its own width, so neighbouring fragments are neighbouring
+    # pixels, as in a caustic pass; a random set keeps the lookup's default width.
+    width = int(np.ceil(np.sqrt(queries))) if query_set == "image" else None
     exact = exact_knn(positions, q, k)
     tree = cKDTree(positions)
-
-    def ckd():
+    q64 = q.astype(np.float64)
+    tree.query(q64[:64], k=k, workers=-1)
+    walls = []
+    for _ in range(repeat):
         t = time.perf_counter()
-        tree.query(q.astype(np.float64), k=k, workers=-1)
-        return time.perf_counter() - t
-
-    rows = [{"method": "cKDTree (CPU, all workers)", "A": None, "seconds": _median_time(ckd, repeat),
-             "fn_percent": 0.0}]
+        tree.query(q64, k=k, workers=-1)
+        walls.append(time.perf_counter() - t)
+    ckd = {"draws": repeat, "wall_min": min(walls), "wall_median": statistics.median(walls),
+           "clock": "wall", "seconds": statistics.median(walls)}
+    rows = [{"method": "cKDTree (CPU, all workers)", "A": None, **ckd, "fn_percent": 0.0, **device}]
     progress(f"cKDTree: {rows[0]['seconds']:.3f} s")
-    lookup = GLLookup(index, backend=backend)
     for A in A_values:
         for name, kwargs in [(f"BH {v}", {"variant": v}) for v in variants] + \
                             [("BH fetch-only floor", {"fetch_only": True})]:
-            lookup.query(q[:64], k=k, A=A, **kwargs)  # compile outside the timing
-
-            def gl():
-                lookup.query(q, k=k, A=A, **kwargs)
-                return lookup.counters["gl.draw_seconds"]
-
-            seconds = _median_time(gl, repeat)
-            row = {"method": name, "A": A, "seconds": seconds,
-                   "candidates": lookup.counters["query.candidates.mean"]}
+            times = lookup.time_draws(q, k, A=A, repeat=repeat, warmup=warmup, width=width, **kwargs)
+            row = {"method": name, "A": A, **summarize(times, clk), **device}
+            _, idx = lookup.query(q, k=k, A=A, width=width, **kwargs)
+            row["candidates"] = lookup.counters["query.candidates.mean"]
+            row["blocks_culled"] = lookup.counters["query.blocks_culled.mean"]
             if not kwargs.get("fetch_only"):
-                _, idx = lookup.query(q, k=k, A=A, **kwargs)
                 row["fn_percent"] = 100.0 * false_negatives(idx, exact[1], len(index)).mean() / k
             rows.append(row)
-            progress(f"{name} A={A}: {seconds:.3f} s")
+            progress(f"{name} A={A}: {row['seconds']:.4f} s")
     if kdtree:
-        try:
-            from .gl.kdtree import GLKdTree
-        except ImportError:
-            progress("kd-tree shader not available")
-        else:
-            kd = GLKdTree(index.positions, backend=backend)
-            kd.query(q[:64], k)
+        rows.append(_kdtree_row(index, q, k, repeat, warmup, backend, clk, device))
+        progress(f"kd-tree shader: {rows[-1]['seconds']:.4f} s")
+    return rows
 
-            def kdq():
-                kd.query(q, k)
-                return kd.counters["gl.draw_seconds"]
 
-            rows.append({"method": "kd-tree shader (exact)", "A": None,
-                         "seconds": _median_time(kdq, repeat), "fn_percent": 0.0})
-            progress(f"kd-tree shader: {rows[-1]['seconds']:.3f} s")
+def _kdtree_row(index, q, k, repeat, warmup, backend, clock, device) -> dict:
+    """The exact kd-tree shader on the same queries: its program (one per k and tree) is
+    warmed up by whole queries, then each timed query sums its passes' draws."""
+    from .gl.kdtree import GLKdTree
+
+    kd = GLKdTree(index.positions, backend=backend)
+    times = {"wall": [], "gpu": []}
+    for i in range(warmup + repeat):
+        kd.query(q, k)
+        if i >= warmup:
+            times["wall"].append(kd.counters["gl.draw_seconds"])
+            times["gpu"].append(kd.counters["gl.gpu_seconds"])
+    return {"method": "kd-tree shader (exact)", "A": None, **summarize(times, clock),
+            "fn_percent": 0.0, "passes": kd.counters["query.passes"], **device}
+
+
+def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default", repeat=10,
+                          warmup=2, backend=None, clock="auto", progress=print):
+    """Time the stages of a scene's caustic pass (blockhash.render.caustic.STAGES) on the
+    scene's own pixels; returns result rows like :func:`run_benchmark`."""
+    from .render.caustic import CausticPass
+    from .render.gbuffer import rasterize
+    from .render.pipeline import _receiver_materials
+    from .render.scene_toml import load_scene
+    from .render.shading import SceneRays, shading_points
+    from .render.scene import MirrorMaterial
+    from .render.tracing import trace_caustic_photons
+
+    scene = load_scene(scene_path)
+    settings = scene.photons
+    pm = trace_caustic_photons(scene, photons or settings.count, seed=settings.seed)
+    index = BlockHashIndex(pm.positions, k=settings.k, A=A or settings.A, directions=pm.directions,
+                           normals=pm.normals, powers=pm.powers)
+    gbuf = rasterize(scene.camera, scene.objects, backend=backend)
+    points = shading_points(scene.camera, gbuf, scene.objects, SceneRays(scene.objects),
+                            (MirrorMaterial,))
+    cp = CausticPass(index, backend=backend)
+    device = device_info(cp.ctx)
+    clk = resolve_clock(clock, device["renderer"])
+    h, w = points.shape
+    live = int((points.material >= 0).sum())
+    progress(f"caustic pass of {scene_path}: {len(index):,} photons stored, {w} x {h} pixels "
+             f"({live:,} shaded), k={settings.k}, A={A or settings.A}; {device['renderer']}")
+    stages = cp.time_stages(points, _receiver_materials(scene), A=A, variant=variant,
+                            repeat=repeat, warmup=warmup)
+    rows = []
+    for stage, times in stages.items():
+        rows.append({"method": f"caustic pass: {stage}", "A": A or settings.A, "scene": str(scene_path),
+                     "photons": len(index), "pixels": w * h, **summarize(times, clk), **device})
+        progress(f"caustic pass {stage}: {rows[-1]['seconds']:.4f} s")
     return rows
 
 
 def format_table(rows, queries) -> str:
     by = {(r["method"], r["A"]): r for r in rows}
-    ckd = by[("cKDTree (CPU, all workers)", None)]["seconds"]
+    ckd = by.get(("cKDTree (CPU, all workers)", None), {}).get("seconds")
     kd = by.get(("kd-tree shader (exact)", None), {}).get("seconds")
-    lines = [f"{'method':<34} {'A':>3} {'ms/batch':>10} {'queries/s':>12} {'/cKDTree':>9} "
-             f"{'/kd-tree':>9} {'/floor':>7} {'FN %k':>6}"]
+    first = rows[0]
+    lines = [f"{first['renderer']} | {first['gl_version']} | backend {first['backend']} | "
+             f"{first['cpus']} CPUs",
+             f"{'method':<34} {'A':>3} {'median ms':>10} {'min ms':>8} {'GPU med':>8} {'wall med':>8} "
+             f"{'queries/s':>12} {'/cKDTree':>9} {'/kd-tree':>9} {'/floor':>7} {'FN %k':>6}"]
     for r in rows:
         floor = by.get(("BH fetch-only floor", r["A"]), {}).get("seconds")
+        clock_min = r[f"{r.get('clock', 'wall')}_min"]
+        n = r.get("pixels", queries)
         cells = [f"{r['method']:<34}", f"{'' if r['A'] is None else r['A']:>3}",
-                 f"{1e3 * r['seconds']:>10.1f}", f"{queries / r['seconds']:>12,.0f}",
-                 f"{r['seconds'] / ckd:>9.2f}",
-                 f"{r['seconds'] / kd:>9.2f}" if kd else f"{'-':>9}",
-                 f"{r['seconds'] / floor:>7.2f}" if floor and r["A"] else f"{'-':>7}",
+                 f"{1e3 * r['seconds']:>10.2f}", f"{1e3 * clock_min:>8.2f}",
+                 f"{1e3 * r['gpu_median']:>8.2f}" if r.get("gpu_median") else f"{'-':>8}",
+                 f"{1e3 * r['wall_median']:>8.2f}",
+                 f"{n / r['seconds']:>12,.0f}",
+                 f"{r['seconds'] / ckd:>9.2f}" if ckd and "pixels" not in r else f"{'-':>9}",
+                 f"{r['seconds'] / kd:>9.2f}" if kd and "pixels" not in r else f"{'-':>9}",
+                 f"{r['seconds'] / floor:>7.2f}" if floor and r["A"] and "pixels" not in r else f"{'-':>7}",
                  f"{r['fn_percent']:>6.1f}" if "fn_percent" in r else f"{'-':>6}"]
         lines.append(" ".join(cells))
     return "\n".join(lines)
 
 
 def write_results(rows, path: str) -> None:
-    """JSON for plots: a list of rows, one per method and A."""
+    """JSON for plots: a list of rows, one per method and A, each with the device."""
     with open(path, "w") as fh:
         json.dump(rows, fh, indent=1)

@@ -1,7 +1,8 @@
 // bh_blocks.glsl: second dependent fetch, photon blocks (paper 3.2, Figure 4; section 7 step 4).
 // Takes: a block reference.  Returns: its photon count and decoded photon
 // positions, fetched word by word from its 16 RGBA32UI texels.  Block b is texels 16b .. 16b+15 of bh_blocks;
-// photon j occupies words 6j .. 6j+5, word 60 holds the count.
+// photon j occupies words 6j .. 6j+5, word 60 holds the count, words 61-63 the
+// block's box in the GL upload (bh_block_head, bh_block_gap2).
 // Defines: BH_BLK_W (texture width, log2).
 #ifndef BH_BLOCKS_GLSL
 #define BH_BLOCKS_GLSL
@@ -15,6 +16,26 @@ uniform usampler2D bh_blocks;
 
 uint bh_block_count(uint b) {
     return bh_fetch4(bh_blocks, BH_BLK_W, b * uint(BH_BLOCK_TEXELS) + uint(BH_COUNT_WORD >> 2)).x;
+}
+
+// Texel 15 of block b: (photon count, box x, box y, box z), the box words as
+// blockhash/gl/packing.py block_boxes writes them (lo16 | hi16 << 16 of the codes).
+uvec4 bh_block_head(uint b) {
+    return bh_fetch4(bh_blocks, BH_BLK_W, b * uint(BH_BLOCK_TEXELS) + uint(BH_COUNT_WORD >> 2));
+}
+
+// A lower bound of the float32 squared distance ((dx*dx + dy*dy) + dz*dz) from q to
+// every photon of the block whose head is h, or +0.0.  Photon codes lie in
+// [lo16 << 16, hi16 << 16 | 0xFFFF]; the bound is decoded like a photon and then
+// lowered by 2^-18 of the box's magnitude per axis (far more than the rounding of
+// decoding a photon, of float(u) and of this computation) and by 2^-16 relative
+// (more than the five roundings of a squared distance).
+float bh_block_gap2(uvec4 h, vec3 q) {
+    vec3 lo = bh_lo + vec3(h.yzw << 16u) * bh_step;
+    vec3 hi = bh_lo + vec3((h.yzw & 0xFFFF0000u) | 0xFFFFu) * bh_step;
+    vec3 margin = (abs(bh_lo) + bh_step * 4294967296.0) * (1.0 / 262144.0);
+    vec3 g = max(max(lo - q, q - hi) - margin, vec3(0.0));
+    return ((g.x * g.x + g.y * g.y) + g.z * g.z) * (1.0 - 1.0 / 65536.0);
 }
 
 // Decoded float32 position of photon j: lo + float(u) * step, one rounding per

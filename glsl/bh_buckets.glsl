@@ -1,6 +1,7 @@
 // bh_buckets.glsl: first dependent fetch and bucket order (paper 4.4; section 7 steps 2-3).
 // Takes: the L bucket keys of a query.  Returns: the table order to visit
-// (bh_order_tables) and each bucket's valid references (bh_ref).
+// (bh_order_tables: a list; bh_rank_tables: each table's rank in it) and each
+// bucket's valid references (bh_ref).
 // Textures: bh_headers RG32UI (priority alpha, valid entries) per bucket
 // t * BH_BUCKETS + key; bh_refs R32UI, BH_B references per bucket.
 // Defines: BH_PRIORITY (on: smallest alpha first, ties in table order | off:
@@ -42,6 +43,36 @@ void bh_order_tables(uint keys[BH_L], out uint order[BH_L], out uint entries[BH_
 #elif BH_PRIORITY != BH_PRIORITY_OFF
 #error unknown BH_PRIORITY
 #endif
+}
+
+// The rank of each table in the visiting order, from comparisons alone: rank[t] =
+// #{u : (prio[u], u) < (prio[t], t)} (priority on), the order of the stable sort
+// above; rank[t] = t (off).  With every loop over the L tables of constant count
+// (unrolled), prio[] and rank[] take only constant indices and stay in registers.
+void bh_rank_tables(uint keys[BH_L], out uint rank[BH_L], out uint entries[BH_L]) {
+#if BH_PRIORITY == BH_PRIORITY_ON
+    uint prio[BH_L];
+#endif
+    for (int t = 0; t < BH_L; ++t) {
+        uvec2 h = bh_header(uint(t), keys[t]);
+        entries[t] = h.y;
+#if BH_PRIORITY == BH_PRIORITY_ON
+        prio[t] = h.x;
+#endif
+    }
+    for (int t = 0; t < BH_L; ++t) {
+#if BH_PRIORITY == BH_PRIORITY_ON
+        uint r = 0u;
+        for (int u = 0; u < BH_L; ++u) {
+            r += uint(prio[u] < prio[t] || (prio[u] == prio[t] && u < t));
+        }
+        rank[t] = r;
+#elif BH_PRIORITY == BH_PRIORITY_OFF
+        rank[t] = uint(t);
+#else
+#error unknown BH_PRIORITY
+#endif
+    }
 }
 
 #endif

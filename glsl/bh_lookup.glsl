@@ -4,7 +4,8 @@
 // number of candidates examined.
 // Defines: everything its includes take, plus BH_CAP (= A * k, candidates
 // examined before stopping; the check precedes each block), BH_DEDUP, and
-// BH_FETCH_ONLY (1: fetch and measure the same candidates but keep none, the
+// BH_TAKEN_MAX (bh_taken.glsl), BH_CULL (off | box: skip blocks that cannot hold a
+// neighbour), BH_FETCH_ONLY (1: fetch and measure the same candidates but keep none, the
 // memory floor the benchmark compares with; bh_fetch_sink receives their sum).
 // The CPU oracle is blockhash/query.py bh_query; both give identical results.
 #ifndef BH_LOOKUP_GLSL
@@ -15,16 +16,32 @@
 #include "bh_blocks.glsl"
 #include "bh_select.glsl"
 #include "bh_select_packed.glsl"
+#include "bh_select_merge.glsl"
+#if BH_DEDUP == BH_DEDUP_SET
+#include "bh_taken.glsl"
+#endif
 
 uint bh_fetch_sink = 0u;
+uint bh_culled = 0u;  // blocks culled by the current lookup (BH_CULL box)
 
 // A packed key -> (exact squared-distance bits, photon slot), or BH_NO_KEY.
-uvec2 bh_unpack(uint key, vec3 q, uint taken[BH_L * BH_B]) {
+// The taken list is an array (dedup branch, zero) or the register set of bh_taken.glsl.
+#if BH_DEDUP == BH_DEDUP_SET
+#define BH_TAKEN_ARG
+#define BH_TAKEN_PARAM
+#define BH_TAKEN_AT(i) bh_taken_get(i)
+#else
+#define BH_TAKEN_ARG , taken
+#define BH_TAKEN_PARAM , uint taken[BH_L * BH_B]
+#define BH_TAKEN_AT(i) taken[i]
+#endif
+
+uvec2 bh_unpack(uint key, vec3 q BH_TAKEN_PARAM) {
     if (key == BH_PK_EMPTY) {
         return BH_NO_KEY;
     }
     uint cand = key & BH_SLOT_MASK;
-    uint b = taken[cand / 10u];
+    uint b = BH_TAKEN_AT(cand / 10u);
     uint j = cand % 10u;
     vec3 p = bh_photon_position(b, j);
     precise vec3 d = p - q;
@@ -32,8 +49,43 @@ uvec2 bh_unpack(uint key, vec3 q, uint taken[BH_L * BH_B]) {
     return uvec2(floatBitsToUint(dd), b * 10u + j);
 }
 
-uint bh_lookup(vec3 q) {
+// The packed key of photon j of block b, the cand-th candidate (select packed, merge).
+uint bh_packed_key(uint b, uint j, vec3 q, uint cand) {
+    vec3 p = bh_photon_position(b, j);
+    precise vec3 d = p - q;
+    precise float dd = (d.x * d.x + d.y * d.y) + d.z * d.z;
+    return (floatBitsToUint(dd) & ~BH_SLOT_MASK) | cand;
+}
+
+// Block culling (BH_CULL box): whether no photon of the block whose head is h can
+// enter the k nearest, because the lower bound of its squared distances exceeds the
+// current k-th key.  Its photons are then neither fetched nor offered; they still count
+// as examined and the block as taken, so the result is the same as without culling.
+#if BH_CULL == BH_CULL_BOX && !BH_FETCH_ONLY
+bool bh_block_far(uvec4 h, vec3 q) {
+    float lb = bh_block_gap2(h, q);
+    uint bits = floatBitsToUint(lb);
 #if BH_SELECT == BH_SELECT_PACKED
+    bool far = lb > 0.0 && bits > (bh_pk[BH_K - 1] | BH_SLOT_MASK);
+#elif BH_SELECT == BH_SELECT_MERGE
+    bool far = lb > 0.0 && bits > (bh_ms[BH_K - 1] | BH_SLOT_MASK);
+#else
+    bool far = lb > 0.0 && bits > bh_best[BH_K - 1].x;
+#endif
+    bh_culled += uint(far);
+    return far;
+}
+#elif BH_CULL != BH_CULL_OFF && BH_CULL != BH_CULL_BOX
+#error unknown BH_CULL
+#endif
+
+// select=merge: block b's keys into the batch, constant slot j, empty beyond its n photons.
+#define BH_MB_TAKE(j) bh_mb[j] = (uint(j) < n) ? bh_packed_key(b, uint(j), q, ntaken * 10u + uint(j)) | kill : BH_PK_EMPTY;
+
+uint bh_lookup(vec3 q) {
+#if BH_SELECT == BH_SELECT_MERGE
+    bh_merge_init();
+#elif BH_SELECT == BH_SELECT_PACKED
     bh_packed_init();
 #else
     bh_select_init();
@@ -43,24 +95,53 @@ uint bh_lookup(vec3 q) {
     for (int t = 0; t < BH_L; ++t) {
         keys[t] = bh_bucket_of(uint(t), code);
     }
+#if BH_DEDUP == BH_DEDUP_SET
+    // Tables visited by rank, each picked by comparisons over constant indices.
+    uint rank[BH_L];
+    uint entries[BH_L];
+    bh_rank_tables(keys, rank, entries);
+    bh_taken_init();
+#else
     uint order[BH_L];
     uint entries[BH_L];
     bh_order_tables(keys, order, entries);
     uint taken[BH_L * BH_B];
+#endif
     uint ntaken = 0u;
     uint count = 0u;
     for (int oi = 0; oi < BH_L; ++oi) {
+#if BH_DEDUP == BH_DEDUP_SET
+        if (count >= uint(BH_CAP)) {
+            break;
+        }
+        uint t = 0u;
+        uint key = 0u;
+        uint nref = 0u;
+        for (int u = 0; u < BH_L; ++u) {
+            bool here = rank[u] == uint(oi);
+            t = here ? uint(u) : t;
+            key = here ? keys[u] : key;
+            nref = here ? entries[u] : nref;
+        }
+#else
         uint t = order[oi];
-        for (uint r = 0u; r < entries[t]; ++r) {
+        uint key = keys[t];
+        uint nref = entries[t];
+#endif
+        for (uint r = 0u; r < nref; ++r) {
             if (count >= uint(BH_CAP)) {
                 break;
             }
-            uint b = bh_ref(t, keys[t], r);
+            uint b = bh_ref(t, key, r);
+#if BH_DEDUP == BH_DEDUP_SET
+            bool dup = bh_taken_has(b);
+#else
             bool dup = false;
             for (uint j = 0u; j < ntaken; ++j) {
                 dup = dup || taken[j] == b;
             }
-#if BH_DEDUP == BH_DEDUP_BRANCH
+#endif
+#if BH_DEDUP == BH_DEDUP_BRANCH || BH_DEDUP == BH_DEDUP_SET
             if (dup) {
                 continue;
             }
@@ -70,7 +151,19 @@ uint bh_lookup(vec3 q) {
 #else
 #error unknown BH_DEDUP
 #endif
+#if BH_CULL == BH_CULL_BOX && !BH_FETCH_ONLY
+            uvec4 head = bh_block_head(b);
+            uint n = head.x;
+            if (!bh_block_far(head, q)) {
+#else
             uint n = bh_block_count(b);
+            {
+#endif
+#if BH_SELECT == BH_SELECT_MERGE && !BH_FETCH_ONLY
+            BH_MB_TAKE(0) BH_MB_TAKE(1) BH_MB_TAKE(2) BH_MB_TAKE(3) BH_MB_TAKE(4)
+            BH_MB_TAKE(5) BH_MB_TAKE(6) BH_MB_TAKE(7) BH_MB_TAKE(8) BH_MB_TAKE(9)
+            bh_merge_block();
+#else
             for (uint j = 0u; j < n; ++j) {
                 vec3 p = bh_photon_position(b, j);
                 precise vec3 d = p - q;
@@ -83,16 +176,28 @@ uint bh_lookup(vec3 q) {
                 bh_select_offer(uvec2(floatBitsToUint(dd) | kill, (b * 10u + j) | kill));
 #endif
             }
+#endif
+            }
             if (!dup) {
+#if BH_DEDUP == BH_DEDUP_SET
+                bh_taken_put(ntaken, b);
+#else
                 taken[ntaken] = b;
+#endif
                 ntaken += 1u;
                 count += n;
             }
         }
     }
-#if BH_SELECT == BH_SELECT_PACKED && !BH_FETCH_ONLY
+#if BH_SELECT == BH_SELECT_MERGE && !BH_FETCH_ONLY
     // Unpack the winners into (exact distance bits, photon slot) keys.
-#define BH_UNPACK1(i) if (i < BH_K) bh_best[i] = bh_unpack(bh_pk[i], q, taken);
+#define BH_MS_UNPACK1(i) if (i < BH_K) bh_best[i] = bh_unpack(bh_ms[i], q BH_TAKEN_ARG);
+#define BH_MS_UNPACK8(i) BH_MS_UNPACK1(i) BH_MS_UNPACK1(i + 1) BH_MS_UNPACK1(i + 2) BH_MS_UNPACK1(i + 3) \
+                         BH_MS_UNPACK1(i + 4) BH_MS_UNPACK1(i + 5) BH_MS_UNPACK1(i + 6) BH_MS_UNPACK1(i + 7)
+    BH_PK_GROUPS(BH_MS_UNPACK8)  // groups of 8 up to k: bh_best's size
+#elif BH_SELECT == BH_SELECT_PACKED && !BH_FETCH_ONLY
+    // Unpack the winners into (exact distance bits, photon slot) keys.
+#define BH_UNPACK1(i) if (i < BH_K) bh_best[i] = bh_unpack(bh_pk[i], q BH_TAKEN_ARG);
 #define BH_UNPACK8(i) BH_UNPACK1(i) BH_UNPACK1(i + 1) BH_UNPACK1(i + 2) BH_UNPACK1(i + 3) \
                       BH_UNPACK1(i + 4) BH_UNPACK1(i + 5) BH_UNPACK1(i + 6) BH_UNPACK1(i + 7)
     BH_PK_GROUPS(BH_UNPACK8)

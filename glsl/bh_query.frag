@@ -3,22 +3,25 @@
 // Returns: for query i, BH_K (squared-distance bits, slot) pairs at
 // results[i * BH_K ...] and the candidates examined at counts[i]; a query with
 // NaN or inf gets no neighbours (with BH_FETCH_ONLY, counts[] gets the
-// candidates plus one bit of the fetched data).  Defines: BH_QUERY_W (viewport width),
-// BH_QUERIES (queries in this pass), and everything bh_lookup.glsl takes.
+// candidates plus one bit of the fetched data), and the blocks culled at culled[i].  Uniforms: bh_query_w (viewport
+// width), bh_queries_n (queries in this pass): a new image size needs no new program.
+// Defines: everything bh_lookup.glsl takes.
 #include "bh_lookup.glsl"
 
 uniform sampler2D bh_queries;
-uniform uint bh_first;  // index of the first query of this pass
+uniform uint bh_query_w;    // viewport width: query i is pixel (i mod w, i div w)
+uniform uint bh_queries_n;  // queries in this pass
 
 layout(std430, binding = 0) writeonly buffer Results { uvec2 results[]; };
 layout(std430, binding = 1) writeonly buffer Counts { uint counts[]; };
+layout(std430, binding = 2) writeonly buffer Culled { uint culled[]; };  // blocks culled
 
 out vec4 frag_color;
 
 void main() {
-    uint i = uint(gl_FragCoord.y) * uint(BH_QUERY_W) + uint(gl_FragCoord.x);
+    uint i = uint(gl_FragCoord.y) * bh_query_w + uint(gl_FragCoord.x);
     frag_color = vec4(0.0);
-    if (i >= uint(BH_QUERIES)) {
+    if (i >= bh_queries_n) {
         return;
     }
     vec3 q = texelFetch(bh_queries, ivec2(gl_FragCoord.xy), 0).xyz;
@@ -36,4 +39,5 @@ void main() {
 #else
     counts[i] = examined;
 #endif
+    culled[i] = bh_culled;
 }

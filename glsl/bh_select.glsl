@@ -50,7 +50,7 @@ void bh_select_offer(uvec2 c) {
             bh_best[i] = lo;
         }
     }
-#elif BH_SELECT != BH_SELECT_PACKED
+#elif BH_SELECT != BH_SELECT_PACKED && BH_SELECT != BH_SELECT_MERGE
 #error unknown BH_SELECT
 #endif
 }

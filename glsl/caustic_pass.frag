@@ -3,7 +3,9 @@
 // for none; a NaN or infinite position gets no caustic), cp_normal (RGBA32F: unit normal, scalar weight), cp_view (RGBA32F:
 // unit direction toward the viewer); a table of up to 16 modified Phong
 // materials.  Returns: caustic radiance times the path weight (RGBA32F).
-// Defines: everything bh_lookup.glsl takes (the lookup variant included).
+// Defines: everything bh_lookup.glsl takes (the lookup variant included), and
+// CP_LOOKUP_ONLY (1: run the lookup alone and write a value that depends on its result,
+// for timing the pass's stages; with BH_FETCH_ONLY, the lookup's fetches alone).
 #include "bh_lookup.glsl"
 #include "caustic_estimate.glsl"
 
@@ -26,7 +28,12 @@ void main() {
     vec4 nw = texelFetch(cp_normal, px, 0);
     vec3 wo = texelFetch(cp_view, px, 0).xyz;
     int m = int(pos.w);
-    bh_lookup(pos.xyz);
+    uint examined = bh_lookup(pos.xyz);
+#if CP_LOOKUP_ONLY
+    frag_color = vec4(uintBitsToFloat(bh_best[BH_K - 1].x), float(examined),
+                      float(bh_fetch_sink & 1u), nw.w + wo.x);
+    return;
+#endif
     vec3 l = caustic_radiance(pos.xyz, nw.xyz, wo, cp_kd[m], cp_ks[m], cp_exponent[m]);
     frag_color = vec4(l * nw.w, 1.0);
 }

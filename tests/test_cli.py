@@ -1,6 +1,10 @@
+from pathlib import Path
+
 import numpy as np
 
 from blockhash.cli import main
+
+SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
 
 def test_index_command_builds_and_reports_accuracy(capsys):
@@ -60,3 +64,26 @@ def test_bench_command_prints_the_table_and_writes_json(tmp_path, capsys):
     assert {r["method"] for r in rows} == {"cKDTree (CPU, all workers)", "BH default",
                                            "BH fetch-only floor"}
     assert all(r["seconds"] > 0 for r in rows)
+    gl_rows = [r for r in rows if r["method"] != "cKDTree (CPU, all workers)"]
+    assert all(r["draws"] == 1 and r["gpu_min"] > 0 and r["wall_median"] > 0 for r in gl_rows)
+    assert all(r["renderer"] and r["gl_version"] for r in rows)
+    assert rows[0]["renderer"] in out
+
+
+def test_bench_times_the_caustic_pass_per_stage(tmp_path, capsys):
+    out_json = tmp_path / "bench.json"
+    assert main(["bench", "--queries", "0", "--caustic", str(SCENES / "ring.toml"),
+                 "--caustic-photons", "3000", "--repeat", "2", "--warmup", "1", "--backend", "egl",
+                 "--json", str(out_json)]) == 0
+    import json
+
+    rows = json.loads(out_json.read_text())
+    assert [r["method"] for r in rows] == ["caustic pass: fetch floor", "caustic pass: lookup",
+                                           "caustic pass: lookup + estimate"]
+    assert all(r["draws"] == 2 and r["gpu_median"] > 0 and r["pixels"] == 512 * 512 for r in rows)
+    assert "caustic pass: lookup + estimate" in capsys.readouterr().out
+
+
+def test_bench_rejects_no_timed_draws(capsys):
+    assert main(["bench", "--repeat", "0"]) == 2
+    assert "--repeat 0" in capsys.readouterr().err

@@ -25,7 +25,7 @@ def queries_for(name, m=300, seed=21):
 def assert_same_as_cpu(lookup, index, q, k, A, variant="default"):
     """The variant's neighbours equal the CPU reference run in the same mode."""
     v = Variant.parse(variant)
-    bits = slot_bits(index.params.L, index.params.B) if v.select == "packed" else 0
+    bits = slot_bits(index.params.L, index.params.B) if v.packed_keys else 0
     d, i = lookup.query(q, k=k, A=A, variant=variant)
     dc, ic = index.query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
     dc, ic = dc.reshape(len(q), k), ic.reshape(len(q), k)
@@ -39,7 +39,14 @@ def caustic_index():
     return BlockHashIndex(photon_set("caustic", 8000), k=8, A=4)
 
 
-@pytest.mark.parametrize("variant", variants())
+#: Every combination of the paper's four stages (cull off), and culling beside each
+#: duplicate removal and selection (the full product with culling would double the compiles).
+TESTED_VARIANTS = [v for v in variants() if not v.endswith("-box")] + [
+    f"binary-{d}-on-{s}-box" for d in ("branch", "zero", "set")
+    for s in ("insertion", "network", "packed", "merge")] + ["linear-set-off-packed-box"]
+
+
+@pytest.mark.parametrize("variant", TESTED_VARIANTS)
 def test_every_variant_equals_the_cpu_reference(caustic_index, variant):
     context_or_skip("egl")
     lookup = GLLookup(caustic_index, backend="egl")
@@ -116,3 +123,134 @@ def test_gl_lookup_of_an_index_matches_its_cpu_query(caustic_index):
     lookup = GLLookup(caustic_index, backend="egl")
     d, i = lookup.query(q, variant="binary-branch-on-network")
     np.testing.assert_array_equal(i, caustic_index.query(q)[1])
+
+def test_one_program_serves_every_query_count(caustic_index):
+    """The query count and viewport width are uniforms: a new image size compiles nothing."""
+    context_or_skip("egl")
+    from blockhash.gl import shaderlib
+
+    lookup = GLLookup(caustic_index, backend="egl")
+    q = queries_for("caustic", m=300)
+    assert_same_as_cpu(lookup, caustic_index, q, 8, 4)
+    compiled = len(shaderlib._PROGRAMS)
+    assert_same_as_cpu(lookup, caustic_index, q[:37], 8, 4)
+    assert len(shaderlib._PROGRAMS) == compiled
+    assert len(lookup._programs) == 1
+
+
+def test_timed_draws_report_wall_and_gpu_time_per_draw(caustic_index):
+    context_or_skip("egl")
+    lookup = GLLookup(caustic_index, backend="egl")
+    times = lookup.time_draws(queries_for("caustic", m=64), 8, A=4, repeat=3, warmup=1)
+    assert len(times["wall"]) == len(times["gpu"]) == 3
+    assert all(t > 0 for t in times["wall"]) and all(t > 0 for t in times["gpu"])
+    with pytest.raises(InputError, match="repeat=0 is out of range"):
+        lookup.time_draws(queries_for("caustic", m=64), 8, A=4, repeat=0)
+
+
+@pytest.mark.filterwarnings("ignore::blockhash.OrphanWarning")
+@pytest.mark.parametrize("variant, k, A", [
+    ("binary-set-on-merge", 50, 16), ("binary-set-off-packed", 50, 16), ("linear-zero-on-merge", 50, 16),
+    ("binary-branch-on-merge", 50, 8), ("binary-set-on-merge", 100, 2), ("binary-set-on-merge", 1, 16),
+    ("binary-set-on-merge-box", 100, 2)])
+def test_register_variants_equal_the_cpu_reference_up_to_the_largest_state(variant, k, A):
+    """The taken-block set at its bound (A * k = 800 candidates: 81 blocks) and the merge
+    network at k = 100 (128 slots) still equal the CPU reference."""
+    context_or_skip("egl")
+    index = BlockHashIndex(photon_set("clustered", 4000), k=k, A=A)
+    lookup = GLLookup(index, backend="egl")
+    assert_same_as_cpu(lookup, index, queries_for("clustered", m=150), k, A, variant=variant)
+
+
+def test_taken_bound_covers_the_most_blocks_a_query_takes():
+    from blockhash.gl.lookup import taken_bound
+
+    # Full blocks of 10, cap checked before each block: 40 blocks reach 400 candidates,
+    # a partial last block can add one more.
+    assert taken_bound(7, 23, 400) == 41
+    assert taken_bound(2, 5, 400) == 10
+    from blockhash.index.query import bh_query
+    from blockhash.index.thresholds import ThresholdLayout
+
+    index = BlockHashIndex(photon_set("clustered", 3000), k=20, A=16)
+    q = queries_for("clustered", m=300)[10:]
+    prm = index.params
+    for A in (1, 3, 16):
+        cap = A * 20
+        *_, fetched = bh_query(index.quantizer.quantize_query(q), q, index.thresholds,
+                               np.asarray(prm.P, dtype=np.int64), prm.layout == ThresholdLayout.NESTED,
+                               index.tables.refs, index.priority, index.starts, index._positions,
+                               20, cap, True, 0)
+        assert fetched.max() <= taken_bound(prm.L, prm.B, cap)
+        assert fetched.max() >= taken_bound(prm.L, prm.B, cap) - 1  # the bound is tight
+
+
+def test_query_width_changes_the_tile_shape_not_the_results(caustic_index):
+    context_or_skip("egl")
+    lookup = GLLookup(caustic_index, backend="egl")
+    q = queries_for("caustic", m=300)
+    d, i = lookup.query(q)
+    for width in (7, 16):
+        d2, i2 = lookup.query(q, width=width)
+        np.testing.assert_array_equal(i, i2)
+        np.testing.assert_array_equal(d, d2)
+    limit = lookup.ctx.info["GL_MAX_TEXTURE_SIZE"]
+    with pytest.raises(InputError, match=r"width=.* is out of range"):
+        lookup.query(q, width=limit + 1)
+    with pytest.raises(CapacityError, match=r"queries at width=1 need .* rows > GL_MAX_TEXTURE_SIZE"):
+        lookup.query(np.zeros((limit + 1, 3), np.float32), width=1)
+
+
+@pytest.mark.parametrize("variant", ["default", "binary-branch-on-network-box"])
+def test_culling_skips_blocks_and_keeps_the_neighbours(variant):
+    """Culled blocks (not fetched, not offered) leave every neighbour as the CPU reference
+    has it, and some blocks are culled: a lookup that never culls fails here."""
+    context_or_skip("egl")
+    index = BlockHashIndex(photon_set("caustic", 20000), k=8, A=8)
+    lookup = GLLookup(index, backend="egl")
+    q = queries_for("caustic", m=400)
+    assert_same_as_cpu(lookup, index, q, 8, 8, variant=variant)
+    assert lookup.counters["query.blocks_culled.mean"] > 1.0
+    lookup.query(q, 8, A=8, variant=Variant.parse(variant).name.rsplit("-", 1)[0] + "-off")
+    assert lookup.counters["query.blocks_culled.mean"] == 0.0
+
+
+def test_block_boxes_bound_every_photon_code():
+    from blockhash.gl.packing import block_boxes
+
+    index = BlockHashIndex(photon_set("clustered", 3007), k=8, A=4)
+    words = index.block_words
+    boxes = block_boxes(words)
+    for b in (0, 5, len(words) - 1):
+        n = words[b, 60]
+        codes = words[b, :60].reshape(10, 6)[:n, :3].astype(np.int64)
+        lo = (boxes[b] & 0xFFFF).astype(np.int64) << 16
+        hi = ((boxes[b] >> 16).astype(np.int64) << 16) | 0xFFFF
+        assert (codes >= lo).all() and (codes <= hi).all()
+        assert (codes.min(axis=0) >> 16 == lo >> 16).all()  # tight to 16 bits
+
+
+@pytest.mark.parametrize("offset", [0.0, 1000.0])
+def test_culling_is_exact_far_from_the_origin(offset):
+    """The culling bound's margin scales with the box's magnitude: a map far from the
+    origin (coarser float32 positions) still gives the CPU reference's neighbours."""
+    context_or_skip("egl")
+    pts = photon_set("clustered", 6000) + np.float32(offset)
+    index = BlockHashIndex(pts, k=16, A=8)
+    lookup = GLLookup(index, backend="egl")
+    q = queries_for("clustered", m=300) + np.float32(offset)
+    q[7] = np.nan
+    assert_same_as_cpu(lookup, index, q, 16, 8)
+    assert lookup.counters["query.blocks_culled.mean"] > 0.0
+
+
+@pytest.mark.filterwarnings("ignore::blockhash.OrphanWarning")
+def test_a_candidate_cap_beyond_the_register_set_is_refused_with_the_way_out():
+    context_or_skip("egl")
+    index = BlockHashIndex(photon_set("clustered", 4000), k=100, A=8)  # L * B = 315 > 128
+    lookup = GLLookup(index, backend="egl")
+    q = queries_for("clustered", m=20)
+    with pytest.raises(InputError, match=r"A \* k = 1,600 candidates can take up to 161 blocks.*"
+                                         r"dedup=branch"):
+        lookup.query(q, k=100, A=16)
+    assert_same_as_cpu(lookup, index, q, 100, 16, variant="binary-branch-on-packed-box")

@@ -18,7 +18,8 @@ def write(tmp_path, files):
 def test_library_is_found_and_every_stage_has_a_guarded_documented_file():
     root = glsl_dir()
     for name in ("bh_fetch", "bh_box", "bh_hash", "bh_buckets", "bh_blocks", "bh_select",
-                 "bh_select_packed", "bh_lookup", "bh_variants"):
+                 "bh_select_packed", "bh_select_merge", "bh_merge_net", "bh_taken", "bh_lookup",
+                 "bh_variants"):
         text = (root / f"{name}.glsl").read_text()
         guard = name.upper() + "_GLSL"
         assert text.startswith(f"// {name}.glsl:"), name
@@ -39,7 +40,7 @@ def test_glsl_ids_match_the_python_registry():
     text = (glsl_dir() / "bh_variants.glsl").read_text()
     ids = dict((m.group(1), int(m.group(2))) for m in re.finditer(r"#define (BH_\w+) (\d+)", text))
     prefixes = {"search": "BH_SEARCH_", "dedup": "BH_DEDUP_", "priority": "BH_PRIORITY_",
-                "select": "BH_SELECT_"}
+                "select": "BH_SELECT_", "cull": "BH_CULL_"}
     for choice, (_, names) in CHOICES.items():
         for name, value in names.items():
             assert ids[prefixes[choice] + name.upper()] == value
@@ -79,11 +80,13 @@ def test_defines_write_out_falsy_values():
 
 def test_variants_list_named_and_every_combination():
     names = variants()
-    assert names[:2] == ["default", "paper"] and len(names) == 2 + 2 * 2 * 2 * 3
+    assert names[:2] == ["default", "paper"] and len(names) == 2 + 2 * 3 * 2 * 4 * 2
     for name in names:
         assert Variant.parse(name).name in names or name in NAMED
     assert Variant.parse("linear-zero-off-insertion").defines() == {
-        "BH_THRESHOLD_SEARCH": 0, "BH_DEDUP": 1, "BH_PRIORITY": 0, "BH_SELECT": 0}
+        "BH_THRESHOLD_SEARCH": 0, "BH_DEDUP": 1, "BH_PRIORITY": 0, "BH_SELECT": 0, "BH_CULL": 0}
+    assert Variant.parse("linear-zero-off-insertion-box").defines()["BH_CULL"] == 1
+    assert Variant.parse("default").name == "binary-set-on-packed-box"
 
 
 @pytest.mark.parametrize("name", ["fast", "linear-zero-on", "linear-zero-on-heap"])
@@ -95,3 +98,24 @@ def test_unknown_variant_lists_the_valid_ones(name):
 def test_unknown_choice_value_names_the_choice():
     with pytest.raises(InputError, match=r"variant select='heap' is not known; choose one of insertion, network, packed"):
         Variant(select="heap")
+
+
+def test_merge_networks_sort_and_the_generated_file_is_current():
+    """select=merge's networks (0-1 principle over every input) and glsl/bh_merge_net.glsl
+    as tools/gen_merge_network.py writes it."""
+    import importlib.util
+
+    path = glsl_dir().parent / "tools" / "gen_merge_network.py"
+    if not path.is_file():
+        pytest.skip("tools/ is not beside this glsl/ (installed wheel)")
+    spec = importlib.util.spec_from_file_location("gen_merge_network", path)
+    gen = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(gen)
+    gen.check()
+    assert (glsl_dir() / "bh_merge_net.glsl").read_text() == gen.render()
+    net, order = gen.batch_network()
+    assert len(net) <= 32 and sorted(order) == list(range(10))
+    n = 64
+    bitonic = [[0] * i + [1] * (n - i - j) + [0] * j for i in range(n + 1) for j in range(n - i + 1)]
+    assert gen.sorts(gen.bitonic_merge(n), n, bitonic)
+    assert not gen.sorts(gen.bitonic_merge(n)[:-1], n, bitonic)  # the check can fail

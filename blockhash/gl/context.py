@@ -121,23 +121,61 @@ def gl_info(ctx: moderngl.Context) -> dict:
     return out
 
 
+#: The GL timer query result as moderngl reads it (32 bits of nanoseconds) saturates here.
+GPU_TIMER_LIMIT_NS = 2**32 - 1
+
+
 def draw_fullscreen(ctx: moderngl.Context, program, fbo, size: tuple[int, int]) -> float:
     """One fullscreen-triangle draw of ``program`` into ``fbo``; returns the draw's seconds.
 
     The time covers the draw alone (the pipeline is drained before and after), not
     compilation or transfers; llvmpipe compiles a program at its first draw.
     """
+    return draw_timed(ctx, program, fbo, size)[0]
+
+
+def draw_timed(ctx: moderngl.Context, program, fbo, size: tuple[int, int],
+               *, repeat: int = 1) -> tuple[float, float]:
+    """``repeat`` back-to-back fullscreen draws; returns (wall seconds, GPU seconds) of the last.
+
+    GPU time is a GL timer query (GL_TIME_ELAPSED) around the draw; wall time is taken
+    with the pipeline drained before and after.  Use :func:`time_draws` for statistics.
+    """
+    walls, gpus = time_draws(ctx, program, fbo, size, repeat=repeat, warmup=0)
+    return walls[-1], gpus[-1]
+
+
+def time_draws(ctx: moderngl.Context, program, fbo, size: tuple[int, int], *, repeat: int = 10,
+               warmup: int = 2) -> tuple[list[float], list[float]]:
+    """Time ``repeat`` draws of one program after ``warmup`` untimed draws of the same program.
+
+    Returns (wall seconds, GPU seconds), one of each per timed draw.  Draws run back to
+    back with no read-back between them; each is wrapped in its own timer query and the
+    pipeline is drained after it (the wall time then includes the driver's submission).
+    The warm-up compiles the program (llvmpipe compiles at the first draw) and lets a GPU
+    leave its idle clock.
+    """
     import time
 
     fbo.use()
     fbo.viewport = (0, 0, *size)
     vao = ctx.vertex_array(program, [])
+    walls, gpus = [], []
     try:
+        for _ in range(warmup):
+            vao.render(mode=ctx.TRIANGLES, vertices=3)
         ctx.finish()
-        start = time.perf_counter()
-        vao.render(mode=ctx.TRIANGLES, vertices=3)
-        ctx.finish()
-        return time.perf_counter() - start
+        for _ in range(repeat):
+            query = ctx.query(time=True)
+            start = time.perf_counter()
+            with query:
+                vao.render(mode=ctx.TRIANGLES, vertices=3)
+            ctx.finish()
+            walls.append(time.perf_counter() - start)
+            # moderngl reads the 32-bit query result, which saturates at 2^32 - 1 ns
+            # (4.29 s, reached only on a software rasterizer): no figure then.
+            gpus.append(query.elapsed * 1e-9 if query.elapsed < GPU_TIMER_LIMIT_NS else float("nan"))
+        return walls, gpus
     finally:
         vao.release()
 

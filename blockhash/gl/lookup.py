@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import CapacityError, InputError
 from ..index.thresholds import MAX_DEPTH, ThresholdLayout
 from ..validate import as_int, as_points
-from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer
+from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer, time_draws
 from ..index.blocks import PHOTONS_PER_BLOCK
 from .limits import check_lookup
 from .packing import pack_index
@@ -24,12 +24,24 @@ from .shaderlib import Variant, compile_program
 
 #: Queries per pass are capped so one draw stays short (llvmpipe runs a draw to completion).
 MAX_QUERIES_PER_PASS = 1 << 18
+#: Viewport width of a pass (queries wrap row by row).
+QUERY_WIDTH = 1024
 NO_SLOT = 0xFFFFFFFF
 
 
 def slot_bits(L: int, B: int) -> int:
     """Bits that number a query's candidates (10 per taken block, at most L * B blocks)."""
     return max(1, int(L * B * 10 - 1).bit_length())
+
+
+#: Taken blocks the register set of dedup=set holds (glsl/bh_taken.glsl).
+MAX_TAKEN_SET = 128
+
+
+def taken_bound(L: int, B: int, cap: int) -> int:
+    """Most blocks one query can take: at most L * B references, and (blocks being full
+    but the last, and the cap checked before each block) at most ceil(cap / 10) + 1."""
+    return min(L * B, (cap + 9) // PHOTONS_PER_BLOCK + 1)
 
 
 class GLLookup:
@@ -57,6 +69,12 @@ class GLLookup:
     def defines(self, variant: Variant, k: int, cap: int, *, fetch_only: bool = False) -> dict:
         """The #defines of bh_lookup.glsl for this index, variant, k and candidate cap."""
         prm = self.index.params
+        taken = taken_bound(prm.L, prm.B, cap)
+        if variant.dedup == "set" and taken > MAX_TAKEN_SET:
+            raise InputError(
+                f"A * k = {cap:,} candidates can take up to {taken:,} blocks, more than the "
+                f"{MAX_TAKEN_SET} that dedup=set holds in registers; use a smaller A or k, or a "
+                "variant with dedup=branch (e.g. 'binary-branch-on-packed-box')")
         return {
             **variant.defines(),
             "BH_L": prm.L, "BH_B": prm.B, "BH_PX": prm.P[0], "BH_PY": prm.P[1], "BH_PZ": prm.P[2],
@@ -64,6 +82,7 @@ class GLLookup:
             "BH_ADAPTIVE": int(prm.layout == ThresholdLayout.ADAPTIVE), "BH_MAX_DEPTH": MAX_DEPTH,
             "BH_BUCKETS": prm.buckets, "BH_K": k, "BH_CAP": cap, **self.packed.widths,
             "BH_SLOT_BITS": slot_bits(prm.L, prm.B), "BH_FETCH_ONLY": int(fetch_only),
+            "BH_TAKEN_MAX": taken,
         }
 
     def textures(self) -> dict:
@@ -81,23 +100,27 @@ class GLLookup:
         if "bh_power_scale" in program:
             program["bh_power_scale"].value = float(self.index.records.power_scale)
 
-    def _program(self, variant: Variant, k: int, cap: int, width: int, count: int,
-                 fetch_only: bool = False):
-        defines = {**self.defines(variant, k, cap, fetch_only=fetch_only),
-                   "BH_QUERY_W": width, "BH_QUERIES": count}
+    def _program(self, variant: Variant, k: int, cap: int, fetch_only: bool = False):
+        """The lookup program; the query count and viewport width are uniforms, so one
+        program serves every image size."""
+        defines = self.defines(variant, k, cap, fetch_only=fetch_only)
         key = tuple(defines.items())
         if key not in self._programs:
             self._programs[key] = compile_program(self.ctx, "bh_query.frag", defines)
         return self._programs[key]
 
-    def query(self, points, k=None, *, A=None, variant="default", fetch_only: bool = False):
+    def query(self, points, k=None, *, A=None, variant="default", fetch_only: bool = False,
+              width: int | None = None):
         """Approximate k nearest photons computed by the shader; see BlockHashIndex.query.
 
         Returns ``(distances, indices)`` of shape (m, k) (no squeezing); rows with NaN
         or inf get distance inf and index N.  ``self.counters`` holds the candidates
         examined per query and ``gl.draw_seconds``, the time of the draws alone
-        (no compile, upload or read-back).  ``fetch_only`` runs the memory-floor
+        (no compile, upload or read-back), and ``query.blocks_culled.mean``, the blocks
+        skipped by culling (variants with cull 'box').  ``fetch_only`` runs the memory-floor
         shader for benchmarks: same candidates, no selection, no neighbours returned.
+        ``width`` is the queries per viewport row (default 1024): an image's width makes
+        the fragments that run side by side neighbouring pixels (same results).
         """
         index = self.index
         n = len(index)
@@ -110,14 +133,15 @@ class GLLookup:
         m = len(q)
         pairs = np.empty((m, k, 2), dtype=np.uint32)
         counts = np.empty(m, dtype=np.uint32)
-        limit = self.ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27) // (8 * k)
-        per_pass = max(1, min(MAX_QUERIES_PER_PASS, limit))
+        culled = np.empty(m, dtype=np.uint32)
+        per_pass = self._per_pass(k)
         self._draw_seconds = 0.0
         with self.ctx:
             for first in range(0, m, per_pass):
                 chunk = q[first:first + per_pass]
                 self._run(chunk, v, k, A * k, pairs[first:first + len(chunk)],
-                          counts[first:first + len(chunk)], fetch_only)
+                          counts[first:first + len(chunk)], culled[first:first + len(chunk)],
+                          fetch_only, width)
         slots = pairs[..., 1].astype(np.int64)
         d2 = pairs[..., 0].copy().view(np.float32)
         found = (slots != NO_SLOT) & np.isfinite(d2)  # overflowed distances: missing, as on the CPU
@@ -125,42 +149,107 @@ class GLLookup:
         indices = np.where(found, index.order[np.where(found, slots, 0)], n)
         finite = np.isfinite(q).all(axis=1)
         self.counters = {"query.points": float(m), "gl.draw_seconds": self._draw_seconds,
-                         "query.candidates.mean": float(counts[finite].mean()) if finite.any() else 0.0}
+                         "query.candidates.mean": float(counts[finite].mean()) if finite.any() else 0.0,
+                         "query.blocks_culled.mean": float(culled[finite].mean()) if finite.any() else 0.0}
         return distances, indices
 
-    def _run(self, q, variant, k, cap, pairs_out, counts_out, fetch_only=False):
-        ctx = self.ctx
-        m = len(q)
-        width = min(m, 1024)
-        height = -(-m // width)
-        grid = np.zeros((height * width, 4), dtype=np.float32)
-        grid[:m, :3] = q
-        qtex = ctx.texture((width, height), 4, grid.tobytes(), dtype="f4")
-        qtex.filter = (ctx.NEAREST, ctx.NEAREST)
-        results = ctx.buffer(reserve=m * k * 8)
-        counts = ctx.buffer(reserve=m * 4)
-        color = ctx.renderbuffer((width, height), 4, dtype="f1")
-        fbo = ctx.framebuffer(color_attachments=[color])
-        check_gl(ctx, f"allocating buffers for {m:,} queries x k={k}")
-        try:
-            prog = self._program(variant, k, cap, width, m, fetch_only)
-            self.set_uniforms(prog)
-            bind_textures(prog, {**self.textures(), "bh_queries": qtex})
-            results.bind_to_storage_buffer(0)
-            counts.bind_to_storage_buffer(1)
-            self._draw_seconds += draw_fullscreen(ctx, prog, fbo, (width, height))
-            check_gl(ctx, "the lookup draw")
-            pairs_out[:] = np.frombuffer(results.read(), dtype=np.uint32).reshape(m, k, 2)
-            counts_out[:] = np.frombuffer(counts.read(), dtype=np.uint32)
-        finally:
-            # moderngl rebinds its current framebuffer after creating one: never leave a
-            # framebuffer that is about to be released current.
-            self._home.use()
-            for obj in (qtex, results, counts, fbo, color):
-                obj.release()
+    def _run(self, q, variant, k, cap, pairs_out, counts_out, culled_out, fetch_only=False,
+             width=None):
+        with _Pass(self, q, variant, k, cap, fetch_only, width) as p:
+            self._draw_seconds += draw_fullscreen(self.ctx, p.prog, p.fbo, p.size)
+            check_gl(self.ctx, "the lookup draw")
+            pairs_out[:] = np.frombuffer(p.results.read(), dtype=np.uint32).reshape(len(q), k, 2)
+            counts_out[:] = np.frombuffer(p.counts.read(), dtype=np.uint32)
+            culled_out[:] = np.frombuffer(p.culled.read(), dtype=np.uint32)
+
+    def time_draws(self, points, k=None, *, A=None, variant="default", fetch_only: bool = False,
+                   repeat: int = 10, warmup: int = 2, width: int | None = None) -> dict:
+        """Time the lookup's draws the way GPU work is timed; returns the per-draw times.
+
+        The queries are uploaded once; per pass, ``warmup`` draws of the very program
+        that is then timed, and ``repeat`` back-to-back timed draws with no read-back
+        between them (:func:`blockhash.gl.context.time_draws`); ``width`` as in
+        :meth:`query`.  Returns
+        ``{'wall': [...], 'gpu': [...]}``, seconds per draw summed over the passes.
+        """
+        n = len(self.index)
+        k = self.index.params.k if k is None else as_int(k, "k", minimum=1, maximum=n)
+        A = self.index.params.A if A is None else as_int(A, "A", minimum=1)
+        repeat = as_int(repeat, "repeat", minimum=1)
+        v = variant if isinstance(variant, Variant) else Variant.parse(variant)
+        q = as_points(points, "points", dtype=np.float32, finite=False)
+        wall = np.zeros(repeat)
+        gpu = np.zeros(repeat)
+        with self.ctx:
+            for first in range(0, len(q), self._per_pass(k)):
+                chunk = q[first:first + self._per_pass(k)]
+                with _Pass(self, chunk, v, k, A * k, fetch_only, width) as p:
+                    w, g = time_draws(self.ctx, p.prog, p.fbo, p.size, repeat=repeat, warmup=warmup)
+                    check_gl(self.ctx, "the timed lookup draws")
+                wall += w
+                gpu += g
+        return {"wall": wall.tolist(), "gpu": gpu.tolist()}
+
+    def _per_pass(self, k: int) -> int:
+        limit = self.ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27) // (8 * k)
+        return max(1, min(MAX_QUERIES_PER_PASS, limit))
 
     def release(self):
         with self.ctx:
             self._home.use()
             self.packed.release()
         self._programs.clear()  # the programs stay in shaderlib's cache
+
+
+class _Pass:
+    """The GL objects of one pass of queries: query texture, result buffers, framebuffer,
+    and the program with its uniforms and textures bound; released on exit."""
+
+    def __init__(self, lookup: GLLookup, q, variant, k, cap, fetch_only, width=None):
+        ctx = lookup.ctx
+        self.lookup = lookup
+        m = len(q)
+        limit = ctx.info.get("GL_MAX_TEXTURE_SIZE", 16384)
+        width = QUERY_WIDTH if width is None else as_int(
+            width, "width", minimum=1, maximum=limit, hint="queries per row of the query texture")
+        width = min(m, width)
+        height = -(-m // width)
+        if height > limit:
+            raise CapacityError(f"{m:,} queries at width={width:,} need {height:,} rows > "
+                                f"GL_MAX_TEXTURE_SIZE={limit:,}; use a larger width")
+        self.size = (width, height)
+        grid = np.zeros((height * width, 4), dtype=np.float32)
+        grid[:m, :3] = q
+        self.qtex = ctx.texture((width, height), 4, grid.tobytes(), dtype="f4")
+        self.qtex.filter = (ctx.NEAREST, ctx.NEAREST)
+        self.results = ctx.buffer(reserve=m * k * 8)
+        self.counts = ctx.buffer(reserve=m * 4)
+        self.culled = ctx.buffer(reserve=m * 4)
+        self.color = ctx.renderbuffer((width, height), 4, dtype="f1")
+        self.fbo = ctx.framebuffer(color_attachments=[self.color])
+        ready = False
+        try:
+            check_gl(ctx, f"allocating buffers for {m:,} queries x k={k}")
+            self.prog = lookup._program(variant, k, cap, fetch_only)
+            lookup.set_uniforms(self.prog)
+            self.prog["bh_query_w"].value = width
+            self.prog["bh_queries_n"].value = m
+            bind_textures(self.prog, {**lookup.textures(), "bh_queries": self.qtex})
+            self.results.bind_to_storage_buffer(0)
+            self.counts.bind_to_storage_buffer(1)
+            self.culled.bind_to_storage_buffer(2)
+            ready = True
+        finally:
+            if not ready:
+                self.__exit__()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        # moderngl rebinds its current framebuffer after creating one: never leave a
+        # framebuffer that is about to be released current.
+        self.lookup._home.use()
+        for obj in (self.qtex, self.results, self.counts, self.culled, self.fbo, self.color):
+            obj.release()
+        return False

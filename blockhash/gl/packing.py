@@ -8,7 +8,8 @@ not wider than needed): element ``i`` is texel ``(i mod W, i div W)``
 ============  ========  ====================================================
 texture       format    element
 ============  ========  ====================================================
-blocks        RGBA32UI  16 texels per block: the block's 64 words (Figure 4)
+blocks        RGBA32UI  16 texels per block: the block's 64 words (Figure 4), with its
+                        spare words 61-63 holding the block's box (block_boxes)
 headers       RG32UI    bucket ``t * buckets + key``: (priority alpha, entries)
 refs          R32UI     ``(t * buckets + key) * B + slot``: block reference
 thresholds    R32UI     ``t * T + i``: threshold codes (blockhash/index/thresholds.py)
@@ -25,6 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import CapacityError
+from ..index.blocks import COUNT_WORD, PHOTONS_PER_BLOCK
+from ..index.codec import WORDS_PER_PHOTON
 from .context import check_gl
 
 
@@ -71,13 +74,31 @@ class PackedIndex:
             tex.release()
 
 
+def block_boxes(block_words: np.ndarray) -> np.ndarray:
+    """(nblocks, 3) uint32: per axis, the top 16 bits of the block's smallest and largest
+    photon code, ``lo16 | hi16 << 16``: every photon code u of the block has
+    ``lo16 << 16 <= u <= hi16 << 16 | 0xFFFF``.  The lookup's block culling (BH_CULL,
+    glsl/bh_blocks.glsl bh_block_gap2) reads them from the spare words 61-63, which the
+    index leaves zero, in the same texel as the photon count.
+    """
+    w = np.asarray(block_words, dtype=np.uint32)
+    nb = len(w)
+    codes = w[:, :COUNT_WORD].reshape(nb, PHOTONS_PER_BLOCK, WORDS_PER_PHOTON)[:, :, :3]
+    valid = (np.arange(PHOTONS_PER_BLOCK)[None, :] < w[:, COUNT_WORD, None])[:, :, None]
+    lo = np.where(valid, codes, np.uint32(0xFFFFFFFF)).min(axis=1) >> np.uint32(16)
+    hi = np.where(valid, codes, np.uint32(0)).max(axis=1) >> np.uint32(16)
+    return (lo | (hi << np.uint32(16))).astype(np.uint32)
+
+
 def pack_index(ctx, index) -> PackedIndex:
     """Upload an index's blocks, bucket headers, references and thresholds."""
     tables = index.tables
     headers = np.stack([index.priority.astype(np.uint32), tables.entries.astype(np.uint32)], axis=-1)
     refs = tables.refs.astype(np.int64).astype(np.uint32)  # -1 -> 0xFFFFFFFF, past `entries`
     thresholds = index.thresholds if index.thresholds.size else np.zeros((1, 1), dtype=np.uint32)
-    blocks, wb = upload(ctx, index.block_words.reshape(-1, 4), 4, "photon block")
+    words = index.block_words.copy()
+    words[:, COUNT_WORD + 1:COUNT_WORD + 4] = block_boxes(words)
+    blocks, wb = upload(ctx, words.reshape(-1, 4), 4, "photon block")
     try:
         hdr, wh = upload(ctx, headers.reshape(-1, 2), 2, "bucket header")
         ref, wr = upload(ctx, refs.reshape(-1), 1, "block reference")

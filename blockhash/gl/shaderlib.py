@@ -98,9 +98,10 @@ def preprocess(name: str, prologue: str = "", *, root: Path | None = None) -> So
 #: Choice -> (GLSL selector define, {name: id}); ids match glsl/bh_variants.glsl.
 CHOICES = {
     "search": ("BH_THRESHOLD_SEARCH", {"linear": 0, "binary": 1}),
-    "dedup": ("BH_DEDUP", {"branch": 0, "zero": 1}),
+    "dedup": ("BH_DEDUP", {"branch": 0, "zero": 1, "set": 2}),
     "priority": ("BH_PRIORITY", {"off": 0, "on": 1}),
-    "select": ("BH_SELECT", {"insertion": 0, "network": 1, "packed": 2}),
+    "select": ("BH_SELECT", {"insertion": 0, "network": 1, "packed": 2, "merge": 3}),
+    "cull": ("BH_CULL", {"off": 0, "box": 1}),
 }
 
 
@@ -109,17 +110,28 @@ class Variant:
     """One shader variant: a named choice per algorithm stage.
 
     search : {'linear', 'binary'}     threshold search (section 7)
-    dedup : {'branch', 'zero'}        duplicate blocks skipped, or "multiplied by zero"
+    dedup : {'branch', 'zero', 'set'} duplicate blocks skipped, or "multiplied by zero" (both
+                                      scan a local array of taken blocks), or skipped with
+                                      the taken blocks in registers (no indexed array)
     priority : {'on', 'off'}          buckets by priority alpha (4.4), or table order
-    select : {'insertion', 'network', 'packed'} k-nearest selection (packed: unrolled
-                                      network on uint keys, exact up to near-ties that
-                                      the CPU reference reproduces with slot_bits)
+    select : {'insertion', 'network', 'packed', 'merge'} k-nearest selection (packed:
+                                      unrolled network on uint keys, exact up to near-ties
+                                      that the CPU reference reproduces with slot_bits;
+                                      merge: the same keys, a block at a time, by a
+                                      bitonic merge)
+    cull : {'off', 'box'}             blocks farther than the current k-th neighbour (by
+                                      the box in their spare words) skipped, not fetched;
+                                      same results
+
+    A name lists the choices in this order, '-'-separated; a name of the first four
+    (the paper's stages) means cull 'off'.
     """
 
     search: str = "binary"
-    dedup: str = "branch"
+    dedup: str = "set"
     priority: str = "on"
     select: str = "packed"
+    cull: str = "box"
 
     def __post_init__(self):
         for f in fields(self):
@@ -130,15 +142,23 @@ class Variant:
                                  f"{', '.join(valid)}")
 
     @property
+    def packed_keys(self) -> bool:
+        """Whether the selection keeps packed uint keys (the CPU reference's ``slot_bits`` mode)."""
+        return self.select in ("packed", "merge")
+
+    @property
     def name(self) -> str:
         return "-".join(getattr(self, f.name) for f in fields(self))
 
     @classmethod
     def parse(cls, name: str) -> "Variant":
-        """'default', 'paper', or 'search-dedup-priority-select' such as 'linear-zero-on-insertion'."""
+        """'default', 'paper', or 'search-dedup-priority-select[-cull]' such as
+        'linear-zero-on-insertion' (cull off) or 'binary-set-on-packed-box'."""
         if name in NAMED:
             return NAMED[name]
         parts = name.split("-")
+        if len(parts) == len(CHOICES) - 1:
+            parts.append("off")
         if len(parts) != len(CHOICES):
             raise InputError(f"shader variant {name!r} is not known; the variants are: "
                              + ", ".join(variants()))
@@ -158,7 +178,7 @@ class Variant:
 #: Named variants: 'default' is the fastest measured here, 'paper' follows section 7 literally.
 NAMED = {
     "default": Variant(),
-    "paper": Variant(search="linear", dedup="zero", priority="on", select="insertion"),
+    "paper": Variant(search="linear", dedup="zero", priority="on", select="insertion", cull="off"),
 }
 
 

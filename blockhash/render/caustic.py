@@ -14,6 +14,7 @@ mirror reflects.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,7 +22,7 @@ import numpy as np
 from ..index.codec import decode_directions, decode_powers, unpack_records
 from ..errors import InputError
 from .estimate import EstimateOptions, photon_weights
-from ..gl.context import bind_textures, check_gl, draw_fullscreen, home_framebuffer
+from ..gl.context import bind_textures, check_gl, draw_timed, home_framebuffer, time_draws
 from ..gl.limits import check_lookup
 from ..gl.lookup import GLLookup, slot_bits
 from ..gl.shaderlib import Variant
@@ -82,7 +83,7 @@ def estimate_cpu(index, points: ShadingPoints, materials, *, k=None, A=None,
     v = Variant.parse(variant)
     prm = index.params
     k = prm.k if k is None else k
-    bits = slot_bits(prm.L, prm.B) if v.select == "packed" else 0
+    bits = slot_bits(prm.L, prm.B) if v.packed_keys else 0
 
     def search(q):
         return index.query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
@@ -190,14 +191,25 @@ def _material_table(materials):
     return kd, ks, e
 
 
+#: Stages of the caustic pass that ``CausticPass.time_stages`` times, each a program of
+#: caustic_pass.frag: the lookup's fetches alone (BH_FETCH_ONLY, the memory floor), the
+#: lookup with selection (CP_LOOKUP_ONLY), and the whole pass with the estimate.
+STAGES = ("fetch floor", "lookup", "lookup + estimate")
+
+
 class CausticPass:
-    """The caustic pass in a fragment shader over an uploaded index (GLLookup's textures)."""
+    """The caustic pass in a fragment shader over an uploaded index (GLLookup's textures).
+
+    After :meth:`render`, ``seconds`` is the draw's wall time and ``gpu_seconds`` its
+    GL timer-query time.
+    """
 
     def __init__(self, index, *, backend=None):
         self.lookup = GLLookup(index, backend=backend)
         self.index = index
         self.ctx = self.lookup.ctx
         self.seconds = 0.0
+        self.gpu_seconds = 0.0
 
     def render(self, points: ShadingPoints, materials, *, k=None, A=None,
                variant: str = "default", options: EstimateOptions | None = None) -> np.ndarray:
@@ -206,10 +218,34 @@ class CausticPass:
         ``options`` : :class:`~.estimate.EstimateOptions` (None: the defaults), the same
         that :func:`estimate_cpu` takes.
         """
+        with self._pass(points, materials, k, A, variant, STAGES[-1], options) as (prog, fbo, out_tex):
+            self.seconds, self.gpu_seconds = draw_timed(self.ctx, prog, fbo, points.shape[::-1])
+            check_gl(self.ctx, "the caustic pass draw")
+            h, w = points.shape
+            img = np.frombuffer(out_tex.read(), dtype=np.float32).reshape(h, w, 4)[::-1, :, :3]
+        return np.ascontiguousarray(img * points.weight)
+
+    def time_stages(self, points: ShadingPoints, materials, *, k=None, A=None,
+                    variant: str = "default", repeat: int = 10, warmup: int = 2,
+                    options: EstimateOptions | None = None) -> dict:
+        """GPU and wall time of each stage in :data:`STAGES`: ``{stage: {'wall': [...],
+        'gpu': [...]}}``, seconds per draw, ``repeat`` back-to-back draws after ``warmup``
+        draws of the same program (:func:`blockhash.gl.context.time_draws`)."""
+        out = {}
+        for stage in STAGES:
+            with self._pass(points, materials, k, A, variant, stage, options) as (prog, fbo, _):
+                walls, gpus = time_draws(self.ctx, prog, fbo, points.shape[::-1],
+                                         repeat=repeat, warmup=warmup)
+                check_gl(self.ctx, f"the timed caustic pass draws ({stage})")
+            out[stage] = {"wall": walls, "gpu": gpus}
+        return out
+
+    @contextmanager
+    def _pass(self, points: ShadingPoints, materials, k, A, variant, stage, options=None):
+        """The program of ``stage`` with its inputs bound, and the output framebuffer."""
         from ..gl.shaderlib import compile_program
 
-        index = self.index
-        prm = index.params
+        prm = self.index.params
         k = prm.k if k is None else k
         A = prm.A if A is None else A
         h, w = points.shape
@@ -217,10 +253,11 @@ class CausticPass:
         ctx = self.ctx
         check_lookup(ctx, prm, Variant.parse(variant), k, A)
         options = EstimateOptions() if options is None else options
+        defines = {**self.lookup.defines(Variant.parse(variant), k, A * k,
+                                         fetch_only=stage == STAGES[0]),
+                   "CP_LOOKUP_ONLY": int(stage != STAGES[-1]), **options.defines()}
         with ctx:
-            prog = compile_program(ctx, "caustic_pass.frag",
-                                   {**self.lookup.defines(Variant.parse(variant), k, A * k),
-                                    **options.defines()})
+            prog = compile_program(ctx, "caustic_pass.frag", defines)
             # Textures are bottom-up in GL: flip rows on the way in and out.
             pos = np.concatenate([points.position, points.material[..., None].astype(np.float32)], axis=2)
             nrm = np.concatenate([points.normal, np.ones((h, w, 1), np.float32)], axis=2)
@@ -229,23 +266,22 @@ class CausticPass:
                                 dtype="f4") for a in (pos, nrm, view)]
             out_tex = ctx.texture((w, h), 4, dtype="f4")
             fbo = ctx.framebuffer(color_attachments=[out_tex])
-            check_gl(ctx, f"allocating the {w} x {h} caustic pass")
             try:
+                check_gl(ctx, f"allocating the {w} x {h} caustic pass")
                 self.lookup.set_uniforms(prog)
-                prog["caustic_min_r2"].value = min_r2(index)
+                prog["caustic_min_r2"].value = min_r2(self.index)
                 for name, value in options.uniforms().items():
                     prog[name].value = value
                 pad = MAX_MATERIALS - len(kd)
-                prog["cp_kd"].value = [tuple(r) for r in np.vstack([kd, np.zeros((pad, 3))])]
-                prog["cp_ks"].value = [tuple(r) for r in np.vstack([ks, np.zeros((pad, 3))])]
-                prog["cp_exponent"].value = [float(x) for x in np.concatenate([e, np.zeros(pad)])]
+                for name, value in (("cp_kd", [tuple(r) for r in np.vstack([kd, np.zeros((pad, 3))])]),
+                                    ("cp_ks", [tuple(r) for r in np.vstack([ks, np.zeros((pad, 3))])]),
+                                    ("cp_exponent", [float(x) for x in np.concatenate([e, np.zeros(pad)])])):
+                    if name in prog:  # the lookup-only stages use no material
+                        prog[name].value = value
                 bind_textures(prog, {**self.lookup.textures(), "cp_position": texs[0],
                                      "cp_normal": texs[1], "cp_view": texs[2]})
-                self.seconds = draw_fullscreen(ctx, prog, fbo, (w, h))
-                check_gl(ctx, "the caustic pass draw")
-                img = np.frombuffer(out_tex.read(), dtype=np.float32).reshape(h, w, 4)[::-1, :, :3]
+                yield prog, fbo, out_tex
             finally:
                 home_framebuffer(ctx).use()
                 for obj in (*texs, fbo, out_tex):
                     obj.release()
-        return np.ascontiguousarray(img * points.weight)

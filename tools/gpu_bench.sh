@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# The whole shader benchmark in one go, for a GPU machine (or rehearsed on llvmpipe).
+#
+# On a bare NVIDIA machine (../shared/gpu/README.md): run ../shared/gpu/prepare.sh on a machine
+# with the package registries, carry the checkout with .gl/ and .whl/, then in its root
+#     OUT=/some/dir bash tools/gpu_bench.sh
+# Everywhere else it runs the checkout's package with the local GL (Mesa's llvmpipe here):
+#     SMALL=1 bash tools/gpu_bench.sh        # the rehearsal: small sizes, a few minutes
+# Writes to $OUT (default out/gpu_bench): device.txt (nvidia-smi, `blockhash info`),
+# bench_A.txt/.json (every A: BH default, its merge selection, it without culling, the
+# earlier default binary-branch-on-packed and paper, beside the fetch-only floor, the exact
+# kd-tree shader and cKDTree, same run), bench_k.txt/.json (k at A = 8), bench_1m.txt/.json
+# (1,048,576 queries), caustic.txt/.json (the ring's caustic pass per stage at 10^6 photons),
+# tests.txt (the GL lookup tests: every variant equals the CPU reference on this device).
+# Figures: min and median of REPEAT back-to-back draws after WARMUP draws of the same program,
+# GPU time (GL timer queries) beside wall time, with the renderer and driver in every row.
+set -uo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd); cd "$root"
+OUT=$(mkdir -p "${OUT:-out/gpu_bench}" && cd "${OUT:-out/gpu_bench}" && pwd)
+if [ "${SMALL:-0}" = 1 ]; then
+  PHOTONS=${PHOTONS:-100000} QUERIES=${QUERIES:-16384} BIG=${BIG:-65536}
+  CAUSTIC=${CAUSTIC:-100000} REPEAT=${REPEAT:-3} AS=${AS:-1,8} KS=${KS:-8,50}
+else
+  PHOTONS=${PHOTONS:-1000000} QUERIES=${QUERIES:-262144} BIG=${BIG:-1048576}
+  CAUSTIC=${CAUSTIC:-1000000} REPEAT=${REPEAT:-15} AS=${AS:-1,2,4,8,16} KS=${KS:-8,16,32,50}
+fi
+WARMUP=${WARMUP:-3}
+if [ -f .whl/run.sh ] && command -v nvidia-smi >/dev/null; then
+  bh() { bash .whl/run.sh "$@"; }                     # the installed wheel, NVIDIA's EGL
+  tests() { bash .whl/run.sh pytest -q "$root/tests/test_gl_lookup.py" "$root/tests/test_caustic.py"; }
+  nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv > "$OUT/device.txt"
+else
+  bh() { python -m blockhash.cli "$@"; }             # this checkout, the local GL
+  tests() { python -m pytest -q -p no:cacheprovider tests/test_gl_lookup.py -k "backends or register"; }
+  : > "$OUT/device.txt"
+fi
+common=(--photons "$PHOTONS" --repeat "$REPEAT" --warmup "$WARMUP")
+step() { echo "== $1 ($(date -u +%H:%M:%S))" >&2; }
+step "device"; bh info >> "$OUT/device.txt" 2>&1; cat "$OUT/device.txt"
+step "A sweep: $QUERIES queries, A=$AS"
+bh bench "${common[@]}" --queries "$QUERIES" --A "$AS" --variants default,binary-set-on-merge-box,binary-set-on-packed,binary-branch-on-packed,paper \
+   --json "$OUT/bench_A.json" | tee "$OUT/bench_A.txt"
+step "k sweep at A=8: k=$KS"
+for k in ${KS//,/ }; do
+  bh bench "${common[@]}" --queries "$QUERIES" --A 8 --k "$k" --no-kdtree --variants default,binary-set-on-merge-box \
+     --json "$OUT/bench_k$k.json" | tee -a "$OUT/bench_k.txt"
+done
+step "$BIG queries at A=8"
+bh bench "${common[@]}" --queries "$BIG" --A 8 --json "$OUT/bench_1m.json" | tee "$OUT/bench_1m.txt"
+step "caustic pass: scenes/ring.toml at $CAUSTIC photons"
+bh bench --queries 0 --caustic "$root/scenes/ring.toml" --caustic-photons "$CAUSTIC" \
+   --repeat "$REPEAT" --warmup "$WARMUP" --json "$OUT/caustic.json" | tee "$OUT/caustic.txt"
+step "GL lookup tests"
+tests > "$OUT/tests.txt" 2>&1; tail -n 3 "$OUT/tests.txt"
+step "done: $OUT"
