@@ -5,13 +5,24 @@
 // Textures: bh_headers RG32UI (priority alpha, valid entries) per bucket
 // t * BH_BUCKETS + key; bh_refs R32UI, BH_B references per bucket.
 // Defines: BH_PRIORITY (on: smallest alpha first, ties in table order | off:
-// table order), BH_L, BH_B, BH_BUCKETS, BH_HDR_W, BH_REF_W.
+// table order), BH_L, BH_B, BH_BUCKETS, BH_HDR_W, BH_REF_W.  With BH_ADAPTIVE the
+// priority is bh_depth_key[t] instead of alpha: the query's distance to the nearest cut
+// of its path in table t, largest first (blockhash/index/query.py step 2).
+
 #ifndef BH_BUCKETS_GLSL
 #define BH_BUCKETS_GLSL
 #include "bh_fetch.glsl"
 
 uniform usampler2D bh_headers;
 uniform usampler2D bh_refs;
+
+#if BH_ADAPTIVE
+// ~floatBitsToUint(depth): ascending order of these keys is descending depth (depth >= 0).
+uint bh_depth_key[BH_L];
+#define BH_PRIO(t, h) bh_depth_key[t]
+#else
+#define BH_PRIO(t, h) (h).x
+#endif
 
 uvec2 bh_header(uint t, uint key) {
     return bh_fetch2(bh_headers, BH_HDR_W, t * uint(BH_BUCKETS) + key);
@@ -26,7 +37,7 @@ void bh_order_tables(uint keys[BH_L], out uint order[BH_L], out uint entries[BH_
     uint prio[BH_L];
     for (int t = 0; t < BH_L; ++t) {
         uvec2 h = bh_header(uint(t), keys[t]);
-        prio[t] = h.x;
+        prio[t] = BH_PRIO(t, h);
         entries[t] = h.y;
         order[t] = uint(t);
     }
@@ -57,7 +68,7 @@ void bh_rank_tables(uint keys[BH_L], out uint rank[BH_L], out uint entries[BH_L]
         uvec2 h = bh_header(uint(t), keys[t]);
         entries[t] = h.y;
 #if BH_PRIORITY == BH_PRIORITY_ON
-        prio[t] = h.x;
+        prio[t] = BH_PRIO(t, h);
 #endif
     }
     for (int t = 0; t < BH_L; ++t) {

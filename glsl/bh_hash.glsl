@@ -4,7 +4,8 @@
 // Defines: BH_THRESHOLD_SEARCH (linear | binary), BH_PX/BH_PY/BH_PZ buckets per
 // axis, BH_NESTED (0 marginal, 1 nested threshold layout), BH_ADAPTIVE (1: the
 // adaptive layout's kd-tree rows, which replace the grid), BH_T words per table
-// row, BH_THR_W threshold texture width (log2), BH_MAX_DEPTH (adaptive descent bound).
+// row, BH_THR_W threshold texture width (log2), BH_MAX_DEPTH (adaptive descent bound),
+// BH_PROBE_CUTS (adaptive: the nearest cuts bh_descend records for multi-probing).
 // Exactly blockhash/index/fixedpoint.py quantize_query and
 // blockhash/index/thresholds.py bucket_of (adaptive_bucket_of; layout in
 // blockhash/index/adaptive.py).
@@ -47,6 +48,52 @@ uint bh_count_le(uint base, uint count, uint code) {
 }
 
 #if BH_ADAPTIVE
+// The PROBE_CUTS = 3 cuts of the last bh_descend nearest to the query: gap (float32 metres
+// |code - t| * step, ascending, +inf where unused), axis, and the code across the cut
+// (blockhash/index/thresholds.py adaptive_descend).
+#if BH_PROBE_CUTS != 3
+#error bh_descend keeps exactly 3 cuts
+#endif
+vec3 bh_cut_gap;
+uvec3 bh_cut_axis;
+uvec3 bh_cut_code;
+
+// Like bh_bucket_of, and records the path's three nearest cuts (ties keep path order).
+uint bh_descend(uint t, uvec3 c) {
+    uint row = t * uint(BH_T);
+    uint i = 0u;
+    bh_cut_gap = vec3(uintBitsToFloat(0x7F800000u));
+    bh_cut_axis = uvec3(0u);
+    bh_cut_code = uvec3(0u);
+    for (int d = 0; d < BH_MAX_DEPTH; ++d) {
+        uint meta = bh_fetch1(bh_thresholds, BH_THR_W, row + 2u * i + 1u);
+        if ((meta & 4u) != 0u) {
+            return meta >> 3u;
+        }
+        uint thr = bh_fetch1(bh_thresholds, BH_THR_W, row + 2u * i);
+        uint a = meta & 3u;
+        uint x = c[a];
+        bool right = x >= thr;
+        precise float gap = float(right ? x - thr : thr - x) * bh_step[a];
+        uint across = right ? thr - 1u : thr;
+        if (gap < bh_cut_gap.z) {
+            if (gap < bh_cut_gap.y) {
+                bh_cut_gap.z = bh_cut_gap.y; bh_cut_axis.z = bh_cut_axis.y; bh_cut_code.z = bh_cut_code.y;
+                if (gap < bh_cut_gap.x) {
+                    bh_cut_gap.y = bh_cut_gap.x; bh_cut_axis.y = bh_cut_axis.x; bh_cut_code.y = bh_cut_code.x;
+                    bh_cut_gap.x = gap; bh_cut_axis.x = a; bh_cut_code.x = across;
+                } else {
+                    bh_cut_gap.y = gap; bh_cut_axis.y = a; bh_cut_code.y = across;
+                }
+            } else {
+                bh_cut_gap.z = gap; bh_cut_axis.z = a; bh_cut_code.z = across;
+            }
+        }
+        i = (meta >> 3u) + uint(right);
+    }
+    return 0xFFFFFFFFu;
+}
+
 // Node i: word 2i the threshold; word 2i+1 (left << 3) | axis, or (bucket << 3) | 4.
 uint bh_bucket_of(uint t, uvec3 c) {
     uint row = t * uint(BH_T);

@@ -52,11 +52,12 @@ def visited_buckets(index, q):
 
 def examined_blocks(index, q, k, A):
     """The blocks the reference takes for one query: references in slot order, duplicates
-    skipped, while fewer than A * k candidates were taken (step 3)."""
+    skipped, while fewer than A * k candidates and L * B blocks were taken (steps 3, 4)."""
     taken, count = [], 0
+    most = index.params.L * index.params.B
     for t, key in visited_buckets(index, q):
         for blk in index.tables.refs[t, key]:
-            if count >= A * k or blk < 0:
+            if count >= A * k or blk < 0 or len(taken) >= most:
                 break
             if blk in taken:
                 continue

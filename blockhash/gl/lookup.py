@@ -11,16 +11,18 @@ storage buffer; queries are processed in passes that fit the buffer limit.
 from __future__ import annotations
 
 
+from dataclasses import replace
+
 import numpy as np
 
 from ..errors import CapacityError, InputError
-from ..index.thresholds import MAX_DEPTH, ThresholdLayout
+from ..index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
 from ..validate import as_int, as_points
 from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer, time_draws
 from ..index.blocks import PHOTONS_PER_BLOCK
 from .limits import check_lookup
 from .packing import pack_index
-from .shaderlib import Variant, compile_program
+from .shaderlib import NAMED, Variant, compile_program
 
 #: Queries per pass are capped so one draw stays short (llvmpipe runs a draw to completion).
 MAX_QUERIES_PER_PASS = 1 << 18
@@ -70,6 +72,10 @@ class GLLookup:
         """The #defines of bh_lookup.glsl for this index, variant, k and candidate cap."""
         prm = self.index.params
         taken = taken_bound(prm.L, prm.B, cap)
+        if variant == NAMED["default"] and taken > MAX_TAKEN_SET:
+            # The default keeps taken blocks in registers up to MAX_TAKEN_SET; a larger A * k
+            # takes them in a list (dedup=branch): the same neighbours, more time per block.
+            variant = replace(variant, dedup="branch")
         if variant.dedup == "set" and taken > MAX_TAKEN_SET:
             raise InputError(
                 f"A * k = {cap:,} candidates can take up to {taken:,} blocks, more than the "
@@ -80,6 +86,7 @@ class GLLookup:
             "BH_L": prm.L, "BH_B": prm.B, "BH_PX": prm.P[0], "BH_PY": prm.P[1], "BH_PZ": prm.P[2],
             "BH_NESTED": int(prm.layout == ThresholdLayout.NESTED), "BH_T": self.index.thresholds.shape[1],
             "BH_ADAPTIVE": int(prm.layout == ThresholdLayout.ADAPTIVE), "BH_MAX_DEPTH": MAX_DEPTH,
+            "BH_PROBE": int(prm.probe), "BH_PROBE_CUTS": PROBE_CUTS,
             "BH_BUCKETS": prm.buckets, "BH_K": k, "BH_CAP": cap, **self.packed.widths,
             "BH_SLOT_BITS": slot_bits(prm.L, prm.B), "BH_FETCH_ONLY": int(fetch_only),
             "BH_TAKEN_MAX": taken,

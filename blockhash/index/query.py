@@ -43,7 +43,7 @@ def _take(ti, key, refs, starts, positions, qx, qy, qz, taken, ntaken, count, ca
     """Take the blocks of bucket ``key`` of table ``ti`` not yet taken, while under the cap."""
     B = refs.shape[2]
     for r in range(B):
-        if count >= cap:
+        if count >= cap or ntaken >= taken.shape[0]:
             break
         blk = refs[ti, key, r]
         if blk < 0:
@@ -82,12 +82,6 @@ def _take(ti, key, refs, starts, positions, qx, qy, qz, taken, ntaken, count, ca
                 bd[j] = dd
                 bs[j] = s
     return ntaken, count
-
-
-def max_taken(L: int, B: int, cap: int, probe: bool) -> int:
-    """Most blocks one query can take: L * B from its own buckets, any number with probes,
-    and never more than the cap allows (full blocks of 10 until the cap, one partial)."""
-    return int(cap // 10 + 2 if probe else min(L * B, cap // 10 + 2))
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
@@ -138,7 +132,7 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
         bits_u = bits.view(np.uint32)
         keys = np.empty(L, dtype=np.int64)
         order = np.empty(L, dtype=np.int64)
-        taken = np.empty(cap // 10 + 2 if probe else min(L * B, cap // 10 + 2), dtype=np.int32)
+        taken = np.empty(L * B, dtype=np.int32)
         pc = np.empty(3, dtype=np.uint32)
         cut_axis = np.empty((L, PROBE_CUTS), dtype=np.int64)
         cut_code = np.empty((L, PROBE_CUTS), dtype=np.uint32)
