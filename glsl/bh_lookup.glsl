@@ -31,6 +31,7 @@ uint bh_culled = 0u;  // blocks culled by the current lookup (BH_CULL box)
 #define BH_TAKEN_AT(i) bh_taken_get(i)
 #else
 uint bh_taken_list[BH_L * BH_B];  // a query takes at most L * B blocks, probes included
+#define BH_SCAN 32
 #define BH_TAKEN_AT(i) bh_taken_list[i]
 #endif
 
@@ -91,9 +92,14 @@ void bh_take(uint t, uint key, uint nref, vec3 q, inout uint ntaken, inout uint 
 #if BH_DEDUP == BH_DEDUP_SET
         bool dup = bh_taken_has(b);
 #else
+        // Scanned in chunks of BH_SCAN unrolled compares: llvmpipe counts only the
+        // chunks against its loop budget (blockhash/gl/limits.py).
         bool dup = false;
-        for (uint j = 0u; j < ntaken; ++j) {
-            dup = dup || bh_taken_list[j] == b;
+        for (uint c = 0u; c < ntaken; c += uint(BH_SCAN)) {
+            for (int u = 0; u < BH_SCAN; ++u) {
+                uint j = c + uint(u);
+                dup = dup || (j < ntaken && bh_taken_list[min(j, uint(BH_L * BH_B - 1))] == b);
+            }
         }
 #endif
 #if BH_DEDUP == BH_DEDUP_BRANCH || BH_DEDUP == BH_DEDUP_SET

@@ -66,7 +66,7 @@ def test_a_failed_compile_names_the_file_line_and_variant():
     lookup = GLLookup(index, backend="egl")
     defines = {**lookup.defines(Variant(), MAX_K + 1, MAX_K + 1), "BH_QUERY_W": 1, "BH_QUERIES": 1}
     with pytest.raises(ShaderCompileError, match=r"(?s)bh_query\.frag failed to compile \(variant "
-                                                 r"binary-branch-on-packed\): .*bh_select_packed\.glsl:\d+.*"
+                                                 r"binary-set-on-packed-box\): .*bh_select_packed\.glsl:\d+.*"
                                                  r"BH_K above 128") as info:
         with ctx:
             compile_program(ctx, "bh_query.frag", defines)
@@ -74,34 +74,34 @@ def test_a_failed_compile_names_the_file_line_and_variant():
     assert "no OpenGL" not in str(info.value)
 
 
-def test_loop_bound_separates_the_measured_exact_and_truncated_lookups():
-    # Measured on llvmpipe (blockhash/gl/limits.py): k = 8, A = 128 and k = 50, A = 24 exact;
-    # k = 8, A = 240 and k = 50, A = 32 lost candidates.
+def test_loop_bound_grows_with_the_budget_and_allows_the_default_settings():
     pts = np.random.default_rng(1).random((20_000, 3))
-    for k, A, ok in [(8, 128, True), (50, 24, True), (8, 240, False), (50, 32, False)]:
-        index = BlockHashIndex(pts, k=k, A=A)
-        assert (loop_iterations(index.params, Variant(), k, A * k) <= LOOP_LIMIT) == ok
+    index = BlockHashIndex(pts, k=50, A=8)
+    bounds = [loop_iterations(index.params, Variant(), 50, A * 50) for A in (1, 4, 8, 16)]
+    assert bounds == sorted(bounds) and bounds[2] <= LOOP_LIMIT
+    assert loop_iterations(index.params, Variant.parse("paper"), 50, 400) > bounds[2]
+
+
+@pytest.mark.parametrize("k,A", [(8, 64), (50, 16)])
+def test_the_largest_allowed_A_at_k_equals_the_cpu_reference(k, A):
+    context_or_skip("egl")
+    pts = np.random.default_rng(1).random((20_000, 3))
+    index = BlockHashIndex(pts, k=k, A=A)
+    best = largest_A(index.params, Variant(), k)
+    assert best >= A
+    same_as_cpu(GLLookup(index, backend="egl"), index, pts[:64].astype(np.float32), k, best)
 
 
 def test_A_beyond_the_loop_limit_is_refused_on_llvmpipe_with_the_largest_A(no_compile):
     ctx = context_or_skip("egl")
     if not limits.is_llvmpipe(ctx):
         pytest.skip("the loop limit is llvmpipe's")
-    index = BlockHashIndex(np.random.default_rng(1).random((20_000, 3)), k=8, A=240)
+    index = BlockHashIndex(np.random.default_rng(1).random((20_000, 3)), k=8, A=8200)
     best = largest_A(index.params, Variant(), 8)
     lookup = GLLookup(index, backend="egl")
-    with pytest.raises(CapacityError, match=rf"k=8, A=240 \(A\*k=1,920 candidates\).*above "
+    with pytest.raises(CapacityError, match=rf"k=8, A=8200 \(A\*k=65,600 candidates\).*above "
                                             rf"llvmpipe's 65,535.*use A <= {best}, or the CPU query"):
         lookup.query(np.zeros((2, 3)))
-
-
-def test_the_largest_allowed_A_equals_the_cpu_reference():
-    context_or_skip("egl")
-    pts = np.random.default_rng(1).random((20_000, 3))
-    index = BlockHashIndex(pts, k=8, A=64)
-    best = largest_A(index.params, Variant(), 8)
-    assert best >= 64
-    same_as_cpu(GLLookup(index, backend="egl"), index, pts[:64].astype(np.float32), 8, best)
 
 
 @pytest.mark.parametrize("n", [1, 10, 11])

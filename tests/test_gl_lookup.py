@@ -170,17 +170,15 @@ def test_taken_bound_covers_the_most_blocks_a_query_takes():
     assert taken_bound(7, 23, 400) == 41
     assert taken_bound(2, 5, 400) == 10
     from blockhash.index.query import bh_query
-    from blockhash.index.thresholds import ThresholdLayout
-
     index = BlockHashIndex(photon_set("clustered", 3000), k=20, A=16)
     q = queries_for("clustered", m=300)[10:]
     prm = index.params
     for A in (1, 3, 16):
         cap = A * 20
         *_, fetched = bh_query(index.quantizer.quantize_query(q), q, index.thresholds,
-                               np.asarray(prm.P, dtype=np.int64), prm.layout == ThresholdLayout.NESTED,
+                               np.asarray(prm.P, dtype=np.int64), int(prm.layout),
                                index.tables.refs, index.priority, index.starts, index._positions,
-                               20, cap, True, 0)
+                               20, cap, True, 0, prm.probe, index.quantizer.step.astype(np.float32))
         assert fetched.max() <= taken_bound(prm.L, prm.B, cap)
         assert fetched.max() >= taken_bound(prm.L, prm.B, cap) - 1  # the bound is tight
 
@@ -246,11 +244,18 @@ def test_culling_is_exact_far_from_the_origin(offset):
 
 @pytest.mark.filterwarnings("ignore::blockhash.OrphanWarning")
 def test_a_candidate_cap_beyond_the_register_set_is_refused_with_the_way_out():
+    """An explicit dedup=set variant is refused beyond its register set; the default falls
+    back to dedup=branch there, with the same neighbours."""
     context_or_skip("egl")
-    index = BlockHashIndex(photon_set("clustered", 4000), k=100, A=8)  # L * B = 315 > 128
+    index = BlockHashIndex(photon_set("clustered", 4000), k=100, A=8)
+    prm = index.params
     lookup = GLLookup(index, backend="egl")
     q = queries_for("clustered", m=20)
-    with pytest.raises(InputError, match=r"A \* k = 1,600 candidates can take up to 161 blocks.*"
-                                         r"dedup=branch"):
-        lookup.query(q, k=100, A=16)
-    assert_same_as_cpu(lookup, index, q, 100, 16, variant="binary-branch-on-packed-box")
+    assert prm.L * prm.B > 128
+    taken = min(prm.L * prm.B, 1600 // 10 + 1)
+    with pytest.raises(InputError, match=rf"A \* k = 1,600 candidates can take up to {taken} "
+                                         r"blocks.*dedup=branch"):
+        lookup.query(q, k=100, A=16, variant="binary-set-on-packed-box")
+    assert_same_as_cpu(lookup, index, q, 100, 16, variant="default")
+
+

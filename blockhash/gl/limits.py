@@ -31,7 +31,8 @@ from __future__ import annotations
 import math
 
 from ..errors import CapacityError, InputError
-from ..index.thresholds import MAX_DEPTH, ThresholdLayout
+from ..index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
+from .shaderlib import NAMED
 
 #: Largest k the lookup shader keeps (the packed selection's unrolled table ends at 128).
 MAX_K = 128
@@ -39,6 +40,10 @@ MAX_K = 128
 LOOP_LIMIT = 65535
 #: Bits of a binary threshold search per axis: thresholds per row are below 2**13.
 _SEARCH_STEPS = 13
+#: Taken blocks held in registers by dedup=set (glsl/bh_taken.glsl; GLLookup's MAX_TAKEN_SET).
+MAX_TAKEN_SET = 128
+#: Unrolled compares per chunk of the taken-list scan (glsl/bh_lookup.glsl BH_SCAN).
+SCAN_CHUNK = 32
 
 
 def is_llvmpipe(ctx) -> bool:
@@ -49,22 +54,32 @@ def is_llvmpipe(ctx) -> bool:
 def loop_iterations(params, variant, k: int, cap: int) -> int:
     """An upper bound on the loop iterations one lookup runs in the shader.
 
-    ``R = L * B`` block references can be visited; each scans the blocks already
-    taken for duplicates (at most ``min(R, ceil(cap / 10) + 1)`` of them); the
-    candidate loop runs at most ``cap + 10`` times; insertion selection adds up
-    to k shifts per candidate; hashing, the priority sort and the output add
-    ``L * (hash steps) + L * L + k``.
+    Hashing descends L trees (adaptive layout: at most ``MAX_DEPTH`` nodes each; grids:
+    three binary searches) and, with probing, ``PROBE_CUTS`` more per table; the priority
+    order adds ``L * L``.  The reference loop visits at most ``R`` references, ``L * B``
+    from the query's own buckets and ``PROBE_CUTS * L * B`` from probed ones; with a taken
+    list (dedup branch or zero) each scans the blocks taken so far (at most
+    ``min(L B, ceil(cap / 10) + 1)``) in chunks of ``SCAN_CHUNK`` unrolled compares; the
+    candidate loop runs at most ``cap + 10`` times; insertion selection adds up to k
+    shifts per candidate; the output adds k.
     """
     L, B = params.L, params.B
-    refs = L * B
-    taken = min(refs, math.ceil(cap / 10) + 1)
-    if getattr(variant, "search", "binary") == "linear":
+    probes = PROBE_CUTS if getattr(params, "probe", False) else 0
+    refs = L * B * (1 + probes)
+    taken = min(L * B, math.ceil(cap / 10) + 1)
+    if params.layout == ThresholdLayout.ADAPTIVE:
+        hash_steps = MAX_DEPTH * (1 + probes)  # the kd-tree descent: a constant loop, too long to unroll
+    elif getattr(variant, "search", "binary") == "linear":
         hash_steps = int(sum(params.P))
     else:
         hash_steps = 3 * _SEARCH_STEPS
-    if params.layout == ThresholdLayout.ADAPTIVE:
-        hash_steps = MAX_DEPTH  # the kd-tree descent: a constant loop, too long to unroll
-    total = L * hash_steps + L * L + refs * (1 + taken) + cap + 10 + k
+    dedup = getattr(variant, "dedup", "set")
+    set_fits = dedup == "set" and taken <= MAX_TAKEN_SET
+    is_default = variant == NAMED["default"]
+    scan = 0 if set_fits else math.ceil(taken / SCAN_CHUNK)
+    if dedup == "set" and not set_fits and not is_default:
+        scan = 0  # refused before compiling anyway (GLLookup.defines)
+    total = L * hash_steps + L * L + refs * (1 + scan) + cap + 10 + k
     if getattr(variant, "select", "packed") == "insertion":
         total += (cap + 10) * k
     return int(total)

@@ -20,7 +20,7 @@ from ..index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
 from ..validate import as_int, as_points
 from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer, time_draws
 from ..index.blocks import PHOTONS_PER_BLOCK
-from .limits import check_lookup
+from .limits import MAX_TAKEN_SET, check_lookup
 from .packing import pack_index
 from .shaderlib import NAMED, Variant, compile_program
 
@@ -36,8 +36,6 @@ def slot_bits(L: int, B: int) -> int:
     return max(1, int(L * B * 10 - 1).bit_length())
 
 
-#: Taken blocks the register set of dedup=set holds (glsl/bh_taken.glsl).
-MAX_TAKEN_SET = 128
 
 
 def taken_bound(L: int, B: int, cap: int) -> int:

@@ -269,9 +269,10 @@ class CausticPass:
             try:
                 check_gl(ctx, f"allocating the {w} x {h} caustic pass")
                 self.lookup.set_uniforms(prog)
-                prog["caustic_min_r2"].value = min_r2(self.index)
-                for name, value in options.uniforms().items():
-                    prog[name].value = value
+                for name, value in (("caustic_min_r2", min_r2(self.index)),
+                                    *options.uniforms().items()):
+                    if name in prog:  # the lookup-only stages estimate nothing
+                        prog[name].value = value
                 pad = MAX_MATERIALS - len(kd)
                 for name, value in (("cp_kd", [tuple(r) for r in np.vstack([kd, np.zeros((pad, 3))])]),
                                     ("cp_ks", [tuple(r) for r in np.vstack([ks, np.zeros((pad, 3))])]),
