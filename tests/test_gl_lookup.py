@@ -247,7 +247,7 @@ def test_a_candidate_cap_beyond_the_register_set_is_refused_with_the_way_out():
     """An explicit dedup=set variant is refused beyond its register set; the default falls
     back to dedup=branch there, with the same neighbours."""
     context_or_skip("egl")
-    index = BlockHashIndex(photon_set("clustered", 4000), k=100, A=8)
+    index = BlockHashIndex(photon_set("clustered", 4000), k=100, A=32)
     prm = index.params
     lookup = GLLookup(index, backend="egl")
     q = queries_for("clustered", m=20)
@@ -255,7 +255,7 @@ def test_a_candidate_cap_beyond_the_register_set_is_refused_with_the_way_out():
     taken = min(prm.L * prm.B, 1600 // 10 + 1)
     with pytest.raises(InputError, match=rf"A \* k = 1,600 candidates can take up to {taken} "
                                          r"blocks.*dedup=branch"):
-        lookup.query(q, k=100, A=16, variant="binary-set-on-packed-box")
+        lookup.query(q, k=100, A=16, variant="binary-set-on-packed")
     assert_same_as_cpu(lookup, index, q, 100, 16, variant="default")
 
 
