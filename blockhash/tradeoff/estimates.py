@@ -41,14 +41,16 @@ REGION_FRACTION = 0.05
 
 
 def default_options() -> list[EstimateOptions]:
-    """The options every study compares: the paper's estimate, then one change at a time."""
+    """The options every study compares: the paper's estimate, then one change at a time,
+    the default (``EstimateOptions()``) among them."""
     O = EstimateOptions
-    return [O(estimate="paper", normal_cos=None), O(estimate="unbiased", normal_cos=None),
-            O(estimate="paper", normal_cos=0.5),
-            O(normal_cos=0.0), O(normal_cos=0.5), O(normal_cos=0.9),
-            O(normal_cos=0.5, disc=0.5), O(normal_cos=0.5, disc=0.25),
-            O(normal_cos=0.5, filter="cone"), O(normal_cos=0.5, filter="epanechnikov"),
-            O(normal_cos=0.5, filter="silverman")]
+    box = [O(estimate="paper", filter="none", normal_cos=None),
+           O(filter="none", normal_cos=None)]
+    box += [O(filter="none", normal_cos=c) for c in (0.0, 0.5, 0.9)]
+    box += [O(filter="none", normal_cos=0.5, disc=0.25)]
+    filters = [O(filter="cone", normal_cos=None)] + [O(filter=f, normal_cos=0.5)
+                                                     for f in ("cone", "epanechnikov", "silverman")]
+    return box + filters
 
 
 def caustic_region(reference, mask) -> np.ndarray:
