@@ -148,3 +148,24 @@ def test_render_command_takes_the_estimate_flags(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["render", str(ring), "--normal-test", "2"])
     assert "--normal-test '2': expected a number in [-1, 1] or 'off'" in capsys.readouterr().err
+
+
+def test_estimate_study_measures_every_option_on_the_same_neighbours(tmp_path):
+    from pathlib import Path
+
+    from blockhash.render.scene_toml import load_scene
+    from blockhash.tradeoff.estimates import default_options, markdown_table, study_scene, summary_table
+
+    corner = load_scene(Path(__file__).resolve().parents[1] / "scenes" / "corner.toml")
+    study = study_scene(corner, photons=(3_000,), ks=(20,), size=(24, 24), supersample=1,
+                        reference_photons=200_000, cache_dir=tmp_path, progress=lambda s: None)
+    rows = study["rows"]
+    labels = [r["option"] for r in rows if r["search"] == "bh"]
+    assert labels == [o.label for o in default_options()]
+    assert EstimateOptions().label in labels
+    assert {r["option"] for r in rows if r["search"] == "exact"} == {labels[0], EstimateOptions().label}
+    assert all(np.isfinite([r["flux"], r["blur"], r["flux_region"], r["blur_region"]]).all() for r in rows)
+    # the paper's form sums one photon more per estimate than the unbiased form, nothing else
+    by = {r["option"]: r for r in rows if r["search"] == "bh"}
+    assert by["paper/none/noff"]["flux"] > by["unbiased/none/noff"]["flux"]
+    assert "**default**" in summary_table([study]) and "| corner | 3,000 | 20 | bh |" in markdown_table([study])

@@ -128,3 +128,21 @@ def markdown_table(studies) -> str:
                          f"{r['flux']:.4f} | {r['blur']:.4f} | {r['flux_region']:.4f} | "
                          f"{r['blur_region']:.4f} |")
     return "\n".join(lines)
+
+
+def summary_table(studies) -> str:
+    """Per scene, N and k: the paper's estimate against the default, over the whole compared
+    area (flux, blurred relative RMS) and the caustic region (same), BH and exact kNN."""
+    paper = default_options()[0].label
+    default = EstimateOptions().label
+    lines = ["| scene | N | k | estimate | search | flux / ref | blurred rel. RMS | "
+             "flux / ref (region) | blurred rel. RMS (region) |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for s in studies:
+        for r in s["rows"]:
+            if r["option"] in (paper, default):
+                name = "paper" if r["option"] == paper else "**default**"
+                lines.append(f"| {r['scene']} | {r['photons']:,} | {r['k']} | {name} `{r['option']}` | "
+                             f"{r['search']} | {r['flux']:.3f} | {r['blur']:.3f} | "
+                             f"{r['flux_region']:.3f} | {r['blur_region']:.3f} |")
+    return "\n".join(lines)
