@@ -28,7 +28,8 @@ def _ints(text):
 
 def main() -> int:
     from blockhash.render import scene_toml
-    from blockhash.tradeoff.estimates import markdown_table, study_scene, summary_table
+    from blockhash.tradeoff.estimates import (markdown_table, option_table, study_scene,
+                                              summary_table)
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scenes", default="ring,venus,corner", help="names under scenes/")
@@ -51,7 +52,12 @@ def main() -> int:
         print(f"reference noise (region, per pixel): {studies[-1]['reference']}", flush=True)
         if args.json:
             Path(args.json).write_text(json.dumps(studies, indent=1))
-    table = ("Default against the paper's estimate:\n\n" + summary_table(studies)
+    ks = sorted({r["k"] for st in studies for r in st["rows"]})
+    k0 = 50 if 50 in ks else ks[0]
+    table = (f"Each option, flux / blurred relative RMS, whole compared area:\n\n"
+             + option_table(studies, k0) + "\n\nThe same in the caustic region:\n\n"
+             + option_table(studies, k0, region=True)
+             + "\n\nDefault against the paper's estimate:\n\n" + summary_table(studies)
              + "\n\nEvery option:\n\n" + markdown_table(studies))
     print(table)
     if args.markdown:

@@ -146,3 +146,19 @@ def summary_table(studies) -> str:
                              f"{r['search']} | {r['flux']:.3f} | {r['blur']:.3f} | "
                              f"{r['flux_region']:.3f} | {r['blur_region']:.3f} |")
     return "\n".join(lines)
+
+
+def option_table(studies, k: int = 50, *, region: bool = False) -> str:
+    """Options as rows, (scene, N) as columns, "flux / blurred rel. RMS" at one k (BH)."""
+    rows = [r for st in studies for r in st["rows"] if r["k"] == k and r["search"] == "bh"]
+    cols = list(dict.fromkeys((r["scene"], r["photons"]) for r in rows))
+    opts = list(dict.fromkeys(r["option"] for r in rows))
+    cell = {(r["scene"], r["photons"], r["option"]): r for r in rows}
+    f, b = ("flux_region", "blur_region") if region else ("flux", "blur")
+    lines = [f"| option (k = {k}, BH) | " + " | ".join(f"{s} N={n:,}" for s, n in cols) + " |",
+             "|---|" + "---|" * len(cols)]
+    for o in opts:
+        vals = [cell.get((s, n, o)) for s, n in cols]
+        lines.append(f"| `{o}` | " + " | ".join("" if v is None else f"{v[f]:.3f} / {v[b]:.3f}"
+                                                for v in vals) + " |")
+    return "\n".join(lines)
