@@ -110,7 +110,7 @@ def study_scene(scene, *, photons=(100_000, 1_000_000), ks=(50,), options=None, 
     # the reference's own noise: its standard error blurred like the images (independent pixels)
     se = ref.stderr
     noise = float(np.sqrt(np.mean(se[region] ** 2)) / np.sqrt(np.mean(ref.radiance[region] ** 2)))
-    return {"scene": str(scene.path), "size": list(size), "supersample": ss,
+    return {"scene": scene.path.name if scene.path else None, "size": list(size), "supersample": ss,
             "reference": {"photons": ref.emitted, "cache": str(path) if path else None,
                           "pixels_compared": int(mask.sum()), "pixels_region": int(region.sum()),
                           "rel_noise_region": noise},
