@@ -36,6 +36,8 @@ def main() -> int:
     p.add_argument("--photons", type=_ints, default=(100_000, 1_000_000))
     p.add_argument("--ks", type=_ints, default=(50,))
     p.add_argument("--size", type=int, default=128, help="image width and height (default 128)")
+    p.add_argument("--supersample", type=int, default=2,
+                   help="shading points per pixel along each axis (default 2)")
     p.add_argument("--reference-photons", type=int, default=50_000_000)
     p.add_argument("--cache", default=str(Path.home() / ".cache" / "blockhash"))
     p.add_argument("--json", help="write the studies here")
@@ -46,7 +48,7 @@ def main() -> int:
     for name in [] if args.from_json else args.scenes.split(","):
         scene = scene_toml.load_scene(ROOT / "scenes" / f"{name}.toml")
         studies.append(study_scene(scene, photons=args.photons, ks=args.ks,
-                                   size=(args.size, args.size),
+                                   size=(args.size, args.size), supersample=args.supersample,
                                    reference_photons=args.reference_photons, cache_dir=args.cache,
                                    progress=lambda s: print(s, flush=True)))
         print(f"reference noise (region, per pixel): {studies[-1]['reference']}", flush=True)
