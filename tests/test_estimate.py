@@ -75,6 +75,18 @@ def test_shader_estimate_equals_the_cpu_estimate_for_every_option(corner, option
     assert_images_close(gl, cpu, max_rel_rms=1e-4, out_dir=tmp_path)
 
 
+@pytest.mark.parametrize("variant", ["paper", "binary-branch-on-network"])
+def test_shader_estimate_equals_the_cpu_estimate_with_other_lookup_variants(corner, variant, tmp_path):
+    # The estimate reads the found photons from bh_best, which every selection fills alike.
+    pts = floor_points(16, 16, z=(0.45, 0.75), view=(0.6, 0.8, 0.0))
+    cp = CausticPass(corner, backend="egl")
+    gl = cp.render(pts, LAMBERT, variant=variant)
+    cpu = estimate_from_neighbours(corner, pts, LAMBERT,
+                                   lambda q: cp.lookup.query(q, variant=variant), 20)
+    assert np.any(cpu > 0)
+    assert_images_close(gl, cpu, max_rel_rms=1e-4, out_dir=tmp_path)
+
+
 @pytest.fixture(scope="module")
 def plane():
     return surfaces([(100_000, 1, 0.0, FLOOR)], k=50)
