@@ -75,6 +75,18 @@ def test_shader_estimate_equals_the_cpu_estimate_for_every_option(corner, option
     assert_images_close(gl, cpu, max_rel_rms=1e-4, out_dir=tmp_path)
 
 
+@pytest.mark.parametrize("variant", ["paper", "binary-branch-on-network"])
+def test_shader_estimate_equals_the_cpu_estimate_with_other_lookup_variants(corner, variant, tmp_path):
+    # The estimate reads the found photons from bh_best, which every selection fills alike.
+    pts = floor_points(16, 16, z=(0.45, 0.75), view=(0.6, 0.8, 0.0))
+    cp = CausticPass(corner, backend="egl")
+    gl = cp.render(pts, LAMBERT, variant=variant)
+    cpu = estimate_from_neighbours(corner, pts, LAMBERT,
+                                   lambda q: cp.lookup.query(q, variant=variant), 20)
+    assert np.any(cpu > 0)
+    assert_images_close(gl, cpu, max_rel_rms=1e-4, out_dir=tmp_path)
+
+
 @pytest.fixture(scope="module")
 def plane():
     return surfaces([(100_000, 1, 0.0, FLOOR)], k=50)
@@ -83,9 +95,10 @@ def plane():
 def test_unbiased_estimate_has_no_k_over_k_minus_1_bias_and_the_paper_form_has(plane):
     # Uniform photons: the m-th photon lies on the circle, so summing all k overestimates
     # by k / (k - 1) = 2 % at k = 50; the noise of the mean over the grid is about 0.5 %.
-    unbiased = estimate_cpu(plane, floor_points(), LAMBERT, options=EstimateOptions()).mean()
+    unbiased = estimate_cpu(plane, floor_points(), LAMBERT,
+                            options=EstimateOptions(filter="none")).mean()
     paper = estimate_cpu(plane, floor_points(), LAMBERT,
-                         options=EstimateOptions(estimate="paper")).mean()
+                         options=EstimateOptions(estimate="paper", filter="none")).mean()
     assert unbiased == pytest.approx(PLANE_L, rel=0.01)
     assert paper == pytest.approx(PLANE_L * 50 / 49, rel=0.01)
     assert paper / unbiased == pytest.approx(50 / 49, rel=0.002)
@@ -116,8 +129,9 @@ def test_flattened_neighbourhood_leaves_out_a_parallel_surface_just_above():
     # cannot tell them apart, the disc of height 0.25 r (r about 1.3 cm here) can.
     two = surfaces([(20_000, 1, 0.0, FLOOR), (20_000, 1, 0.01, FLOOR)], k=20)
     pts = floor_points()
-    disc = estimate_cpu(two, pts, LAMBERT, options=EstimateOptions(disc=0.25)).mean()
-    sphere = estimate_cpu(two, pts, LAMBERT, options=EstimateOptions()).mean()
+    # (box filter: the cone would already weigh the far layer's photons down)
+    disc = estimate_cpu(two, pts, LAMBERT, options=EstimateOptions(filter="none", disc=0.25)).mean()
+    sphere = estimate_cpu(two, pts, LAMBERT, options=EstimateOptions(filter="none")).mean()
     assert disc == pytest.approx(PLANE_L, rel=0.05)
     assert sphere > 1.3 * PLANE_L
 
@@ -146,3 +160,24 @@ def test_render_command_takes_the_estimate_flags(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["render", str(ring), "--normal-test", "2"])
     assert "--normal-test '2': expected a number in [-1, 1] or 'off'" in capsys.readouterr().err
+
+
+def test_estimate_study_measures_every_option_on_the_same_neighbours(tmp_path):
+    from pathlib import Path
+
+    from blockhash.render.scene_toml import load_scene
+    from blockhash.tradeoff.estimates import default_options, markdown_table, study_scene, summary_table
+
+    corner = load_scene(Path(__file__).resolve().parents[1] / "scenes" / "corner.toml")
+    study = study_scene(corner, photons=(3_000,), ks=(20,), size=(24, 24), supersample=1,
+                        reference_photons=200_000, cache_dir=tmp_path, progress=lambda s: None)
+    rows = study["rows"]
+    labels = [r["option"] for r in rows if r["search"] == "bh"]
+    assert labels == [o.label for o in default_options()]
+    assert EstimateOptions().label in labels
+    assert {r["option"] for r in rows if r["search"] == "exact"} == {labels[0], EstimateOptions().label}
+    assert all(np.isfinite([r["flux"], r["blur"], r["flux_region"], r["blur_region"]]).all() for r in rows)
+    # the paper's form sums one photon more per estimate than the unbiased form, nothing else
+    by = {r["option"]: r for r in rows if r["search"] == "bh"}
+    assert by["paper/none/noff"]["flux"] > by["unbiased/none/noff"]["flux"]
+    assert "**default**" in summary_table([study]) and "| corner | 3,000 | 20 | bh |" in markdown_table([study])

@@ -6,10 +6,10 @@ photons that arrive from the front (``dot(-d_p, n) > 0``) and pass the tests of
 :class:`~.estimate.EstimateOptions` (the photon's stored surface normal, the
 flattened neighbourhood, the unbiased form leaving out the farthest), with r the
 distance to the farthest photon found (the k-th when k were found), w the filter
-weight and f_r the modified Phong BRDF (Lafortune & Willems 1994).  Shading points come as per-pixel arrays
-(position, normal, viewer direction, material id, path weight), so mirrors seen
-by the camera are handled upstream by moving the shading point to what the
-mirror reflects.
+weight and f_r the modified Phong BRDF (Lafortune & Willems 1994).  Shading points
+come as per-pixel arrays (position, normal, viewer direction, material id, path
+weight), so mirrors seen by the camera are handled upstream by moving the shading
+point to what the mirror reflects.
 """
 
 from __future__ import annotations

@@ -51,6 +51,13 @@ ESTIMATES = ("paper", "unbiased")
 FILTERS = ("none", "cone", "epanechnikov", "silverman")
 #: The shader's value of a test that is off (any dot product of unit vectors is above it).
 OFF = -2.0
+#: Default threshold of the photon normal test: cos 60 degrees.  Photons of surfaces that
+#: meet the receiver at 60 degrees or more (a wall on a floor: 90) are left out; the
+#: receiver's own photons pass wherever its normal turns by less than 60 degrees across
+#: the search disc (r / R < ~1 rad on a curve of radius R) plus the normals' polar-code
+#: error (<= 0.8 degrees, paper Fig. 4).  0.9 (26 degrees) already drops a few of the
+#: chest's own photons on Venus (docs/radiance-estimate.md).
+NORMAL_COS = 0.5
 
 
 @dataclass(frozen=True)
@@ -64,8 +71,8 @@ class EstimateOptions:
     """
 
     estimate: str = "unbiased"
-    filter: str = "none"
-    normal_cos: float | None = 0.5
+    filter: str = "cone"
+    normal_cos: float | None = NORMAL_COS
     disc: float | None = None
 
     def __post_init__(self):

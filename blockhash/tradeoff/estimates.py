@@ -41,14 +41,16 @@ REGION_FRACTION = 0.05
 
 
 def default_options() -> list[EstimateOptions]:
-    """The options every study compares: the paper's estimate, then one change at a time."""
+    """The options every study compares: the paper's estimate, then one change at a time,
+    the default (``EstimateOptions()``) among them."""
     O = EstimateOptions
-    return [O(estimate="paper", normal_cos=None), O(estimate="unbiased", normal_cos=None),
-            O(estimate="paper", normal_cos=0.5),
-            O(normal_cos=0.0), O(normal_cos=0.5), O(normal_cos=0.9),
-            O(normal_cos=0.5, disc=0.5), O(normal_cos=0.5, disc=0.25),
-            O(normal_cos=0.5, filter="cone"), O(normal_cos=0.5, filter="epanechnikov"),
-            O(normal_cos=0.5, filter="silverman")]
+    box = [O(estimate="paper", filter="none", normal_cos=None),
+           O(filter="none", normal_cos=None)]
+    box += [O(filter="none", normal_cos=c) for c in (0.0, 0.5, 0.9)]
+    box += [O(filter="none", normal_cos=0.5, disc=0.25)]
+    filters = [O(filter="cone", normal_cos=None)] + [O(filter=f, normal_cos=0.5)
+                                                     for f in ("cone", "epanechnikov", "silverman")]
+    return box + filters
 
 
 def caustic_region(reference, mask) -> np.ndarray:
@@ -108,7 +110,7 @@ def study_scene(scene, *, photons=(100_000, 1_000_000), ks=(50,), options=None, 
     # the reference's own noise: its standard error blurred like the images (independent pixels)
     se = ref.stderr
     noise = float(np.sqrt(np.mean(se[region] ** 2)) / np.sqrt(np.mean(ref.radiance[region] ** 2)))
-    return {"scene": str(scene.path), "size": list(size), "supersample": ss,
+    return {"scene": scene.path.name if scene.path else None, "size": list(size), "supersample": ss,
             "reference": {"photons": ref.emitted, "cache": str(path) if path else None,
                           "pixels_compared": int(mask.sum()), "pixels_region": int(region.sum()),
                           "rel_noise_region": noise},
@@ -125,4 +127,38 @@ def markdown_table(studies) -> str:
                          f"`{r['option']}` | "
                          f"{r['flux']:.4f} | {r['blur']:.4f} | {r['flux_region']:.4f} | "
                          f"{r['blur_region']:.4f} |")
+    return "\n".join(lines)
+
+
+def summary_table(studies) -> str:
+    """Per scene, N and k: the paper's estimate against the default, over the whole compared
+    area (flux, blurred relative RMS) and the caustic region (same), BH and exact kNN."""
+    paper = default_options()[0].label
+    default = EstimateOptions().label
+    lines = ["| scene | N | k | estimate | search | flux / ref | blurred rel. RMS | "
+             "flux / ref (region) | blurred rel. RMS (region) |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for s in studies:
+        for r in s["rows"]:
+            if r["option"] in (paper, default):
+                name = "paper" if r["option"] == paper else "**default**"
+                lines.append(f"| {r['scene']} | {r['photons']:,} | {r['k']} | {name} `{r['option']}` | "
+                             f"{r['search']} | {r['flux']:.3f} | {r['blur']:.3f} | "
+                             f"{r['flux_region']:.3f} | {r['blur_region']:.3f} |")
+    return "\n".join(lines)
+
+
+def option_table(studies, k: int = 50, *, region: bool = False) -> str:
+    """Options as rows, (scene, N) as columns, "flux / blurred rel. RMS" at one k (BH)."""
+    rows = [r for st in studies for r in st["rows"] if r["k"] == k and r["search"] == "bh"]
+    cols = list(dict.fromkeys((r["scene"], r["photons"]) for r in rows))
+    opts = list(dict.fromkeys(r["option"] for r in rows))
+    cell = {(r["scene"], r["photons"], r["option"]): r for r in rows}
+    f, b = ("flux_region", "blur_region") if region else ("flux", "blur")
+    lines = [f"| option (k = {k}, BH) | " + " | ".join(f"{s} N={n:,}" for s, n in cols) + " |",
+             "|---|" + "---|" * len(cols)]
+    for o in opts:
+        vals = [cell.get((s, n, o)) for s, n in cols]
+        lines.append(f"| `{o}` | " + " | ".join("" if v is None else f"{v[f]:.3f} / {v[b]:.3f}"
+                                                for v in vals) + " |")
     return "\n".join(lines)
