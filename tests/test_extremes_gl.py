@@ -13,6 +13,7 @@ from blockhash.gl.limits import LOOP_LIMIT, MAX_K, check_lookup, largest_A, loop
 from blockhash.gl.lookup import GLLookup, slot_bits
 from blockhash.gl.packing import pack_index, texture_shape, upload
 from blockhash.gl.shaderlib import Variant, compile_program
+from blockhash.render.estimate import EstimateOptions
 from blockhash.render.caustic import CausticPass, ShadingPoints, estimate_cpu, min_radius
 from conftest import context_or_skip
 
@@ -194,8 +195,12 @@ def test_tiny_radius_and_missing_photons_give_finite_pixels(watts):
     pts = shading_points([[0.5, 0, 0.5], [0.5, 0, 0.5 + 1e-9], [0.3, 0, 0.7], [1e30, 0, 0],
                           [np.nan, 0, 0]])
     mats = [((0.5,) * 3, (0.3,) * 3, 100.0)]
-    cpu = estimate_cpu(index, pts, mats)
-    gl = CausticPass(index, backend="egl").render(pts, mats)
+    default_gl = CausticPass(index, backend="egl").render(pts, mats)
+    assert np.isfinite(default_gl).all() and np.all(default_gl[0, 3:] == 0)
+    # The paper's estimate (all k photons over pi r^2, no filter) has the analytic peak.
+    paper = EstimateOptions(estimate="paper", filter="none")
+    cpu = estimate_cpu(index, pts, mats, options=paper)
+    gl = CausticPass(index, backend="egl").render(pts, mats, options=paper)
     assert np.isfinite(cpu).all() and np.isfinite(gl).all()
     assert np.all(cpu[0, 3:] == 0) and np.all(gl[0, 3:] == 0)
     # r is floored at the decode error bound: 8 photons within it give the same finite peak.

@@ -1,7 +1,6 @@
 """The renderer at the extremes of its scenes and images (docs/extremes.md): tiny images,
 few photons, every case either a finite non-negative image or a clear error."""
 
-import warnings
 
 import numpy as np
 import pytest

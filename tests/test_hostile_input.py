@@ -3,7 +3,6 @@ the file, key or flag, and a non-zero exit; never a traceback (docs/extremes.md)
 
 from pathlib import Path
 
-import numpy as np
 import pytest
 import trimesh
 from hypothesis import HealthCheck, given, settings

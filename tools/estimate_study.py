@@ -56,7 +56,7 @@ def main() -> int:
             Path(args.json).write_text(json.dumps(studies, indent=1))
     ks = sorted({r["k"] for st in studies for r in st["rows"]})
     k0 = 50 if 50 in ks else ks[0]
-    table = (f"Each option, flux / blurred relative RMS, whole compared area:\n\n"
+    table = ("Each option, flux / blurred relative RMS, whole compared area:\n\n"
              + option_table(studies, k0) + "\n\nThe same in the caustic region:\n\n"
              + option_table(studies, k0, region=True)
              + "\n\nDefault against the paper's estimate:\n\n" + summary_table(studies)

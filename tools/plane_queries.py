@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import warnings
 
-import numpy as np
 
 from blockhash import BlockHashIndex
 from blockhash.index.metrics import accuracy, exact_knn
