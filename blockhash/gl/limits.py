@@ -19,11 +19,13 @@ Two limits bound what ``GLLookup.query`` and the caustic pass accept:
     :func:`loop_iterations` bounds the iterations of one lookup from above
     (the loops of glsl/bh_lookup.glsl, bh_hash.glsl, bh_buckets.glsl,
     bh_select.glsl and bh_query.frag); a lookup whose bound exceeds the limit is
-    refused on llvmpipe.  Measured here (N = 20,000 uniform and caustic-like,
-    default preset): k = 8, A = 128 (bound 41,000) and k = 50, A = 24 (bound
-    57,600) return exactly the CPU reference's neighbours and candidate counts;
-    k = 8, A = 240 and k = 50, A = 32 (bounds above 65,535) lose candidates.
-    Other drivers (an NVIDIA GPU through EGL) have no such limit.
+    refused on llvmpipe.  With the default preset's index built for the A it is
+    queried at, k = 8 passes up to A = 512, k = 50 up to A = 128 and k = 100 up
+    to A = 64 (the chunked taken-list scan of dedup=branch, which the default
+    uses beyond 128 taken blocks, and the probes' descents dominate); the
+    largest allowed A is tested to equal the CPU reference
+    (tests/test_extremes_gl.py).  Other drivers (an NVIDIA GPU through
+    EGL) have no such limit.
 """
 
 from __future__ import annotations
