@@ -102,17 +102,20 @@ def _select(c, ids, a, lo, hi, p):
 
 
 @numba.njit(cache=True, nogil=True)
-def _spreads(c, lo, hi, scale):
-    """(3, 3) per axis: interquartile, 5th-95th percentile and full range in metres, from
-    at most ``AXIS_PROBE`` rows of ``c[lo:hi]`` taken at a fixed stride."""
+def _spreads(c, lo, hi, scale, v, out):
+    """``out`` (3, 3) per axis: interquartile, 5th-95th percentile and full range in metres,
+    from at most ``AXIS_PROBE`` rows of ``c[lo:hi]`` taken at a fixed stride (``v`` is a
+    scratch buffer of ``AXIS_PROBE`` values; insertion sort, which is fastest at this size)."""
     n = hi - lo
     m = min(n, AXIS_PROBE)
-    out = np.zeros((3, 3))
-    v = np.empty(m, dtype=np.float64)
     for a in range(3):
         for r in range(m):
-            v[r] = c[lo + (r * n) // m, a]
-        v.sort()
+            x = np.float64(c[lo + (r * n) // m, a])
+            j = r
+            while j > 0 and v[j - 1] > x:
+                v[j] = v[j - 1]
+                j -= 1
+            v[j] = x
         out[a, 0] = (v[(3 * m) // 4] - v[m // 4]) * scale[a]
         out[a, 1] = (v[(19 * m) // 20] - v[m // 20]) * scale[a]
         out[a, 2] = (v[m - 1] - v[0]) * scale[a]
@@ -149,6 +152,8 @@ def _build_tree(codes, S, offsets, scale):
     stack = np.empty((MAX_DEPTH + 2, 4), dtype=np.int64)  # node, lo, hi, buckets wanted
     stack[0] = (0, 0, n, max(1, int(np.round(n / S))))
     buf = np.empty(SELECT_SAMPLE, dtype=np.uint32)
+    probe = np.empty(AXIS_PROBE)
+    spread = np.zeros((3, 3))
     top = 1
     used = 1
     buckets = 0
@@ -159,7 +164,7 @@ def _build_tree(codes, S, offsets, scale):
         a = -1
         dims = 0
         if m >= 2 and size >= 2 and depth[node] < MAX_DEPTH - 1 and used + 2 <= cap:
-            a, dims = _widest(_spreads(c, lo, hi, scale))
+            a, dims = _widest(_spreads(c, lo, hi, scale, probe, spread))
         split = -1
         t = np.uint32(0)
         if a >= 0:
