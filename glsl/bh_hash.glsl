@@ -74,7 +74,7 @@ uint bh_descend(uint t, uvec3 c) {
         uint a = meta & 3u;
         uint x = c[a];
         bool right = x >= thr;
-        precise float gap = float(right ? x - thr : thr - x) * bh_step[a];
+        precise float gap = float(min(right ? x - thr : thr - x, 0xFFFFFFu)) * bh_step[a];  // exact conversion
         uint across = right ? thr - 1u : thr;
         if (gap < bh_cut_gap.z) {
             if (gap < bh_cut_gap.y) {
