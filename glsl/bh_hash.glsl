@@ -74,7 +74,7 @@ uint bh_descend(uint t, uvec3 c) {
         uint a = meta & 3u;
         uint x = c[a];
         bool right = x >= thr;
-        precise float gap = float(min(right ? x - thr : thr - x, 0xFFFFFFu)) * bh_step[a];  // exact conversion
+        precise float gap = float((right ? x - thr : thr - x) >> 8u) * bh_step[a];  // below 2^24: exact
         uint across = right ? thr - 1u : thr;
         if (gap < bh_cut_gap.z) {
             if (gap < bh_cut_gap.y) {

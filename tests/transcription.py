@@ -14,7 +14,7 @@ def descend(row, code, step):
         meta, t = int(row[2 * i + 1]), int(row[2 * i])
         a = meta & 3
         right = int(code[a]) >= t
-        gap = np.float32(np.float32(min(abs(int(code[a]) - t), 2**24 - 1)) * np.float32(step[a]))
+        gap = np.float32(np.float32(abs(int(code[a]) - t) >> 8) * np.float32(step[a]))
         cuts.append((gap, a, t - 1 if right else t))
         i = (meta >> 3) + int(right)
     cuts.sort(key=lambda c: c[0])

@@ -115,16 +115,16 @@ def adaptive_bucket_of(row, cx, cy, cz):
 
 #: Cuts nearest to the query, per table, that a multi-probe query may cross (PROBE_CUTS).
 PROBE_CUTS = 3
-#: A cut's distance in codes is capped at 2**24 - 1 before it becomes float32, so that the
-#: conversion is exact in every language (a shader's int-to-float rounding need not match
-#: numpy's); farther cuts (1/256 of the box) tie and keep table order.
-GAP_CODES = np.uint32(2**24 - 1)
+#: A cut's distance in codes drops its low 8 bits before it becomes float32, so that the
+#: value (below 2**24) converts exactly in every language (a shader's int-to-float rounding
+#: need not match numpy's); cuts closer than 256 codes (2**-24 of the box) tie.
+GAP_SHIFT = np.uint32(8)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def adaptive_descend(row, cx, cy, cz, step, cut_axis, cut_code, cut_gap):
     """Like :func:`adaptive_bucket_of`, and also the ``PROBE_CUTS`` cuts on the path nearest
-    to the query: ``cut_gap`` (ascending, float32 ``min(|code - t|, GAP_CODES) * step[axis]``, inf
+    to the query: ``cut_gap`` (ascending, float32 ``(|code - t| >> GAP_SHIFT) * step[axis]``, inf
     where unused), ``cut_axis`` and ``cut_code``, the code on the cut's other side (``t - 1``
     when the query went right, ``t`` when it went left).  Returns the bucket."""
     for j in range(PROBE_CUTS):
@@ -140,7 +140,7 @@ def adaptive_descend(row, cx, cy, cz, step, cut_axis, cut_code, cut_gap):
         c = cx if a == 0 else (cy if a == 1 else cz)
         t = row[2 * i]
         right = c >= t
-        gap = np.float32(min(c - t if right else t - c, GAP_CODES)) * step[a]
+        gap = np.float32((c - t if right else t - c) >> GAP_SHIFT) * step[a]
         j = PROBE_CUTS
         while j > 0 and cut_gap[j - 1] > gap:
             if j < PROBE_CUTS:
