@@ -50,9 +50,13 @@ def _build_wheel(out: Path) -> Path:
 
 
 @pytest.fixture(scope="module")
-def wheel_names(tmp_path_factory) -> set[str]:
-    wheel = _build_wheel(tmp_path_factory.mktemp("wheel"))
-    return set(zipfile.ZipFile(wheel).namelist())
+def wheel_path(tmp_path_factory) -> Path:
+    return _build_wheel(tmp_path_factory.mktemp("wheel"))
+
+
+@pytest.fixture(scope="module")
+def wheel_names(wheel_path) -> set[str]:
+    return set(zipfile.ZipFile(wheel_path).namelist())
 
 
 def test_wheel_holds_every_module_and_shader_file(wheel_names):
@@ -65,9 +69,10 @@ def test_wheel_holds_the_shaders_each_program_needs(wheel_names):
         assert f"blockhash/glsl/{name}" in wheel_names
 
 
-def test_wheel_declares_the_command_line(wheel_names):
-    (entry,) = [n for n in wheel_names if n.endswith(".dist-info/entry_points.txt")]
-    assert entry
+def test_wheel_declares_the_command_line(wheel_path):
+    archive = zipfile.ZipFile(wheel_path)
+    (entry,) = [n for n in archive.namelist() if n.endswith(".dist-info/entry_points.txt")]
+    assert "blockhash = blockhash.cli:main" in archive.read(entry).decode()
 
 
 def test_tree_file_check_sees_a_missing_shader(wheel_names):

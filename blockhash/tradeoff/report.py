@@ -29,6 +29,25 @@ ERROR_KEY = "rel_rms_reference_blur"
 STRIP_A = (1, 2, 4, 8, 16)
 
 
+
+def _save(fig, out, name: str) -> str:
+    """Lay out, write ``out/name`` at the reports' resolution, close; returns ``name``."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    fig.savefig(out / name, dpi=110)
+    plt.close(fig)
+    return name
+
+
+def _error_axes(ax, xlabel: str) -> None:
+    """Log-log axes of error against the reference, with a legend."""
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("relative RMS vs reference (2 px blur)")
+    ax.legend(fontsize=7)
+
 def _rows(study, method="bh", **match):
     return [r for r in study["rows"] if r["method"] == method
             and all(r.get(k) == v for k, v in match.items())]
@@ -124,10 +143,7 @@ def make_plots(study: dict, images: dict, out: Path) -> list[str]:
         a.set_title(title, fontsize=9)
         a.legend(fontsize=7)
     fig.suptitle(f"{Path(study['scene']).name}: N = {top:,}, k = {k0}", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(out / "accuracy_vs_A.png", dpi=110)
-    plt.close(fig)
-    names.append("accuracy_vs_A.png")
+    names.append(_save(fig, out, "accuracy_vs_A.png"))
 
     # Pareto front: error vs reference against time
     bh = _rows(study)
@@ -145,15 +161,8 @@ def make_plots(study: dict, images: dict, out: Path) -> list[str]:
         if ex:
             ax.plot([r["seconds"]["caustic_pass"] for r in ex], [r[ERROR_KEY] for r in ex], marker,
                     mfc="none", label=f"{method} (each N, k)")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("caustic pass seconds")
-    ax.set_ylabel("relative RMS vs reference (2 px blur)")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out / "pareto.png", dpi=110)
-    plt.close(fig)
-    names.append("pareto.png")
+    _error_axes(ax, "caustic pass seconds")
+    names.append(_save(fig, out, "pareto.png"))
 
     # error vs N for each k
     fig, ax = plt.subplots(figsize=(7, 5))
@@ -166,15 +175,8 @@ def make_plots(study: dict, images: dict, out: Path) -> list[str]:
             ex = sorted(_rows(study, "exact-ckdtree", k=k), key=lambda r: r["photons"])
             ax.plot([r["photons"] for r in ex], [r[ERROR_KEY] for r in ex], "--",
                     color=line.get_color(), label=f"exact kNN, k={k}")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("photons N")
-    ax.set_ylabel("relative RMS vs reference (2 px blur)")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out / "error_vs_N.png", dpi=110)
-    plt.close(fig)
-    names.append("error_vs_N.png")
+    _error_axes(ax, "photons N")
+    names.append(_save(fig, out, "error_vs_N.png"))
 
     # image strip
     keys = [f"A{a}" for a in STRIP_A if f"A{a}" in images] + \
@@ -188,10 +190,7 @@ def make_plots(study: dict, images: dict, out: Path) -> list[str]:
             a.imshow(_expose(np.asarray(images[key], np.float64), white))
             a.set_title(key.replace("A", "A = ") if key.startswith("A") else key, fontsize=9)
             a.axis("off")
-        fig.tight_layout()
-        fig.savefig(out / "strip.png", dpi=110)
-        plt.close(fig)
-        names.append("strip.png")
+        names.append(_save(fig, out, "strip.png"))
     return names
 
 
