@@ -98,3 +98,46 @@ def test_grid_overrides_switch_to_the_nested_layout():
     pts = MAPS["uniform"].photons(5_000, np.random.default_rng(1))
     index = BlockHashIndex(pts, k=8, A=4, P=4)
     assert index.params.layout == ThresholdLayout.NESTED and index.params.P == (4, 4, 4)
+
+
+def test_a_sparse_plane_above_a_floor_gets_its_own_buckets():
+    """The tilted map's plane (10% of the photons, 0.05-0.65 m above a dense floor): a query on
+    it finds the plane's photons, not the floor's below it. Cut only by the widest spread, the
+    plane's photons shared the floor's small buckets and such queries found floor photons at
+    up to 30 times the exact average distance."""
+    from blockhash.index.metrics import dilations, exact_knn, false_negatives
+    from blockhash.index.photon_maps import _tilted_plane
+
+    pm = MAPS["tilted"]
+    pts = pm.photons(60_000, np.random.default_rng(0))
+    index = BlockHashIndex(pts, k=20, A=8)
+    q = _tilted_plane(2000, np.random.default_rng(1)).astype(np.float32)
+    found = index.query(q)
+    exact = exact_knn(index.positions, q, 20)
+    _, avg = dilations(found[0], exact[0])
+    assert avg.max() < 1.3, f"a query on the plane found neighbours {avg.max():.1f}x as far"
+    assert false_negatives(found[1], exact[1], len(pts)).mean() / 20 < 0.01
+
+
+def test_a_gap_between_surfaces_is_cut_mid_way():
+    """Two parallel planes 1 m apart, one holding 5% of the photons: once the nodes are
+    narrower than the gap, they are cut mid-way between the planes, and the upper plane's
+    photons keep to buckets of their own (cut by the widest spread alone, nearly all of them
+    shared the lower plane's buckets; a node's axis is chosen from a sample of its photons,
+    which can miss a plane holding a few of them, hence a few per cent still do)."""
+    rng = np.random.default_rng(3)
+    low = np.column_stack([rng.uniform(0, 4, 19_000), np.zeros(19_000), rng.uniform(0, 4, 19_000)])
+    high = np.column_stack([rng.uniform(0, 4, 1000), np.ones(1000), rng.uniform(0, 4, 1000)])
+    pts = np.concatenate([low, high])[rng.permutation(20_000)]
+    q = Quantizer.for_points(pts)
+    codes = q.encode(pts)
+    rows, keys, _ = build_adaptive(codes, L=3, photons_per_bucket=S, scale=q.step)
+    up = codes[:, 1] == codes[:, 1].max()
+    mid = (int(codes[~up, 1].max()) + int(codes[up, 1].min())) // 2
+    for t in range(3):
+        meta = rows[t, 1::2]
+        inner = (meta & int(LEAF)) == 0
+        y_cuts = rows[t, 0::2][inner & ((meta & 3) == 1)].astype(np.int64)
+        assert y_cuts.size and np.all(np.abs(y_cuts - mid) <= 1), "y cuts lie mid-way"
+        mixed = np.intersect1d(keys[t, up], keys[t, ~up])
+        assert np.isin(keys[t, up], mixed).mean() < 0.15

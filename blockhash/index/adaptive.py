@@ -16,6 +16,12 @@ splits, as the grid files that section 4.1 cites do:
 
 * a node holding ``c`` photons is a bucket when ``round(c / S) <= 1`` (``S``
   the target photons per bucket) or when its photons share one position;
+* where the photons probed leave an empty gap on one axis wider than every axis'
+  interquartile range (two surfaces apart: a floor and a plane above it, a bust and
+  the floor, a cluster and its neighbours), the node is cut mid-way across that gap,
+  whatever the counts on its two sides: a surface holding few of the node's photons
+  gets buckets of its own instead of sharing the dense surface's small ones (a query
+  on it then finds its neighbours, not the photons of the surface below);
 * otherwise it is cut on its *widest* axis: the largest interquartile range of
   its photons (in metres), or where every interquartile range is zero (most
   photons on one plane, or one point), the largest 5th-95th percentile range,
@@ -103,7 +109,8 @@ def _select(c, ids, a, lo, hi, p):
 
 @numba.njit(cache=True, nogil=True)
 def _spreads(c, lo, hi, scale, v, out):
-    """``out`` (3, 3) per axis: interquartile, 5th-95th percentile and full range in metres,
+    """``out`` (3, 6) per axis: interquartile, 5th-95th percentile and full range in metres,
+    the widest gap between consecutive probed codes in metres and that gap's two codes,
     from at most ``AXIS_PROBE`` rows of ``c[lo:hi]`` taken at a fixed stride (``v`` is a
     scratch buffer of ``AXIS_PROBE`` values; insertion sort, which is fastest at this size)."""
     n = hi - lo
@@ -119,7 +126,28 @@ def _spreads(c, lo, hi, scale, v, out):
         out[a, 0] = (v[(3 * m) // 4] - v[m // 4]) * scale[a]
         out[a, 1] = (v[(19 * m) // 20] - v[m // 20]) * scale[a]
         out[a, 2] = (v[m - 1] - v[0]) * scale[a]
+        out[a, 3] = 0.0
+        for r in range(1, m):
+            if (v[r] - v[r - 1]) * scale[a] > out[a, 3]:
+                out[a, 3] = (v[r] - v[r - 1]) * scale[a]
+                out[a, 4] = v[r - 1]
+                out[a, 5] = v[r]
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _gap_axis(spread):
+    """The axis of the widest empty gap between probed photons, when that gap is wider than
+    every axis' interquartile range (two surfaces, or a surface and a cluster, apart by
+    more than either's extent in the node), else -1."""
+    a = 0
+    for j in range(3):
+        if spread[j, 3] > spread[a, 3]:
+            a = j
+    for j in range(3):
+        if spread[a, 3] <= spread[j, 0]:
+            return -1
+    return a if spread[a, 3] > 0.0 else -1
 
 
 @numba.njit(cache=True, nogil=True)
@@ -153,7 +181,7 @@ def _build_tree(codes, S, offsets, scale):
     stack[0] = (0, 0, n, max(1, int(np.round(n / S))))
     buf = np.empty(SELECT_SAMPLE, dtype=np.uint32)
     probe = np.empty(AXIS_PROBE)
-    spread = np.zeros((3, 3))
+    spread = np.zeros((3, 6))
     top = 1
     used = 1
     buckets = 0
@@ -163,11 +191,34 @@ def _build_tree(codes, S, offsets, scale):
         size = hi - lo
         a = -1
         dims = 0
+        gap = -1
         if m >= 2 and size >= 2 and depth[node] < MAX_DEPTH - 1 and used + 2 <= cap:
             a, dims = _widest(_spreads(c, lo, hi, scale, probe, spread))
+            gap = _gap_axis(spread)
         split = -1
         t = np.uint32(0)
-        if a >= 0:
+        if gap >= 0:
+            # Cut mid-way across the gap, whatever the counts on its two sides, when each
+            # side holds at least half a bucket of photons.
+            below_code = np.uint32(spread[gap, 4])
+            t = np.uint32(below_code + 1 + (np.uint32(spread[gap, 5]) - below_code - 1) // 2)
+            split = 0
+            for r in range(lo, hi):
+                if c[r, gap] < t:
+                    split += 1
+            if min(split, size - split) >= 0.5 * S:
+                a = gap
+                i, j = lo, hi - 1
+                while i <= j:
+                    if c[i, a] < t:
+                        i += 1
+                    else:
+                        _swap(c, ids, i, j)
+                        j -= 1
+            else:
+                gap = -1
+                split = -1
+        if gap < 0 and a >= 0:
             # Shift the cut by up to half a layer of buckets along the axis: m ** (1 / dims)
             # layers, at least the two children.
             layers = max(2.0, m ** (1.0 / dims))
@@ -227,8 +278,13 @@ def _build_tree(codes, S, offsets, scale):
         nodes[2 * node] = t
         nodes[2 * node + 1] = (np.uint32(left) << 3) | np.uint32(a)
         depth[left] = depth[left + 1] = depth[node] + 1
-        m_left = min(max(int(np.round(m * split / size)), 1), m - 1)
-        stack[top] = (left + 1, lo + split, hi, m - m_left)
+        if gap >= 0:  # each side's buckets from its own count
+            m_left = max(1, int(np.round(split / S)))
+            m_right = max(1, int(np.round((size - split) / S)))
+        else:
+            m_left = min(max(int(np.round(m * split / size)), 1), m - 1)
+            m_right = m - m_left
+        stack[top] = (left + 1, lo + split, hi, m_right)
         stack[top + 1] = (left, lo, lo + split, m_left)
         top += 2
     return nodes[:2 * used], keys, buckets
