@@ -171,11 +171,14 @@ class BlockHashIndex:
         self.counters: dict[str, float] = {}
         self.stats = self._stats()
         if self.stats.orphans:
+            fix = ("raise B or L, or use preset='default'" if prm.layout != ThresholdLayout.ADAPTIVE
+                   else "a bucket holds more blocks than its B references (photons at one "
+                        "position make one bucket that no cut splits): raise A (buckets grow "
+                        "with it) or B")
             warnings.warn(
                 f"{self.stats.orphans:,} of {self.stats.blocks:,} photon blocks "
                 f"({self.stats.orphan_photons:,} photons) are in no hash table and can never be "
-                f"found with {prm!r}; raise B or L, or use preset='default'",
-                OrphanWarning, stacklevel=2)
+                f"found with {prm!r}; {fix}", OrphanWarning, stacklevel=2)
 
     def __len__(self) -> int:
         return len(self.order)
