@@ -172,7 +172,8 @@ def test_degenerate_sets_stay_within_the_bound_and_find_most_neighbours(shape):
 
 def test_all_photons_at_one_point():
     pts = np.full((5000, 3), [0.3, -1.0, 2.0])
-    index = BlockHashIndex(pts, k=50, A=8)
+    with pytest.warns(OrphanWarning, match=r"one bucket that no cut splits\): raise A"):
+        index = BlockHashIndex(pts, k=50, A=8)
     q = np.array([[0.3, -1.0, 2.0], [0.3, -1.0, 2.5], [1e6, 0, 0]])
     d, i = index.query(q)
     assert_valid_result(index, q, d, i, 50)
