@@ -9,7 +9,10 @@ the CPU reference, and compares with exact kNN (cKDTree on the index's decoded
 positions, from the float32 queries the index sees): false negatives (mean and 90th percentile, as a share of k), maximum
 and average distance dilation, candidates examined, query and build time (the
 build beside cKDTree's build of the same photons, same run), block references
-and bytes per photon, orphans.
+and bytes per photon, orphans.  False negatives are also split between queries *near*
+the photons and *far* from them (``far_queries``: the exact k-th neighbour within 1.2
+times the nearest one's distance, a query farther from every photon than its
+neighbourhood is wide).
 
 The maps are split: the default preset's constants were chosen on the TUNE maps
 only; the REPORT maps were never used to choose anything.
@@ -42,7 +45,7 @@ sys.path.insert(0, str(ROOT))
 
 import blockhash.index.params as bp  # noqa: E402
 from blockhash import BlockHashIndex, OrphanWarning  # noqa: E402
-from blockhash.index.metrics import accuracy, exact_knn  # noqa: E402
+from blockhash.index.metrics import accuracy, exact_knn, false_negatives  # noqa: E402
 from blockhash.index.photon_maps import MAPS, PhotonMap, moved, queries, scaled  # noqa: E402
 
 #: Maps the default preset's constants were chosen on.
@@ -101,6 +104,19 @@ def photon_map(name: str) -> PhotonMap:
     return MAPS[name]
 
 
+#: A query is *far* from the photons when its exact k-th neighbour lies within this factor
+#: of its nearest one's distance: the query is farther from the photons than its
+#: neighbourhood is wide, and which k of them are nearest turns on distances agreeing to
+#: a few per cent (a shading point in a shadow, or on a surface no caustic reaches).
+FAR_RATIO = 1.2
+
+
+def far_queries(exact_distances) -> np.ndarray:
+    """(m,) bool: queries whose exact k-th neighbour is within FAR_RATIO of the nearest."""
+    d = np.asarray(exact_distances, dtype=np.float64)
+    return d[:, -1] < FAR_RATIO * d[:, 0]
+
+
 def timed(fn):
     t0 = time.perf_counter()
     out = fn()
@@ -131,6 +147,8 @@ def evaluate(name: str, n: int, m: int, k: int, As, presets, configs=({},)) -> l
             acc = accuracy(found, exact, n)
             on = accuracy((found[0][:half], found[1][:half]), (exact[0][:half], exact[1][:half]), n)
             off = accuracy((found[0][half:], found[1][half:]), (exact[0][half:], exact[1][half:]), n)
+            far = far_queries(exact[0])
+            fn = false_negatives(found[1], exact[1], n)
             s = index.stats
             rows.append({
                 "map": name, "set": "tune" if name in TUNE else "report", "preset": preset,
@@ -138,6 +156,9 @@ def evaluate(name: str, n: int, m: int, k: int, As, presets, configs=({},)) -> l
                 "photons": n, "queries": m, "k": k, "A": A,
                 "fn_mean": acc.fn_fraction, "fn_p90": acc.false_negatives["p90"] / k,
                 "fn_on": on.fn_fraction, "fn_off": off.fn_fraction,
+                "far_share": float(far.mean()),
+                "fn_near": float(fn[~far].mean() / k) if (~far).any() else 0.0,
+                "fn_far": float(fn[far].mean() / k) if far.any() else 0.0,
                 "avg_dilation": acc.avg_dilation["mean"], "max_dilation": acc.max_dilation["mean"],
                 "candidates": index.counters["query.candidates.mean"],
                 "query_seconds": t_query, "build_seconds": t_build, "ckdtree_build_seconds": t_kd,
@@ -148,7 +169,8 @@ def evaluate(name: str, n: int, m: int, k: int, As, presets, configs=({},)) -> l
             r = rows[-1]
             print(f"{name:12s} {preset:7s} {config or ''} A={A:<3d} fn {100 * r['fn_mean']:5.2f}% "
                   f"(p90 {100 * r['fn_p90']:5.1f}%, on {100 * r['fn_on']:5.2f}%, off "
-                  f"{100 * r['fn_off']:5.2f}%)  dil {r['avg_dilation']:.3f}/{r['max_dilation']:.3f}  "
+                  f"{100 * r['fn_off']:5.2f}%; near {100 * r['fn_near']:5.2f}%, far "
+                  f"{100 * r['fn_far']:5.2f}% of {100 * r['far_share']:.0f}%)  dil {r['avg_dilation']:.3f}/{r['max_dilation']:.3f}  "
                   f"cand {r['candidates']:6.0f}  refs/ph {r['refs_per_photon']:.2f}  build "
                   f"{t_build:.2f}s ({t_build / t_kd:.1f}x cKDTree)  orphans {s.orphans}", flush=True)
     return rows
@@ -168,14 +190,17 @@ def markdown(rows: list[dict]) -> str:
                 first = next(iter(cells.values()))
                 out.append(f"| {name} | {first['set']} | {preset} | " + " | ".join(
                     f"{100 * cells[A]['fn_mean']:.2f}%" if A in cells else "" for A in As) + " |")
-    out += ["", "| map | set | A | FN mean | FN p90 | FN on / off surface | avg dil. | max dil. "
-            "| candidates | refs/photon | bytes/photon | orphans | build s (x cKDTree) |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    out += ["", "| map | set | A | FN mean | FN p90 | FN on / off surface | FN near / far (far share) "
+            "| avg dil. | max dil. | candidates | refs/photon | bytes/photon | orphans "
+            "| build s (x cKDTree) |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if r["preset"] == "default" and r["A"] in (8, 64):
             out.append(
                 f"| {r['map']} | {r['set']} | {r['A']} | {100 * r['fn_mean']:.2f}% | "
                 f"{100 * r['fn_p90']:.0f}% | {100 * r['fn_on']:.2f}% / {100 * r['fn_off']:.2f}% | "
+                f"{100 * r.get('fn_near', np.nan):.2f}% / {100 * r.get('fn_far', np.nan):.2f}% "
+                f"({100 * r.get('far_share', np.nan):.0f}%) | "
                 f"{r['avg_dilation']:.3f} | {r['max_dilation']:.3f} | {r['candidates']:.0f} | "
                 f"{r['refs_per_photon']:.2f} | {r['bytes_per_photon']:.0f} | {r['orphans']} | "
                 f"{r['build_seconds']:.2f} ({r['build_seconds'] / r['ckdtree_build_seconds']:.1f}x) |")
