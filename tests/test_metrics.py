@@ -163,3 +163,15 @@ def test_accuracy_of_the_exact_search_against_itself_is_perfect():
     assert acc.false_negatives["max"] == 0
     assert acc.max_dilation["max"] == acc.max_dilation["mean"] == 1.0
     assert acc.avg_dilation["infinite"] == 0
+
+
+def test_far_queries_are_those_farther_from_the_photons_than_their_neighbourhood_is_wide():
+    from blockhash.index.metrics import far_queries
+
+    rng = np.random.default_rng(0)
+    disc = np.column_stack([rng.uniform(-1, 1, 4000), np.zeros(4000), rng.uniform(-1, 1, 4000)])
+    q = np.array([[0.0, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 5.0, 0.0], [10.0, 0.0, 0.0]])
+    d, _ = exact_knn(disc, q, 20)
+    # On the disc and just above it: the neighbourhood is wider than the distance; 5 m above
+    # it or 9 m beyond its edge: all 20 neighbours lie at about the same distance.
+    np.testing.assert_array_equal(far_queries(d), [False, False, True, True])

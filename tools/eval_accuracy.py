@@ -45,7 +45,7 @@ sys.path.insert(0, str(ROOT))
 
 import blockhash.index.params as bp  # noqa: E402
 from blockhash import BlockHashIndex, OrphanWarning  # noqa: E402
-from blockhash.index.metrics import accuracy, exact_knn, false_negatives  # noqa: E402
+from blockhash.index.metrics import accuracy, exact_knn, false_negatives, far_queries  # noqa: E402
 from blockhash.index.photon_maps import MAPS, PhotonMap, moved, queries, scaled  # noqa: E402
 
 #: Maps the default preset's constants were chosen on.
@@ -102,19 +102,6 @@ def photon_map(name: str) -> PhotonMap:
     if name == "roomx0.001":
         return scaled(MAPS["room"], 1e-3)
     return MAPS[name]
-
-
-#: A query is *far* from the photons when its exact k-th neighbour lies within this factor
-#: of its nearest one's distance: the query is farther from the photons than its
-#: neighbourhood is wide, and which k of them are nearest turns on distances agreeing to
-#: a few per cent (a shading point in a shadow, or on a surface no caustic reaches).
-FAR_RATIO = 1.2
-
-
-def far_queries(exact_distances) -> np.ndarray:
-    """(m,) bool: queries whose exact k-th neighbour is within FAR_RATIO of the nearest."""
-    d = np.asarray(exact_distances, dtype=np.float64)
-    return d[:, -1] < FAR_RATIO * d[:, 0]
 
 
 def timed(fn):

@@ -66,6 +66,20 @@ def dilations(approx_distances, exact_distances) -> tuple[np.ndarray, np.ndarray
     return max_d, avg_d
 
 
+#: A query is *far* from the photons when its exact k-th neighbour lies within this factor
+#: of its nearest one's distance: it is farther from the photons than its neighbourhood is
+#: wide, and which k of them are nearest turns on distances that agree to a few per cent
+#: (a shading point in a shadow, or on a surface no caustic reaches).
+FAR_RATIO = 1.2
+
+
+def far_queries(exact_distances, ratio: float = FAR_RATIO) -> np.ndarray:
+    """(m,) bool: queries whose exact k-th neighbour lies within ``ratio`` times the nearest
+    one's distance (``exact_distances`` (m, k), ascending)."""
+    d = np.asarray(exact_distances, dtype=np.float64)
+    return d[:, -1] < ratio * d[:, 0]
+
+
 @dataclass(frozen=True)
 class Accuracy:
     """Summary of approximate-vs-exact results over a query set."""
