@@ -205,3 +205,16 @@ def test_ties_planes_and_duplicates():
     codes[-8000:, 0] = rng.integers(0, 4, 8000).astype(np.uint32) * 1000  # four x values
     assert_same_build(codes, np.array([1e-9, 2e-9, 1e-9]), L=4, S=25.0)
     assert_same_build(np.full((3000, 3), 9, dtype=np.uint32), np.ones(3), L=2, S=25.0)
+
+
+def test_tables_cut_into_many_parts(monkeypatch):
+    """Every node above 100 photons cut on its own (quickselected ones and buckets too), the
+    rest grown as subtrees, in whatever order the threads take them."""
+    import blockhash.index.adaptive as adaptive
+
+    monkeypatch.setattr(adaptive, "SPLIT_MIN", 100)
+    monkeypatch.setattr(adaptive, "SPLIT_SHARE", 1 << 20)
+    for name in ("caustic", "room", "plane"):
+        codes, q = hilbert_ordered(name, 20_000, seed=2)
+        assert_same_build(codes, q.step, L=3, S=25.0)
+        assert_same_build(codes, q.step, L=2, S=900.0)
