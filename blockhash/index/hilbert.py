@@ -6,7 +6,8 @@ point is computed from its 32-bit fixed-point code with Skilling's
 "AxesToTranspose" transform (J. Skilling, "Programming the Hilbert curve",
 AIP Conf. Proc. 707, 2004), compiled with numba.  DESIGN.md measured ~0.35 s for 2M points
 in vectorised numpy and 18-41 s for the Hilbert packages on PyPI; the compiled
-per-point loop here keys 2M points in about 0.1 s.
+per-point loop here (the Gray code's parities and the bit interleave done with shifts and
+masks, not bit by bit) keys 10^6 points in about 0.05 s.
 """
 
 from __future__ import annotations
@@ -47,40 +48,56 @@ def hilbert_keys(codes, *, bits: int = KEY_BITS_PER_AXIS) -> np.ndarray:
 
 
 @numba.njit(cache=True, nogil=True)
+def _spread(v):
+    """The 21 low bits of ``v`` moved to every third bit (bit k to bit 3 k)."""
+    v &= np.uint64(0x1FFFFF)
+    v = (v | (v << np.uint64(32))) & np.uint64(0x1F00000000FFFF)
+    v = (v | (v << np.uint64(16))) & np.uint64(0x1F0000FF0000FF)
+    v = (v | (v << np.uint64(8))) & np.uint64(0x100F00F00F00F00F)
+    v = (v | (v << np.uint64(4))) & np.uint64(0x10C30C30C30C30C3)
+    v = (v | (v << np.uint64(2))) & np.uint64(0x1249249249249249)
+    return v
+
+
+@numba.njit(cache=True, nogil=True)
 def _hilbert_keys(codes, bits):
     n = codes.shape[0]
     keys = np.empty(n, dtype=np.uint64)
-    x = np.empty(3, dtype=np.uint64)
-    top = np.uint64(1) << np.uint64(bits - 1)
+    shift = np.uint32(32 - bits)
+    top = np.uint32(1) << np.uint32(bits - 1)
     for j in range(n):
-        for i in range(3):
-            x[i] = np.uint64(codes[j, i] >> np.uint32(32 - bits))
+        x0 = codes[j, 0] >> shift
+        x1 = codes[j, 1] >> shift
+        x2 = codes[j, 2] >> shift
         # Inverse undo of excess work (Skilling, AxesToTranspose).
         q = top
         while q > 1:
-            p = q - np.uint64(1)
-            for i in range(3):
-                if x[i] & q:
-                    x[0] ^= p
-                else:
-                    t = (x[0] ^ x[i]) & p
-                    x[0] ^= t
-                    x[i] ^= t
-            q >>= np.uint64(1)
-        # Gray encode.
-        x[1] ^= x[0]
-        x[2] ^= x[1]
-        t = np.uint64(0)
-        q = top
-        while q > 1:
-            if x[2] & q:
-                t ^= q - np.uint64(1)
-            q >>= np.uint64(1)
+            p = q - np.uint32(1)
+            if x0 & q:
+                x0 ^= p
+            if x1 & q:
+                x0 ^= p
+            else:
+                t = (x0 ^ x1) & p
+                x0 ^= t
+                x1 ^= t
+            if x2 & q:
+                x0 ^= p
+            else:
+                t = (x0 ^ x2) & p
+                x0 ^= t
+                x2 ^= t
+            q >>= np.uint32(1)
+        # Gray encode: t holds, at each bit, the parity of the bits of x2 above it.
+        x1 ^= x0
+        x2 ^= x1
+        t = x2 >> np.uint32(1)
+        t ^= t >> np.uint32(1)
+        t ^= t >> np.uint32(2)
+        t ^= t >> np.uint32(4)
+        t ^= t >> np.uint32(8)
+        t ^= t >> np.uint32(16)
         # Interleave the transposed bits, most significant level first, axis 0 highest.
-        key = np.uint64(0)
-        for level in range(bits - 1, -1, -1):
-            lv = np.uint64(level)
-            for i in range(3):
-                key = (key << np.uint64(1)) | (((x[i] ^ t) >> lv) & np.uint64(1))
-        keys[j] = key
+        keys[j] = ((_spread(np.uint64(x0 ^ t)) << np.uint64(2))
+                   | (_spread(np.uint64(x1 ^ t)) << np.uint64(1)) | _spread(np.uint64(x2 ^ t)))
     return keys
