@@ -34,10 +34,16 @@ splits, as the grid files that section 4.1 cites do:
 
 Every bucket then holds about ``S`` photons whatever the surfaces, and buckets
 are about as wide as they are long on each surface.  Each table is built over
-all photons, partitioning a copy of their codes in place (quickselect, linear
-time per level, tables on parallel threads); a photon's bucket is where its
-partition ends.  A query descends ``log2(N / S)`` nodes per table, one two-word node read
-each: about the comparisons of the paper's three binary searches.
+all photons, partitioning a copy of their rows (codes and index) in place
+(:mod:`~blockhash.index.partition`: quickselect, linear time per level); a photon's bucket
+is where its partition ends.  The axis probes and sampled cuts read rows at fixed places
+of a node's current order, so the tree depends on that order, not on how the work is
+shared: the nodes of a table holding more than ``1 / SPLIT_SHARE`` of its photons are cut
+one at a time and the subtrees below them grown whole, the parts of all tables run on
+parallel threads largest first (:mod:`~blockhash.index.taskpool`), and the parts are then
+numbered as one depth-first walk numbers the whole tree.  A query descends
+``log2(N / S)`` nodes per table, one two-word node read each: about the comparisons of the
+paper's three binary searches.
 
 Row layout of one table, ``2 * nodes`` uint32 words; node ``i`` at ``2 i``::
 
@@ -52,21 +58,16 @@ the longest row (``THRESHOLD_PAD``) and the most buckets.
 
 from __future__ import annotations
 
-import heapq
-import itertools
-import os
-import threading
-from concurrent.futures import ThreadPoolExecutor
-
 import numba
 import numpy as np
 
 from ..errors import InputError
 from .partition import kth_smallest, partition, photon_rows, select
+from .taskpool import run_largest_first
 from .thresholds import LEAF, MAX_DEPTH, THRESHOLD_PAD, table_offsets
 
 #: Nodes larger than this take their cut's code from a strided sample of this many photons
-#: (one sort) instead of a quickselect over all of them.
+#: (a selection in the sample) instead of a quickselect over all of them.
 SELECT_SAMPLE = 2047
 #: Photons of a node looked at to choose its axis (a strided subset).
 AXIS_PROBE = 31
@@ -235,14 +236,15 @@ def _bucket_keys(c, sizes, keys):
             r += 1
 
 
-def _stitch(parts, words, sizes):
-    """One table's row and bucket sizes from its parts, numbered as one depth-first walk
-    over the whole tree numbers them (children allocated as their parent is cut, the left
-    subtree walked first), however the parts were grown.
+def _stitch(parts, root, words, sizes):
+    """One table's row (into ``words``) and bucket sizes (appended to ``sizes``) from its
+    parts, numbered as one depth-first walk over the whole tree numbers them (children
+    allocated as their parent is cut, the left subtree walked first), however the parts
+    were grown.  Returns the nodes used.
 
-    ``parts[0]`` is the root; a part is ``("cut", axis, threshold, left part, right part)``
-    or ``("tree", nodes, sizes)`` from :func:`_grow`.  Returns the nodes used."""
-    stack = [(0, 0)]
+    ``parts`` maps a node (its rows ``lo, hi``) to ``("cut", axis, threshold, left node,
+    right node)`` or to ``("tree", nodes, sizes)`` from :func:`_grow`; ``root`` is the root."""
+    stack = [(root, 0)]
     used = 1
     buckets = 0
     while stack:
@@ -305,80 +307,43 @@ def build_adaptive(codes, *, L: int, photons_per_bucket: float,
         raise InputError(f"{n:,} photons: an adaptive table indexes at most 2**32 - 1")
     offsets = table_offsets(L * MAX_DEPTH)[:, 0].reshape(MAX_DEPTH, L).T.copy()
     scale = np.asarray(scale, dtype=np.float64)
-    S = float(photons_per_bucket)
-    M = _buckets_wanted(n, S)
+    M = _buckets_wanted(n, float(photons_per_bucket))
     limit = max(n // SPLIT_SHARE, SPLIT_MIN)
-    keys = np.empty((L, n), dtype=np.int64)
     rows = [None] * L
-    parts = [[] for _ in range(L)]
-    open_parts = [1] * L
-    tables = [None] * L
-    # Largest node first, over all tables; a worker takes the next when it is free.
-    heap = [(-n, t, t, 0, 0, n, M, 0) for t in range(L)]  # -size, order, table, part, lo, hi, m, depth
-    heapq.heapify(heap)
-    order = itertools.count(L)
-    cond = threading.Condition()
-    failed = []
+    parts = [{} for _ in range(L)]  # per table: a node's rows lo, hi -> its part
 
-    def grow(t, part, lo, hi, m, depth):
-        """Cut or grow one part; returns the parts to grow next."""
-        if rows[t] is None:
+    def grow(task):
+        """Cut one large node, or grow a whole subtree; returns the parts to grow next."""
+        t, lo, hi, m, depth = task
+        if rows[t] is None:  # the root comes first
             rows[t] = photon_rows(codes)
         c = rows[t]
         if hi - lo > limit:
             a, thr, split, m_left = _cut_one(c, lo, hi, m, depth, offsets[t], scale)
             if split > 0:
-                with cond:
-                    lpart, rpart = len(parts[t]), len(parts[t]) + 1
-                    parts[t][part] = ("cut", a, int(thr), lpart, rpart)
-                    parts[t].extend((None, None))
-                return [(t, lpart, lo, lo + split, m_left, depth + 1),
-                        (t, rpart, lo + split, hi, m - m_left, depth + 1)]
-        w, s = _grow(c, lo, hi, m, depth, offsets[t], scale)
-        parts[t][part] = ("tree", w, s)
+                mid = lo + split
+                parts[t][lo, hi] = ("cut", a, int(thr), (lo, mid), (mid, hi))
+                return [(t, lo, mid, m_left, depth + 1), (t, mid, hi, m - m_left, depth + 1)]
+        parts[t][lo, hi] = ("tree",) + _grow(c, lo, hi, m, depth, offsets[t], scale)
         return []
 
+    run_largest_first([(t, 0, n, M, 0) for t in range(L)], grow, lambda task: task[2] - task[1])
+    keys = np.empty((L, n), dtype=np.int64)
+    tables = [None] * L
+
     def finish(t):
+        """Number the table's parts as one tree; its photons' buckets from its rows."""
         words = np.empty(4 * M, dtype=np.uint32)
         sizes = []
-        used = _stitch(parts[t], words, sizes)
+        used = _stitch(parts[t], (0, n), words, sizes)
         sizes = np.concatenate(sizes)
         _bucket_keys(rows[t], sizes, keys[t])
-        rows[t] = parts[t] = None
+        rows[t] = None
         tables[t] = (words[:2 * used], len(sizes))
+        return []
 
-    def worker():
-        while True:
-            with cond:
-                while not heap and not failed and sum(open_parts):
-                    cond.wait()
-                if failed or not heap:
-                    cond.notify_all()
-                    return
-                _, _, t, part, lo, hi, m, depth = heapq.heappop(heap)
-            try:
-                if part == 0:
-                    parts[t].append(None)
-                todo = grow(t, part, lo, hi, m, depth)
-                with cond:
-                    for task in todo:
-                        heapq.heappush(heap, (-(task[3] - task[2]), next(order)) + task)
-                    open_parts[t] += len(todo) - 1
-                    done = open_parts[t] == 0
-                    cond.notify_all()
-                if done:
-                    finish(t)
-            except BaseException as exc:
-                with cond:
-                    failed.append(exc)
-                    cond.notify_all()
-                raise
-
-    workers = max(1, os.cpu_count() or 1)
-    with ThreadPoolExecutor(max_workers=workers) as pool:  # numba releases the GIL (nogil)
-        for f in [pool.submit(worker) for _ in range(workers)]:
-            f.result()
-    T = max(len(r) for r, _ in tables)
+    run_largest_first(range(L), finish, lambda t: 0)
+    T = max(len(row) for row, _ in tables)
     out = np.full((L, T), THRESHOLD_PAD, dtype=np.uint32)
     for t, (row, _) in enumerate(tables):
         out[t, :len(row)] = row
