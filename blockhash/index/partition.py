@@ -9,6 +9,9 @@ cut, so the order that every step leaves matters, not only which rows end on whi
 * :func:`partition` moves rows below a threshold to the front: a row that is not below
   trades places with the last unchecked row; on rows that a select already split it
   reduces to a shift, done as one.
+
+:func:`kth_smallest` finds the cut's code in the strided sample of a large node, where
+only the value counts.
 """
 
 from __future__ import annotations
@@ -91,26 +94,30 @@ def partition(c, a, lo, hi, t, below):
             j -= 1
 @numba.njit(cache=True, nogil=True)
 def kth_smallest(values, k):
-    """The value of rank ``k`` in ``values`` (reordered in place; Hoare's quickselect)."""
-    lo, hi = 0, values.shape[0]
-    while hi - lo > 1:
-        mid = (lo + hi - 1) // 2
-        x, y, z = values[lo], values[mid], values[hi - 1]
-        pivot = max(min(x, y), min(max(x, y), z))
-        i, j = lo, hi - 1
-        while i <= j:
-            while values[i] < pivot:
-                i += 1
-            while values[j] > pivot:
-                j -= 1
-            if i <= j:
-                values[i], values[j] = values[j], values[i]
-                i += 1
-                j -= 1
-        if k <= j:
-            hi = j + 1
-        elif k >= i:
-            lo = i
-        else:
+    """The value of rank ``k`` in uint32 ``values`` (left as they are): a radix selection,
+    a byte at a time from the top, keeping only the values that share the bytes chosen."""
+    counts = np.zeros(256, dtype=np.int64)
+    keep = np.empty(values.shape[0], dtype=np.uint32)
+    src = values
+    m = values.shape[0]
+    for shift in range(24, -8, -8):
+        byte = np.uint32(shift)
+        counts[:] = 0
+        for i in range(m):
+            counts[(src[i] >> byte) & np.uint32(255)] += 1
+        d = 0
+        while k >= counts[d]:
+            k -= counts[d]
+            d += 1
+        if counts[d] == m and shift < 24:
+            continue  # every value left has this byte
+        j = 0
+        for i in range(m):
+            x = src[i]
+            keep[j] = x
+            j += ((x >> byte) & np.uint32(255)) == d
+        src = keep
+        m = j
+        if m == 1:
             break
-    return values[k]
+    return src[0]
