@@ -161,7 +161,7 @@ class BlockHashIndex:
         self.priority = self.tables.priority
         t4 = time.perf_counter()
         timings["insert"] = t4 - t3
-        self.records = PhotonRecords(sorted_records, records.quantizer, records.power_scale)
+        self.records = PhotonRecords._own(sorted_records, records.quantizer, records.power_scale)
         self.quantizer = records.quantizer
         self.block_words = pack_blocks(sorted_records, self.starts)
         self._positions = self.quantizer.decode(sorted_codes)

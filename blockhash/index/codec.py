@@ -319,7 +319,18 @@ class PhotonRecords:
             bits, scale = encode_powers(given["powers"])
         quantizer = Quantizer.for_points(p)
         rec = pack_records(quantizer.encode(p), d_codes, n_codes, bits)
-        return cls(records=rec, quantizer=quantizer, power_scale=scale)
+        return cls._own(rec, quantizer, scale)
+
+    @classmethod
+    def _own(cls, records: np.ndarray, quantizer: Quantizer, power_scale: float) -> "PhotonRecords":
+        """Wrap records built here ((n, 6) uint32, referenced nowhere else) without the
+        checks and the private copy that the constructor makes of records given to it."""
+        obj = cls.__new__(cls)
+        records.setflags(write=False)
+        object.__setattr__(obj, "records", records)
+        object.__setattr__(obj, "quantizer", quantizer)
+        object.__setattr__(obj, "power_scale", _check_scale(power_scale, "power_scale"))
+        return obj
 
     def positions(self) -> np.ndarray:
         """(n, 3) float32 positions, decoded as the shader does.
