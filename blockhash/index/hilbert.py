@@ -5,28 +5,34 @@ compact region of space (Faloutsos & Roseman; paper Figure 7a).  The key of a
 point is computed from its 32-bit fixed-point code with Skilling's
 "AxesToTranspose" transform (J. Skilling, "Programming the Hilbert curve",
 AIP Conf. Proc. 707, 2004), compiled with numba.  DESIGN.md measured ~0.35 s for 2M points
-in vectorised numpy and 18-41 s for the Hilbert packages on PyPI; the compiled
-per-point loop here (the Gray code's parities and the bit interleave done with shifts and
-masks, not bit by bit) keys 10^6 points in about 0.05 s, split over the cores.
+in vectorised numpy and 18-41 s for the Hilbert packages on PyPI.
+
+Skilling's loop walks the levels from the top bit down: at each level it reads the three
+axes' bits there and, for axis ``i`` = 0, 1, 2 in turn, inverts the lower bits of axis 0
+(bit of axis ``i`` set) or swaps the lower bits of axes 0 and ``i`` (bit clear); then it
+Gray-codes the result and interleaves the bits.  Everything below a level is only ever
+inverted or permuted among axes, so all that the higher levels leave for the lower ones is
+a signed permutation of the three axes (48 of them), and the Gray code's carry is one
+parity bit: 96 states.  :func:`_transitions` tabulates, per state and per two levels of
+input bits, the six key bits out and the state after; a key is then ``bits / 2`` table
+reads, about 3x faster than the loop (10^6 points in about 0.02 s).  The tests compare the
+table with the loop written out.
 """
 
 from __future__ import annotations
 
-import os
+import itertools
 
 import numba
 import numpy as np
 
 from ..errors import InputError
 from ..validate import as_int
-from .taskpool import run_largest_first
 
 #: Bits per axis used for the key: 3 * 21 = 63 bits fit an unsigned 64-bit key.
 #: 21 bits over the photon box is a 1/2,097,152 step (0.5 um over 1 m), far finer
 #: than any block, so dropping the low 11 bits of the 32-bit codes loses nothing.
 KEY_BITS_PER_AXIS = 21
-#: Points keyed per thread at least (fewer are not worth a thread).
-THREAD_CHUNK = 1 << 17
 
 
 def hilbert_keys(codes, *, bits: int = KEY_BITS_PER_AXIS) -> np.ndarray:
@@ -49,64 +55,74 @@ def hilbert_keys(codes, *, bits: int = KEY_BITS_PER_AXIS) -> np.ndarray:
     if c.ndim != 2 or c.shape[1] != 3 or c.dtype != np.uint32:
         raise InputError(f"codes must be a (n, 3) uint32 array; got shape {c.shape}, dtype {c.dtype}")
     bits = as_int(bits, "bits", minimum=1, maximum=KEY_BITS_PER_AXIS)
-    n = len(c)
+    return _hilbert_keys(c, bits, _SINGLE, _PAIR, _START)
+
+
+def _transitions():
+    """(single, pair, start): ``single[8 s + b]`` for one level with input bits ``b`` (axis 0
+    highest) in state ``s``, ``pair[64 s + q]`` for two levels with ``q`` the two bits of
+    axis 0, 1 and 2 side by side (axis 0 highest); each entry is the key bits out (3 or 6)
+    plus the next state shifted above them; ``start`` is the state before the top level."""
+    states = [(perm, inv, parity) for perm in itertools.permutations(range(3))
+              for inv in range(8) for parity in range(2)]
+    number = {state: i for i, state in enumerate(states)}
+
+    def level(state, bits):
+        # The state maps an axis' lower bits to those of axis perm[i], inverted where inv says.
+        perm, inv, parity = list(state[0]), [(state[1] >> i) & 1 for i in range(3)], state[2]
+        x = [((bits >> (2 - perm[i])) & 1) ^ inv[i] for i in range(3)]
+        inv[0] ^= x[0]
+        for i in (1, 2):
+            if x[i]:
+                inv[0] ^= 1
+            else:
+                perm[0], perm[i] = perm[i], perm[0]
+                inv[0], inv[i] = inv[i], inv[0]
+        g = [x[0], x[0] ^ x[1], x[0] ^ x[1] ^ x[2]]  # Gray code; parity of g[2] above
+        out = (g[0] ^ parity) << 2 | (g[1] ^ parity) << 1 | (g[2] ^ parity)
+        return out, (tuple(perm), inv[0] | inv[1] << 1 | inv[2] << 2, parity ^ g[2])
+
+    single = np.zeros(8 * len(states), dtype=np.uint16)
+    pair = np.zeros(64 * len(states), dtype=np.uint16)
+    for state in states:
+        s = number[state]
+        for bits in range(8):
+            out, after = level(state, bits)
+            single[8 * s + bits] = out | number[after] << 3
+        for q in range(64):
+            high = (q >> 5 & 1) << 2 | (q >> 3 & 1) << 1 | (q >> 1 & 1)
+            low = (q >> 4 & 1) << 2 | (q >> 2 & 1) << 1 | (q & 1)
+            out_high, mid = level(state, high)
+            out_low, after = level(mid, low)
+            pair[64 * s + q] = out_high << 3 | out_low | number[after] << 6
+    return single, pair, number[((0, 1, 2), 0, 0)]
+
+
+_SINGLE, _PAIR, _START = _transitions()
+
+
+@numba.njit(cache=True, nogil=True)
+def _hilbert_keys(codes, bits, single, pair, start):
+    n = codes.shape[0]
     keys = np.empty(n, dtype=np.uint64)
-    chunk = max(THREAD_CHUNK, -(-n // (os.cpu_count() or 1)))
-    parts = [(lo, min(lo + chunk, n)) for lo in range(0, n, chunk)]
-    run_largest_first(parts, lambda part: _hilbert_keys(c, bits, keys, *part) or [],
-                      lambda part: part[1] - part[0], workers=len(parts))
-    return keys
-
-
-@numba.njit(cache=True, nogil=True)
-def _spread(v):
-    """The 21 low bits of ``v`` moved to every third bit (bit k to bit 3 k)."""
-    v &= np.uint64(0x1FFFFF)
-    v = (v | (v << np.uint64(32))) & np.uint64(0x1F00000000FFFF)
-    v = (v | (v << np.uint64(16))) & np.uint64(0x1F0000FF0000FF)
-    v = (v | (v << np.uint64(8))) & np.uint64(0x100F00F00F00F00F)
-    v = (v | (v << np.uint64(4))) & np.uint64(0x10C30C30C30C30C3)
-    v = (v | (v << np.uint64(2))) & np.uint64(0x1249249249249249)
-    return v
-
-
-@numba.njit(cache=True, nogil=True)
-def _hilbert_keys(codes, bits, keys, lo, hi):
-    """Keys of points ``lo:hi`` into ``keys``."""
     shift = np.uint32(32 - bits)
-    top = np.uint32(1) << np.uint32(bits - 1)
-    for j in range(lo, hi):
-        x0 = codes[j, 0] >> shift
-        x1 = codes[j, 1] >> shift
-        x2 = codes[j, 2] >> shift
-        # Inverse undo of excess work (Skilling, AxesToTranspose).
-        q = top
-        while q > 1:
-            p = q - np.uint32(1)
-            if x0 & q:
-                x0 ^= p
-            if x1 & q:
-                x0 ^= p
-            else:
-                t = (x0 ^ x1) & p
-                x0 ^= t
-                x1 ^= t
-            if x2 & q:
-                x0 ^= p
-            else:
-                t = (x0 ^ x2) & p
-                x0 ^= t
-                x2 ^= t
-            q >>= np.uint32(1)
-        # Gray encode: t holds, at each bit, the parity of the bits of x2 above it.
-        x1 ^= x0
-        x2 ^= x1
-        t = x2 >> np.uint32(1)
-        t ^= t >> np.uint32(1)
-        t ^= t >> np.uint32(2)
-        t ^= t >> np.uint32(4)
-        t ^= t >> np.uint32(8)
-        t ^= t >> np.uint32(16)
-        # Interleave the transposed bits, most significant level first, axis 0 highest.
-        keys[j] = ((_spread(np.uint64(x0 ^ t)) << np.uint64(2))
-                   | (_spread(np.uint64(x1 ^ t)) << np.uint64(1)) | _spread(np.uint64(x2 ^ t)))
+    for j in range(n):
+        x0 = np.int64(codes[j, 0] >> shift)
+        x1 = np.int64(codes[j, 1] >> shift)
+        x2 = np.int64(codes[j, 2] >> shift)
+        s = np.int64(start)
+        key = np.int64(0)
+        k = bits - 1  # the level read next
+        if bits & 1:
+            e = np.int64(single[8 * s + (((x0 >> k) & 1) << 2 | ((x1 >> k) & 1) << 1 | ((x2 >> k) & 1))])
+            key = e & 7
+            s = e >> 3
+            k -= 1
+        while k > 0:
+            e = np.int64(pair[64 * s + (((x0 >> (k - 1)) & 3) << 4 | ((x1 >> (k - 1)) & 3) << 2
+                                        | ((x2 >> (k - 1)) & 3))])
+            key = key << 6 | (e & 63)
+            s = e >> 6
+            k -= 2
+        keys[j] = np.uint64(key)
+    return keys
