@@ -12,6 +12,10 @@ cut, so the order that every step leaves matters, not only which rows end on whi
 
 :func:`kth_smallest` finds the cut's code in the strided sample of a large node, where
 only the value counts.
+
+numba's on-disk cache of the functions that call these (in :mod:`.adaptive`) holds them
+compiled in and is not refreshed when only this file changes: delete the ``*.nbi`` and
+``*.nbc`` files under ``__pycache__`` after editing it.
 """
 
 from __future__ import annotations
