@@ -92,3 +92,52 @@ def test_block_is_inserted_once_per_distinct_key_not_per_photon():
     tabs = insert_blocks(keys, np.array([0, 4]), buckets=3, B=2)
     assert tabs.entries[0].tolist() == [1, 0, 1]
     assert tabs.block_buckets.tolist() == [2]
+
+
+def plain_insert(keys, starts, buckets, B):
+    """Section 4.3 written out in Python: the reference for the compiled insertion."""
+    L, nblocks = keys.shape[0], len(starts) - 1
+    refs = np.full((L, buckets, B), NO_BLOCK, dtype=np.int32)
+    entries = np.zeros((L, buckets), dtype=np.int32)
+    overflows = np.zeros((L, buckets), dtype=np.int32)
+    counts = np.zeros(nblocks, dtype=np.int32)
+    bumps = 0
+    for i in range(nblocks):
+        for t in range(L):
+            b = (i + (t * nblocks) // L) % nblocks
+            done = set()
+            for s in range(starts[b], starts[b + 1]):
+                key = int(keys[t, s])
+                if key in done:
+                    continue
+                done.add(key)
+                e = entries[t, key]
+                if e < B:
+                    refs[t, key, e] = b
+                    entries[t, key] += 1
+                    counts[b] += 1
+                    continue
+                overflows[t, key] += 1
+                j = int(np.argmax(counts[refs[t, key]]))  # the first of the most referenced
+                if counts[refs[t, key, j]] > 1 and counts[refs[t, key, j]] > counts[b]:
+                    counts[refs[t, key, j]] -= 1
+                    refs[t, key, j] = b
+                    counts[b] += 1
+                    bumps += 1
+    return refs, entries, overflows, counts, bumps
+
+
+@pytest.mark.parametrize("L, buckets, B", [(1, 7, 2), (3, 40, 3), (5, 200, 8)])
+def test_compiled_insertion_equals_the_plain_one(L, buckets, B):
+    rng = np.random.default_rng(L * B)
+    n = 3000
+    starts = np.unique(np.concatenate([[0, n], rng.choice(np.arange(1, n), 500, replace=False)]))
+    keys = rng.integers(0, buckets, size=(L, n))
+    keys[:, ::3] = keys[:, 1::3][:, :keys[:, ::3].shape[1]]  # repeated keys inside blocks
+    t = insert_blocks(keys, starts, buckets=buckets, B=B)
+    refs, entries, overflows, counts, bumps = plain_insert(keys, starts, buckets, B)
+    np.testing.assert_array_equal(t.refs, refs)
+    np.testing.assert_array_equal(t.entries, entries)
+    np.testing.assert_array_equal(t.overflows, overflows)
+    np.testing.assert_array_equal(t.block_buckets, counts)
+    assert t.bumps == bumps

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 
@@ -112,3 +113,53 @@ def test_bits_outside_1_to_21_are_rejected(bits):
 def test_non_integer_bits_are_rejected(bits):
     with pytest.raises(BlockHashError, match="bits"):
         hilbert_keys(np.ones((4, 3), dtype=np.uint32) << np.uint32(31), bits=bits)
+
+
+@numba.njit
+def skilling_keys(codes, bits):
+    """Skilling's AxesToTranspose loop, Gray code and bit interleave, one bit at a time."""
+    n = codes.shape[0]
+    keys = np.empty(n, dtype=np.uint64)
+    x = np.empty(3, dtype=np.uint64)
+    top = np.uint64(1) << np.uint64(bits - 1)
+    for j in range(n):
+        for i in range(3):
+            x[i] = np.uint64(codes[j, i] >> np.uint32(32 - bits))
+        q = top
+        while q > 1:
+            p = q - np.uint64(1)
+            for i in range(3):
+                if x[i] & q:
+                    x[0] ^= p
+                else:
+                    t = (x[0] ^ x[i]) & p
+                    x[0] ^= t
+                    x[i] ^= t
+            q >>= np.uint64(1)
+        x[1] ^= x[0]
+        x[2] ^= x[1]
+        t = np.uint64(0)
+        q = top
+        while q > 1:
+            if x[2] & q:
+                t ^= q - np.uint64(1)
+            q >>= np.uint64(1)
+        key = np.uint64(0)
+        for level in range(bits - 1, -1, -1):
+            lv = np.uint64(level)
+            for i in range(3):
+                key = (key << np.uint64(1)) | (((x[i] ^ t) >> lv) & np.uint64(1))
+        keys[j] = key
+    return keys
+
+
+@pytest.mark.parametrize("b", range(1, KEY_BITS_PER_AXIS + 1))
+def test_table_driven_keys_equal_skillings_loop(b):
+    rng = np.random.default_rng(b)
+    codes = rng.integers(0, 2**32, size=(20_000, 3), dtype=np.uint32)
+    codes[:8] = np.array([[0, 0, 0], [2**32 - 1] * 3, [0, 2**32 - 1, 0], [2**31, 2**31 - 1, 7],
+                          [1, 2, 3], [2**32 - 1, 0, 0], [0, 0, 2**32 - 1], [5, 5, 5]], dtype=np.uint32)
+    np.testing.assert_array_equal(hilbert_keys(codes, bits=b), skilling_keys(codes, b))
+    strided = np.zeros((len(codes), 6), dtype=np.uint32)
+    strided[:, :3] = codes
+    np.testing.assert_array_equal(hilbert_keys(strided[:, :3], bits=b), skilling_keys(codes, b))

@@ -40,10 +40,16 @@ splits, as the grid files that section 4.1 cites do:
 
 Every bucket then holds about ``S`` photons whatever the surfaces, and buckets
 are about as wide as they are long on each surface.  Each table is built over
-all photons, partitioning a copy of their codes in place (quickselect, linear
-time per level, tables on parallel threads); a photon's bucket is where its
-partition ends.  A query descends ``log2(N / S)`` nodes per table, one two-word node read
-each: about the comparisons of the paper's three binary searches.
+all photons, partitioning a copy of their rows (codes and index) in place
+(:mod:`~blockhash.index.partition`: quickselect, linear time per level); a photon's bucket
+is where its partition ends.  The axis probes and sampled cuts read rows at fixed places
+of a node's current order, so the tree depends on that order, not on how the work is
+shared: the nodes of a table holding more than ``1 / SPLIT_SHARE`` of its photons are cut
+one at a time and the subtrees below them grown whole, the parts of all tables run on
+parallel threads largest first (:mod:`~blockhash.index.taskpool`), and the parts are then
+numbered as one depth-first walk numbers the whole tree.  A query descends
+``log2(N / S)`` nodes per table, one two-word node read each: about the comparisons of the
+paper's three binary searches.
 
 Row layout of one table, ``2 * nodes`` uint32 words; node ``i`` at ``2 i``::
 
@@ -58,53 +64,19 @@ the longest row (``THRESHOLD_PAD``) and the most buckets.
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ThreadPoolExecutor
-
 import numba
 import numpy as np
 
+from ..errors import InputError
+from .partition import kth_smallest, partition, photon_rows, select
+from .taskpool import run_largest_first
 from .thresholds import LEAF, MAX_DEPTH, THRESHOLD_PAD, table_offsets
 
 #: Nodes larger than this take their cut's code from a strided sample of this many photons
-#: (one sort) instead of a quickselect over all of them.
+#: (a selection in the sample) instead of a quickselect over all of them.
 SELECT_SAMPLE = 2047
 #: Photons of a node looked at to choose its axis (a strided subset).
 AXIS_PROBE = 31
-
-
-@numba.njit(cache=True, nogil=True)
-def _swap(c, ids, i, j):
-    for a in range(3):
-        c[i, a], c[j, a] = c[j, a], c[i, a]
-    ids[i], ids[j] = ids[j], ids[i]
-
-
-@numba.njit(cache=True, nogil=True)
-def _select(c, ids, a, lo, hi, p):
-    """Reorder rows ``lo:hi`` of ``c`` (and ``ids``) so that row ``p`` holds the code of rank
-    ``p - lo`` on axis ``a``, smaller codes before it and larger after (Hoare's quickselect,
-    median of three)."""
-    while hi - lo > 1:
-        mid = (lo + hi - 1) // 2
-        x, y, z = c[lo, a], c[mid, a], c[hi - 1, a]
-        pivot = max(min(x, y), min(max(x, y), z))
-        i, j = lo, hi - 1
-        while i <= j:
-            while c[i, a] < pivot:
-                i += 1
-            while c[j, a] > pivot:
-                j -= 1
-            if i <= j:
-                _swap(c, ids, i, j)
-                i += 1
-                j -= 1
-        if p <= j:
-            hi = j + 1
-        elif p >= i:
-            lo = i
-        else:
-            return
 
 
 @numba.njit(cache=True, nogil=True)
@@ -168,17 +140,105 @@ def _widest(spread):
 
 
 @numba.njit(cache=True, nogil=True)
-def _build_tree(codes, S, offsets, scale):
-    """Nodes (2 words each), the bucket of every photon and the bucket count of one table."""
-    n = codes.shape[0]
-    c = codes.copy()
-    ids = np.arange(n)
-    keys = np.empty(n, dtype=np.int64)
-    cap = 2 * max(1, int(np.round(n / S))) + 64
+def _cut(c, lo, hi, m, depth, offsets, scale, buf, probe, spread):
+    """Cut rows ``lo:hi`` of a node at ``depth`` that wants ``m`` buckets: (axis, threshold,
+    rows that go left), the rows partitioned in place; rows that go left <= 0 for a bucket."""
+    size = hi - lo
+    a = -1
+    dims = 0
+    if m >= 2 and size >= 2 and depth < MAX_DEPTH - 1:
+        a, dims = _widest(_spreads(c, lo, hi, scale, probe, spread))
+        gap = _gap_axis(spread)
+        if gap >= 0:
+            # Mid-way across the gap, whatever the counts on its two sides, where each side
+            # holds at least half of one of the node's buckets.
+            below_code = np.uint32(spread[gap, 4])
+            t = np.uint32(below_code + 1 + (np.uint32(spread[gap, 5]) - below_code - 1) // 2)
+            split = 0
+            for r in range(lo, hi):
+                if c[r, gap] < t:
+                    split += 1
+            if min(split, size - split) >= 0.5 * size / m:
+                partition(c, gap, lo, hi, t, split)
+                return gap, t, split
+    split = -1
+    t = np.uint32(0)
+    if a >= 0:
+        # Shift the cut by up to half a layer of buckets along the axis: m ** (1 / dims)
+        # layers, at least the two children.
+        layers = max(2.0, m ** (1.0 / dims))
+        target = size * (0.5 + offsets[depth % offsets.shape[0]] / layers)
+        if size > SELECT_SAMPLE:
+            # The cut's code from a strided sample: its rank is off by about
+            # size / sqrt(SELECT_SAMPLE), under 3% of the node.
+            for r in range(SELECT_SAMPLE):
+                buf[r] = c[lo + (r * size) // SELECT_SAMPLE, a]
+            v = kth_smallest(buf, min(int(target / size * SELECT_SAMPLE), SELECT_SAMPLE - 1))
+        else:
+            p = min(max(int(target), 0), size - 1)
+            select(c, a, lo, hi, lo + p)
+            v = c[lo + p, a]
+        below = 0
+        equal = 0
+        max_below = np.uint32(0)
+        min_above = np.uint32(0xFFFFFFFF)
+        for r in range(lo, hi):
+            x = c[r, a]
+            if x < v:
+                below += 1
+                max_below = max(max_below, x)
+            elif x == v:
+                equal += 1
+            else:
+                min_above = min(min_above, x)
+        # The run of code v goes right (left = below) or left (left = below + equal), as
+        # leaves the counts nearer the target; the threshold sits mid-way in the gap to
+        # the next code, so that a query a few codes off a plane of photons (rounding)
+        # still falls on the plane's side.
+        if below == 0 or (below + equal < size and abs(below + equal - target) < abs(below - target)):
+            if below + equal < size:
+                t = np.uint32(v + 1 + (min_above - v - 1) // 2)
+                split = below + equal
+        else:
+            t = np.uint32(v - (v - max_below - 1) // 2)
+            split = below
+        if split > 0:
+            partition(c, a, lo, hi, t, split)
+    return a, t, split
+
+
+@numba.njit(cache=True, nogil=True)
+def _left_buckets(m, split, size):
+    """Buckets the left child of a node wanting ``m`` wants, ``split`` of its ``size`` rows
+    on the left."""
+    return min(max(int(np.round(m * split / size)), 1), m - 1)
+
+
+@numba.njit(cache=True, nogil=True)
+def _buckets_wanted(n, S):
+    return max(1, int(np.round(n / S)))
+
+
+@numba.njit(cache=True, nogil=True)
+def _cut_one(c, lo, hi, m, depth, offsets, scale):
+    """:func:`_cut` for one node: (axis, threshold, rows left, buckets the left child wants)."""
+    a, t, split = _cut(c, lo, hi, m, depth, offsets, scale, np.empty(SELECT_SAMPLE, dtype=np.uint32),
+                       np.empty(AXIS_PROBE), np.zeros((3, 6)))
+    return a, t, split, (_left_buckets(m, split, hi - lo) if split > 0 else 0)
+
+
+@numba.njit(cache=True, nogil=True)
+def _grow(c, lo, hi, m, depth0, offsets, scale):
+    """The subtree of rows ``lo:hi`` (a node at ``depth0`` wanting ``m`` buckets), depth first:
+    its nodes (2 words each, numbered from its root 0, buckets from 0) and its buckets' sizes
+    left to right; its rows end in bucket order."""
+    cap = 2 * m  # every bucket wants at least one of the m: at most 2 m - 1 nodes
     nodes = np.empty(2 * cap, dtype=np.uint32)
-    depth = np.zeros(cap, dtype=np.int64)
+    depth = np.empty(cap, dtype=np.int64)
+    sizes = np.empty(m, dtype=np.int64)
     stack = np.empty((MAX_DEPTH + 2, 4), dtype=np.int64)  # node, lo, hi, buckets wanted
-    stack[0] = (0, 0, n, max(1, int(np.round(n / S))))
+    stack[0] = (0, lo, hi, m)
+    depth[0] = depth0
     buf = np.empty(SELECT_SAMPLE, dtype=np.uint32)
     probe = np.empty(AXIS_PROBE)
     spread = np.zeros((3, 6))
@@ -188,89 +248,11 @@ def _build_tree(codes, S, offsets, scale):
     while top > 0:
         top -= 1
         node, lo, hi, m = stack[top]
-        size = hi - lo
-        a = -1
-        dims = 0
-        gap = -1
-        if m >= 2 and size >= 2 and depth[node] < MAX_DEPTH - 1 and used + 2 <= cap:
-            a, dims = _widest(_spreads(c, lo, hi, scale, probe, spread))
-            gap = _gap_axis(spread)
-        split = -1
-        t = np.uint32(0)
-        if gap >= 0:
-            # Cut mid-way across the gap, whatever the counts on its two sides, when each
-            # side holds at least half a bucket of photons.
-            below_code = np.uint32(spread[gap, 4])
-            t = np.uint32(below_code + 1 + (np.uint32(spread[gap, 5]) - below_code - 1) // 2)
-            split = 0
-            for r in range(lo, hi):
-                if c[r, gap] < t:
-                    split += 1
-            if min(split, size - split) >= 0.5 * S:
-                a = gap
-                i, j = lo, hi - 1
-                while i <= j:
-                    if c[i, a] < t:
-                        i += 1
-                    else:
-                        _swap(c, ids, i, j)
-                        j -= 1
-            else:
-                gap = -1
-                split = -1
-        if gap < 0 and a >= 0:
-            # Shift the cut by up to half a layer of buckets along the axis: m ** (1 / dims)
-            # layers, at least the two children.
-            layers = max(2.0, m ** (1.0 / dims))
-            target = size * (0.5 + offsets[depth[node] % offsets.shape[0]] / layers)
-            if size > SELECT_SAMPLE:
-                # The cut's code from a strided sample: its rank is off by about
-                # size / sqrt(SELECT_SAMPLE), under 3% of the node.
-                for r in range(SELECT_SAMPLE):
-                    buf[r] = c[lo + (r * size) // SELECT_SAMPLE, a]
-                buf.sort()
-                v = buf[min(int(target / size * SELECT_SAMPLE), SELECT_SAMPLE - 1)]
-            else:
-                p = min(max(int(target), 0), size - 1)
-                _select(c, ids, a, lo, hi, lo + p)
-                v = c[lo + p, a]
-            below = 0
-            equal = 0
-            max_below = np.uint32(0)
-            min_above = np.uint32(0xFFFFFFFF)
-            for r in range(lo, hi):
-                x = c[r, a]
-                if x < v:
-                    below += 1
-                    max_below = max(max_below, x)
-                elif x == v:
-                    equal += 1
-                else:
-                    min_above = min(min_above, x)
-            # The run of code v goes right (left = below) or left (left = below + equal), as
-            # leaves the counts nearer the target; the threshold sits mid-way in the gap to
-            # the next code, so that a query a few codes off a plane of photons (rounding)
-            # still falls on the plane's side.
-            if below == 0 or (below + equal < size and abs(below + equal - target) < abs(below - target)):
-                if below + equal < size:
-                    t = np.uint32(v + 1 + (min_above - v - 1) // 2)
-                    split = below + equal
-            else:
-                t = np.uint32(v - (v - max_below - 1) // 2)
-                split = below
-            if split > 0:
-                i, j = lo, hi - 1
-                while i <= j:
-                    if c[i, a] < t:
-                        i += 1
-                    else:
-                        _swap(c, ids, i, j)
-                        j -= 1
+        a, t, split = _cut(c, lo, hi, m, depth[node], offsets, scale, buf, probe, spread)
         if split <= 0:
             nodes[2 * node] = 0
             nodes[2 * node + 1] = (np.uint32(buckets) << 3) | LEAF
-            for r in range(lo, hi):
-                keys[ids[r]] = buckets
+            sizes[buckets] = hi - lo
             buckets += 1
             continue
         left = used
@@ -278,16 +260,69 @@ def _build_tree(codes, S, offsets, scale):
         nodes[2 * node] = t
         nodes[2 * node + 1] = (np.uint32(left) << 3) | np.uint32(a)
         depth[left] = depth[left + 1] = depth[node] + 1
-        if gap >= 0:  # each side's buckets from its own count
-            m_left = max(1, int(np.round(split / S)))
-            m_right = max(1, int(np.round((size - split) / S)))
-        else:
-            m_left = min(max(int(np.round(m * split / size)), 1), m - 1)
-            m_right = m - m_left
-        stack[top] = (left + 1, lo + split, hi, m_right)
+        m_left = _left_buckets(m, split, hi - lo)
+        stack[top] = (left + 1, lo + split, hi, m - m_left)
         stack[top + 1] = (left, lo, lo + split, m_left)
         top += 2
-    return nodes[:2 * used], keys, buckets
+    return nodes[:2 * used], sizes[:buckets]
+
+
+@numba.njit(cache=True, nogil=True)
+def _bucket_keys(c, sizes, keys):
+    """``keys[photon] = bucket`` from rows in bucket order and the buckets' sizes."""
+    r = 0
+    for b in range(sizes.shape[0]):
+        for _ in range(sizes[b]):
+            keys[c[r, 3]] = b
+            r += 1
+
+
+def _stitch(parts, root, words, sizes):
+    """One table's row (into ``words``) and bucket sizes (appended to ``sizes``) from its
+    parts, numbered as one depth-first walk over the whole tree numbers them (children
+    allocated as their parent is cut, the left subtree walked first), however the parts
+    were grown.  Returns the nodes used.
+
+    ``parts`` maps a node (its rows ``lo, hi``) to ``("cut", axis, threshold, left node,
+    right node)`` or to ``("tree", nodes, sizes)`` from :func:`_grow`; ``root`` is the root."""
+    stack = [(root, 0)]
+    used = 1
+    buckets = 0
+    while stack:
+        part, node = stack.pop()
+        kind, *rest = parts[part]
+        if kind == "cut":
+            a, t, lpart, rpart = rest
+            left = used
+            used += 2
+            words[2 * node] = t
+            words[2 * node + 1] = (left << 3) | a
+            stack.append((rpart, left + 1))
+            stack.append((lpart, left))
+            continue
+        w, s = rest
+        # The walk reaches a subtree's nodes one after another: its node k > 0 is
+        # node used + k - 1 of the table, its bucket b is bucket buckets + b.
+        meta = w[1::2].astype(np.int64)
+        leaf = (meta & int(LEAF)) != 0
+        ptr = meta >> 3
+        meta = (np.where(leaf, ptr + buckets, used + ptr - 1) << 3) | (meta & 7)
+        words[2 * node] = w[0]
+        words[2 * node + 1] = meta[0]
+        k = len(meta)
+        words[2 * used:2 * (used + k - 1):2] = w[2::2]
+        words[2 * used + 1:2 * (used + k - 1):2] = meta[1:]
+        used += k - 1
+        buckets += len(s)
+        sizes.append(s)
+    return used
+
+
+#: Nodes of more than this share of a table's photons are cut one at a time, the rest
+#: grown as whole subtrees: the work split into parts small enough to balance the threads.
+SPLIT_SHARE = 8
+#: ... and nodes of at most this many photons are always grown whole.
+SPLIT_MIN = 50_000
 
 
 def build_adaptive(codes, *, L: int, photons_per_bucket: float,
@@ -308,16 +343,49 @@ def build_adaptive(codes, *, L: int, photons_per_bucket: float,
     buckets : int              buckets per table (the largest table's count)
     """
     codes = np.ascontiguousarray(codes, dtype=np.uint32)
+    n = len(codes)
+    if n >= 2**32:
+        raise InputError(f"{n:,} photons: an adaptive table indexes at most 2**32 - 1")
     offsets = table_offsets(L * MAX_DEPTH)[:, 0].reshape(MAX_DEPTH, L).T.copy()
     scale = np.asarray(scale, dtype=np.float64)
-    S = float(photons_per_bucket)
-    workers = max(1, min(L, os.cpu_count() or 1))
-    with ThreadPoolExecutor(max_workers=workers) as pool:  # numba releases the GIL (nogil)
-        tables = list(pool.map(lambda t: _build_tree(codes, S, offsets[t], scale), range(L)))
-    T = max(len(r) for r, _, _ in tables)
+    M = _buckets_wanted(n, float(photons_per_bucket))
+    limit = max(n // SPLIT_SHARE, SPLIT_MIN)
+    rows = [None] * L
+    parts = [{} for _ in range(L)]  # per table: a node's rows lo, hi -> its part
+
+    def grow(task):
+        """Cut one large node, or grow a whole subtree; returns the parts to grow next."""
+        t, lo, hi, m, depth = task
+        if rows[t] is None:  # the root comes first
+            rows[t] = photon_rows(codes)
+        c = rows[t]
+        if hi - lo > limit:
+            a, thr, split, m_left = _cut_one(c, lo, hi, m, depth, offsets[t], scale)
+            if split > 0:
+                mid = lo + split
+                parts[t][lo, hi] = ("cut", a, int(thr), (lo, mid), (mid, hi))
+                return [(t, lo, mid, m_left, depth + 1), (t, mid, hi, m - m_left, depth + 1)]
+        parts[t][lo, hi] = ("tree",) + _grow(c, lo, hi, m, depth, offsets[t], scale)
+        return []
+
+    run_largest_first([(t, 0, n, M, 0) for t in range(L)], grow, lambda task: task[2] - task[1])
+    keys = np.empty((L, n), dtype=np.int64)
+    tables = [None] * L
+
+    def finish(t):
+        """Number the table's parts as one tree; its photons' buckets from its rows."""
+        words = np.empty(4 * M, dtype=np.uint32)
+        sizes = []
+        used = _stitch(parts[t], (0, n), words, sizes)
+        sizes = np.concatenate(sizes)
+        _bucket_keys(rows[t], sizes, keys[t])
+        rows[t] = None
+        tables[t] = (words[:2 * used], len(sizes))
+        return []
+
+    run_largest_first(range(L), finish, lambda t: 0)
+    T = max(len(row) for row, _ in tables)
     out = np.full((L, T), THRESHOLD_PAD, dtype=np.uint32)
-    keys = np.empty((L, len(codes)), dtype=np.int64)
-    for t, (row, k, _) in enumerate(tables):
+    for t, (row, _) in enumerate(tables):
         out[t, :len(row)] = row
-        keys[t] = k
-    return out, keys, max(b for _, _, b in tables)
+    return out, keys, max(b for _, b in tables)

@@ -62,10 +62,17 @@ def pack_blocks(records: np.ndarray, starts: np.ndarray) -> np.ndarray:
         raise InputError(f"block sizes must be 1..{PHOTONS_PER_BLOCK}; got {counts.min()}..{counts.max()}")
     nblocks = len(counts)
     words = np.zeros((nblocks, BLOCK_WORDS), dtype=np.uint32)
-    block = np.repeat(np.arange(nblocks), counts)
-    slot = np.arange(len(records)) - np.repeat(starts[:-1], counts)
     view = words[:, :COUNT_WORD].reshape(nblocks, PHOTONS_PER_BLOCK, WORDS_PER_PHOTON)
-    view[block, slot] = records
+    full = nblocks - 1
+    if nblocks and (counts[:full] == PHOTONS_PER_BLOCK).all():
+        # Full blocks but the last (the bulk build's): the records are the blocks' rows.
+        view[:full] = records[:full * PHOTONS_PER_BLOCK].reshape(full, PHOTONS_PER_BLOCK,
+                                                                  WORDS_PER_PHOTON)
+        view[full, :counts[full]] = records[full * PHOTONS_PER_BLOCK:]
+    else:
+        block = np.repeat(np.arange(nblocks), counts)
+        slot = np.arange(len(records)) - np.repeat(starts[:-1], counts)
+        view[block, slot] = records
     words[:, COUNT_WORD] = counts
     return words
 

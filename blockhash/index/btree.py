@@ -36,6 +36,7 @@ import numpy as np
 
 from ..errors import InputError, InputTypeError
 from ..validate import as_int
+from .radixsort import stable_argsort
 
 _MAX_HEIGHT = 64  # a tree of n >= 1 photons with fanout >= 3 is at most log2(n) + 1 tall
 _KEY_MAX = np.uint64(2**64 - 1)
@@ -266,7 +267,7 @@ def bulk_blocks(keys, *, leaf_capacity: int = 10, fanout: int = 16) -> LeafBlock
     Parameters and return value as for :func:`btree_blocks`.
     """
     k, cap, fan = _check(keys, leaf_capacity, fanout)
-    order = np.argsort(k, kind="stable").astype(np.int64)
+    order = stable_argsort(k)
     starts = _full_starts(len(k), cap)
     nblocks, height, nodes = len(starts) - 1, 1, len(starts) - 1
     while nodes > 1:

@@ -70,17 +70,19 @@ def _unit_vectors(value, name: str) -> np.ndarray:
     return v / length[:, None]
 
 
-def _int_array(value, name: str, shape_text: str, ndim: int, cols: int | None, bits: int):
+def _int_array(value, name: str, shape_text: str, ndim: int, cols: int | None, bits: int,
+               copy: bool = True):
     arr = np.asarray(value)
     if arr.dtype.kind not in "iu":
         raise InputTypeError(f"{name} must be an integer array of shape {shape_text}; got dtype "
                              f"{arr.dtype}. Pass the uint{bits} codes the encoders return")
     if arr.ndim != ndim or (cols is not None and arr.shape[1] != cols):
         raise InputError(f"{name} must have shape {shape_text}; got shape {arr.shape}")
-    if arr.size and (arr.min() < 0 or arr.max() >= 2**bits):
+    in_range = arr.dtype.kind == "u" and arr.dtype.itemsize * 8 <= bits  # no value can be out
+    if arr.size and not in_range and (arr.min() < 0 or arr.max() >= 2**bits):
         raise InputError(f"{name} holds values in [{arr.min()}, {arr.max()}]; uint{bits} codes "
                          f"must lie in [0, {2**bits - 1}]. Pass the codes the encoders return")
-    return arr.astype(np.dtype(f"uint{bits}"))
+    return arr.astype(np.dtype(f"uint{bits}"), copy=copy)
 
 
 def _same_rows(arrays: dict) -> None:
@@ -221,16 +223,16 @@ def pack_records(position_codes, direction_codes, normal_codes, power_bits) -> n
     Takes position_codes (n, 3) uint32, direction_codes and normal_codes (n,) uint16 and
     power_bits (n, 4) uint16; any integer dtype holding values in range is accepted.
     """
-    pos = _int_array(position_codes, "position_codes", "(n, 3)", 2, 3, 32)
+    pos = _int_array(position_codes, "position_codes", "(n, 3)", 2, 3, 32, copy=False)
     d = _int_array(direction_codes, "direction_codes", "(n,)", 1, None, 16).astype(np.uint32)
     n = _int_array(normal_codes, "normal_codes", "(n,)", 1, None, 16).astype(np.uint32)
-    c = _int_array(power_bits, "power_bits", "(n, 4)", 2, 4, 16).astype(np.uint32)
+    c = _int_array(power_bits, "power_bits", "(n, 4)", 2, 4, 16, copy=False)
     _same_rows({"position_codes": pos, "direction_codes": d, "normal_codes": n, "power_bits": c})
     rec = np.empty((len(pos), WORDS_PER_PHOTON), dtype=np.uint32)
     rec[:, :3] = pos
     rec[:, 3] = d | (n << 16)
-    rec[:, 4] = c[:, 0] | (c[:, 1] << 16)
-    rec[:, 5] = c[:, 2] | (c[:, 3] << 16)
+    for w, a in ((4, 0), (5, 2)):
+        rec[:, w] = c[:, a].astype(np.uint32) | (c[:, a + 1].astype(np.uint32) << 16)
     return rec
 
 
@@ -317,7 +319,18 @@ class PhotonRecords:
             bits, scale = encode_powers(given["powers"])
         quantizer = Quantizer.for_points(p)
         rec = pack_records(quantizer.encode(p), d_codes, n_codes, bits)
-        return cls(records=rec, quantizer=quantizer, power_scale=scale)
+        return cls._own(rec, quantizer, scale)
+
+    @classmethod
+    def _own(cls, records: np.ndarray, quantizer: Quantizer, power_scale: float) -> "PhotonRecords":
+        """Wrap records built here ((n, 6) uint32, referenced nowhere else) without the
+        checks and the private copy that the constructor makes of records given to it."""
+        obj = cls.__new__(cls)
+        records.setflags(write=False)
+        object.__setattr__(obj, "records", records)
+        object.__setattr__(obj, "quantizer", quantizer)
+        object.__setattr__(obj, "power_scale", _check_scale(power_scale, "power_scale"))
+        return obj
 
     def positions(self) -> np.ndarray:
         """(n, 3) float32 positions, decoded as the shader does.

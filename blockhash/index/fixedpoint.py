@@ -23,6 +23,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from ..errors import InputError
@@ -66,12 +67,11 @@ class Quantizer:
         p = as_points(positions, "positions", dtype=np.float64)
         if len(p) == 0:
             raise InputError("positions is empty; a photon map needs at least one photon")
-        lo = p.min(axis=0)
-        hi = p.max(axis=0)
+        lo, hi = _bounds(p)
         extent = hi - lo
         # A degenerate axis (all photons on one plane) still gets a box of non-zero
         # size, scaled to the largest extent so that the step stays meaningful.
-        scale = max(float(extent.max()), float(np.abs(p).max()), 1.0)
+        scale = max(float(extent.max()), float(np.maximum(np.abs(lo), np.abs(hi)).max()), 1.0)
         pad = BOX_PAD * scale
         lo32 = np.float32(lo - pad)
         # float32 rounding of lo may move it up; step it down until it is below lo - pad/2.
@@ -127,15 +127,13 @@ class Quantizer:
         Raises InputError for positions outside the box: nothing is clamped.
         """
         p = as_points(positions, "positions", dtype=np.float64)
-        u = np.floor((p - self.lo.astype(np.float64)) / self.step.astype(np.float64))
-        bad = (u < 0) | (u >= CODE_RANGE)
-        if bad.any():
-            i = int(np.argwhere(bad.any(axis=1))[0, 0])
+        codes, i = _encode(p, self.lo.astype(np.float64), self.step.astype(np.float64))
+        if i >= 0:
             raise InputError(
                 f"positions[{i}]={p[i].tolist()} lies outside the photon map box "
                 f"[{self.lo.tolist()}, {self.hi.tolist()}); build the quantizer from all "
                 "photons (Quantizer.for_points) before encoding")
-        return u.astype(np.uint32)
+        return codes
 
     def decode(self, codes) -> np.ndarray:
         """(n, 3) uint32 codes -> (n, 3) float32 positions, ``lo + float32(u) * step``."""
@@ -155,3 +153,37 @@ class Quantizer:
             t = (q - self.lo) * self.inv_step
         t = np.minimum(np.maximum(t, np.float32(0.0)), FLOAT32_BELOW_2_32)
         return t.astype(np.uint32)
+
+
+@numba.njit(cache=True, nogil=True)
+def _bounds(p):
+    """Smallest and largest coordinate per axis of (n >= 1, 3) positions, in one pass."""
+    lo = p[0].copy()
+    hi = p[0].copy()
+    for r in range(1, p.shape[0]):
+        for a in range(3):
+            x = p[r, a]
+            if x < lo[a]:
+                lo[a] = x
+            if x > hi[a]:
+                hi[a] = x
+    return lo, hi
+
+
+@numba.njit(cache=True, nogil=True)
+def _encode(p, lo, step):
+    """``floor((p - lo) / step)`` as uint32 codes, and the first row with a code outside
+    [0, 2**32) (-1 when none)."""
+    n = p.shape[0]
+    codes = np.empty((n, 3), dtype=np.uint32)
+    first_bad = -1
+    for r in range(n):
+        for a in range(3):
+            u = np.floor((p[r, a] - lo[a]) / step[a])
+            if u >= 0.0 and u < CODE_RANGE:
+                codes[r, a] = np.uint32(u)
+            else:
+                codes[r, a] = 0
+                if first_bad < 0:
+                    first_bad = r
+    return codes, first_bad

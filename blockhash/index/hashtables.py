@@ -96,19 +96,31 @@ def _insert(keys, starts, buckets, B):
     entries = np.zeros((L, buckets), dtype=np.int32)
     overflows = np.zeros((L, buckets), dtype=np.int32)
     counts = np.zeros(nblocks, dtype=np.int32)
+    stripe = np.empty(L, dtype=np.int64)  # table t starts at block t * nblocks // L
+    for t in range(L):
+        stripe[t] = (t * nblocks) // L
+    longest = 1
+    for b in range(nblocks):
+        longest = max(longest, starts[b + 1] - starts[b])
+    seen = np.empty(longest, dtype=np.int64)
     bumps = 0
     for i in range(nblocks):
         for t in range(L):
-            b = (i + (t * nblocks) // L) % nblocks
+            b = i + stripe[t]
+            if b >= nblocks:
+                b -= nblocks
+            nseen = 0  # the block's distinct keys in this table so far
             for s in range(starts[b], starts[b + 1]):
                 key = keys[t, s]
-                seen = False
-                for s2 in range(starts[b], s):
-                    if keys[t, s2] == key:
-                        seen = True
+                new = True
+                for u in range(nseen):
+                    if seen[u] == key:
+                        new = False
                         break
-                if seen:
+                if not new:
                     continue
+                seen[nseen] = key
+                nseen += 1
                 e = entries[t, key]
                 if e < B:
                     refs[t, key, e] = b

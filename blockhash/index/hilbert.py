@@ -5,11 +5,23 @@ compact region of space (Faloutsos & Roseman; paper Figure 7a).  The key of a
 point is computed from its 32-bit fixed-point code with Skilling's
 "AxesToTranspose" transform (J. Skilling, "Programming the Hilbert curve",
 AIP Conf. Proc. 707, 2004), compiled with numba.  DESIGN.md measured ~0.35 s for 2M points
-in vectorised numpy and 18-41 s for the Hilbert packages on PyPI; the compiled
-per-point loop here keys 2M points in about 0.1 s.
+in vectorised numpy and 18-41 s for the Hilbert packages on PyPI.
+
+Skilling's loop walks the levels from the top bit down: at each level it reads the three
+axes' bits there and, for axis ``i`` = 0, 1, 2 in turn, inverts the lower bits of axis 0
+(bit of axis ``i`` set) or swaps the lower bits of axes 0 and ``i`` (bit clear); then it
+Gray-codes the result and interleaves the bits.  Everything below a level is only ever
+inverted or permuted among axes, so all that the higher levels leave for the lower ones is
+a signed permutation of the three axes (48 of them), and the Gray code's carry is one
+parity bit: 96 states.  :func:`_transitions` tabulates, per state and per two levels of
+input bits, the six key bits out and the state after; a key is then ``bits / 2`` table
+reads, about 3x faster than the loop (10^6 points in about 0.02 s).  The tests compare the
+table with the loop written out.
 """
 
 from __future__ import annotations
+
+import itertools
 
 import numba
 import numpy as np
@@ -43,44 +55,74 @@ def hilbert_keys(codes, *, bits: int = KEY_BITS_PER_AXIS) -> np.ndarray:
     if c.ndim != 2 or c.shape[1] != 3 or c.dtype != np.uint32:
         raise InputError(f"codes must be a (n, 3) uint32 array; got shape {c.shape}, dtype {c.dtype}")
     bits = as_int(bits, "bits", minimum=1, maximum=KEY_BITS_PER_AXIS)
-    return _hilbert_keys(np.ascontiguousarray(c), bits)
+    return _hilbert_keys(c, bits, _SINGLE, _PAIR, _START)
+
+
+def _transitions():
+    """(single, pair, start): ``single[8 s + b]`` for one level with input bits ``b`` (axis 0
+    highest) in state ``s``, ``pair[64 s + q]`` for two levels with ``q`` the two bits of
+    axis 0, 1 and 2 side by side (axis 0 highest); each entry is the key bits out (3 or 6)
+    plus the next state shifted above them; ``start`` is the state before the top level."""
+    states = [(perm, inv, parity) for perm in itertools.permutations(range(3))
+              for inv in range(8) for parity in range(2)]
+    number = {state: i for i, state in enumerate(states)}
+
+    def level(state, bits):
+        # The state maps an axis' lower bits to those of axis perm[i], inverted where inv says.
+        perm, inv, parity = list(state[0]), [(state[1] >> i) & 1 for i in range(3)], state[2]
+        x = [((bits >> (2 - perm[i])) & 1) ^ inv[i] for i in range(3)]
+        inv[0] ^= x[0]
+        for i in (1, 2):
+            if x[i]:
+                inv[0] ^= 1
+            else:
+                perm[0], perm[i] = perm[i], perm[0]
+                inv[0], inv[i] = inv[i], inv[0]
+        g = [x[0], x[0] ^ x[1], x[0] ^ x[1] ^ x[2]]  # Gray code; parity of g[2] above
+        out = (g[0] ^ parity) << 2 | (g[1] ^ parity) << 1 | (g[2] ^ parity)
+        return out, (tuple(perm), inv[0] | inv[1] << 1 | inv[2] << 2, parity ^ g[2])
+
+    single = np.zeros(8 * len(states), dtype=np.uint16)
+    pair = np.zeros(64 * len(states), dtype=np.uint16)
+    for state in states:
+        s = number[state]
+        for bits in range(8):
+            out, after = level(state, bits)
+            single[8 * s + bits] = out | number[after] << 3
+        for q in range(64):
+            high = (q >> 5 & 1) << 2 | (q >> 3 & 1) << 1 | (q >> 1 & 1)
+            low = (q >> 4 & 1) << 2 | (q >> 2 & 1) << 1 | (q & 1)
+            out_high, mid = level(state, high)
+            out_low, after = level(mid, low)
+            pair[64 * s + q] = out_high << 3 | out_low | number[after] << 6
+    return single, pair, number[((0, 1, 2), 0, 0)]
+
+
+_SINGLE, _PAIR, _START = _transitions()
 
 
 @numba.njit(cache=True, nogil=True)
-def _hilbert_keys(codes, bits):
+def _hilbert_keys(codes, bits, single, pair, start):
     n = codes.shape[0]
     keys = np.empty(n, dtype=np.uint64)
-    x = np.empty(3, dtype=np.uint64)
-    top = np.uint64(1) << np.uint64(bits - 1)
+    shift = np.uint32(32 - bits)
     for j in range(n):
-        for i in range(3):
-            x[i] = np.uint64(codes[j, i] >> np.uint32(32 - bits))
-        # Inverse undo of excess work (Skilling, AxesToTranspose).
-        q = top
-        while q > 1:
-            p = q - np.uint64(1)
-            for i in range(3):
-                if x[i] & q:
-                    x[0] ^= p
-                else:
-                    t = (x[0] ^ x[i]) & p
-                    x[0] ^= t
-                    x[i] ^= t
-            q >>= np.uint64(1)
-        # Gray encode.
-        x[1] ^= x[0]
-        x[2] ^= x[1]
-        t = np.uint64(0)
-        q = top
-        while q > 1:
-            if x[2] & q:
-                t ^= q - np.uint64(1)
-            q >>= np.uint64(1)
-        # Interleave the transposed bits, most significant level first, axis 0 highest.
-        key = np.uint64(0)
-        for level in range(bits - 1, -1, -1):
-            lv = np.uint64(level)
-            for i in range(3):
-                key = (key << np.uint64(1)) | (((x[i] ^ t) >> lv) & np.uint64(1))
-        keys[j] = key
+        x0 = np.int64(codes[j, 0] >> shift)
+        x1 = np.int64(codes[j, 1] >> shift)
+        x2 = np.int64(codes[j, 2] >> shift)
+        s = np.int64(start)
+        key = np.int64(0)
+        k = bits - 1  # the level read next
+        if bits & 1:
+            e = np.int64(single[8 * s + (((x0 >> k) & 1) << 2 | ((x1 >> k) & 1) << 1 | ((x2 >> k) & 1))])
+            key = e & 7
+            s = e >> 3
+            k -= 1
+        while k > 0:
+            e = np.int64(pair[64 * s + (((x0 >> (k - 1)) & 3) << 4 | ((x1 >> (k - 1)) & 3) << 2
+                                        | ((x2 >> (k - 1)) & 3))])
+            key = key << 6 | (e & 63)
+            s = e >> 6
+            k -= 2
+        keys[j] = np.uint64(key)
     return keys
