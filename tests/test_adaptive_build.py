@@ -15,7 +15,7 @@ import numba
 import numpy as np
 import pytest
 
-from blockhash.index.adaptive import (AXIS_PROBE, SELECT_SAMPLE, _gap_axis, _spreads, _widest,
+from blockhash.index.adaptive import (PROBE_SLOTS, SELECT_SAMPLE, _gap_axis, _spreads, _widest,
                                       build_adaptive)
 from blockhash.index.fixedpoint import Quantizer
 from blockhash.index.photon_maps import MAPS
@@ -65,7 +65,7 @@ def _reference_tree(codes, S, offsets, scale):
     stack = np.empty((MAX_DEPTH + 2, 4), dtype=np.int64)
     stack[0] = (0, 0, n, max(1, int(np.round(n / S))))
     buf = np.empty(SELECT_SAMPLE, dtype=np.uint32)
-    probe = np.empty(AXIS_PROBE)
+    probe = np.empty((PROBE_SLOTS, 4), dtype=np.uint32)
     spread = np.zeros((3, 6))
     top = 1
     used = 1

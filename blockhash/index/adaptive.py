@@ -69,42 +69,14 @@ import numpy as np
 
 from ..errors import InputError
 from .partition import kth_smallest, partition, photon_rows, select
+from .probe import PROBE_SLOTS
+from .probe import spreads as _spreads
 from .taskpool import run_largest_first
 from .thresholds import LEAF, MAX_DEPTH, THRESHOLD_PAD, table_offsets
 
 #: Nodes larger than this take their cut's code from a strided sample of this many photons
 #: (a selection in the sample) instead of a quickselect over all of them.
 SELECT_SAMPLE = 2047
-#: Photons of a node looked at to choose its axis (a strided subset).
-AXIS_PROBE = 31
-
-
-@numba.njit(cache=True, nogil=True)
-def _spreads(c, lo, hi, scale, v, out):
-    """``out`` (3, 6) per axis: interquartile, 5th-95th percentile and full range in metres,
-    the widest gap between consecutive probed codes in metres and that gap's two codes,
-    from at most ``AXIS_PROBE`` rows of ``c[lo:hi]`` taken at a fixed stride (``v`` is a
-    scratch buffer of ``AXIS_PROBE`` values; insertion sort, which is fastest at this size)."""
-    n = hi - lo
-    m = min(n, AXIS_PROBE)
-    for a in range(3):
-        for r in range(m):
-            x = np.float64(c[lo + (r * n) // m, a])
-            j = r
-            while j > 0 and v[j - 1] > x:
-                v[j] = v[j - 1]
-                j -= 1
-            v[j] = x
-        out[a, 0] = (v[(3 * m) // 4] - v[m // 4]) * scale[a]
-        out[a, 1] = (v[(19 * m) // 20] - v[m // 20]) * scale[a]
-        out[a, 2] = (v[m - 1] - v[0]) * scale[a]
-        out[a, 3] = 0.0
-        for r in range(1, m):
-            if (v[r] - v[r - 1]) * scale[a] > out[a, 3]:
-                out[a, 3] = (v[r] - v[r - 1]) * scale[a]
-                out[a, 4] = v[r - 1]
-                out[a, 5] = v[r]
-    return out
 
 
 @numba.njit(cache=True, nogil=True)
@@ -223,7 +195,7 @@ def _buckets_wanted(n, S):
 def _cut_one(c, lo, hi, m, depth, offsets, scale):
     """:func:`_cut` for one node: (axis, threshold, rows left, buckets the left child wants)."""
     a, t, split = _cut(c, lo, hi, m, depth, offsets, scale, np.empty(SELECT_SAMPLE, dtype=np.uint32),
-                       np.empty(AXIS_PROBE), np.zeros((3, 6)))
+                       np.empty((PROBE_SLOTS, 4), dtype=np.uint32), np.zeros((3, 6)))
     return a, t, split, (_left_buckets(m, split, hi - lo) if split > 0 else 0)
 
 
@@ -240,7 +212,7 @@ def _grow(c, lo, hi, m, depth0, offsets, scale):
     stack[0] = (0, lo, hi, m)
     depth[0] = depth0
     buf = np.empty(SELECT_SAMPLE, dtype=np.uint32)
-    probe = np.empty(AXIS_PROBE)
+    probe = np.empty((PROBE_SLOTS, 4), dtype=np.uint32)
     spread = np.zeros((3, 6))
     top = 1
     used = 1
