@@ -175,3 +175,34 @@ def test_refinement_replaces_only_the_most_uneven_pixels_with_fresh_points():
     # the refined pixels were the most uneven ones, so they are among the caustic's
     assert refined[1][changed].sum() > 0
     assert refine_seed(4) == refine_seed(4) != refine_seed(5) and refine_seed(4) != 4
+
+
+def test_the_study_tool_prints_the_done_when_tables_again_from_its_json(small_study, tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    path = tmp_path / "study.json"
+    path.write_text(json.dumps([small_study]))
+    tool = Path(__file__).resolve().parents[1] / "tools" / "estimate_study.py"
+    if not tool.is_file():
+        pytest.skip("tools/ is not beside the package (installed wheel)")
+    out = subprocess.run([sys.executable, str(tool), "--done-when", "--from-json", str(path)],
+                         capture_output=True, text=True, check=True).stdout
+    assert "| corner | 20 | bh | **default** |" in out and "What the rows rest on" in out
+
+
+def test_the_k_nearest_estimate_adds_flux_at_a_fold_and_less_with_more_photons():
+    import importlib.util
+
+    tool = Path(__file__).resolve().parents[1] / "tools" / "fold_bias.py"
+    if not tool.is_file():
+        pytest.skip("tools/ is not beside the package (installed wheel)")
+    spec = importlib.util.spec_from_file_location("fold_bias", tool)
+    fold = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(fold)
+    few = fold.flux_ratio("fold", 20_000, 50, ["none", "cone"], points=400)
+    many = fold.flux_ratio("fold", 320_000, 50, ["none", "cone"], points=400)
+    smooth = fold.flux_ratio("smooth", 20_000, 50, ["cone"], points=400)
+    assert few["none"] > few["cone"] > 1.01 and 1.0 < many["cone"] < few["cone"]
+    assert abs(smooth["cone"] - 1.0) < few["cone"] - 1.0
