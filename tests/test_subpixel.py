@@ -206,3 +206,20 @@ def test_the_k_nearest_estimate_adds_flux_at_a_fold_and_less_with_more_photons()
     smooth = fold.flux_ratio("smooth", 20_000, 50, ["cone"], points=400)
     assert few["none"] > few["cone"] > 1.01 and 1.0 < many["cone"] < few["cone"]
     assert abs(smooth["cone"] - 1.0) < few["cone"] - 1.0
+
+
+def test_verdict_reads_two_standard_errors_of_the_seeds_and_the_reference():
+    from blockhash.tradeoff.sampling import verdict
+
+    def s(flux, se, blur=0.02, blur_se=0.001):
+        return {"flux": flux, "flux_se": se, "flux_region": flux, "flux_region_se": se,
+                "blur_region": blur, "blur_region_se": blur_se}
+
+    assert verdict(s(1.005, 0.001)) == ("yes", "yes")
+    assert verdict(s(1.025, 0.0005)) == ("no", "yes")
+    assert verdict(s(0.985, 0.001)) == ("no", "yes")
+    assert verdict(s(1.009, 0.002)) == ("undecided", "yes")
+    assert verdict(s(1.0085, 0.0001)) == ("yes", "yes")
+    assert verdict(s(1.0085, 0.0001), reference_se=0.001)[0] == "undecided"
+    assert verdict(s(1.0, 0.0, blur=0.049, blur_se=0.001))[1] == "undecided"
+    assert verdict(s(1.0, 0.0, blur=0.06, blur_se=0.001))[1] == "no"
