@@ -3,19 +3,18 @@
 The light tracer's reference (:mod:`blockhash.render.lighttrace`) is the caustic radiance's
 mean over each pixel's footprint.  The estimate is a function of the shading point; its
 pixel mean must be integrated by sampling.  Where the caustic is much sharper than a pixel
-(the fold lines of the cardioid on venus's chest: search radii of 0.05 to 0.2 mm, pixels
-of 3 mm at 128 x 128), a regular grid of shading points (the rasteriser's, as the trade
-study uses) aliases: its flux moves by several percent with the number of points per
+(the fold lines of the cardioid on venus's chest, far thinner than its 3 mm pixels at
+128 x 128), a regular grid of shading points (the rasteriser's, as the trade study uses)
+aliases: its flux moves by several percent with the number of points per
 pixel.  Here each pixel's mean comes instead from
 
 1. **stratified jitter**, S x S cells per pixel and one uniform point in each
    (:mod:`blockhash.render.subpixel`): an unbiased estimate of the pixel mean for any
    caustic, on the same film footprint as the reference's pixels;
-2. **refinement**: the ``refine`` pixels whose S x S values spread the most (the few that a
-   fold line or the cusp crosses: on venus 30 pixels hold 98 % of the variance of the
-   flux at 8 x 8) are estimated again with fresh jittered points at ``refine_samples``
-   squared per pixel, and that estimate replaces theirs.  It is independent of the first
-   pass, so the mean stays unbiased and only its variance falls.
+2. **refinement**: the ``refine`` pixels whose S x S values spread the most (the few that
+   a fold line or the cusp crosses) are estimated again with fresh jittered points,
+   ``refine_samples`` squared per pixel, and that estimate replaces theirs.  It is
+   independent of the first pass, so the mean stays unbiased and only its variance falls.
 
 Each jitter seed gives one image; the seeds' spread gives the uncertainty of each
 measure (mean and standard error over seeds).  Beside it the study records the same
