@@ -73,7 +73,7 @@ def pixel_means(scene, index, rays, materials, search, k, opts, mask, *, size, s
     if seed is None or not refine or s < 2:
         return means, 0
     h, w = mask.shape
-    sel = [o.label for o in opts].index(EstimateOptions().label) if EstimateOptions() in opts else -1
+    sel = opts.index(EstimateOptions()) if EstimateOptions() in opts else -1  # the default's spread
     per_pixel = fine[sel].sum(axis=2).reshape(h, s, w, s)
     var = np.where(mask, per_pixel.var(axis=(1, 3), ddof=1) / (s * s), 0.0).ravel()
     top = np.argsort(var)[::-1][:int(refine)]
