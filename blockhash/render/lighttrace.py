@@ -167,13 +167,19 @@ class Pinhole:
         cos_c = np.where(inside, z / np.linalg.norm(v, axis=1), 0.0)
         return np.nan_to_num(pix, nan=-1).astype(np.int64), cos_c
 
+    def film_rays(self, x, y) -> np.ndarray:
+        """(m, 3) unit view directions through film points (x, y) in pixels, x from the left
+        edge and y from the top (pixel (row, col) covers [col, col + 1) x [row, row + 1),
+        the footprint :meth:`project` assigns to it)."""
+        sx = (2.0 * np.ravel(x) / self.width - 1.0) * self.tan_x
+        sy = (1.0 - 2.0 * np.ravel(y) / self.height) * self.tan_y
+        d = self.forward + sx[:, None] * self.right + sy[:, None] * self.up
+        return d / np.linalg.norm(d, axis=1, keepdims=True)
+
     def pixel_rays(self) -> np.ndarray:
         """(h * w, 3) unit view directions through the pixel centres, row by row from the top."""
-        sx = (2.0 * (np.arange(self.width) + 0.5) / self.width - 1.0) * self.tan_x
-        sy = (1.0 - 2.0 * (np.arange(self.height) + 0.5) / self.height) * self.tan_y
-        gx, gy = np.meshgrid(sx, sy)
-        d = (self.forward + gx[..., None] * self.right + gy[..., None] * self.up).reshape(-1, 3)
-        return d / np.linalg.norm(d, axis=1, keepdims=True)
+        gx, gy = np.meshgrid(np.arange(self.width) + 0.5, np.arange(self.height) + 0.5)
+        return self.film_rays(gx, gy)
 
 
 def directly_visible(scene, pinhole: Pinhole, rays: SceneRays) -> np.ndarray:

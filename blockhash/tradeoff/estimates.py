@@ -25,13 +25,14 @@ import numpy as np
 from ..gl.lookup import slot_bits
 from ..index.block_hash_index import BlockHashIndex
 from ..index.metrics import exact_knn
-from ..render.caustic import Neighbours
+from ..render.caustic import Neighbours, ShadingPoints
 from ..render.estimate import EstimateOptions
 from ..render.gbuffer import rasterize
 from ..render.lighttrace import cached_reference, lambertian
 from ..render.pipeline import _receiver_materials
 from ..render.scene import MirrorMaterial
 from ..render.shading import SceneRays, shading_points
+from ..render.subpixel import raycast_gbuffer
 from ..render.tracing import trace_caustic_photons
 from .measure import flux_ratio, masked_blur, rel_rms
 from .sweep import box_down
@@ -67,10 +68,59 @@ def measure(image, reference, mask, region) -> dict:
             "blur_region": rel_rms(masked_blur(image, mask), masked_blur(reference, mask), region)}
 
 
+def scene_points(scene, size, supersample: int, jitter: int | None = None, rays=None):
+    """Shading points at ``supersample`` x ``supersample`` per pixel of ``size``: the
+    rasterised regular grid (``jitter`` None, as the trade study) or stratified jitter
+    with seed ``jitter`` (:mod:`blockhash.render.subpixel`)."""
+    ss = int(supersample)
+    rays = SceneRays(scene.objects) if rays is None else rays
+    if jitter is None:
+        g = rasterize(scene.camera, scene.objects, size=(size[0] * ss, size[1] * ss))
+    else:
+        g = raycast_gbuffer(scene.camera, rays, size=size, samples=ss, seed=jitter)
+    return shading_points(scene.camera, g, scene.objects, rays, (MirrorMaterial,))
+
+
+def estimate_images(index, points, materials, search, k, options, *, only=None,
+                    chunk: int = 1 << 15) -> list[np.ndarray]:
+    """(h, w, 3) radiance of each of ``options`` from one ``search`` per shading point, in
+    chunks of ``chunk`` points (the neighbours of 10^6 points at k = 50 take several GB at
+    once).  ``only`` ((h, w) bool) limits the search to those points; the others stay 0."""
+    h, w = points.shape
+    live = points.material.reshape(-1) >= 0
+    if only is not None:
+        live &= np.asarray(only, bool).reshape(-1)
+    idx = np.flatnonzero(live)
+    flat = [a.reshape(h * w, *a.shape[2:]) for a in (points.position, points.normal, points.view,
+                                                     points.material, points.weight)]
+    outs = [np.zeros((h * w, 3)) for _ in options]
+    for start in range(0, len(idx), chunk):
+        sel = idx[start:start + chunk]
+        nb = Neighbours.find(index, ShadingPoints(*(a[sel][None] for a in flat)), search, k)
+        for out, opt in zip(outs, options):
+            out[sel] = nb.estimate(materials, opt)[0]
+    return [o.reshape(h, w, 3) for o in outs]
+
+
+def upsample(mask, s: int) -> np.ndarray:
+    """(h, w) bool -> (h * s, w * s): each pixel's value on its s x s shading points."""
+    return np.repeat(np.repeat(np.asarray(mask, bool), s, axis=0), s, axis=1)
+
+
+def searches(index, k: int, A: int) -> dict:
+    """``{'bh': the CPU reference of the default shader variant, 'exact': cKDTree}``."""
+    bits = slot_bits(index.params.L, index.params.B)
+    return {"bh": lambda q: index.query(q, k=k, A=A, slot_bits=bits),
+            "exact": lambda q: exact_knn(index.positions, q, k)}
+
+
 def study_scene(scene, *, photons=(100_000, 1_000_000), ks=(50,), options=None, size=(128, 128),
-                supersample: int = 2, reference_photons: int = 50_000_000, A: int = 8,
+                supersample: int = 2, jitter: int | None = None,
+                reference_photons: int = 50_000_000, A: int = 8,
                 cache_dir=None, progress=print) -> dict:
-    """Rows of measures for one scene (module docstring); the reference's own noise beside them."""
+    """Rows of measures for one scene (module docstring); the reference's own noise beside
+    them.  ``jitter``: None for the rasterised grid of shading points, else the seed of
+    stratified jitter (:func:`scene_points`)."""
     options = default_options() if options is None else list(options)
     exact_options = [options[0], EstimateOptions()]
     scene = lambertian(scene)
@@ -80,8 +130,8 @@ def study_scene(scene, *, photons=(100_000, 1_000_000), ks=(50,), options=None, 
     mask = ref.comparison_mask()
     region = caustic_region(ref.radiance, mask)
     ss = int(supersample)
-    g = rasterize(scene.camera, scene.objects, size=(size[0] * ss, size[1] * ss))
-    points = shading_points(scene.camera, g, scene.objects, SceneRays(scene.objects), (MirrorMaterial,))
+    points = scene_points(scene, size, ss, jitter)
+    only = upsample(mask, ss)  # the measures read no other pixel
     materials = _receiver_materials(scene)
     rows = []
     for n in photons:
@@ -89,16 +139,11 @@ def study_scene(scene, *, photons=(100_000, 1_000_000), ks=(50,), options=None, 
         for k in ks:
             index = BlockHashIndex(pm.positions, k=k, A=A, directions=pm.directions,
                                    normals=pm.normals, powers=pm.powers)
-            bits = slot_bits(index.params.L, index.params.B)
+            find = searches(index, k, A)
             for search, opts in (("bh", options), ("exact", exact_options)):
-                if search == "bh":
-                    nb = Neighbours.find(index, points,
-                                         lambda q: index.query(q, k=k, A=A, slot_bits=bits), k)
-                else:
-                    nb = Neighbours.find(index, points,
-                                         lambda q: exact_knn(index.positions, q, k), k)
-                for opt in opts:
-                    img = box_down(nb.estimate(materials, opt), ss)
+                images = estimate_images(index, points, materials, find[search], k, opts, only=only)
+                for opt, fine in zip(opts, images):
+                    img = box_down(fine, ss)
                     row = {"scene": scene.path.stem if scene.path else "?", "photons": n, "k": k,
                            "search": search, "option": opt.label,
                            **measure(img, ref.radiance, mask, region)}
@@ -106,11 +151,11 @@ def study_scene(scene, *, photons=(100_000, 1_000_000), ks=(50,), options=None, 
                     progress(f"  N={n:,} k={k} {search:5s} {opt.label:28s} flux {row['flux']:.4f} "
                              f"blur {row['blur']:.4f} | region flux {row['flux_region']:.4f} blur "
                              f"{row['blur_region']:.4f}")
-                del nb
     # the reference's own noise: its standard error blurred like the images (independent pixels)
     se = ref.stderr
     noise = float(np.sqrt(np.mean(se[region] ** 2)) / np.sqrt(np.mean(ref.radiance[region] ** 2)))
     return {"scene": scene.path.name if scene.path else None, "size": list(size), "supersample": ss,
+            "jitter": jitter,
             "reference": {"photons": ref.emitted, "cache": str(path) if path else None,
                           "pixels_compared": int(mask.sum()), "pixels_region": int(region.sum()),
                           "rel_noise_region": noise},

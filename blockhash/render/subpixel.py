@@ -1,0 +1,83 @@
+"""Shading points inside pixels: a regular grid or stratified jitter, by ray casting.
+
+The G-buffer (:mod:`.gbuffer`) rasterises one shading point at the centre of each pixel;
+rendered at ``S`` times the size and box-filtered, that is a regular S x S grid of
+points per pixel.  A caustic much sharper than a pixel (a fold line of the cardioid on
+the bust's chest, far thinner than a pixel at 128 x 128) then falls between the grid's
+points or on them depending on its alignment, and the pixel mean a regular grid gives
+is off by more than its count of points suggests (``docs/radiance-estimate.md``).
+
+Stratified jitter removes that alignment: each pixel is cut into S x S equal cells and
+each cell gets one point, uniform inside it.  The box-filtered mean is then an unbiased
+estimate of the radiance's mean over the pixel's footprint, the quantity the light
+tracer's reference (:mod:`.lighttrace`) computes, whatever the caustic's shape; several
+seeds give its sampling error.  The film points are those of :class:`.lighttrace.Pinhole`,
+so the estimate and the reference integrate over the same footprint by construction.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .gbuffer import GBuffer
+from ..errors import InputError
+from ..validate import as_int
+
+
+def subpixel_points(width: int, height: int, samples: int, seed: int | None = None, *,
+                    pixels=None):
+    """Film coordinates ``(x, y)`` of S x S points per pixel, each (height * S, width * S).
+
+    ``x`` runs from the left edge and ``y`` from the top, in pixels, so that pixel (row, col)
+    covers [col, col + 1) x [row, row + 1).  Point (row * S + i, col * S + j) lies in cell
+    (i, j) of pixel (row, col), the cell [col + j / S, col + (j + 1) / S) x [row + i / S, ...):
+    at its centre when ``seed`` is None (the regular grid the rasteriser samples), else
+    uniform inside it (stratified jitter), the same points for the same seed.
+
+    ``pixels`` ((P, 2) ints, rows and columns): only those pixels, (P * S, S), the points of
+    pixel p in rows p * S to p * S + S - 1 (cell (i, j) at row p * S + i, column j).
+    """
+    width = as_int(width, "width", minimum=1)
+    height = as_int(height, "height", minimum=1)
+    s = as_int(samples, "samples", minimum=1, hint="use at least one shading point per pixel")
+    if pixels is None:
+        rows = np.repeat(np.arange(height), s)[:, None]
+        cols = np.repeat(np.arange(width), s)[None, :]
+        shape = (height * s, width * s)
+    else:
+        px = np.asarray(pixels, dtype=np.int64).reshape(-1, 2)
+        if (px < 0).any() or (px[:, 0] >= height).any() or (px[:, 1] >= width).any():
+            raise InputError(f"pixels must lie inside the {width} x {height} image")
+        rows = np.repeat(px[:, 0], s)[:, None]
+        cols = np.broadcast_to(px[:, 1].repeat(s)[:, None], (len(px) * s, 1))
+        shape = (len(px) * s, s)
+    i = (np.arange(shape[0]) % s)[:, None]
+    j = (np.arange(shape[1]) % s)[None, :]
+    if seed is None:
+        u = v = np.full(shape, 0.5)
+    else:
+        rng = np.random.default_rng(as_int(seed, "seed", minimum=0))
+        u, v = rng.random(shape), rng.random(shape)
+    return cols + (j + u) / s, rows + (i + v) / s
+
+
+def raycast_gbuffer(camera, rays, *, size=None, samples: int = 1, seed: int | None = None,
+                    pixels=None) -> GBuffer:
+    """The G-buffer of :func:`.gbuffer.rasterize` at (width * S, height * S), by ray casting
+    through :func:`subpixel_points` (``rays`` a :class:`.shading.SceneRays` of the scene);
+    with ``pixels``, only theirs, (P * S, S) as :func:`subpixel_points` lays them out.
+
+    Normals face the camera as the rasteriser turns them; rays that miss get object -1.
+    """
+    from .lighttrace import Pinhole
+
+    pin = Pinhole.of(camera, size)
+    x, y = subpixel_points(pin.width, pin.height, samples, seed, pixels=pixels)
+    d = pin.film_rays(x, y)
+    hit, p, n, obj, _ = rays.first_hit(np.broadcast_to(pin.eye, d.shape).copy(), d)
+    flip = np.einsum("ij,ij->i", n, pin.eye - p) < 0
+    n[flip] *= -1.0
+    shape = x.shape
+    return GBuffer(position=p.reshape(*shape, 3).astype(np.float32),
+                   normal=n.reshape(*shape, 3).astype(np.float32),
+                   object=np.where(hit, obj, -1).reshape(shape).astype(np.int32))
