@@ -23,23 +23,11 @@ from pathlib import Path
 BATCH = 10
 WIRES = 16
 SIZES = (16, 32, 64, 128)
-OUT = Path(__file__).resolve().parents[1] / "glsl" / "bh_merge_net.glsl"
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "glsl" / "bh_merge_net.glsl"
+sys.path.insert(0, str(ROOT))
 
-
-def odd_even_merge_sort(n: int) -> list[tuple[int, int]]:
-    """Batcher's odd-even merge sort network of n = 2^m wires, as (lo, hi) pairs."""
-    pairs = []
-    p = 1
-    while p < n:
-        k = p
-        while k >= 1:
-            for j in range(k % p, n - k, 2 * k):
-                for i in range(min(k, n - j - k)):
-                    if (i + j) // (2 * p) == (i + j + k) // (2 * p):
-                        pairs.append((i + j, i + j + k))
-            k //= 2
-        p *= 2
-    return pairs
+from blockhash.index.probe import odd_even_merge_sort  # noqa: E402
 
 
 def batch_network() -> tuple[list[tuple[int, int]], list[int]]:

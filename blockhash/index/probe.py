@@ -24,9 +24,8 @@ AXIS_PROBE = 31
 PROBE_SLOTS = 32
 
 
-def _network(n: int) -> np.ndarray:
-    """(exchanges, 2) row pairs (low, high) of Batcher's odd-even merge sort of ``n`` (a
-    power of two) values, less those that only move a largest value out of the last slot."""
+def odd_even_merge_sort(n: int) -> list[tuple[int, int]]:
+    """Batcher's odd-even merge sort network of ``n`` = 2^m wires, as (low, high) pairs."""
     pairs = []
     p = 1
     while p < n:
@@ -38,9 +37,15 @@ def _network(n: int) -> np.ndarray:
                         pairs.append((i + j, i + j + k))
             k //= 2
         p *= 2
+    return pairs
+
+
+def _network(n: int) -> np.ndarray:
+    """(exchanges, 2) row pairs (low, high) of :func:`odd_even_merge_sort` of ``n`` values,
+    less those that only move a largest value out of the last slot."""
     largest = {n - 1}  # slots that surely hold the padding
     kept = []
-    for lo, hi in pairs:
+    for lo, hi in odd_even_merge_sort(n):
         if hi not in largest:
             if lo in largest:
                 largest = (largest - {lo}) | {hi}
