@@ -112,6 +112,13 @@ def _widest(spread):
 
 
 @numba.njit(cache=True, nogil=True)
+def _mid(below, above):
+    """A threshold mid-way in the gap between codes ``below`` < ``above``: ``below`` goes
+    left, ``above`` right, and a code off either by less than half the gap stays its side."""
+    return np.uint32(below + 1 + (above - below - 1) // 2)
+
+
+@numba.njit(cache=True, nogil=True)
 def _cut(c, lo, hi, m, depth, offsets, scale, buf, probe, spread):
     """Cut rows ``lo:hi`` of a node at ``depth`` that wants ``m`` buckets: (axis, threshold,
     rows that go left), the rows partitioned in place; rows that go left <= 0 for a bucket."""
@@ -124,8 +131,7 @@ def _cut(c, lo, hi, m, depth, offsets, scale, buf, probe, spread):
         if gap >= 0:
             # Mid-way across the gap, whatever the counts on its two sides, where each side
             # holds at least half of one of the node's buckets.
-            below_code = np.uint32(spread[gap, 4])
-            t = np.uint32(below_code + 1 + (np.uint32(spread[gap, 5]) - below_code - 1) // 2)
+            t = _mid(np.uint32(spread[gap, 4]), np.uint32(spread[gap, 5]))
             split = 0
             for r in range(lo, hi):
                 if c[r, gap] < t:
@@ -169,7 +175,7 @@ def _cut(c, lo, hi, m, depth, offsets, scale, buf, probe, spread):
         # still falls on the plane's side.
         if below == 0 or (below + equal < size and abs(below + equal - target) < abs(below - target)):
             if below + equal < size:
-                t = np.uint32(v + 1 + (min_above - v - 1) // 2)
+                t = _mid(v, min_above)
                 split = below + equal
         else:
             t = np.uint32(v - (v - max_below - 1) // 2)
