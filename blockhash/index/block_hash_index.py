@@ -23,9 +23,12 @@ from .blocks import BLOCK_WORDS, make_blocks, pack_blocks
 from .codec import WORDS_PER_PHOTON, PhotonRecords
 from .hashtables import insert_blocks
 from .hilbert import hilbert_keys
+from .best_first import bf_query
+from .node_boxes import node_boxes
 from .params import BlockHashParams, resolve_params
 from .query import bh_query
 from .thresholds import ThresholdLayout, build_thresholds
+from ..errors import InputError
 from ..validate import as_int, as_points
 
 #: Bytes per 32-bit word.
@@ -46,7 +49,8 @@ class IndexStats:
     ``bucket_load`` is the mean fraction of the B slots in use over all buckets.
     Bytes: ``photon_bytes`` (24 N, the records themselves), ``block_bytes`` (256
     per block), ``reference_bytes`` (4 L P^3 B), ``threshold_bytes``,
-    ``priority_bytes`` (one word per bucket) and ``index_bytes`` (the last three).
+    ``priority_bytes`` (one word per bucket), ``box_bytes`` (the adaptive tables'
+    node boxes, 24 bytes a node) and ``index_bytes`` (the last four).
     ``overhead`` is equation (1) on the real structure: (references + thresholds +
     blocks - photon data) / photon data; ``overhead_with_priority`` adds the
     priority words that the paper's formula leaves out.
@@ -68,15 +72,16 @@ class IndexStats:
     reference_bytes: int
     threshold_bytes: int
     priority_bytes: int
+    box_bytes: int = 0
 
     @property
     def index_bytes(self) -> int:
-        return self.reference_bytes + self.threshold_bytes + self.priority_bytes
+        return self.reference_bytes + self.threshold_bytes + self.priority_bytes + self.box_bytes
 
     @property
     def overhead(self) -> float:
-        """Equation (1) measured: (refs + thresholds + blocks - 24 N) / 24 N."""
-        return (self.reference_bytes + self.threshold_bytes + self.block_bytes
+        """Equation (1) measured: (refs + thresholds + node boxes + blocks - 24 N) / 24 N."""
+        return (self.reference_bytes + self.threshold_bytes + self.box_bytes + self.block_bytes
                 - self.photon_bytes) / self.photon_bytes
 
     @property
@@ -165,7 +170,13 @@ class BlockHashIndex:
         self.quantizer = records.quantizer
         self.block_words = pack_blocks(sorted_records, self.starts)
         self._positions = self.quantizer.decode(sorted_codes)
-        timings["pack"] = time.perf_counter() - t4
+        t5 = time.perf_counter()
+        timings["pack"] = t5 - t4
+        #: (L, nodes, 6) float32 node boxes of the adaptive tables (None for a grid layout).
+        self.node_boxes = None
+        if prm.layout == ThresholdLayout.ADAPTIVE:
+            self.node_boxes = node_boxes(self.thresholds, photon_keys, self._positions, prm.buckets)
+        timings["boxes"] = time.perf_counter() - t5
         timings["total"] = time.perf_counter() - t0
         self.timings = timings
         self.counters: dict[str, float] = {}
@@ -216,10 +227,11 @@ class BlockHashIndex:
             refs_per_photon=prm.refs / n, used_refs_per_photon=float(t.entries.sum()) / n,
             photon_bytes=n * WORDS_PER_PHOTON * WORD, block_bytes=nblocks * BLOCK_WORDS * WORD,
             reference_bytes=prm.refs * WORD, threshold_bytes=self.thresholds.size * WORD,
-            priority_bytes=prm.L * prm.buckets * WORD)
+            priority_bytes=prm.L * prm.buckets * WORD,
+            box_bytes=0 if self.node_boxes is None else self.node_boxes.nbytes)
 
     def query(self, points, k=None, *, A=None, by_priority: bool = True, slot_bits: int = 0,
-              probe: bool | None = None):
+              probe: bool | None = None, best_first: bool | None = None):
         """Approximate k nearest photons, like ``scipy.spatial.cKDTree.query``.
 
         Parameters
@@ -244,6 +256,11 @@ class BlockHashIndex:
         probe : bool, optional
             Multi-probe beyond the query's own buckets while the cap allows
             (:mod:`blockhash.index.query`); default: the preset's (on for 'default').
+        best_first : bool, optional
+            Walk the adaptive tables' node boxes nearest first
+            (:mod:`blockhash.index.best_first`) instead of hashing (and probing);
+            default: the preset's (on for 'default').  ``by_priority`` and ``probe``
+            do not change this walk.
 
         Returns
         -------
@@ -262,17 +279,35 @@ class BlockHashIndex:
         finite = np.isfinite(q).all(axis=1)
         qf = np.where(finite[:, None], q, np.float32(0.0))
         prm = self.params
-        d2, slots, examined, fetched = bh_query(
-            self.quantizer.quantize_query(qf), qf, self.thresholds, np.asarray(prm.P, dtype=np.int64),
-            int(prm.layout), self.tables.refs, self.priority, self.starts,
-            self._positions, k_eff, A_eff * k_eff, by_priority, slot_bits,
-            prm.probe if probe is None else bool(probe), self.quantizer.step.astype(np.float32))
+        walk = prm.best_first if best_first is None else bool(best_first)
+        if walk and self.node_boxes is None:
+            raise InputError(f"best_first=True needs the adaptive layout's node boxes; this index "
+                             f"has the {prm.layout.name.lower()} layout: build it with "
+                             "layout='adaptive' (the default preset) or query with best_first=False")
+        extra = {}
+        if walk:
+            d2, slots, examined, fetched, pops, drops, longest = bf_query(
+                qf, self.thresholds, self.node_boxes, self.tables.refs, self.starts,
+                self._positions, k_eff, A_eff * k_eff, slot_bits)
+            if finite.any():
+                extra = {"query.pops.mean": float(pops[finite].mean()),
+                         "query.pops.max": float(pops[finite].max()),
+                         "query.queue.max": float(longest[finite].max()),
+                         "query.queue_drops.sum": float(drops[finite].sum())}
+        else:
+            d2, slots, examined, fetched = bh_query(
+                self.quantizer.quantize_query(qf), qf, self.thresholds,
+                np.asarray(prm.P, dtype=np.int64), int(prm.layout), self.tables.refs,
+                self.priority, self.starts, self._positions, k_eff, A_eff * k_eff, by_priority,
+                slot_bits, prm.probe if probe is None else bool(probe),
+                self.quantizer.step.astype(np.float32))
         d2[~finite] = np.inf
         slots[~finite] = -1
         self.counters = {
             "query.points": float(len(q)),
             "query.candidates.mean": float(examined[finite].mean()) if finite.any() else 0.0,
             "query.blocks.mean": float(fetched[finite].mean()) if finite.any() else 0.0,
+            **extra,
         }
         distances = np.sqrt(d2.astype(np.float64))
         # A squared distance that overflows float32 (a query ~1.8e19 m away) orders

@@ -14,8 +14,10 @@ Two presets choose them:
 ``default``
     The adaptive layout (:mod:`blockhash.index.adaptive`): each table a kd-tree
     of count thresholds with buckets of ``S`` photons on whatever surfaces the
-    photons lie; buckets visited deepest first and multi-probed across their
-    nearest borders (:mod:`blockhash.index.query`).  A is the one knob:
+    photons lie; a query walks the tables' tight node boxes nearest first
+    (:mod:`blockhash.index.best_first`; ``best_first=False`` at query time gives
+    the hash query instead: buckets visited deepest first and multi-probed across
+    their nearest borders, :mod:`blockhash.index.query`).  A is the one knob:
     ``S = DEFAULT_PHOTONS_PER_BUCKET * k * A / ADAPTIVE_REFERENCE_A`` grows with
     the candidate budget ``A k``, and ``B`` with ``S``, so the memory per photon
     stays about ``L B / S`` at every A.
@@ -107,6 +109,9 @@ class BlockHashParams:
     #: Multi-probe the buckets beyond the query's own when the candidate cap allows
     #: (:mod:`blockhash.index.query`, step 4).
     probe: bool = False
+    #: ADAPTIVE layout only: walk the tables' node boxes nearest first
+    #: (:mod:`blockhash.index.best_first`) instead of hashing and probing.
+    best_first: bool = False
 
     @property
     def buckets(self) -> int:
@@ -126,7 +131,8 @@ class BlockHashParams:
             built = f", buckets={self.adaptive_buckets:,}" if self.adaptive_buckets else ""
             return (f"BlockHashParams(preset={self.preset!r}, k={self.k}, A={self.A}, L={self.L}, "
                     f"S={self.bucket_photons:g} photons/bucket{built}, B={self.B}, layout=adaptive"
-                    f"{', probe' if self.probe else ''})")
+                    f"{', probe' if self.probe and not self.best_first else ''}"
+                    f"{', nearest-box-first' if self.best_first else ''})")
         return (f"BlockHashParams(preset={self.preset!r}, k={self.k}, A={self.A}, L={self.L}, "
                 f"P=({px}, {py}, {pz}), B={self.B}, layout={self.layout.name.lower()})")
 
@@ -165,7 +171,7 @@ def grid_params(positions: np.ndarray, params: BlockHashParams, layout) -> Block
     sample = positions[::max(1, len(positions) // 200_000)]
     lo, hi = np.percentile(sample, (5.0, 95.0), axis=0)
     P = buckets_per_axis(hi - lo, len(positions) / params.bucket_photons)
-    return replace(params, P=P, layout=layout, probe=False, bucket_photons=0.0)
+    return replace(params, P=P, layout=layout, probe=False, best_first=False, bucket_photons=0.0)
 
 
 def adaptive_params(positions: np.ndarray, *, k: int, A: int,
@@ -180,7 +186,8 @@ def adaptive_params(positions: np.ndarray, *, k: int, A: int,
     B_budget = max(1, int(refs_per_photon * S / L))
     B = max(1, min(B_need, B_budget, MAX_B))
     return BlockHashParams(k=k, A=A, L=L, P=(1, 1, 1), B=B, layout=ThresholdLayout.ADAPTIVE,
-                           preset="default", bucket_photons=float(S), probe=True)
+                           preset="default", bucket_photons=float(S), probe=True,
+                           best_first=True)
 
 
 def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",
@@ -218,7 +225,7 @@ def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",
     if changes:
         params = replace(params, preset=f"{params.preset}+overrides", **changes)
     if params.layout != ThresholdLayout.ADAPTIVE:  # probing follows the adaptive layout's cuts
-        params = replace(params, probe=False, bucket_photons=0.0)
+        params = replace(params, probe=False, best_first=False, bucket_photons=0.0)
     elif params.bucket_photons == 0.0:  # the paper's preset on the adaptive layout
         params = replace(params, bucket_photons=adaptive_params(positions, k=k, A=A).bucket_photons)
     if params.L > MAX_L or params.B > MAX_B:

@@ -1,0 +1,191 @@
+"""Nearest-box-first query of the adaptive layout (the default preset's query).
+
+The L adaptive tables are kd-trees whose nodes carry tight photon boxes
+(:mod:`blockhash.index.node_boxes`).  A query walks all of them at once, nearest
+box first, and takes the blocks of each bucket it reaches as the hash query does
+(:func:`blockhash.index.query._take`: references in slot order, duplicates skipped,
+the candidate cap checked before each block, at most ``L * B`` blocks):
+
+1. a queue of (squared distance to the node's box, node id) is seeded with the L
+   roots, table order; node id = ``t * nodes + i`` for node ``i`` of table ``t``;
+2. repeat at most ``MAX_POPS`` times: stop when ``A * k`` candidates were examined,
+   ``L * B`` blocks taken or the queue is empty; pop the entry with the smallest
+   (distance, id); stop when k neighbours are held and its distance exceeds the k-th
+   (``kth`` below); a bucket node: stop if ``MAX_LEAVES`` buckets were visited, else
+   take its bucket's blocks; an inner node: push each child whose box is non-empty and
+   not farther than ``kth``;
+3. keep the k nearest candidates as :mod:`blockhash.index.query` step 5 does.
+
+``kth`` is compared as float32 bits (distances are >= 0, so bits order as values):
+the k-th (distance, slot) key's distance bits when k are held (exact selection), the
+k-th packed key with its slot bits set (``slot_bits`` > 0: the shader's packed and
+merge selections), and 0xFFFFFFFF (nothing is pruned) while fewer than k are held.
+
+The queue is a plain array of at most ``QUEUE_CAPACITY`` entries, scanned linearly:
+a pop takes the smallest (distance, id) and moves the last entry into its place; a
+push onto a full queue keeps the ``QUEUE_CAPACITY`` smallest of the entries and the
+new one (the largest is dropped, and counted).  Ids are unique, so the walk is the
+same whatever the array order: glsl/bh_walk.glsl runs exactly this walk.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from .node_boxes import box_dist2
+from .query import _take
+from .thresholds import LEAF
+
+#: Entries the walk's queue holds (glsl/bh_walk.glsl BH_QUEUE; a multiple of 32, the
+#: shader's unrolled scan chunk).  At N = 10^6, k = 50 the queue held at most 172
+#: entries (99th percentile 97) on the far queries of the venus photon map.
+QUEUE_CAPACITY = 192
+#: Nodes one walk pops at most, and buckets it visits at most: bounds on the shader's
+#: loops (llvmpipe's loop limit, blockhash/gl/limits.py).  At N = 10^6, k = 50, A = 8 and
+#: 64 a venus query popped at most 914 nodes (99th percentile 525; 512 pops would raise
+#: the false negatives from 2.80 to 3.30%) and visited at most 45 buckets (ring: 42).
+MAX_POPS = 1024
+MAX_LEAVES = 64
+_NONE = np.uint32(0xFFFFFFFF)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _pop(qd, qn, size):
+    """Index of the smallest (distance bits, id) among the first ``size`` entries."""
+    j = 0
+    for u in range(1, size):
+        if qd[u] < qd[j] or (qd[u] == qd[j] and qn[u] < qn[j]):
+            j = u
+    return j
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _push(qd, qn, size, d, node):
+    """Push (d, node); on a full queue the largest of its entries and the new one is
+    dropped.  Returns (new size, 1 if an entry was dropped)."""
+    if size < qd.shape[0]:
+        qd[size] = d
+        qn[size] = node
+        return size + 1, 0
+    j = 0
+    for u in range(1, size):
+        if qd[u] > qd[j] or (qd[u] == qd[j] and qn[u] > qn[j]):
+            j = u
+    if d < qd[j] or (d == qd[j] and node < qn[j]):
+        qd[j] = d
+        qn[j] = node
+    return size, 1
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bits=0,
+             queue=QUEUE_CAPACITY, max_pops=MAX_POPS, max_leaves=MAX_LEAVES):
+    """Approximate k nearest photons of each query by the nearest-box-first walk.
+
+    Parameters
+    ----------
+    qpos : (m, 3) float32       query positions
+    thresholds : (L, T) uint32  adaptive rows
+    boxes : (L, T // 2, 6) float32  node boxes (:func:`.node_boxes.node_boxes`)
+    refs, starts, positions, k, cap, slot_bits : as :func:`blockhash.index.query.bh_query`
+    queue : int                 queue capacity
+    max_pops : int              nodes popped at most
+    max_leaves : int            buckets visited at most
+
+    Returns
+    -------
+    d2, slots, examined, blocks : as :func:`blockhash.index.query.bh_query`
+    pops : (m,) int32           nodes popped
+    drops : (m,) int32          entries dropped from a full queue
+    longest : (m,) int32        most entries the queue held
+    """
+    m = qpos.shape[0]
+    L = refs.shape[0]
+    B = refs.shape[2]
+    nn = boxes.shape[1]
+    d2 = np.full((m, k), np.inf, dtype=np.float32)
+    slots = np.full((m, k), -1, dtype=np.int64)
+    examined = np.zeros(m, dtype=np.int32)
+    fetched = np.zeros(m, dtype=np.int32)
+    pops = np.zeros(m, dtype=np.int32)
+    drops = np.zeros(m, dtype=np.int32)
+    longest = np.zeros(m, dtype=np.int32)
+    mask = np.uint32((1 << slot_bits) - 1) if slot_bits > 0 else np.uint32(0)
+    for qi in numba.prange(m):
+        packed = np.full(k, _NONE, dtype=np.uint32)
+        bits = np.empty(1, dtype=np.float32)
+        bits_u = bits.view(np.uint32)
+        taken = np.empty(L * B, dtype=np.int32)
+        qd = np.empty(queue, dtype=np.uint32)
+        qn = np.empty(queue, dtype=np.int64)
+        bd = d2[qi]
+        bs = slots[qi]
+        qx = qpos[qi, 0]
+        qy = qpos[qi, 1]
+        qz = qpos[qi, 2]
+        size = 0
+        ntaken = 0
+        count = 0
+        leaves = 0
+        for t in range(L):
+            box = boxes[t, 0]
+            if box[0] <= box[3]:
+                bits[0] = box_dist2(box, qx, qy, qz)
+                size, dropped = _push(qd, qn, size, bits_u[0], t * nn)
+                drops[qi] += dropped
+        longest[qi] = size
+        for _ in range(max_pops):
+            if count >= cap or ntaken >= L * B or size == 0:
+                break
+            j = _pop(qd, qn, size)
+            d = qd[j]
+            node = qn[j]
+            size -= 1
+            qd[j] = qd[size]
+            qn[j] = qn[size]
+            pops[qi] += 1
+            if slot_bits > 0:
+                kth = packed[k - 1] | mask
+            elif bs[k - 1] >= 0:
+                bits[0] = bd[k - 1]
+                kth = bits_u[0]
+            else:
+                kth = _NONE
+            if d > kth:
+                break
+            t = node // nn
+            i = node % nn
+            meta = thresholds[t, 2 * i + 1]
+            if meta & LEAF:
+                if leaves >= max_leaves:
+                    break
+                leaves += 1
+                ntaken, count = _take(t, np.int64(meta >> 3), refs, starts, positions, qx, qy, qz,
+                                      taken, ntaken, count, cap, k, bd, bs, packed, mask,
+                                      slot_bits, bits, bits_u)
+                continue
+            c = np.int64(meta >> 3)
+            for ch in range(2):
+                box = boxes[t, c + ch]
+                if box[0] <= box[3]:
+                    bits[0] = box_dist2(box, qx, qy, qz)
+                    if bits_u[0] <= kth:
+                        size, dropped = _push(qd, qn, size, bits_u[0], t * nn + c + ch)
+                        drops[qi] += dropped
+            longest[qi] = max(longest[qi], size)
+        if slot_bits > 0:
+            for i in range(k):
+                if packed[i] == _NONE:
+                    break
+                cand = np.int64(packed[i] & mask)
+                blk = taken[cand // 10]
+                s = starts[blk] + cand % 10
+                dx = positions[s, 0] - qx
+                dy = positions[s, 1] - qy
+                dz = positions[s, 2] - qz
+                bd[i] = (dx * dx + dy * dy) + dz * dz
+                bs[i] = s
+        examined[qi] = count
+        fetched[qi] = ntaken
+    return d2, slots, examined, fetched, pops, drops, longest
