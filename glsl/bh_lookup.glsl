@@ -7,8 +7,11 @@
 // across the adaptive layout's nearest cuts while the cap allows), BH_DEDUP, and
 // BH_TAKEN_MAX (bh_taken.glsl), BH_CULL (off | box: skip blocks that cannot hold a
 // neighbour), BH_FETCH_ONLY (1: fetch and measure the same candidates but keep none, the
-// memory floor the benchmark compares with; bh_fetch_sink receives their sum).
-// The CPU oracle is blockhash/query.py bh_query; both give identical results.
+// memory floor the benchmark compares with; bh_fetch_sink receives their sum),
+// BH_BEST_FIRST (1: the default preset's nearest-box-first walk, bh_walk.glsl, replaces
+// hashing, bucket order and probes).
+// The CPU oracle is blockhash/index/query.py bh_query (BH_BEST_FIRST: best_first.py
+// bf_query); both give identical results.
 #ifndef BH_LOOKUP_GLSL
 #define BH_LOOKUP_GLSL
 #include "bh_variants.glsl"
@@ -151,6 +154,13 @@ void bh_take(uint t, uint key, uint nref, vec3 q, inout uint ntaken, inout uint 
     }
 }
 
+#if BH_BEST_FIRST
+#if !BH_ADAPTIVE
+#error BH_BEST_FIRST walks the adaptive layout's node boxes: it needs BH_ADAPTIVE
+#endif
+#include "bh_walk.glsl"
+#endif
+
 uint bh_lookup(vec3 q) {
 #if BH_SELECT == BH_SELECT_MERGE
     bh_merge_init();
@@ -159,6 +169,14 @@ uint bh_lookup(vec3 q) {
 #else
     bh_select_init();
 #endif
+    uint ntaken = 0u;
+    uint count = 0u;
+#if BH_BEST_FIRST
+#if BH_DEDUP == BH_DEDUP_SET
+    bh_taken_init();
+#endif
+    bh_walk(q, ntaken, count);
+#else
     uvec3 code = bh_quantize(q);
     uint keys[BH_L];
 #if BH_ADAPTIVE
@@ -188,8 +206,6 @@ uint bh_lookup(vec3 q) {
     uint entries[BH_L];
     bh_order_tables(keys, order, entries);
 #endif
-    uint ntaken = 0u;
-    uint count = 0u;
     for (int oi = 0; oi < BH_L; ++oi) {
         if (count >= uint(BH_CAP)) {
             break;
@@ -239,6 +255,7 @@ uint bh_lookup(vec3 q) {
         }
     }
 #endif
+#endif  // BH_BEST_FIRST
 #if BH_SELECT == BH_SELECT_MERGE && !BH_FETCH_ONLY
     // Unpack the winners into (exact distance bits, photon slot) keys.
 #define BH_MS_UNPACK1(i) if (i < BH_K) bh_best[i] = bh_unpack(bh_ms[i], q);

@@ -33,6 +33,7 @@ from __future__ import annotations
 import math
 
 from ..errors import CapacityError, InputError
+from ..index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY
 from ..index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
 from .shaderlib import NAMED
 
@@ -64,11 +65,19 @@ def loop_iterations(params, variant, k: int, cap: int) -> int:
     ``min(L B, ceil(cap / 10) + 1)``) in chunks of ``SCAN_CHUNK`` unrolled compares; the
     candidate loop runs at most ``cap + 10`` times; insertion selection adds up to k
     shifts per candidate; the output adds k.
+
+    The nearest-box-first walk (``params.best_first``, glsl/bh_walk.glsl) replaces hashing:
+    L root pushes, then at most ``MAX_POPS`` pops, each a scan of the queue and two pushes
+    onto it (each scan at most ``QUEUE_CAPACITY / 32`` chunks), and at most ``MAX_LEAVES``
+    buckets of at most ``B`` references each.
     """
     L, B = params.L, params.B
     probes = PROBE_CUTS if getattr(params, "probe", False) else 0
     refs = L * B * (1 + probes)
     taken = min(L * B, math.ceil(cap / 10) + 1)
+    walk = getattr(params, "best_first", False)
+    if walk:
+        refs = MAX_LEAVES * B
     if params.layout == ThresholdLayout.ADAPTIVE:
         hash_steps = MAX_DEPTH * (1 + probes)  # the kd-tree descent: a constant loop, too long to unroll
     elif getattr(variant, "search", "binary") == "linear":
@@ -81,7 +90,11 @@ def loop_iterations(params, variant, k: int, cap: int) -> int:
     scan = 0 if set_fits else math.ceil(taken / SCAN_CHUNK)
     if dedup == "set" and not set_fits and not is_default:
         scan = 0  # refused before compiling anyway (GLLookup.defines)
-    total = L * hash_steps + L * L + refs * (1 + scan) + cap + 10 + k
+    hashing = L * hash_steps + L * L
+    if walk:
+        chunks = QUEUE_CAPACITY // 32
+        hashing = L * (1 + chunks) + MAX_POPS * (1 + 3 * chunks)
+    total = hashing + refs * (1 + scan) + cap + 10 + k
     if getattr(variant, "select", "packed") == "insertion":
         total += (cap + 10) * k
     return int(total)

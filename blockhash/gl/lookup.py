@@ -16,6 +16,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import CapacityError, InputError
+from ..index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY
 from ..index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
 from ..validate import as_int, as_points
 from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer, time_draws
@@ -88,20 +89,23 @@ class GLLookup:
             "BH_BUCKETS": prm.buckets, "BH_K": k, "BH_CAP": cap, **self.packed.widths,
             "BH_SLOT_BITS": slot_bits(prm.L, prm.B), "BH_FETCH_ONLY": int(fetch_only),
             "BH_TAKEN_MAX": taken,
+            "BH_BEST_FIRST": int(prm.best_first), "BH_QUEUE": QUEUE_CAPACITY,
+            "BH_MAX_POPS": MAX_POPS, "BH_MAX_LEAVES": MAX_LEAVES,
+            "BH_NODES": max(1, self.index.thresholds.shape[1] // 2),
         }
 
     def textures(self) -> dict:
         """Sampler name -> texture of the uploaded index."""
         p = self.packed
         return {"bh_blocks": p.blocks, "bh_headers": p.headers, "bh_refs": p.refs,
-                "bh_thresholds": p.thresholds}
+                "bh_thresholds": p.thresholds, "bh_boxes": p.boxes}
 
     def set_uniforms(self, program) -> None:
         """The photon box (bh_box.glsl) and power scale, as exact float32 values."""
         box = self.index.quantizer
-        program["bh_lo"].value = tuple(float(x) for x in box.lo)
-        program["bh_step"].value = tuple(float(x) for x in box.step)
-        program["bh_inv_step"].value = tuple(float(x) for x in box.inv_step)
+        for name, value in (("bh_lo", box.lo), ("bh_step", box.step), ("bh_inv_step", box.inv_step)):
+            if name in program:  # the nearest-box-first walk quantizes no query: no bh_inv_step
+                program[name].value = tuple(float(x) for x in value)
         if "bh_power_scale" in program:
             program["bh_power_scale"].value = float(self.index.records.power_scale)
 
@@ -123,7 +127,9 @@ class GLLookup:
         examined per query and ``gl.draw_seconds``, the time of the draws alone
         (no compile, upload or read-back), and ``query.blocks_culled.mean``, the blocks
         skipped by culling (variants with cull 'box').  ``fetch_only`` runs the memory-floor
-        shader for benchmarks: same candidates, no selection, no neighbours returned.
+        shader for benchmarks: same candidates, no selection, no neighbours returned (the
+        default preset's nearest-box-first walk then prunes nothing, so it examines the
+        candidates of a walk that never holds k neighbours).
         ``width`` is the queries per viewport row (default 1024): an image's width makes
         the fragments that run side by side neighbouring pixels (same results).
         """

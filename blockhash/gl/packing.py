@@ -13,6 +13,9 @@ blocks        RGBA32UI  16 texels per block: the block's 64 words (Figure 4), wi
 headers       RG32UI    bucket ``t * buckets + key``: (priority alpha, entries)
 refs          R32UI     ``(t * buckets + key) * B + slot``: block reference
 thresholds    R32UI     ``t * T + i``: threshold codes (blockhash/index/thresholds.py)
+boxes         RGBA32UI  2 texels per adaptive node ``t * (T / 2) + i``: (float32 bits of
+                        lo x, y, z, 1 if the box holds photons else 0), (hi x, y, z, 0)
+                        (blockhash/index/node_boxes.py; one zero texel for a grid layout)
 ============  ========  ====================================================
 
 A map that does not fit (more rows than GL_MAX_TEXTURE_SIZE) is refused
@@ -67,11 +70,25 @@ class PackedIndex:
     headers: object
     refs: object
     thresholds: object
+    boxes: object
     widths: dict
 
     def release(self):
-        for tex in (self.blocks, self.headers, self.refs, self.thresholds):
+        for tex in (self.blocks, self.headers, self.refs, self.thresholds, self.boxes):
             tex.release()
+
+
+def box_texels(node_boxes) -> np.ndarray:
+    """(2 * L * nodes, 4) uint32 texels of the node boxes (the ``boxes`` layout above), or
+    one zero texel when there are none (``node_boxes`` None: a grid layout)."""
+    if node_boxes is None:
+        return np.zeros((1, 4), dtype=np.uint32)
+    b = np.ascontiguousarray(node_boxes, dtype=np.float32).reshape(-1, 6)
+    out = np.zeros((len(b), 2, 4), dtype=np.uint32)
+    out[:, 0, :3] = b[:, :3].view(np.uint32)
+    out[:, 0, 3] = b[:, 0] <= b[:, 3]
+    out[:, 1, :3] = b[:, 3:].view(np.uint32)
+    return out.reshape(-1, 4)
 
 
 def block_boxes(block_words: np.ndarray) -> np.ndarray:
@@ -91,20 +108,26 @@ def block_boxes(block_words: np.ndarray) -> np.ndarray:
 
 
 def pack_index(ctx, index) -> PackedIndex:
-    """Upload an index's blocks, bucket headers, references and thresholds."""
+    """Upload an index's blocks, bucket headers, references, thresholds and node boxes."""
     tables = index.tables
     headers = np.stack([index.priority.astype(np.uint32), tables.entries.astype(np.uint32)], axis=-1)
     refs = tables.refs.astype(np.int64).astype(np.uint32)  # -1 -> 0xFFFFFFFF, past `entries`
     thresholds = index.thresholds if index.thresholds.size else np.zeros((1, 1), dtype=np.uint32)
     words = index.block_words.copy()
     words[:, COUNT_WORD + 1:COUNT_WORD + 4] = block_boxes(words)
-    blocks, wb = upload(ctx, words.reshape(-1, 4), 4, "photon block")
+    done = []
     try:
-        hdr, wh = upload(ctx, headers.reshape(-1, 2), 2, "bucket header")
-        ref, wr = upload(ctx, refs.reshape(-1), 1, "block reference")
-        thr, wt = upload(ctx, thresholds.reshape(-1), 1, "threshold")
+        for data, comps, what in ((words.reshape(-1, 4), 4, "photon block"),
+                                  (headers.reshape(-1, 2), 2, "bucket header"),
+                                  (refs.reshape(-1), 1, "block reference"),
+                                  (thresholds.reshape(-1), 1, "threshold"),
+                                  (box_texels(getattr(index, "node_boxes", None)), 4, "node box")):
+            done.append(upload(ctx, data, comps, what))
     except CapacityError:
-        blocks.release()
+        for tex, _ in done:
+            tex.release()
         raise
-    return PackedIndex(blocks=blocks, headers=hdr, refs=ref, thresholds=thr,
-                       widths={"BH_BLK_W": wb, "BH_HDR_W": wh, "BH_REF_W": wr, "BH_THR_W": wt})
+    (blocks, wb), (hdr, wh), (ref, wr), (thr, wt), (box, wx) = done
+    return PackedIndex(blocks=blocks, headers=hdr, refs=ref, thresholds=thr, boxes=box,
+                       widths={"BH_BLK_W": wb, "BH_HDR_W": wh, "BH_REF_W": wr, "BH_THR_W": wt,
+                               "BH_BOX_W": wx})
