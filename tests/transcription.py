@@ -66,8 +66,69 @@ def examined_blocks(index, q, k, A):
     return taken
 
 
+def box_distance(box, q):
+    """float32 squared distance from q to a node box, the walk's operations one by one."""
+    g = [max(max(np.float32(box[a] - q[a]), np.float32(q[a] - box[3 + a])), np.float32(0))
+         for a in range(3)]
+    return np.float32(np.float32(np.float32(g[0] * g[0]) + np.float32(g[1] * g[1]))
+                      + np.float32(g[2] * g[2]))
+
+
+def walked_query(index, q, k, A):
+    """The nearest-box-first walk (blockhash/index/best_first.py) in plain Python, with an
+    unbounded sorted queue (the real one's capacity never binds on small maps): the k
+    nearest (slots, squared distances) of the photons of the buckets it reaches."""
+    prm = index.params
+    qf = np.asarray(q, dtype=np.float32)
+    boxes, rows = index.node_boxes, index.thresholds
+    nn = boxes.shape[1]
+    from blockhash.index.best_first import MAX_LEAVES, MAX_POPS
+
+    def nonempty(t, i):
+        return boxes[t, i, 0] <= boxes[t, i, 3]
+
+    queue = sorted((box_distance(boxes[t, 0], qf), t * nn) for t in range(prm.L) if nonempty(t, 0))
+    best, taken, count, leaves = [], [], 0, 0   # best: sorted (d2, slot), at most k
+    for _ in range(MAX_POPS):
+        if count >= A * k or len(taken) >= prm.L * prm.B or not queue:
+            break
+        d, node = queue.pop(0)
+        kth = best[-1][0] if len(best) == k else np.float32(np.inf)
+        if len(best) == k and d > kth:
+            break
+        t, i = divmod(node, nn)
+        meta = int(rows[t, 2 * i + 1])
+        if meta & 4:
+            if leaves >= MAX_LEAVES:
+                break
+            leaves += 1
+            for blk in index.tables.refs[t, meta >> 3]:
+                if count >= A * k or blk < 0 or len(taken) >= prm.L * prm.B:
+                    break
+                if blk in taken:
+                    continue
+                taken.append(int(blk))
+                for s in range(index.starts[blk], index.starts[blk + 1]):
+                    count += 1
+                    p = index._positions[s] - qf
+                    d2 = np.float32(np.float32(p[0] * p[0] + p[1] * p[1]) + p[2] * p[2])
+                    best = sorted(best + [(d2, s)])[:k]
+            continue
+        c = meta >> 3
+        for child in (c, c + 1):
+            if nonempty(t, child):
+                dc = box_distance(boxes[t, child], qf)
+                if len(best) < k or dc <= kth:
+                    queue.append((dc, t * nn + child))
+        queue.sort()
+    return [s for _, s in best], [v for v, _ in best]
+
+
 def transcribed_query(index, q, k, A):
-    """Section 4.4 as written: the k nearest of the examined photons, ties by slot."""
+    """Section 4.4 as written: the k nearest of the examined photons, ties by slot (the
+    default preset: the nearest-box-first walk, :func:`walked_query`)."""
+    if index.params.best_first:
+        return walked_query(index, q, k, A)
     qf = np.asarray(q, dtype=np.float32)[None, :]
     cand = [s for blk in examined_blocks(index, q, k, A)
             for s in range(index.starts[blk], index.starts[blk + 1])]

@@ -1,0 +1,103 @@
+"""The default preset's nearest-box-first walk: node boxes, far queries, the queue's rule."""
+
+import numpy as np
+import pytest
+
+from blockhash import BlockHashIndex, InputError
+from blockhash.index.best_first import QUEUE_CAPACITY, bf_query
+from blockhash.index.metrics import exact_knn, false_negatives
+from blockhash.index.thresholds import LEAF, THRESHOLD_PAD
+from conftest import photon_set
+
+
+def test_node_boxes_are_tight_around_their_photons():
+    index = BlockHashIndex(photon_set("clustered", 20_000), k=8, A=8)
+    boxes, rows = index.node_boxes, index.thresholds
+    pos = index._positions
+    from blockhash.index.adaptive import build_adaptive
+
+    _, keys, _ = build_adaptive(index.records.records[:, :3], L=index.params.L,
+                                photons_per_bucket=index.params.bucket_photons,
+                                scale=index.quantizer.step)
+    for t in range(index.params.L):
+        nn = rows.shape[1] // 2
+        np.testing.assert_array_equal(boxes[t, 0, :3], pos.min(axis=0))  # the root: every photon
+        np.testing.assert_array_equal(boxes[t, 0, 3:], pos.max(axis=0))
+        for i in range(nn):
+            meta = rows[t, 2 * i + 1]
+            if meta == THRESHOLD_PAD:
+                assert boxes[t, i, 0] > boxes[t, i, 3]  # padding: empty
+            elif meta & LEAF:
+                mine = pos[keys[t] == meta >> 3]  # the bucket's photons, tight
+                np.testing.assert_array_equal(boxes[t, i, :3], mine.min(axis=0))
+                np.testing.assert_array_equal(boxes[t, i, 3:], mine.max(axis=0))
+            else:
+                c = int(meta >> 3)
+                np.testing.assert_array_equal(boxes[t, i, :3], boxes[t, c:c + 2, :3].min(axis=0))
+                np.testing.assert_array_equal(boxes[t, i, 3:], boxes[t, c:c + 2, 3:].max(axis=0))
+
+
+def two_patches_and_far_points(n=30_000, m=400):
+    """Photons on two small patches, at opposite corners of the unit square and on the planes
+    z = 0 and z = 1; shading points anywhere on the plane z = 0.5 between them, most of them
+    far from every photon (the code path of such a point leads to buckets far from it)."""
+    rng = np.random.default_rng(3)
+    pts = np.zeros((n, 3))
+    pts[:, :2] = rng.random((n, 2)) * 0.1
+    pts[n // 2:] += (0.9, 0.9, 1.0)
+    q = np.full((m, 3), 0.5, dtype=np.float32)
+    q[:, :2] = rng.random((m, 2))
+    return pts, q
+
+
+def test_far_queries_find_their_exact_neighbours_where_hashing_did_not():
+    pts, q = two_patches_and_far_points()
+    index = BlockHashIndex(pts, k=20, A=32)
+    _, ei = exact_knn(index.positions, q, 20)
+    _, walked = index.query(q)
+    _, hashed = index.query(q, best_first=False)
+    fn_walk = false_negatives(walked, ei, len(pts)).mean() / 20
+    fn_hash = false_negatives(hashed, ei, len(pts)).mean() / 20
+    assert fn_walk <= 0.005, f"the walk missed {fn_walk:.1%}"   # measured 0.1%
+    assert fn_hash >= 0.10, f"hashing now misses only {fn_hash:.1%}: make the case harder"  # 14.7%
+
+
+def test_the_walk_stops_at_the_candidate_cap_and_without_k_neighbours_prunes_nothing():
+    index = BlockHashIndex(photon_set("uniform", 20_000), k=8, A=2)
+    q = photon_set("uniform", 200, seed=4).astype(np.float32)
+    index.query(q)
+    assert index.counters["query.candidates.mean"] <= 2 * 8 + 9
+    d, i = index.query(q, k=1, A=1)  # one candidate block is enough
+    assert np.isfinite(d).all()
+
+
+def test_a_full_queue_drops_its_farthest_entries_and_counts_them():
+    pts, q = two_patches_and_far_points()
+    index = BlockHashIndex(pts, k=20, A=8)
+    args = (q, index.thresholds, index.node_boxes, index.tables.refs, index.starts,
+            index._positions, 20, 160, 0)
+    full = bf_query(*args, QUEUE_CAPACITY)
+    small = bf_query(*args, 32)
+    assert full[5].sum() == 0 and small[5].sum() > 0  # drops
+    assert small[6].max() == 32 and full[6].max() > 32  # longest queue
+    # Dropping the farthest entries costs little: the walk rarely reaches them.
+    _, ei = exact_knn(index.positions, q, 20)
+    to_idx = lambda slots: np.where(slots >= 0, index.order[np.maximum(slots, 0)], len(pts))
+    fn = [false_negatives(to_idx(r[1]), ei, len(pts)).mean() / 20 for r in (full, small)]
+    assert fn[1] <= fn[0] + 0.01, f"queue of {QUEUE_CAPACITY}: {fn[0]:.2%}, of 32: {fn[1]:.2%}"
+
+
+def test_best_first_on_a_grid_layout_is_refused_with_the_way_out():
+    index = BlockHashIndex(photon_set("uniform", 3000), k=8, A=4, preset="paper")
+    assert not index.params.best_first and index.node_boxes is None
+    with pytest.raises(InputError, match=r"best_first=True needs the adaptive layout's node boxes; "
+                                         r"this index has the marginal layout.*best_first=False"):
+        index.query(np.zeros((2, 3)), best_first=True)
+
+
+def test_stats_count_the_node_boxes():
+    index = BlockHashIndex(photon_set("uniform", 5000), k=8, A=4)
+    s = index.stats
+    assert s.box_bytes == index.node_boxes.nbytes > 0
+    assert s.index_bytes == s.reference_bytes + s.threshold_bytes + s.priority_bytes + s.box_bytes
+    assert "nearest-box-first" in repr(index.params)
