@@ -101,3 +101,17 @@ def test_stats_count_the_node_boxes():
     assert s.box_bytes == index.node_boxes.nbytes > 0
     assert s.index_bytes == s.reference_bytes + s.threshold_bytes + s.priority_bytes + s.box_bytes
     assert "nearest-box-first" in repr(index.params)
+
+
+def test_a_queue_capacity_the_shader_cannot_scan_is_refused_before_compiling(monkeypatch):
+    import blockhash.gl.lookup as lookup_module
+    from blockhash.gl.shaderlib import Variant
+
+    index = BlockHashIndex(photon_set("uniform", 3000), k=8, A=4)
+    lookup = object.__new__(lookup_module.GLLookup)  # defines() needs no context
+    lookup.index, lookup.packed = index, type("P", (), {"widths": {}})()
+    assert lookup.defines(Variant(), 8, 32)["BH_QUEUE"] == QUEUE_CAPACITY
+    monkeypatch.setattr(lookup_module, "QUEUE_CAPACITY", 100)
+    with pytest.raises(InputError, match=r"QUEUE_CAPACITY=100 must be a positive multiple of 32.*"
+                                         r"round it up"):
+        lookup.defines(Variant(), 8, 32)

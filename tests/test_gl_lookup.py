@@ -259,3 +259,52 @@ def test_a_candidate_cap_beyond_the_register_set_is_refused_with_the_way_out():
     assert_same_as_cpu(lookup, index, q, 100, 16, variant="default")
 
 
+
+
+def two_patches_and_far_points(n=6000, m=200):
+    """Photons on two small patches at opposite corners (planes z = 0 and z = 1), shading
+    points on the plane z = 0.5 between them: the walk prunes, pops many nodes and fills
+    its queue (tests/test_best_first.py)."""
+    rng = np.random.default_rng(3)
+    pts = np.zeros((n, 3))
+    pts[:, :2] = rng.random((n, 2)) * 0.1
+    pts[n // 2:] += (0.9, 0.9, 1.0)
+    q = np.full((m, 3), 0.5, dtype=np.float32)
+    q[:, :2] = rng.random((m, 2))
+    q[7] = np.nan
+    q[8, 2] = np.inf
+    return pts, q
+
+
+@pytest.fixture(scope="module")
+def far_index():
+    return BlockHashIndex(two_patches_and_far_points()[0], k=16, A=8)
+
+
+@pytest.mark.parametrize("variant", ["default", "binary-branch-on-insertion", "binary-zero-off-network-box",
+                                     "binary-set-on-merge", "binary-branch-on-packed"])
+def test_the_nearest_box_first_walk_equals_the_cpu_reference_on_far_queries(far_index, variant):
+    context_or_skip("egl")
+    assert far_index.params.best_first
+    lookup = GLLookup(far_index, backend="egl")
+    assert_same_as_cpu(lookup, far_index, two_patches_and_far_points()[1], 16, 8, variant=variant)
+
+
+def test_a_full_walk_queue_drops_the_same_entries_on_both_sides(far_index, monkeypatch):
+    """A queue of 32 entries overflows on these queries; the shader drops exactly the entries
+    that the CPU reference drops (the largest (distance, node id))."""
+    context_or_skip("egl")
+    import blockhash.gl.lookup as lookup_module
+    from blockhash.index.best_first import bf_query
+
+    monkeypatch.setattr(lookup_module, "QUEUE_CAPACITY", 32)
+    q = two_patches_and_far_points()[1]
+    qf = np.where(np.isfinite(q).all(axis=1)[:, None], q, np.float32(0))
+    ix = far_index
+    d2, slots, *_, drops, longest = bf_query(qf, ix.thresholds, ix.node_boxes, ix.tables.refs,
+                                             ix.starts, ix._positions, 16, 128, 0, 32)
+    assert drops.sum() > 0 and longest.max() == 32
+    d, i = GLLookup(ix, backend="egl").query(q, k=16, A=8, variant="binary-branch-on-insertion")
+    ok = np.isfinite(q).all(axis=1)
+    expect = np.where(slots >= 0, ix.order[np.maximum(slots, 0)], len(ix))
+    np.testing.assert_array_equal(i[ok], expect[ok])

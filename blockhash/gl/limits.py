@@ -17,12 +17,13 @@ Two limits bound what ``GLLookup.query`` and the caustic pass accept:
     iterations are unrolled and do not count).  A lookup that ran into it would
     return fewer candidates than the CPU reference, without an error.
     :func:`loop_iterations` bounds the iterations of one lookup from above
-    (the loops of glsl/bh_lookup.glsl, bh_hash.glsl, bh_buckets.glsl,
+    (the loops of glsl/bh_lookup.glsl, bh_walk.glsl, bh_hash.glsl, bh_buckets.glsl,
     bh_select.glsl and bh_query.frag); a lookup whose bound exceeds the limit is
     refused on llvmpipe.  With the default preset's index built for the A it is
-    queried at, k = 8 passes up to A = 512, k = 50 up to A = 128 and k = 100 up
-    to A = 64 (the chunked taken-list scan of dedup=branch, which the default
-    uses beyond 128 taken blocks, and the probes' descents dominate); the
+    queried at, k = 8 passes up to A = 256, k = 50 up to A = 64 and k = 100 up
+    to A = 32 (the nearest-box-first walk's ``MAX_POPS`` queue scans and its
+    ``MAX_LEAVES`` buckets of B references, each scanned against the taken list
+    of dedup=branch, which the default uses beyond 128 taken blocks, dominate); the
     largest allowed A is tested to equal the CPU reference
     (tests/test_extremes_gl.py).  Other drivers (an NVIDIA GPU through
     EGL) have no such limit.

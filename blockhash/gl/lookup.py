@@ -70,6 +70,15 @@ class GLLookup:
     def defines(self, variant: Variant, k: int, cap: int, *, fetch_only: bool = False) -> dict:
         """The #defines of bh_lookup.glsl for this index, variant, k and candidate cap."""
         prm = self.index.params
+        if prm.best_first:
+            if getattr(self.index, "node_boxes", None) is None:
+                raise InputError(f"{prm!r} walks node boxes, but the index has none; build it "
+                                 "with the default preset (layout='adaptive')")
+            if QUEUE_CAPACITY < 32 or QUEUE_CAPACITY % 32:
+                raise InputError(
+                    f"the walk's queue capacity QUEUE_CAPACITY={QUEUE_CAPACITY} must be a positive "
+                    "multiple of 32 (glsl/bh_walk.glsl scans it in unrolled chunks of 32); "
+                    "round it up to one")
         taken = taken_bound(prm.L, prm.B, cap)
         if variant == NAMED["default"] and taken > MAX_TAKEN_SET:
             # The default keeps taken blocks in registers up to MAX_TAKEN_SET; a larger A * k
