@@ -52,7 +52,10 @@ def visited_buckets(index, q):
 
 def examined_blocks(index, q, k, A):
     """The blocks the reference takes for one query: references in slot order, duplicates
-    skipped, while fewer than A * k candidates and L * B blocks were taken (steps 3, 4)."""
+    skipped, while fewer than A * k candidates and L * B blocks were taken (steps 3, 4);
+    the default preset: the blocks its nearest-box-first walk takes."""
+    if index.params.best_first:
+        return walk(index, q, k, A)[1]
     taken, count = [], 0
     most = index.params.L * index.params.B
     for t, key in visited_buckets(index, q):
@@ -78,6 +81,12 @@ def walked_query(index, q, k, A):
     """The nearest-box-first walk (blockhash/index/best_first.py) in plain Python, with an
     unbounded sorted queue (the real one's capacity never binds on small maps): the k
     nearest (slots, squared distances) of the photons of the buckets it reaches."""
+    best, _ = walk(index, q, k, A)
+    return [s for _, s in best], [v for v, _ in best]
+
+
+def walk(index, q, k, A):
+    """:func:`walked_query`'s walk: (the k best (d2, slot), sorted; the blocks taken)."""
     prm = index.params
     qf = np.asarray(q, dtype=np.float32)
     boxes, rows = index.node_boxes, index.thresholds
@@ -121,7 +130,7 @@ def walked_query(index, q, k, A):
                 if len(best) < k or dc <= kth:
                     queue.append((dc, t * nn + child))
         queue.sort()
-    return [s for _, s in best], [v for v, _ in best]
+    return best, taken
 
 
 def transcribed_query(index, q, k, A):
