@@ -237,12 +237,16 @@ class CausticPass:
 
     def time_stages(self, points: ShadingPoints, materials, *, k=None, A=None,
                     variant: str = "default", repeat: int = 10, warmup: int = 2,
-                    options: EstimateOptions | None = None) -> dict:
-        """GPU and wall time of each stage in :data:`STAGES`: ``{stage: {'wall': [...],
-        'gpu': [...]}}``, seconds per draw, ``repeat`` back-to-back draws after ``warmup``
-        draws of the same program (:func:`blockhash.gl.context.time_draws`)."""
+                    options: EstimateOptions | None = None, stages=STAGES) -> dict:
+        """GPU and wall time of each of ``stages`` (of :data:`STAGES`): ``{stage: {'wall':
+        [...], 'gpu': [...]}}``, seconds per draw, ``repeat`` back-to-back draws after
+        ``warmup`` draws of the same program (:func:`blockhash.gl.context.time_draws`)."""
+        unknown = [s for s in stages if s not in STAGES]
+        if unknown:
+            raise InputError(f"stages {unknown} are not stages of the caustic pass; choose from "
+                             f"{', '.join(STAGES)}")
         out = {}
-        for stage in STAGES:
+        for stage in stages:
             with self._pass(points, materials, k, A, variant, stage, options) as (prog, fbo, _):
                 walls, gpus = time_draws(self.ctx, prog, fbo, points.shape[::-1],
                                          repeat=repeat, warmup=warmup)
