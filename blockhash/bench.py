@@ -162,10 +162,13 @@ def _kdtree_row(index, q, k, repeat, warmup, backend, clock, device) -> dict:
 
 
 def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default", repeat=10,
-                          warmup=2, backend=None, clock="auto", progress=print):
+                          warmup=2, backend=None, clock="auto", estimates=(), progress=print):
     """Time the stages of a scene's caustic pass (blockhash.render.caustic.STAGES) on the
-    scene's own pixels; returns result rows like :func:`run_benchmark`."""
-    from .render.caustic import CausticPass
+    scene's own pixels, then the whole pass once more with each of ``estimates`` (forms of
+    :class:`~blockhash.render.estimate.EstimateOptions`, the other fields the default's);
+    returns result rows like :func:`run_benchmark`."""
+    from .render.estimate import EstimateOptions
+    from .render.caustic import STAGES, CausticPass
     from .render.gbuffer import rasterize
     from .render.pipeline import _receiver_materials
     from .render.scene_toml import load_scene
@@ -173,6 +176,7 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
     from .render.scene import MirrorMaterial
     from .render.tracing import trace_caustic_photons
 
+    forms = [EstimateOptions(estimate=form) for form in estimates]  # unknown names fail first
     scene = load_scene(scene_path)
     settings = scene.photons
     pm = trace_caustic_photons(scene, photons or settings.count, seed=settings.seed)
@@ -190,6 +194,10 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
              f"({live:,} shaded), k={settings.k}, A={A or settings.A}; {device['renderer']}")
     stages = cp.time_stages(points, _receiver_materials(scene), A=A, variant=variant,
                             repeat=repeat, warmup=warmup)
+    for opt in forms:
+        timed = cp.time_stages(points, _receiver_materials(scene), A=A, variant=variant,
+                               repeat=repeat, warmup=warmup, options=opt, stages=STAGES[-1:])
+        stages[f"{STAGES[-1]} ({opt.estimate})"] = timed[STAGES[-1]]
     rows = []
     for stage, times in stages.items():
         rows.append({"method": f"caustic pass: {stage}", "A": A or settings.A, "scene": str(scene_path),

@@ -111,6 +111,7 @@ def cmd_bench(args) -> int:
         rows += run_caustic_benchmark(args.caustic, photons=args.caustic_photons, A=args.caustic_A,
                                       variant=args.variants.split(",")[0], repeat=args.repeat,
                                       warmup=args.warmup, backend=args.backend, clock=args.clock,
+                                      estimates=tuple(e for e in args.caustic_estimates.split(",") if e),
                                       progress=log)
     if rows:
         print(format_table(rows, args.queries))
@@ -303,6 +304,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--caustic-photons", type=int, help="photons to store for --caustic "
                                                          "(default: the scene's)")
     p.add_argument("--caustic-A", type=int, help="A of the --caustic pass (default: the scene's)")
+    p.add_argument("--caustic-estimates", default="", metavar="LIST",
+                   help="also time the whole --caustic pass with each of these estimate forms "
+                        "(e.g. unbiased,conserving), side by side in the same run")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-kdtree", action="store_true", help="skip the exact kd-tree shader")

@@ -1,6 +1,6 @@
 """Command-line flags of the caustic density estimate (``blockhash render``).
 
-``--estimate {unbiased,paper}``, ``--filter {none,cone,epanechnikov,silverman}``,
+``--estimate {conserving,unbiased,paper}``, ``--filter {none,cone,epanechnikov,silverman}``,
 ``--normal-test COS|off``, ``--disc FRACTION|off``; each left out keeps the default of
 :class:`blockhash.render.estimate.EstimateOptions`.
 """
@@ -34,9 +34,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     """Add the density estimate's flags to a subcommand's parser."""
     g = p.add_argument_group("density estimate (docs/radiance-estimate.md)")
     g.add_argument("--estimate", choices=ESTIMATES, default=None,
-                   help=f"unbiased: the farthest of the k photons, on the circle, left out "
-                        f"(sum of k-1 over pi r^2); paper: all k (overestimates by k/(k-1)); "
-                        f"default {_DEFAULT.estimate}")
+                   help=f"conserving: each photon over a disc of its own radius (keeps the "
+                        f"photons' power); unbiased: the farthest of the k photons, on the "
+                        f"circle, left out (sum of k-1 over pi r^2); paper: all k (overestimates "
+                        f"by k/(k-1)); default {_DEFAULT.estimate}")
     g.add_argument("--filter", choices=FILTERS, default=None,
                    help=f"photon weight by distance: none (box), cone (Jensen), epanechnikov, "
                         f"silverman; default {_DEFAULT.filter}")

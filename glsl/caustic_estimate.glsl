@@ -12,8 +12,11 @@
 // Tests (uniforms, -2 = off): the photon's stored surface normal (Fig. 4) must have
 // dot(n_p, n) >= caustic_normal_cos; its height over the tangent plane must be at
 // most caustic_disc * r (Jensen's flattened neighbourhood).
-// Defines: BH_K; CAUSTIC_ESTIMATE 0 paper (all m found) or 1 unbiased (the m-th,
-// which lies on the circle, left out: no m/(m-1) bias); CAUSTIC_FILTER 0 none,
+// Defines: BH_K; CAUSTIC_ESTIMATE 0 paper (all m found), 1 unbiased (the m-th,
+// which lies on the circle, left out: no m/(m-1) bias) or 2 conserving (each photon
+// over its own disc: r^2 replaced by the photon's own squared radius h^2, read from
+// caustic_own_r2 (R32F, wrapped rows of width 2^CAUSTIC_OWN_W, by the photon's slot),
+// and only photons with d < h counted; blockhash/render/photon_radius.py); CAUSTIC_FILTER 0 none,
 // 1 cone 3(1-t), 2 epanechnikov 2(1-t^2), 3 silverman 3(1-t^2)^2, t = d/r.
 // The CPU reference is blockhash/render/caustic.py estimate_cpu; the options
 // blockhash/render/estimate.py EstimateOptions.
@@ -27,6 +30,9 @@ uniform float bh_power_scale;
 uniform float caustic_min_r2;
 uniform float caustic_normal_cos;
 uniform float caustic_disc;
+#if CAUSTIC_ESTIMATE == 2
+uniform sampler2D caustic_own_r2;
+#endif
 
 // Jensen's polar code: theta byte | phi byte << 8, decoded at the cell centre, pole +y.
 vec3 caustic_polar(uint code) {
@@ -81,8 +87,8 @@ vec3 caustic_radiance(vec3 q, vec3 n, vec3 wo, vec3 kd, vec3 ks, float e) {
         return vec3(0.0);
     }
     float r2 = max(uintBitsToFloat(bh_best[m - 1].x), caustic_min_r2);
-#if CAUSTIC_ESTIMATE == 0
-    int used = m;      // paper: all m photons
+#if CAUSTIC_ESTIMATE == 0 || CAUSTIC_ESTIMATE == 2
+    int used = m;      // paper, conserving: all m photons
 #elif CAUSTIC_ESTIMATE == 1
     int used = m - 1;  // unbiased: the m-th, on the circle, left out
 #else
@@ -111,8 +117,17 @@ vec3 caustic_radiance(vec3 q, vec3 n, vec3 wo, vec3 kd, vec3 ks, float e) {
         vec2 c12 = unpackHalf2x16(w.y);
         vec2 c34 = unpackHalf2x16(w.z);
         vec3 power = vec3(c12, c34.x) * bh_power_scale;
+#if CAUSTIC_ESTIMATE == 2
+        float h2 = texelFetch(caustic_own_r2, bh_texel(key.y, uint(CAUSTIC_OWN_W)), 0).r;
+        float t2 = uintBitsToFloat(key.x) / h2;
+        if (!(t2 < 1.0)) {
+            continue;  // the photon's own disc does not reach the shading point
+        }
+        sum += caustic_filter(t2) * caustic_phong(wi, wo, n, kd, ks, e) * power * (r2 / h2);
+#else
         float t2 = uintBitsToFloat(key.x) / r2;
         sum += caustic_filter(t2) * caustic_phong(wi, wo, n, kd, ks, e) * power;
+#endif
     }
     return sum / (CAUSTIC_PI * r2);
 }

@@ -74,14 +74,21 @@ def test_bench_times_the_caustic_pass_per_stage(tmp_path, capsys):
     out_json = tmp_path / "bench.json"
     assert main(["bench", "--queries", "0", "--caustic", str(SCENES / "ring.toml"),
                  "--caustic-photons", "3000", "--repeat", "2", "--warmup", "1", "--backend", "egl",
-                 "--json", str(out_json)]) == 0
+                 "--caustic-estimates", "unbiased", "--json", str(out_json)]) == 0
     import json
 
     rows = json.loads(out_json.read_text())
     assert [r["method"] for r in rows] == ["caustic pass: fetch floor", "caustic pass: lookup",
-                                           "caustic pass: lookup + estimate"]
+                                           "caustic pass: lookup + estimate",
+                                           "caustic pass: lookup + estimate (unbiased)"]
     assert all(r["draws"] == 2 and r["gpu_median"] > 0 and r["pixels"] == 512 * 512 for r in rows)
     assert "caustic pass: lookup + estimate" in capsys.readouterr().out
+
+
+def test_bench_names_an_unknown_estimate_before_tracing(capsys):
+    assert main(["bench", "--queries", "0", "--caustic", str(SCENES / "ring.toml"),
+                 "--caustic-estimates", "splat"]) == 2
+    assert "estimate='splat' is not known" in capsys.readouterr().err
 
 
 def test_bench_rejects_no_timed_draws(capsys):

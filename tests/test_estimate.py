@@ -1,6 +1,8 @@
 """The density estimate's options: the shader equals the CPU reference for each, and each
 does what it is for on photon sets whose answer is known."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -55,7 +57,9 @@ def corner():
 #: Every estimate form, filter and test at least once (each define value compiles once).
 OPTIONS = [EstimateOptions(estimate="paper", normal_cos=None),
            EstimateOptions(estimate="unbiased", normal_cos=None),
+           EstimateOptions(estimate="unbiased", filter="cone", normal_cos=0.5),
            EstimateOptions(filter="cone", normal_cos=0.5),
+           EstimateOptions(estimate="conserving", filter="epanechnikov", normal_cos=None, disc=0.2),
            EstimateOptions(estimate="paper", filter="epanechnikov", normal_cos=0.9, disc=0.3),
            EstimateOptions(filter="silverman", normal_cos=None, disc=0.1),
            EstimateOptions(estimate="paper", filter="cone", normal_cos=-1.0, disc=0.05)]
@@ -96,7 +100,7 @@ def test_unbiased_estimate_has_no_k_over_k_minus_1_bias_and_the_paper_form_has(p
     # Uniform photons: the m-th photon lies on the circle, so summing all k overestimates
     # by k / (k - 1) = 2 % at k = 50; the noise of the mean over the grid is about 0.5 %.
     unbiased = estimate_cpu(plane, floor_points(), LAMBERT,
-                            options=EstimateOptions(filter="none")).mean()
+                            options=EstimateOptions(estimate="unbiased", filter="none")).mean()
     paper = estimate_cpu(plane, floor_points(), LAMBERT,
                          options=EstimateOptions(estimate="paper", filter="none")).mean()
     assert unbiased == pytest.approx(PLANE_L, rel=0.01)
@@ -130,15 +134,16 @@ def test_flattened_neighbourhood_leaves_out_a_parallel_surface_just_above():
     two = surfaces([(20_000, 1, 0.0, FLOOR), (20_000, 1, 0.01, FLOOR)], k=20)
     pts = floor_points()
     # (box filter: the cone would already weigh the far layer's photons down)
-    disc = estimate_cpu(two, pts, LAMBERT, options=EstimateOptions(filter="none", disc=0.25)).mean()
-    sphere = estimate_cpu(two, pts, LAMBERT, options=EstimateOptions(filter="none")).mean()
+    box = EstimateOptions(estimate="unbiased", filter="none")
+    disc = estimate_cpu(two, pts, LAMBERT, options=replace(box, disc=0.25)).mean()
+    sphere = estimate_cpu(two, pts, LAMBERT, options=box).mean()
     assert disc == pytest.approx(PLANE_L, rel=0.05)
     assert sphere > 1.3 * PLANE_L
 
 
 @pytest.mark.parametrize("kwargs, match", [
     ({"filter": "gauss"}, "filter='gauss' is not known; choose one of none, cone"),
-    ({"estimate": "jensen"}, "estimate='jensen' is not known; choose one of paper, unbiased"),
+    ({"estimate": "jensen"}, "estimate='jensen' is not known; choose one of paper, unbiased, conserving"),
     ({"normal_cos": 1.5}, r"normal_cos=1.5 must lie in \[-1, 1\]"),
     ({"disc": -0.1}, "disc=-0.1 must be >= 0"),
     ({"normal_cos": "0.5"}, "normal_cos must be a number or None"),

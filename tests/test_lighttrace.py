@@ -142,8 +142,10 @@ def test_exact_knn_photon_map_agrees_with_the_light_tracer(traced):
     points = shading_points(scene.camera, g, scene.objects, SceneRays(scene.objects), (MirrorMaterial,))
     est = estimate_exact(index, points, _receiver_materials(scene), gpu=False)
     exact = analytic(scene)
-    # k-NN noise ~ 1/sqrt(50) per pixel, bias k/(k-1); both images must match the truth
-    assert rel_rms(est, exact) < 0.2
+    # The default (conserving) estimate's noise is about sqrt(1.5 / 36) = 0.2 per pixel
+    # (each photon over the disc to its 36th neighbour, cone filter); both images must
+    # match the truth
+    assert rel_rms(est, exact) < 0.3
     assert rel_rms(img.radiance, exact) < 0.25
     assert rel_rms(est, img.radiance) < 0.3
     assert est.sum() / img.radiance.sum() == pytest.approx(1.0, abs=0.05)

@@ -109,7 +109,7 @@ def test_estimate_images_in_chunks_equal_one_search_and_only_fill_what_was_asked
     pts = floor_points(12, 10)
     opts = [EstimateOptions(), EstimateOptions(estimate="paper", filter="none", normal_cos=None)]
     search = index.query
-    whole = [Neighbours.find(index, pts, search, 10).estimate(LAMBERT, o) for o in opts]
+    whole = [Neighbours.find(index, pts, search, 10, own=opts).estimate(LAMBERT, o) for o in opts]
     chunked = estimate_images(index, pts, LAMBERT, search, 10, opts, chunk=17)
     for a, b in zip(whole, chunked):
         np.testing.assert_array_equal(a, b)

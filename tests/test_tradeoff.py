@@ -66,7 +66,8 @@ def test_error_against_exact_does_not_rise_with_A_and_candidates_do(study):
 def test_small_A_is_darker_and_exact_knn_is_near_the_reference(study):
     s, _ = study
     rows = _grid(s)
-    assert rows[0]["flux_ratio_exact"] < 0.8 < rows[-1]["flux_ratio_exact"]
+    # A = 1 misses photons: the default (conserving) estimate loses their light
+    assert rows[0]["flux_ratio_exact"] < 0.92 < 0.98 < rows[-1]["flux_ratio_exact"]
     ex = [r for r in s["rows"] if r["method"] == "exact-ckdtree" and r["photons"] == 20_000][0]
     assert ex["flux_ratio_reference"] == pytest.approx(1.0, abs=0.1)
     assert [c[2] for c in check_claims(s)][1] == "agrees"

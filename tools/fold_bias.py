@@ -2,6 +2,7 @@
 
     python tools/fold_bias.py                       # fold and step; N = 1e5, 4e5, 1.6e6; k = 25, 50, 100
     python tools/fold_bias.py --shapes fold --photons 1000000 --ks 50
+    python tools/fold_bias.py --estimate conserving   # each photon over its own disc
 
 Photons of total power 1 on the unit square of a plane, uniform in y and, in x,
 
@@ -10,8 +11,11 @@ Photons of total power 1 on the unit square of a plane, uniform in y and, in x,
 * ``step``: x uniform on (0, 1): a sharp edge of constant density;
 * ``smooth``: x normal (0.3, 0.1): no edge.
 
-The estimate of blockhash.render.estimate (the unbiased form: the k-1 nearest photons with
-the filter's weights, over pi r^2, r the k-th's distance; exact kNN in 2D) is integrated
+The estimate of blockhash.render.estimate (``--estimate unbiased``: the k-1 nearest photons
+with the filter's weights, over pi r^2, r the k-th's distance; ``--estimate conserving``:
+each of the k nearest photons over its own disc, of the radius to its
+round(k - 2 sqrt(k))-th nearest other photon, blockhash.render.photon_radius; exact kNN
+in 2D) is integrated
 over the window x in (-0.2, 0.5), y in (0.25, 0.75) with stratified jittered points
 (``--points`` per axis along x, half as many along y), and divided by the power of the
 photons inside the window: 1 for an estimate that conserved the photons' power.  The
@@ -40,11 +44,13 @@ def photons(shape: str, n: int, rng) -> np.ndarray:
     return np.stack([x, rng.random(n)], axis=1)
 
 
-def flux_ratio(shape: str, n: int, k: int, filters, *, points: int = 1500, seed: int = 0) -> dict:
+def flux_ratio(shape: str, n: int, k: int, filters, *, points: int = 1500, seed: int = 0,
+               estimate: str = "unbiased") -> dict:
     """{filter: estimated flux over the window / photon power inside it}."""
     from scipy.spatial import cKDTree
 
     from blockhash.render.estimate import kernel
+    from blockhash.render.photon_radius import neighbours_for
 
     rng = np.random.default_rng(seed)
     p = photons(shape, n, rng)
@@ -52,13 +58,21 @@ def flux_ratio(shape: str, n: int, k: int, filters, *, points: int = 1500, seed:
     ny = points // 2
     gx = x0 + (np.arange(points)[None, :] + rng.random((ny, points))) / points * (x1 - x0)
     gy = y0 + (np.arange(ny)[:, None] + rng.random((ny, points))) / ny * (y1 - y0)
-    d, _ = cKDTree(p).query(np.stack([gx.ravel(), gy.ravel()], axis=1), k=k, workers=-1)
-    r2 = d[:, -1] ** 2
+    tree = cKDTree(p)
+    d, idx = tree.query(np.stack([gx.ravel(), gy.ravel()], axis=1), k=k, workers=-1)
     inside = np.mean((p[:, 0] > x0) & (p[:, 0] < x1) & (p[:, 1] > y0) & (p[:, 1] < y1))
+    if estimate == "conserving":
+        j = neighbours_for(k)
+        own2 = tree.query(p, k=[j + 1], workers=-1)[0][:, 0][idx] ** 2
     out = {}
     for f in filters:
-        w = kernel(f, d[:, :-1] ** 2 / r2[:, None]).sum(axis=1)  # the k-th photon left out
-        radiance = w / (n * np.pi * r2)
+        if estimate == "conserving":
+            t2 = d ** 2 / own2
+            radiance = (np.where(t2 < 1, kernel(f, t2), 0.0) / (np.pi * own2)).sum(axis=1) / n
+        else:
+            r2 = d[:, -1] ** 2
+            w = kernel(f, d[:, :-1] ** 2 / r2[:, None]).sum(axis=1)  # the k-th photon left out
+            radiance = w / (n * np.pi * r2)
         out[f] = float(radiance.mean() * (x1 - x0) * (y1 - y0) / inside)
     return out
 
@@ -72,6 +86,7 @@ def main() -> int:
     p.add_argument("--ks", default="25,50,100")
     p.add_argument("--points", type=int, default=1500, help="jittered points along x")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--estimate", choices=("unbiased", "conserving"), default="unbiased")
     args = p.parse_args()
     filters = list(FILTERS)
     print("| shape | N | k | " + " | ".join(filters) + " |")
@@ -79,7 +94,8 @@ def main() -> int:
     for shape in args.shapes.split(","):
         for n in (int(float(x)) for x in args.photons.split(",")):
             for k in (int(x) for x in args.ks.split(",")):
-                r = flux_ratio(shape, n, k, filters, points=args.points, seed=args.seed)
+                r = flux_ratio(shape, n, k, filters, points=args.points, seed=args.seed,
+                               estimate=args.estimate)
                 print(f"| {shape} | {n:,} | {k} | " + " | ".join(f"{r[f]:.4f}" for f in filters)
                       + " |", flush=True)
     return 0

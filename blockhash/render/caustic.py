@@ -6,7 +6,8 @@ photons that arrive from the front (``dot(-d_p, n) > 0``) and pass the tests of
 :class:`~.estimate.EstimateOptions` (the photon's stored surface normal, the
 flattened neighbourhood, the unbiased form leaving out the farthest), with r the
 distance to the farthest photon found (the k-th when k were found), w the filter
-weight and f_r the modified Phong BRDF (Lafortune & Willems 1994).  Shading points
+weight and f_r the modified Phong BRDF (Lafortune & Willems 1994); the conserving
+estimate puts each photon's own radius (:mod:`.photon_radius`) in place of r.  Shading points
 come as per-pixel arrays (position, normal, viewer direction, material id, path
 weight), so mirrors seen by the camera are handled upstream by moving the shading
 point to what the mirror reflects.
@@ -22,6 +23,7 @@ import numpy as np
 from ..index.codec import decode_directions, decode_powers, unpack_records
 from ..errors import InputError
 from .estimate import EstimateOptions, photon_weights
+from .photon_radius import own_radii2
 from ..gl.context import bind_textures, check_gl, draw_timed, home_framebuffer, time_draws
 from ..gl.limits import check_lookup
 from ..gl.lookup import GLLookup, slot_bits
@@ -113,7 +115,8 @@ def estimate_from_neighbours(index, points: ShadingPoints, materials, search, k,
 
     ``search`` maps (m, 3) float32 points to cKDTree-style ``(distances, indices)``.
     """
-    return Neighbours.find(index, points, search, k).estimate(materials, options)
+    options = EstimateOptions() if options is None else options
+    return Neighbours.find(index, points, search, k, own=[options]).estimate(materials, options)
 
 
 @dataclass(frozen=True)
@@ -130,9 +133,12 @@ class Neighbours:
     normal: np.ndarray      # (q, k, 3) float64 the photon's stored surface normal
     offset: np.ndarray      # (q, k, 3) float64 photon position minus the shading point
     power: np.ndarray       # (q, k, 3) float64 watts
+    own_r2: np.ndarray | None = None  # (q, k) float64 each photon's own squared radius
 
     @classmethod
-    def find(cls, index, points: ShadingPoints, search, k) -> "Neighbours":
+    def find(cls, index, points: ShadingPoints, search, k, *, own=()) -> "Neighbours":
+        """The neighbours of ``points``; ``own``: the options that will be estimated (the
+        photons' own radii are looked up when one of them is the conserving estimate)."""
         mat = points.material.reshape(-1)
         live = mat >= 0
         q = points.position.reshape(-1, 3)[live]
@@ -153,8 +159,11 @@ class Neighbours:
         d2 = np.where(found, d.astype(np.float64) ** 2, np.inf)
         last = np.where(found.any(axis=1), found.sum(axis=1) - 1, 0)
         r2 = np.where(found.any(axis=1), np.maximum(d2[np.arange(nq), last], min_r2(index)), 0.0)
+        own_r2 = None
+        if any(o.estimate == "conserving" for o in own):
+            own_r2 = np.where(found, own_radii2(index, k)[np.where(found, idx, 0)], np.inf)
         return cls(points, live, d2, found, r2, wi, normal,
-                   pos - q.astype(np.float64)[:, None, :], power.reshape(nq, k, 3))
+                   pos - q.astype(np.float64)[:, None, :], power.reshape(nq, k, 3), own_r2)
 
     def estimate(self, materials, options: EstimateOptions | None = None) -> np.ndarray:
         """(h, w, 3) float64 radiance with ``options`` (None: the defaults)."""
@@ -168,7 +177,7 @@ class Neighbours:
         n = pts.normal.reshape(-1, 3)[self.live].astype(np.float64)
         wo = pts.view.reshape(-1, 3)[self.live].astype(np.float64)
         weight = photon_weights(options, self.d2, self.r2, self.found, self.wi, self.normal, n,
-                                self.offset)
+                                self.offset, self.own_r2)
         table = _material_table(materials)
         mid = np.repeat(pts.material.reshape(-1)[self.live], k)
         f = phong_brdf(self.wi.reshape(-1, 3), np.repeat(wo, k, axis=0), np.repeat(n, k, axis=0),
@@ -210,6 +219,7 @@ class CausticPass:
         self.ctx = self.lookup.ctx
         self.seconds = 0.0
         self.gpu_seconds = 0.0
+        self._own: dict = {}  # k -> (texture of the photons' own squared radii, log2 width)
 
     def render(self, points: ShadingPoints, materials, *, k=None, A=None,
                variant: str = "default", options: EstimateOptions | None = None) -> np.ndarray:
@@ -227,18 +237,33 @@ class CausticPass:
 
     def time_stages(self, points: ShadingPoints, materials, *, k=None, A=None,
                     variant: str = "default", repeat: int = 10, warmup: int = 2,
-                    options: EstimateOptions | None = None) -> dict:
-        """GPU and wall time of each stage in :data:`STAGES`: ``{stage: {'wall': [...],
-        'gpu': [...]}}``, seconds per draw, ``repeat`` back-to-back draws after ``warmup``
-        draws of the same program (:func:`blockhash.gl.context.time_draws`)."""
+                    options: EstimateOptions | None = None, stages=STAGES) -> dict:
+        """GPU and wall time of each of ``stages`` (of :data:`STAGES`): ``{stage: {'wall':
+        [...], 'gpu': [...]}}``, seconds per draw, ``repeat`` back-to-back draws after
+        ``warmup`` draws of the same program (:func:`blockhash.gl.context.time_draws`)."""
+        unknown = [s for s in stages if s not in STAGES]
+        if unknown:
+            raise InputError(f"stages {unknown} are not stages of the caustic pass; choose from "
+                             f"{', '.join(STAGES)}")
         out = {}
-        for stage in STAGES:
+        for stage in stages:
             with self._pass(points, materials, k, A, variant, stage, options) as (prog, fbo, _):
                 walls, gpus = time_draws(self.ctx, prog, fbo, points.shape[::-1],
                                          repeat=repeat, warmup=warmup)
                 check_gl(self.ctx, f"the timed caustic pass draws ({stage})")
             out[stage] = {"wall": walls, "gpu": gpus}
         return out
+
+    def _own_radii(self, k: int):
+        """The texture of the photons' own squared radii for k neighbours, uploaded once."""
+        from ..gl.packing import upload
+        from .photon_radius import slot_radii2
+
+        if k not in self._own:
+            with self.ctx:
+                self._own[k] = upload(self.ctx, slot_radii2(self.index, k), 1,
+                                      "photon radius", dtype="f4")
+        return self._own[k]
 
     @contextmanager
     def _pass(self, points: ShadingPoints, materials, k, A, variant, stage, options=None):
@@ -256,6 +281,10 @@ class CausticPass:
         defines = {**self.lookup.defines(Variant.parse(variant), k, A * k,
                                          fetch_only=stage == STAGES[0]),
                    "CP_LOOKUP_ONLY": int(stage != STAGES[-1]), **options.defines()}
+        own = {}
+        if options.estimate == "conserving":
+            own_tex, defines["CAUSTIC_OWN_W"] = self._own_radii(k)
+            own = {"caustic_own_r2": own_tex}
         with ctx:
             prog = compile_program(ctx, "caustic_pass.frag", defines)
             # Textures are bottom-up in GL: flip rows on the way in and out.
@@ -280,7 +309,7 @@ class CausticPass:
                     if name in prog:  # the lookup-only stages use no material
                         prog[name].value = value
                 bind_textures(prog, {**self.lookup.textures(), "cp_position": texs[0],
-                                     "cp_normal": texs[1], "cp_view": texs[2]})
+                                     "cp_normal": texs[1], "cp_view": texs[2], **own})
                 yield prog, fbo, out_tex
             finally:
                 home_framebuffer(ctx).use()

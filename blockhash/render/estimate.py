@@ -9,13 +9,21 @@ a shading point x with normal n from the m <= k nearest photons found, nearest f
 over the photons i that count (below).  The choices, each an :class:`EstimateOptions`
 field, measured against the light-traced reference in ``docs/radiance-estimate.md``:
 
-``estimate`` : {'unbiased', 'paper'}
+``estimate`` : {'conserving', 'unbiased', 'paper'}
     ``paper`` sums all m photons (Jensen's estimate, paper section 1).  The m-th photon
     lies on the circle of radius r by construction, so for a uniform density the sum
     overestimates by m / (m - 1) (2 % at k = 50).  ``unbiased`` leaves the m-th out:
     given r, the other m - 1 photons are uniform in the disc, and the sum of m - 1 over
     pi r^2 is unbiased.  With a filter below the m-th photon's weight is 0 anyway, so
-    the two agree (the filters are normalised for that).
+    the two agree (the filters are normalised for that).  Both spread light beside a
+    caustic's fold lines and edges, where r grows away from the caustic: the image holds
+    more than the photons' power (2.5 % on venus at 10^6 photons).
+    ``conserving`` gives every photon a radius of its own, h_i, fixed before rendering
+    (:mod:`.photon_radius`: the distance to its round(k - 2 sqrt(k))-th nearest other
+    photon), and
+    sums ``w(d_i / h_i) f_r Phi_i / (pi h_i^2)`` over the m found photons whose discs
+    cover x (d_i < h_i).  Each photon's filter then integrates to its power over its
+    surface (Silverman's sample-point estimator): the image keeps the photons' power.
 ``filter`` : {'none', 'cone', 'epanechnikov', 'silverman'}
     The weight w(t), t = d_i / r, each normalised so that its mean over the unit disc is
     1 (so uniform photons give the same estimate): ``none`` 1 (box); ``cone`` 3 (1 - t)
@@ -46,7 +54,7 @@ import numpy as np
 from ..errors import InputError
 
 #: Estimate forms, numbered as glsl/caustic_estimate.glsl's CAUSTIC_ESTIMATE.
-ESTIMATES = ("paper", "unbiased")
+ESTIMATES = ("paper", "unbiased", "conserving")
 #: Filters, numbered as glsl/caustic_estimate.glsl's CAUSTIC_FILTER.
 FILTERS = ("none", "cone", "epanechnikov", "silverman")
 #: The shader's value of a test that is off (any dot product of unit vectors is above it).
@@ -64,13 +72,13 @@ NORMAL_COS = 0.5
 class EstimateOptions:
     """How the caustic pass turns found photons into radiance (module docstring).
 
-    estimate : {'unbiased', 'paper'}
+    estimate : {'conserving', 'unbiased', 'paper'}
     filter : {'none', 'cone', 'epanechnikov', 'silverman'}
     normal_cos : float in [-1, 1] or None    photon normal test, None off
     disc : float >= 0 or None                 flattened neighbourhood, None off
     """
 
-    estimate: str = "unbiased"
+    estimate: str = "conserving"
     filter: str = "cone"
     normal_cos: float | None = NORMAL_COS
     disc: float | None = None
@@ -145,18 +153,30 @@ def kernel(filter_name: str, t2: np.ndarray) -> np.ndarray:
     raise InputError(f"filter={filter_name!r} is not known; choose one of {', '.join(FILTERS)}")
 
 
-def photon_weights(options: EstimateOptions, d2, r2, found, wi, n_photon, n_shading, offset):
-    """(q, k) float64 weight of every found photon: filter times the tests (0: left out).
+def photon_weights(options: EstimateOptions, d2, r2, found, wi, n_photon, n_shading, offset,
+                   own_r2=None):
+    """(q, k) float64 weight of every found photon: filter times the tests (0: left out),
+    such that the radiance is ``sum weight f_r Phi / (pi r2)``.
 
     d2 : (q, k) squared distances; r2 : (q,) squared radius; found : (q, k) bool (found
     photons first); wi : (q, k, 3) unit directions toward where each photon came from;
     n_photon : (q, k, 3) stored normals; n_shading : (q, 3); offset : (q, k, 3) photon
-    position minus the shading point.
+    position minus the shading point; own_r2 : (q, k) each found photon's own squared
+    radius (:mod:`.photon_radius`), needed by the conserving estimate only: its weight is
+    ``w(d / h) r2 / h^2``.
     """
     q, k = found.shape
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t2 = np.where(r2[:, None] > 0, d2 / r2[:, None], 1.0)
-    w = kernel(options.filter, t2)
+    if options.estimate == "conserving":
+        if own_r2 is None:
+            raise InputError("the conserving estimate needs each photon's own radius; pass "
+                             "own_r2 (blockhash.render.photon_radius.own_radii2)")
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t2 = np.where(found, d2 / own_r2, np.inf)
+            w = np.where(t2 < 1.0, kernel(options.filter, t2) * (r2[:, None] / own_r2), 0.0)
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t2 = np.where(r2[:, None] > 0, d2 / r2[:, None], 1.0)
+        w = kernel(options.filter, t2)
     keep = found & (np.einsum("qkc,qc->qk", wi, n_shading) > 0)
     if options.estimate == "unbiased":
         m = found.sum(axis=1)

@@ -76,7 +76,7 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
         Override the camera's image size.
     photon_map : CausticPhotons, optional
         Reuse traced photons (for comparing methods on the same map).
-    estimate : {'unbiased', 'paper'}, optional
+    estimate : {'conserving', 'unbiased', 'paper'}, optional
     filter : {'none', 'cone', 'epanechnikov', 'silverman'}, optional
     normal_cos : float in [-1, 1], optional
         Threshold of the photon normal test, ``dot(n_photon, n) >= normal_cos``.

@@ -46,12 +46,15 @@ def default_options() -> list[EstimateOptions]:
     the default (``EstimateOptions()``) among them."""
     O = EstimateOptions
     box = [O(estimate="paper", filter="none", normal_cos=None),
-           O(filter="none", normal_cos=None)]
-    box += [O(filter="none", normal_cos=c) for c in (0.0, 0.5, 0.9)]
-    box += [O(filter="none", normal_cos=0.5, disc=0.25)]
-    filters = [O(filter="cone", normal_cos=None)] + [O(filter=f, normal_cos=0.5)
-                                                     for f in ("cone", "epanechnikov", "silverman")]
-    return box + filters
+           O(estimate="unbiased", filter="none", normal_cos=None)]
+    box += [O(estimate="unbiased", filter="none", normal_cos=c) for c in (0.0, 0.5, 0.9)]
+    box += [O(estimate="unbiased", filter="none", normal_cos=0.5, disc=0.25)]
+    filters = [O(estimate="unbiased", filter="cone", normal_cos=None)]
+    filters += [O(estimate="unbiased", filter=f, normal_cos=0.5)
+                for f in ("cone", "epanechnikov", "silverman")]
+    conserving = [O(estimate="conserving", filter=f, normal_cos=0.5)
+                  for f in ("none", "cone", "epanechnikov", "silverman")]
+    return box + filters + conserving
 
 
 def caustic_region(reference, mask) -> np.ndarray:
@@ -96,7 +99,8 @@ def estimate_images(index, points, materials, search, k, options, *, only=None,
     outs = [np.zeros((h * w, 3)) for _ in options]
     for start in range(0, len(idx), chunk):
         sel = idx[start:start + chunk]
-        nb = Neighbours.find(index, ShadingPoints(*(a[sel][None] for a in flat)), search, k)
+        nb = Neighbours.find(index, ShadingPoints(*(a[sel][None] for a in flat)), search, k,
+                             own=options)
         for out, opt in zip(outs, options):
             out[sel] = nb.estimate(materials, opt)[0]
     return [o.reshape(h, w, 3) for o in outs]
