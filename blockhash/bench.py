@@ -21,10 +21,12 @@ exact neighbours, outside the timing.
 
 from __future__ import annotations
 
+import copy
 import json
 import os
 import statistics
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -95,8 +97,10 @@ def summarize(times: dict, clock: str) -> dict:
 
 def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2, 4, 8, 16),
                   variants=("default",), data="caustic", repeat=10, warmup=2, backend=None, seed=0,
-                  kdtree=True, query_set="image", clock="auto", progress=print):
-    """Run the benchmark and return a list of result rows (dicts)."""
+                  kdtree=True, query_set="image", clock="auto", hashing=False, progress=print):
+    """Run the benchmark and return a list of result rows (dicts).  ``hashing``: also time
+    each variant with the nearest-box-first walk off (the same index's tables hashed and
+    probed, ``best_first=False``), beside the walk, where the preset walks."""
     from scipy.spatial import cKDTree
 
     from .gl.lookup import GLLookup
@@ -106,6 +110,11 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
     index = BlockHashIndex(pts, k=k, A=max(A_values))
     positions = index.positions.astype(np.float64)
     lookup = GLLookup(index, backend=backend)
+    lookups = [("", lookup)]
+    if hashing and index.params.best_first:
+        hashed = copy.copy(index)
+        hashed.params = replace(index.params, best_first=False)
+        lookups.append((" (hashing, walk off)", GLLookup(hashed, backend=backend)))
     device = device_info(lookup.ctx)
     clk = resolve_clock(clock, device["renderer"])
     progress(f"{device['renderer']} ({device['gl_version']}); clock: {clk}")
@@ -128,13 +137,14 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
     rows = [{"method": "cKDTree (CPU, all workers)", "A": None, **ckd, "fn_percent": 0.0, **device}]
     progress(f"cKDTree: {rows[0]['seconds']:.3f} s")
     for A in A_values:
-        for name, kwargs in [(f"BH {v}", {"variant": v}) for v in variants] + \
-                            [("BH fetch-only floor", {"fetch_only": True})]:
-            times = lookup.time_draws(q, k, A=A, repeat=repeat, warmup=warmup, width=width, **kwargs)
+        runs = [(f"BH {v}{tag}", lk, {"variant": v}) for tag, lk in lookups for v in variants]
+        for name, lk, kwargs in runs + [("BH fetch-only floor", lookups[-1][1],
+                                         {"fetch_only": True})]:
+            times = lk.time_draws(q, k, A=A, repeat=repeat, warmup=warmup, width=width, **kwargs)
             row = {"method": name, "A": A, **summarize(times, clk), **device}
-            _, idx = lookup.query(q, k=k, A=A, width=width, **kwargs)
-            row["candidates"] = lookup.counters["query.candidates.mean"]
-            row["blocks_culled"] = lookup.counters["query.blocks_culled.mean"]
+            _, idx = lk.query(q, k=k, A=A, width=width, **kwargs)
+            row["candidates"] = lk.counters["query.candidates.mean"]
+            row["blocks_culled"] = lk.counters["query.blocks_culled.mean"]
             if not kwargs.get("fetch_only"):
                 row["fn_percent"] = 100.0 * false_negatives(idx, exact[1], len(index)).mean() / k
             rows.append(row)

@@ -106,7 +106,7 @@ def cmd_bench(args) -> int:
                              variants=tuple(args.variants.split(",")), data=args.data,
                              repeat=args.repeat, warmup=args.warmup, backend=args.backend,
                              seed=args.seed, kdtree=not args.no_kdtree, query_set=args.query_set,
-                             clock=args.clock, progress=log)
+                             clock=args.clock, hashing=args.hashing, progress=log)
     if args.caustic:
         rows += run_caustic_benchmark(args.caustic, photons=args.caustic_photons, A=args.caustic_A,
                                       variant=args.variants.split(",")[0], repeat=args.repeat,
@@ -299,6 +299,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--clock", choices=("auto", "gpu", "wall"), default="auto",
                    help="time the ratios compare: GL timer queries (gpu) or wall time; auto: "
                         "wall on llvmpipe, whose timer queries miss most of a draw, gpu elsewhere")
+    p.add_argument("--hashing", action="store_true",
+                   help="also time each variant with the nearest-box-first walk off (the same "
+                        "tables hashed and probed), side by side")
     p.add_argument("--caustic", metavar="SCENE",
                    help="also time the caustic pass of SCENE (e.g. scenes/ring.toml) per stage")
     p.add_argument("--caustic-photons", type=int, help="photons to store for --caustic "

@@ -55,14 +55,17 @@ def test_info_command_names_an_unavailable_backend(capsys, monkeypatch):
 def test_bench_command_prints_the_table_and_writes_json(tmp_path, capsys):
     out_json = tmp_path / "bench.json"
     assert main(["bench", "--photons", "5000", "--queries", "512", "--A", "2", "--repeat", "1",
-                 "--no-kdtree", "--backend", "egl", "--json", str(out_json)]) == 0
+                 "--no-kdtree", "--hashing", "--backend", "egl", "--json", str(out_json)]) == 0
     out = capsys.readouterr().out
     assert "cKDTree (CPU, all workers)" in out and "BH default" in out and "BH fetch-only floor" in out
     import json
 
     rows = json.loads(out_json.read_text())
     assert {r["method"] for r in rows} == {"cKDTree (CPU, all workers)", "BH default",
-                                           "BH fetch-only floor"}
+                                           "BH default (hashing, walk off)", "BH fetch-only floor"}
+    by = {r["method"]: r for r in rows}
+    # the walk finds at least as many of the exact neighbours as hashing the same tables
+    assert by["BH default"]["fn_percent"] <= by["BH default (hashing, walk off)"]["fn_percent"]
     assert all(r["seconds"] > 0 for r in rows)
     gl_rows = [r for r in rows if r["method"] != "cKDTree (CPU, all workers)"]
     assert all(r["draws"] == 1 and r["gpu_min"] > 0 and r["wall_median"] > 0 for r in gl_rows)
