@@ -197,7 +197,8 @@ def adaptive_params(positions: np.ndarray, *, k: int, A: int,
                     photons_per_bucket: float = DEFAULT_PHOTONS_PER_BUCKET,
                     L: int = DEFAULT_L,
                     refs_per_photon: float = DEFAULT_REFS_PER_PHOTON,
-                    block_slack: float = DEFAULT_BLOCK_SLACK) -> BlockHashParams:
+                    block_slack: float = DEFAULT_BLOCK_SLACK,
+                    walk_trees: int = DEFAULT_WALK_TREES) -> BlockHashParams:
     """The default preset: the ADAPTIVE layout (:mod:`.adaptive`) with buckets of
     ``S = photons_per_bucket * k * A / ADAPTIVE_REFERENCE_A`` photons (at least a block's)."""
     S = max(PHOTONS_PER_BLOCK, photons_per_bucket * k * A / ADAPTIVE_REFERENCE_A)
@@ -206,7 +207,7 @@ def adaptive_params(positions: np.ndarray, *, k: int, A: int,
     B = max(1, min(B_need, B_budget, MAX_B))
     return BlockHashParams(k=k, A=A, L=L, P=(1, 1, 1), B=B, layout=ThresholdLayout.ADAPTIVE,
                            preset="default", bucket_photons=float(S), probe=True,
-                           best_first=True, walk_trees=DEFAULT_WALK_TREES)
+                           best_first=True, walk_trees=walk_trees)
 
 
 def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",
