@@ -5,8 +5,9 @@
 // Defines: everything its includes take, plus BH_CAP (= A * k, candidates
 // examined before stopping; the check precedes each block), BH_PROBE (1: multi-probe
 // across the adaptive layout's nearest cuts while the cap allows), BH_DEDUP, and
-// BH_TAKEN_MAX (bh_taken.glsl), BH_TAKE_LIMIT (blocks a query stops at), BH_CULL (off | box: skip blocks that cannot hold a
-// neighbour), BH_FETCH_ONLY (1: fetch and measure the same candidates but keep none, the
+// BH_TAKEN_MAX (bh_taken.glsl), BH_TAKE_LIMIT (the blocks a query stops at: L * B for
+// hashing, for the walk its bound, never reached), BH_CULL (off | box: skip blocks that
+// cannot hold a neighbour), BH_FETCH_ONLY (1: fetch and measure the same candidates but keep none, the
 // memory floor the benchmark compares with; bh_fetch_sink receives their sum),
 // BH_BEST_FIRST (1: the default preset's nearest-box-first walk, bh_walk.glsl, replaces
 // hashing, bucket order and probes).
