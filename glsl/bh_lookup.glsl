@@ -5,8 +5,9 @@
 // Defines: everything its includes take, plus BH_CAP (= A * k, candidates
 // examined before stopping; the check precedes each block), BH_PROBE (1: multi-probe
 // across the adaptive layout's nearest cuts while the cap allows), BH_DEDUP, and
-// BH_TAKEN_MAX (bh_taken.glsl), BH_CULL (off | box: skip blocks that cannot hold a
-// neighbour), BH_FETCH_ONLY (1: fetch and measure the same candidates but keep none, the
+// BH_TAKEN_MAX (bh_taken.glsl), BH_TAKE_LIMIT (the blocks a query stops at: L * B for
+// hashing, for the walk its bound, never reached), BH_CULL (off | box: skip blocks that
+// cannot hold a neighbour), BH_FETCH_ONLY (1: fetch and measure the same candidates but keep none, the
 // memory floor the benchmark compares with; bh_fetch_sink receives their sum),
 // BH_BEST_FIRST (1: the default preset's nearest-box-first walk, bh_walk.glsl, replaces
 // hashing, bucket order and probes).
@@ -33,7 +34,7 @@ uint bh_culled = 0u;  // blocks culled by the current lookup (BH_CULL box)
 #if BH_DEDUP == BH_DEDUP_SET
 #define BH_TAKEN_AT(i) bh_taken_get(i)
 #else
-uint bh_taken_list[BH_L * BH_B];  // a query takes at most L * B blocks, probes included
+uint bh_taken_list[BH_TAKE_LIMIT];  // a query takes at most BH_TAKE_LIMIT blocks
 #define BH_SCAN 32
 #define BH_TAKEN_AT(i) bh_taken_list[i]
 #endif
@@ -85,10 +86,11 @@ bool bh_block_far(uvec4 h, vec3 q) {
 #define BH_MB_TAKE(j) bh_mb[j] = (uint(j) < n) ? bh_packed_key(b, uint(j), q, ntaken * 10u + uint(j)) | kill : BH_PK_EMPTY;
 
 // Take the not yet taken blocks of bucket key of table t (nref valid references), in
-// reference order, while under the candidate cap and the L * B blocks a query can take.
+// reference order, while under the candidate cap and BH_TAKE_LIMIT blocks (hashing: the
+// L * B blocks a query can take, probes included; the walk: its bound, never reached).
 void bh_take(uint t, uint key, uint nref, vec3 q, inout uint ntaken, inout uint count) {
     for (uint r = 0u; r < nref; ++r) {
-        if (count >= uint(BH_CAP) || ntaken >= uint(BH_L * BH_B)) {
+        if (count >= uint(BH_CAP) || ntaken >= uint(BH_TAKE_LIMIT)) {
             break;
         }
         uint b = bh_ref(t, key, r);
@@ -101,7 +103,7 @@ void bh_take(uint t, uint key, uint nref, vec3 q, inout uint ntaken, inout uint 
         for (uint c = 0u; c < ntaken; c += uint(BH_SCAN)) {
             for (int u = 0; u < BH_SCAN; ++u) {
                 uint j = c + uint(u);
-                dup = dup || (j < ntaken && bh_taken_list[min(j, uint(BH_L * BH_B - 1))] == b);
+                dup = dup || (j < ntaken && bh_taken_list[min(j, uint(BH_TAKE_LIMIT - 1))] == b);
             }
         }
 #endif

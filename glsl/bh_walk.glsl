@@ -3,17 +3,18 @@
 // Returns: the candidates of every bucket the walk reaches, offered to the selection by
 // bh_take (bh_lookup.glsl), which must be defined before this file is included.
 // Exactly blockhash/index/best_first.py bf_query: a queue of (squared distance to the
-// node's box as float32 bits, node id = t * BH_NODES + i) seeded with the L roots; repeat
-// at most BH_MAX_POPS times: stop at the cap, at L * B blocks taken or with an empty
-// queue; pop the smallest (distance, id); stop when it is farther than the k-th key
-// (bh_kth_bits); a bucket node: stop after BH_MAX_LEAVES buckets, else take its blocks;
-// an inner node: push each child with photons whose box is not farther than the k-th.
+// node's box as float32 bits, node id = t * BH_NODES + i) seeded with the roots of the
+// first BH_WALK_TREES tables; repeat at most BH_MAX_POPS times: stop at the cap (the
+// walk has no block cap) or with an empty queue; pop the smallest (distance, id); stop
+// when it is farther than the k-th key (bh_kth_bits); a bucket node: stop after
+// BH_MAX_LEAVES buckets, else take its blocks; an inner node: push each child with
+// photons whose box is not farther than the k-th.
 // The queue holds BH_QUEUE entries in plain arrays scanned in unrolled chunks of 32;
 // a push onto a full queue drops the largest of its entries and the new one.
 // Textures: bh_boxes RGBA32UI, node id n at texels 2n (lo xyz bits, 1 if it holds
 // photons) and 2n + 1 (hi xyz bits, 0) (blockhash/gl/packing.py).
-// Defines: BH_NODES (nodes per table row, BH_T / 2), BH_QUEUE (a multiple of 32),
-// BH_MAX_POPS, BH_MAX_LEAVES, BH_BOX_W (texture width, log2).
+// Defines: BH_NODES (nodes per table row, BH_T / 2), BH_WALK_TREES (1 .. BH_L),
+// BH_QUEUE (a multiple of 32), BH_MAX_POPS, BH_MAX_LEAVES, BH_BOX_W (texture width, log2).
 #ifndef BH_WALK_GLSL
 #define BH_WALK_GLSL
 #include "bh_fetch.glsl"
@@ -90,7 +91,7 @@ void bh_queue_push(uint d, uint id) {
 void bh_walk(vec3 q, inout uint ntaken, inout uint count) {
     bh_qsize = 0u;
     uint d;
-    for (int t = 0; t < BH_L; ++t) {
+    for (int t = 0; t < BH_WALK_TREES; ++t) {
         uint root = uint(t) * uint(BH_NODES);
         if (bh_node_box(root, q, d)) {
             bh_queue_push(d, root);
@@ -98,7 +99,7 @@ void bh_walk(vec3 q, inout uint ntaken, inout uint count) {
     }
     uint leaves = 0u;
     for (int it = 0; it < BH_MAX_POPS; ++it) {
-        if (count >= uint(BH_CAP) || ntaken >= uint(BH_L * BH_B) || bh_qsize == 0u) {
+        if (count >= uint(BH_CAP) || bh_qsize == 0u) {
             break;
         }
         uint j = bh_queue_min();

@@ -1,5 +1,7 @@
 """The default preset's nearest-box-first walk: node boxes, far queries, the queue's rule."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -76,8 +78,9 @@ def test_a_full_queue_drops_its_farthest_entries_and_counts_them():
     index = BlockHashIndex(pts, k=20, A=8)
     args = (q, index.thresholds, index.node_boxes, index.tables.refs, index.starts,
             index._positions, 20, 160, 0)
-    full = bf_query(*args, QUEUE_CAPACITY)
-    small = bf_query(*args, 32)
+    # Walking all L tables fills the queue (one table's walk held at most 20 entries here).
+    full = bf_query(*args, QUEUE_CAPACITY, trees=index.params.L)
+    small = bf_query(*args, 32, trees=index.params.L)
     assert full[5].sum() == 0 and small[5].sum() > 0  # drops
     assert small[6].max() == 32 and full[6].max() > 32  # longest queue
     # Dropping the farthest entries costs little: the walk rarely reaches them.
@@ -115,3 +118,39 @@ def test_a_queue_capacity_the_shader_cannot_scan_is_refused_before_compiling(mon
     with pytest.raises(InputError, match=r"QUEUE_CAPACITY=100 must be a positive multiple of 32.*"
                                          r"round it up"):
         lookup.defines(Variant(), 8, 32)
+
+
+def test_the_walk_has_no_block_cap_and_its_bound_is_tight():
+    from blockhash.index.best_first import walk_taken_bound
+
+    index = BlockHashIndex(photon_set("clustered", 6000), k=8, A=2)
+    prm = index.params
+    q = photon_set("clustered", 300, seed=4).astype(np.float32)
+    for A in (2, 16, 64):
+        cap = A * 8
+        *_, fetched, _, _, _ = bf_query(q, index.thresholds, index.node_boxes, index.tables.refs,
+                                        index.starts, index._positions, 8, cap, 0)
+        assert fetched.max() <= walk_taken_bound(prm.B, cap)
+        if A < 64:  # at A = 64 the walk prunes its way to an end before the cap
+            assert fetched.max() >= walk_taken_bound(prm.B, cap) - 1  # the bound is tight
+    assert fetched.max() > prm.L * prm.B  # the hash query's block cap would have stopped it
+
+
+def test_walk_trees_seeds_the_walk_with_that_many_tables():
+    index = BlockHashIndex(photon_set("clustered", 6000), k=8, A=8)
+    prm = index.params
+    assert prm.walk_trees == 1 and prm.trees_walked == 1 and "nearest-box-first over 1" in repr(prm)
+    assert replace(prm, walk_trees=99).trees_walked == prm.L
+    q = photon_set("clustered", 200, seed=4).astype(np.float32)
+    pops = []
+    for trees in (1, 3, prm.L, 99):
+        index.query(q, walk_trees=trees)
+        pops.append(index.counters["query.pops.mean"])
+    assert pops[0] < pops[1] < pops[2] == pops[3]
+    d1, i1 = index.query(q)
+    d2, i2 = index.query(q, walk_trees=1)
+    np.testing.assert_array_equal(i1, i2)
+    with pytest.raises(InputError, match=r"walk_trees=0 must be >= 1"):
+        replace(prm, walk_trees=0)
+    with pytest.raises(InputError, match=r"walk_trees"):
+        index.query(q, walk_trees=0)

@@ -1,12 +1,15 @@
 """The GLSL lookup returns exactly the CPU reference's neighbours (the oracle)."""
 
+import copy
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from blockhash import BlockHashIndex, CapacityError, InputError
 from blockhash.errors import GLUnavailableError
 from blockhash.gl.context import check_gl, get_context, gl_info
-from blockhash.gl.lookup import GLLookup, slot_bits
+from blockhash.gl.lookup import GLLookup, lookup_slot_bits
 from blockhash.gl.packing import texture_shape
 from blockhash.gl.shaderlib import Variant, variants
 from conftest import context_or_skip, photon_set
@@ -25,7 +28,7 @@ def queries_for(name, m=300, seed=21):
 def assert_same_as_cpu(lookup, index, q, k, A, variant="default"):
     """The variant's neighbours equal the CPU reference run in the same mode."""
     v = Variant.parse(variant)
-    bits = slot_bits(index.params.L, index.params.B) if v.packed_keys else 0
+    bits = lookup_slot_bits(index.params, A * k) if v.packed_keys else 0
     d, i = lookup.query(q, k=k, A=A, variant=variant)
     dc, ic = index.query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
     dc, ic = dc.reshape(len(q), k), ic.reshape(len(q), k)
@@ -300,11 +303,47 @@ def test_a_full_walk_queue_drops_the_same_entries_on_both_sides(far_index, monke
     monkeypatch.setattr(lookup_module, "QUEUE_CAPACITY", 32)
     q = two_patches_and_far_points()[1]
     qf = np.where(np.isfinite(q).all(axis=1)[:, None], q, np.float32(0))
-    ix = far_index
+    ix = copy.copy(far_index)  # walking all L tables fills the queue (one table's walk: 20)
+    ix.params = replace(far_index.params, walk_trees=far_index.params.L)
     d2, slots, *_, drops, longest = bf_query(qf, ix.thresholds, ix.node_boxes, ix.tables.refs,
-                                             ix.starts, ix._positions, 16, 128, 0, 32)
+                                             ix.starts, ix._positions, 16, 128, 0, 32,
+                                             trees=ix.params.L)
     assert drops.sum() > 0 and longest.max() == 32
     d, i = GLLookup(ix, backend="egl").query(q, k=16, A=8, variant="binary-branch-on-insertion")
     ok = np.isfinite(q).all(axis=1)
     expect = np.where(slots >= 0, ix.order[np.maximum(slots, 0)], len(ix))
     np.testing.assert_array_equal(i[ok], expect[ok])
+
+
+def walking(index, trees):
+    """``index`` with its walk seeded with ``trees`` tables (the same tables and boxes)."""
+    ix = copy.copy(index)
+    ix.params = replace(index.params, walk_trees=trees)
+    return ix
+
+
+@pytest.mark.parametrize("trees", [2, 5])
+@pytest.mark.parametrize("variant", ["default", "binary-branch-on-insertion", "binary-set-on-merge"])
+def test_the_walk_over_more_tables_equals_the_cpu_reference(far_index, trees, variant):
+    context_or_skip("egl")
+    assert far_index.params.walk_trees == 1 and far_index.params.L == 5
+    ix = walking(far_index, trees)
+    assert_same_as_cpu(GLLookup(ix, backend="egl"), ix, two_patches_and_far_points()[1], 16, 8,
+                       variant=variant)
+
+
+@pytest.mark.parametrize("trees", [1, 5])
+@pytest.mark.parametrize("variant", ["default", "binary-branch-on-packed", "binary-zero-off-network"])
+def test_the_walk_takes_more_than_L_B_blocks_the_same_on_both_sides(caustic_index, trees, variant):
+    """The walk has no L * B block cap: queried at 8x the A k it was built for, it takes up
+    to ceil(A k / 10) + 1 blocks (the candidates numbered in the packed keys' slot bits)."""
+    context_or_skip("egl")
+    from blockhash.index.best_first import bf_query, walk_taken_bound
+
+    ix = walking(caustic_index, trees)
+    prm, q, k, A = ix.params, queries_for("caustic"), 32, 8
+    qf = np.where(np.isfinite(q).all(axis=1)[:, None], q, np.float32(0))
+    *_, fetched, _, _, _ = bf_query(qf, ix.thresholds, ix.node_boxes, ix.tables.refs, ix.starts,
+                                    ix._positions, k, A * k, 0, trees=trees)
+    assert prm.L * prm.B < fetched.max() <= walk_taken_bound(prm.B, A * k)
+    assert_same_as_cpu(GLLookup(ix, backend="egl"), ix, q, k, A, variant=variant)

@@ -6,7 +6,7 @@ from scipy.spatial import cKDTree
 
 from blockhash import BlockHashIndex
 from blockhash.index.thresholds import ThresholdLayout, hash_codes
-from transcription import transcribed_query
+from transcription import transcribed_query, walked_query
 from conftest import photon_set
 
 
@@ -28,6 +28,24 @@ def test_reference_query_follows_section_4_4(distribution, k, A, preset):
         assert slot_of[i[qi][found]].tolist() == slots
         np.testing.assert_array_equal(d[qi][found], np.sqrt(np.float64(np.float32(d2))))
         assert np.isinf(d[qi][~found]).all()
+
+
+@pytest.mark.parametrize("k,A", [(8, 8), (50, 16)])
+@pytest.mark.parametrize("trees", [1, 2, 5])
+def test_the_walk_follows_its_transcription_over_any_number_of_tables(k, A, trees):
+    pts = photon_set("clustered", 6000)
+    index = BlockHashIndex(pts, k=k, A=A)
+    assert index.params.best_first and index.params.L == 5
+    queries = photon_set("clustered", 40, seed=99)
+    queries[::4] += 0.5  # some far from the photons: the walk prunes
+    d, i = index.query(queries, k=[k] and k, walk_trees=trees)
+    slot_of = np.empty(len(index), dtype=np.int64)
+    slot_of[index.order] = np.arange(len(index))
+    for qi, q in enumerate(queries):
+        slots, d2 = walked_query(index, q, k, A, trees)
+        found = i[qi] < len(index)
+        assert slot_of[i[qi][found]].tolist() == slots
+        np.testing.assert_array_equal(d[qi][found], np.sqrt(np.float64(np.float32(d2))))
 
 
 def test_one_bucket_holding_every_block_gives_the_exact_neighbours(distribution):

@@ -53,7 +53,7 @@ def visited_buckets(index, q):
 def examined_blocks(index, q, k, A):
     """The blocks the reference takes for one query: references in slot order, duplicates
     skipped, while fewer than A * k candidates and L * B blocks were taken (steps 3, 4);
-    the default preset: the blocks its nearest-box-first walk takes."""
+    the default preset: the blocks its nearest-box-first walk takes (the A * k cap alone)."""
     if index.params.best_first:
         return walk(index, q, k, A)[1]
     taken, count = [], 0
@@ -77,17 +77,20 @@ def box_distance(box, q):
                       + np.float32(g[2] * g[2]))
 
 
-def walked_query(index, q, k, A):
+def walked_query(index, q, k, A, trees=None):
     """The nearest-box-first walk (blockhash/index/best_first.py) in plain Python, with an
-    unbounded sorted queue (the real one's capacity never binds on small maps): the k
-    nearest (slots, squared distances) of the photons of the buckets it reaches."""
-    best, _ = walk(index, q, k, A)
+    unbounded sorted queue (the real one's capacity never binds on small maps), seeded with
+    the first ``trees`` tables (default: the params' walk_trees), the A * k cap alone
+    ending it (no block cap): the k nearest (slots, squared distances) of the photons of
+    the buckets it reaches."""
+    best, _ = walk(index, q, k, A, trees)
     return [s for _, s in best], [v for v, _ in best]
 
 
-def walk(index, q, k, A):
+def walk(index, q, k, A, trees=None):
     """:func:`walked_query`'s walk: (the k best (d2, slot), sorted; the blocks taken)."""
     prm = index.params
+    trees = prm.trees_walked if trees is None else min(trees, prm.L)
     qf = np.asarray(q, dtype=np.float32)
     boxes, rows = index.node_boxes, index.thresholds
     nn = boxes.shape[1]
@@ -96,10 +99,10 @@ def walk(index, q, k, A):
     def nonempty(t, i):
         return boxes[t, i, 0] <= boxes[t, i, 3]
 
-    queue = sorted((box_distance(boxes[t, 0], qf), t * nn) for t in range(prm.L) if nonempty(t, 0))
+    queue = sorted((box_distance(boxes[t, 0], qf), t * nn) for t in range(trees) if nonempty(t, 0))
     best, taken, count, leaves = [], [], 0, 0   # best: sorted (d2, slot), at most k
     for _ in range(MAX_POPS):
-        if count >= A * k or len(taken) >= prm.L * prm.B or not queue:
+        if count >= A * k or not queue:
             break
         d, node = queue.pop(0)
         kth = best[-1][0] if len(best) == k else np.float32(np.inf)
@@ -112,7 +115,7 @@ def walk(index, q, k, A):
                 break
             leaves += 1
             for blk in index.tables.refs[t, meta >> 3]:
-                if count >= A * k or blk < 0 or len(taken) >= prm.L * prm.B:
+                if count >= A * k or blk < 0:
                     break
                 if blk in taken:
                     continue

@@ -22,8 +22,9 @@ only; the REPORT maps were never used to choose anything.
     python tools/eval_accuracy.py --maps tilted,room --A 8 --json out.json
     python tools/eval_accuracy.py --tune --photons 3e5 --A 8 --ppb 0.5,0.75,1,1.5 --L 5,7,9
 
-``--ppb``, ``--L`` and ``--slack`` sweep the default preset's constants (photons per bucket
-as a multiple of k at A = 8, tables, block slack) over their product; ``--tune`` restricts
+``--ppb``, ``--L``, ``--slack`` and ``--walk-trees`` sweep the default preset's constants
+(photons per bucket as a multiple of k at A = 8, tables, block slack, tables the walk is
+seeded with) over their product; ``--tune`` restricts
 the maps to the TUNE set.
 """
 
@@ -148,6 +149,7 @@ def evaluate(name: str, n: int, m: int, k: int, As, presets, configs=({},)) -> l
                 "fn_far": float(fn[far].mean() / k) if far.any() else 0.0,
                 "avg_dilation": acc.avg_dilation["mean"], "max_dilation": acc.max_dilation["mean"],
                 "candidates": index.counters["query.candidates.mean"],
+                "pops": index.counters.get("query.pops.mean", 0.0),
                 "query_seconds": t_query, "build_seconds": t_build, "ckdtree_build_seconds": t_kd,
                 "refs_per_photon": s.refs_per_photon,
                 "bytes_per_photon": (s.index_bytes + s.block_bytes) / n,
@@ -158,7 +160,7 @@ def evaluate(name: str, n: int, m: int, k: int, As, presets, configs=({},)) -> l
                   f"(p90 {100 * r['fn_p90']:5.1f}%, on {100 * r['fn_on']:5.2f}%, off "
                   f"{100 * r['fn_off']:5.2f}%; near {100 * r['fn_near']:5.2f}%, far "
                   f"{100 * r['fn_far']:5.2f}% of {100 * r['far_share']:.0f}%)  dil {r['avg_dilation']:.3f}/{r['max_dilation']:.3f}  "
-                  f"cand {r['candidates']:6.0f}  refs/ph {r['refs_per_photon']:.2f}  build "
+                  f"cand {r['candidates']:6.0f}  pops {r['pops']:5.0f}  refs/ph {r['refs_per_photon']:.2f}  build "
                   f"{t_build:.2f}s ({t_build / t_kd:.1f}x cKDTree)  orphans {s.orphans}", flush=True)
     return rows
 
@@ -206,6 +208,7 @@ def main(argv=None) -> int:
     ap.add_argument("--ppb", help="sweep: photons per bucket / k at A = 8 (comma-separated)")
     ap.add_argument("--L", help="sweep: tables")
     ap.add_argument("--slack", help="sweep: block slack")
+    ap.add_argument("--walk-trees", help="sweep: tables the nearest-box-first walk is seeded with")
     ap.add_argument("--tune", action="store_true", help="only the TUNE maps")
     ap.add_argument("--json", help="write the rows (and the machine) here")
     ap.add_argument("--markdown", help="write the table here")
@@ -213,9 +216,10 @@ def main(argv=None) -> int:
     if args.quick:
         args.photons, args.queries, args.A = 1e5, 4000, "1,8,64"
     As = [int(a) for a in args.A.split(",")]
-    sweeps = [[(key, float(v) if key != "L" else int(v)) for v in text.split(",")]
+    sweeps = [[(key, int(v) if key in ("L", "walk_trees") else float(v)) for v in text.split(",")]
               for key, text in (("photons_per_bucket", args.ppb), ("L", args.L),
-                                ("block_slack", args.slack)) if text]
+                                ("block_slack", args.slack),
+                                ("walk_trees", args.walk_trees)) if text]
     configs = [dict(c) for c in __import__("itertools").product(*sweeps)] or [{}]
     if args.tune:
         args.maps = ",".join(TUNE)

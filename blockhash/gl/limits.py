@@ -23,7 +23,8 @@ Two limits bound what ``GLLookup.query`` and the caustic pass accept:
     queried at, k = 8 passes up to A = 256, k = 50 up to A = 64 and k = 100 up
     to A = 32 (the nearest-box-first walk's ``MAX_POPS`` queue scans and its
     ``MAX_LEAVES`` buckets of B references, each scanned against the taken list
-    of dedup=branch, which the default uses beyond 128 taken blocks, dominate); the
+    of dedup=branch, which the default uses beyond 128 taken blocks, dominate; with
+    no L * B block cap the walk's list holds up to ceil(A k / 10) + 1 blocks); the
     largest allowed A is tested to equal the CPU reference
     (tests/test_extremes_gl.py).  Other drivers (an NVIDIA GPU through
     EGL) have no such limit.
@@ -34,7 +35,7 @@ from __future__ import annotations
 import math
 
 from ..errors import CapacityError, InputError
-from ..index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY
+from ..index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY, walk_taken_bound
 from ..index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
 from .shaderlib import NAMED
 
@@ -68,17 +69,25 @@ def loop_iterations(params, variant, k: int, cap: int) -> int:
     shifts per candidate; the output adds k.
 
     The nearest-box-first walk (``params.best_first``, glsl/bh_walk.glsl) replaces hashing:
-    L root pushes, then at most ``MAX_POPS`` pops, each a scan of the queue and two pushes
-    onto it (each scan at most ``QUEUE_CAPACITY / 32`` chunks), and at most ``MAX_LEAVES``
-    buckets of at most ``B`` references each.
+    ``walk_trees`` root pushes, then at most ``MAX_POPS`` pops, each a scan of the queue and
+    two pushes onto it (each scan at most ``QUEUE_CAPACITY / 32`` chunks), and at most
+    ``MAX_LEAVES`` buckets of at most ``B`` references each; with no L * B block cap its
+    taken list holds up to ``min(MAX_LEAVES B, ceil(cap / 10) + 1)`` blocks
+    (:func:`blockhash.index.best_first.walk_taken_bound`), a reference being scanned
+    against one fewer at most (the cap ends the walk once that many are taken).
     """
     L, B = params.L, params.B
     probes = PROBE_CUTS if getattr(params, "probe", False) else 0
     refs = L * B * (1 + probes)
     taken = min(L * B, math.ceil(cap / 10) + 1)
+    scanned = taken  # the taken blocks a reference is scanned against at most
     walk = getattr(params, "best_first", False)
     if walk:
         refs = MAX_LEAVES * B
+        # A reference is scanned while ntaken < its bound (bh_take stops at the cap, which
+        # ceil(cap / 10) full blocks reach): ceil(cap / 10) blocks at most.
+        taken = walk_taken_bound(B, cap)
+        scanned = taken - 1
     if params.layout == ThresholdLayout.ADAPTIVE:
         hash_steps = MAX_DEPTH * (1 + probes)  # the kd-tree descent: a constant loop, too long to unroll
     elif getattr(variant, "search", "binary") == "linear":
@@ -88,13 +97,13 @@ def loop_iterations(params, variant, k: int, cap: int) -> int:
     dedup = getattr(variant, "dedup", "set")
     set_fits = dedup == "set" and taken <= MAX_TAKEN_SET
     is_default = variant == NAMED["default"]
-    scan = 0 if set_fits else math.ceil(taken / SCAN_CHUNK)
+    scan = 0 if set_fits else math.ceil(scanned / SCAN_CHUNK)
     if dedup == "set" and not set_fits and not is_default:
         scan = 0  # refused before compiling anyway (GLLookup.defines)
     hashing = L * hash_steps + L * L
     if walk:
         chunks = QUEUE_CAPACITY // 32
-        hashing = L * (1 + chunks) + MAX_POPS * (1 + 3 * chunks)
+        hashing = params.trees_walked * (1 + chunks) + MAX_POPS * (1 + 3 * chunks)
     total = hashing + refs * (1 + scan) + cap + 10 + k
     if getattr(variant, "select", "packed") == "insertion":
         total += (cap + 10) * k

@@ -16,7 +16,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import CapacityError, InputError
-from ..index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY
+from ..index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY, walk_taken_bound
 from ..index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
 from ..validate import as_int, as_points
 from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer, time_draws
@@ -33,16 +33,33 @@ NO_SLOT = 0xFFFFFFFF
 
 
 def slot_bits(L: int, B: int) -> int:
-    """Bits that number a query's candidates (10 per taken block, at most L * B blocks)."""
+    """Bits that number a hash query's candidates (10 per taken block, at most L * B blocks)."""
     return max(1, int(L * B * 10 - 1).bit_length())
 
 
-
-
 def taken_bound(L: int, B: int, cap: int) -> int:
-    """Most blocks one query can take: at most L * B references, and (blocks being full
+    """Most blocks one hash query can take: at most L * B references, and (blocks being full
     but the last, and the cap checked before each block) at most ceil(cap / 10) + 1."""
     return min(L * B, (cap + 9) // PHOTONS_PER_BLOCK + 1)
+
+
+def lookup_taken_bound(params, cap: int) -> int:
+    """Most blocks one query of this index takes: :func:`taken_bound` for hashing; for the
+    nearest-box-first walk (``params.best_first``), which has no L * B block cap,
+    :func:`blockhash.index.best_first.walk_taken_bound` (``ceil(cap / 10) + 1`` with
+    compact blocks: at most ``cap + 9`` photons examined)."""
+    if getattr(params, "best_first", False):
+        return walk_taken_bound(params.B, cap)
+    return taken_bound(params.L, params.B, cap)
+
+
+def lookup_slot_bits(params, cap: int) -> int:
+    """Bits that number the candidates of one query of this index (10 per taken block, at
+    most :func:`lookup_taken_bound` blocks): the ``slot_bits`` that makes the CPU reference
+    reproduce the shader's packed selections.  Hashing: :func:`slot_bits` (L, B)."""
+    if getattr(params, "best_first", False):
+        return max(1, int(lookup_taken_bound(params, cap) * PHOTONS_PER_BLOCK - 1).bit_length())
+    return slot_bits(params.L, params.B)
 
 
 class GLLookup:
@@ -79,7 +96,7 @@ class GLLookup:
                     f"the walk's queue capacity QUEUE_CAPACITY={QUEUE_CAPACITY} must be a positive "
                     "multiple of 32 (glsl/bh_walk.glsl scans it in unrolled chunks of 32); "
                     "round it up to one")
-        taken = taken_bound(prm.L, prm.B, cap)
+        taken = lookup_taken_bound(prm, cap)
         if variant == NAMED["default"] and taken > MAX_TAKEN_SET:
             # The default keeps taken blocks in registers up to MAX_TAKEN_SET; a larger A * k
             # takes them in a list (dedup=branch): the same neighbours, more time per block.
@@ -96,9 +113,12 @@ class GLLookup:
             "BH_ADAPTIVE": int(prm.layout == ThresholdLayout.ADAPTIVE), "BH_MAX_DEPTH": MAX_DEPTH,
             "BH_PROBE": int(prm.probe), "BH_PROBE_CUTS": PROBE_CUTS,
             "BH_BUCKETS": prm.buckets, "BH_K": k, "BH_CAP": cap, **self.packed.widths,
-            "BH_SLOT_BITS": slot_bits(prm.L, prm.B), "BH_FETCH_ONLY": int(fetch_only),
+            "BH_SLOT_BITS": lookup_slot_bits(prm, cap), "BH_FETCH_ONLY": int(fetch_only),
             "BH_TAKEN_MAX": taken,
-            "BH_BEST_FIRST": int(prm.best_first), "BH_QUEUE": QUEUE_CAPACITY,
+            # Blocks bh_take stops at: hashing L * B; the walk none (its bound, never reached).
+            "BH_TAKE_LIMIT": taken if prm.best_first else prm.L * prm.B,
+            "BH_BEST_FIRST": int(prm.best_first), "BH_WALK_TREES": prm.trees_walked,
+            "BH_QUEUE": QUEUE_CAPACITY,
             "BH_MAX_POPS": MAX_POPS, "BH_MAX_LEAVES": MAX_LEAVES,
             "BH_NODES": max(1, self.index.thresholds.shape[1] // 2),
         }

@@ -1,15 +1,19 @@
 """Nearest-box-first query of the adaptive layout (the default preset's query).
 
 The L adaptive tables are kd-trees whose nodes carry tight photon boxes
-(:mod:`blockhash.index.node_boxes`).  A query walks all of them at once, nearest
+(:mod:`blockhash.index.node_boxes`).  A query walks the first ``trees`` of them
+(``BlockHashParams.walk_trees``: 1 for the default preset, L for all) at once, nearest
 box first, and takes the blocks of each bucket it reaches as the hash query does
 (:func:`blockhash.index.query._take`: references in slot order, duplicates skipped,
-the candidate cap checked before each block, at most ``L * B`` blocks):
+the candidate cap checked before each block).  The walk has no cap on blocks (the
+hash query's ``L * B``): the ``A * k`` cap alone ends it, so with compact blocks (all
+full but the last) it takes at most ``ceil(A k / 10) + 1`` blocks (:func:`walk_taken_bound`;
+at most ``MAX_LEAVES * B`` whatever the blocks):
 
-1. a queue of (squared distance to the node's box, node id) is seeded with the L
-   roots, table order; node id = ``t * nodes + i`` for node ``i`` of table ``t``;
-2. repeat at most ``MAX_POPS`` times: stop when ``A * k`` candidates were examined,
-   ``L * B`` blocks taken or the queue is empty; pop the entry with the smallest
+1. a queue of (squared distance to the node's box, node id) is seeded with the
+   ``trees`` roots, table order; node id = ``t * nodes + i`` for node ``i`` of table ``t``;
+2. repeat at most ``MAX_POPS`` times: stop when ``A * k`` candidates were examined
+   or the queue is empty; pop the entry with the smallest
    (distance, id); stop when k neighbours are held and its distance exceeds the k-th
    (``kth`` below); a bucket node: stop if ``MAX_LEAVES`` buckets were visited, else
    take its bucket's blocks; an inner node: push each child whose box is non-empty and
@@ -48,6 +52,15 @@ QUEUE_CAPACITY = 192
 MAX_POPS = 1024
 MAX_LEAVES = 64
 _NONE = np.uint32(0xFFFFFFFF)
+#: Photons per block (blockhash.index.blocks.PHOTONS_PER_BLOCK).
+_PPB = 10
+
+
+def walk_taken_bound(B: int, cap: int) -> int:
+    """Most blocks one walk takes: at most ``MAX_LEAVES`` buckets of ``B`` references, and
+    with compact blocks (all full but the last; the cap checked before each block, so at
+    most ``cap + 9`` photons are examined) at most ``ceil(cap / 10) + 1``."""
+    return int(min(MAX_LEAVES * B, (cap + _PPB - 1) // _PPB + 1))
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -80,7 +93,7 @@ def _push(qd, qn, size, d, node):
 
 @numba.njit(cache=True, nogil=True, parallel=True)
 def bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bits=0,
-             queue=QUEUE_CAPACITY, max_pops=MAX_POPS, max_leaves=MAX_LEAVES):
+             queue=QUEUE_CAPACITY, max_pops=MAX_POPS, max_leaves=MAX_LEAVES, trees=1):
     """Approximate k nearest photons of each query by the nearest-box-first walk.
 
     Parameters
@@ -92,6 +105,7 @@ def bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bits
     queue : int                 queue capacity
     max_pops : int              nodes popped at most
     max_leaves : int            buckets visited at most
+    trees : int                 tables walked, the first ``trees`` (1 .. L; clamped)
 
     Returns
     -------
@@ -116,7 +130,7 @@ def bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bits
         packed = np.full(k, _NONE, dtype=np.uint32)
         bits = np.empty(1, dtype=np.float32)
         bits_u = bits.view(np.uint32)
-        taken = np.empty(L * B, dtype=np.int32)
+        taken = np.empty(max_leaves * B, dtype=np.int32)  # never full: no block cap
         qd = np.empty(queue, dtype=np.uint32)
         qn = np.empty(queue, dtype=np.int64)
         bd = d2[qi]
@@ -128,7 +142,7 @@ def bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bits
         ntaken = 0
         count = 0
         leaves = 0
-        for t in range(L):
+        for t in range(min(max(trees, 1), L)):
             box = boxes[t, 0]
             if box[0] <= box[3]:
                 bits[0] = box_dist2(box, qx, qy, qz)
@@ -136,7 +150,7 @@ def bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bits
                 drops[qi] += dropped
         longest[qi] = size
         for _ in range(max_pops):
-            if count >= cap or ntaken >= L * B or size == 0:
+            if count >= cap or size == 0:
                 break
             j = _pop(qd, qn, size)
             d = qd[j]

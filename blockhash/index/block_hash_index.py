@@ -231,7 +231,8 @@ class BlockHashIndex:
             box_bytes=0 if self.node_boxes is None else self.node_boxes.nbytes)
 
     def query(self, points, k=None, *, A=None, by_priority: bool = True, slot_bits: int = 0,
-              probe: bool | None = None, best_first: bool | None = None):
+              probe: bool | None = None, best_first: bool | None = None,
+              walk_trees: int | None = None):
         """Approximate k nearest photons, like ``scipy.spatial.cKDTree.query``.
 
         Parameters
@@ -250,8 +251,8 @@ class BlockHashIndex:
         slot_bits : int
             0 (default) selects by exact distance.  The shader's 'packed' selection
             variant compares distances with their low ``slot_bits`` bits replaced by
-            the candidate's number; passing its value (``gl.lookup.slot_bits(L, B)``)
-            reproduces that variant exactly.  Neighbours then differ from the exact
+            the candidate's number; passing its value
+            (``gl.lookup.lookup_slot_bits(params, A * k)``) reproduces that variant exactly.  Neighbours then differ from the exact
             selection only where squared distances agree to 2**-(23 - slot_bits).
         probe : bool, optional
             Multi-probe beyond the query's own buckets while the cap allows
@@ -261,6 +262,9 @@ class BlockHashIndex:
             (:mod:`blockhash.index.best_first`) instead of hashing (and probing);
             default: the preset's (on for 'default').  ``by_priority`` and ``probe``
             do not change this walk.
+        walk_trees : int, optional
+            Tables the walk is seeded with (1 .. L, more is L); default: the
+            params' ``walk_trees`` (1 for 'default').
 
         Returns
         -------
@@ -286,9 +290,11 @@ class BlockHashIndex:
                              "layout='adaptive' (the default preset) or query with best_first=False")
         extra = {}
         if walk:
+            trees = prm.trees_walked if walk_trees is None else min(
+                as_int(walk_trees, "walk_trees", minimum=1), prm.L)
             d2, slots, examined, fetched, pops, drops, longest = bf_query(
                 qf, self.thresholds, self.node_boxes, self.tables.refs, self.starts,
-                self._positions, k_eff, A_eff * k_eff, slot_bits)
+                self._positions, k_eff, A_eff * k_eff, slot_bits, trees=trees)
             if finite.any():
                 extra = {"query.pops.mean": float(pops[finite].mean()),
                          "query.pops.max": float(pops[finite].max()),

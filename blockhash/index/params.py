@@ -14,7 +14,8 @@ Two presets choose them:
 ``default``
     The adaptive layout (:mod:`blockhash.index.adaptive`): each table a kd-tree
     of count thresholds with buckets of ``S`` photons on whatever surfaces the
-    photons lie; a query walks the tables' tight node boxes nearest first
+    photons lie; a query walks the tight node boxes of the first ``walk_trees``
+    tables (one) nearest first, under the ``A k`` candidate cap alone
     (:mod:`blockhash.index.best_first`; ``best_first=False`` at query time gives
     the hash query instead: buckets visited deepest first and multi-probed across
     their nearest borders, :mod:`blockhash.index.query`).  A is the one knob:
@@ -71,6 +72,11 @@ ADAPTIVE_REFERENCE_A = 8
 #: 0.46 / 0.39 / 0.51% on uniform, 26.0 / 25.4 / 25.3% on clustered, 0.73 / 0.72 / 0.74% on
 #: caustic, 6.3 / 6.4 / 6.3% on ring), and the build and the memory grow with L: 5.
 DEFAULT_L = 5
+#: Tables the default preset's nearest-box-first walk is seeded with.  At N = 10^6, k = 50
+#: (4,000 queries) walking one table with the A k cap alone missed 12.7 / 2.0% of the
+#: clustered map's neighbours at A = 8 / 64 against 11.8 / 6.4% for all five tables under
+#: the L B block cap (venus 1.6 / 0.06% against 2.8 / 0.16%), in 3-4x fewer pops: 1.
+DEFAULT_WALK_TREES = 1
 #: A memory bound on block references per photon (the index issue's target is 2.5).
 DEFAULT_REFS_PER_PHOTON = 2.4
 #: B holds up to this many times the blocks that a bucket's photons fill.  Blocks straddle
@@ -112,6 +118,19 @@ class BlockHashParams:
     #: ADAPTIVE layout only: walk the tables' node boxes nearest first
     #: (:mod:`blockhash.index.best_first`) instead of hashing and probing.
     best_first: bool = False
+    #: The walk's tables: it is seeded with the roots of the first ``walk_trees``
+    #: (1 .. L; L or more walks all of them).
+    walk_trees: int = 1
+
+    def __post_init__(self):
+        if int(self.walk_trees) < 1:
+            raise InputError(f"walk_trees={self.walk_trees!r} must be >= 1 (the tables the "
+                             f"nearest-box-first walk is seeded with; {self.L} walks all)")
+
+    @property
+    def trees_walked(self) -> int:
+        """The tables the nearest-box-first walk is seeded with, ``min(walk_trees, L)``."""
+        return min(int(self.walk_trees), self.L)
 
     @property
     def buckets(self) -> int:
@@ -132,7 +151,7 @@ class BlockHashParams:
             return (f"BlockHashParams(preset={self.preset!r}, k={self.k}, A={self.A}, L={self.L}, "
                     f"S={self.bucket_photons:g} photons/bucket{built}, B={self.B}, layout=adaptive"
                     f"{', probe' if self.probe and not self.best_first else ''}"
-                    f"{', nearest-box-first' if self.best_first else ''})")
+                    f"{f', nearest-box-first over {self.trees_walked}' if self.best_first else ''})")
         return (f"BlockHashParams(preset={self.preset!r}, k={self.k}, A={self.A}, L={self.L}, "
                 f"P=({px}, {py}, {pz}), B={self.B}, layout={self.layout.name.lower()})")
 
@@ -178,7 +197,8 @@ def adaptive_params(positions: np.ndarray, *, k: int, A: int,
                     photons_per_bucket: float = DEFAULT_PHOTONS_PER_BUCKET,
                     L: int = DEFAULT_L,
                     refs_per_photon: float = DEFAULT_REFS_PER_PHOTON,
-                    block_slack: float = DEFAULT_BLOCK_SLACK) -> BlockHashParams:
+                    block_slack: float = DEFAULT_BLOCK_SLACK,
+                    walk_trees: int = DEFAULT_WALK_TREES) -> BlockHashParams:
     """The default preset: the ADAPTIVE layout (:mod:`.adaptive`) with buckets of
     ``S = photons_per_bucket * k * A / ADAPTIVE_REFERENCE_A`` photons (at least a block's)."""
     S = max(PHOTONS_PER_BLOCK, photons_per_bucket * k * A / ADAPTIVE_REFERENCE_A)
@@ -187,7 +207,7 @@ def adaptive_params(positions: np.ndarray, *, k: int, A: int,
     B = max(1, min(B_need, B_budget, MAX_B))
     return BlockHashParams(k=k, A=A, L=L, P=(1, 1, 1), B=B, layout=ThresholdLayout.ADAPTIVE,
                            preset="default", bucket_photons=float(S), probe=True,
-                           best_first=True)
+                           best_first=True, walk_trees=walk_trees)
 
 
 def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",

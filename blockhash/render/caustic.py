@@ -26,7 +26,7 @@ from .estimate import EstimateOptions, photon_weights
 from .photon_radius import own_radii2
 from ..gl.context import bind_textures, check_gl, draw_timed, home_framebuffer, time_draws
 from ..gl.limits import check_lookup
-from ..gl.lookup import GLLookup, slot_bits
+from ..gl.lookup import GLLookup, lookup_slot_bits
 from ..gl.shaderlib import Variant
 
 def min_radius(index) -> float:
@@ -85,7 +85,7 @@ def estimate_cpu(index, points: ShadingPoints, materials, *, k=None, A=None,
     v = Variant.parse(variant)
     prm = index.params
     k = prm.k if k is None else k
-    bits = slot_bits(prm.L, prm.B) if v.packed_keys else 0
+    bits = lookup_slot_bits(prm, (prm.A if A is None else A) * k) if v.packed_keys else 0
 
     def search(q):
         return index.query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
