@@ -10,7 +10,8 @@
 # bench_A.txt/.json (every A: BH default, its merge selection, it without culling, the
 # earlier default binary-branch-on-packed and paper, beside the fetch-only floor, the exact
 # kd-tree shader and cKDTree, same run), bench_k.txt/.json (k at A = 8), bench_1m.txt/.json
-# (1,048,576 queries), caustic.txt/.json (the ring's caustic pass per stage at 10^6 photons),
+# (1,048,576 queries; the walk beside hashing the same tables), caustic.txt/.json (the ring's
+# caustic pass per stage at 10^6 photons, and with the k-nearest estimate beside the default),
 # tests.txt (the GL lookup tests: every variant equals the CPU reference on this device).
 # Figures: min and median of REPEAT back-to-back draws after WARMUP draws of the same program,
 # GPU time (GL timer queries) beside wall time, with the renderer and driver in every row.
@@ -46,10 +47,10 @@ for k in ${KS//,/ }; do
      --json "$OUT/bench_k$k.json" | tee -a "$OUT/bench_k.txt"
 done
 step "$BIG queries at A=8"
-bh bench "${common[@]}" --queries "$BIG" --A 8 --json "$OUT/bench_1m.json" | tee "$OUT/bench_1m.txt"
+bh bench "${common[@]}" --queries "$BIG" --A 8 --hashing --json "$OUT/bench_1m.json" | tee "$OUT/bench_1m.txt"
 step "caustic pass: scenes/ring.toml at $CAUSTIC photons"
 bh bench --queries 0 --caustic "$root/scenes/ring.toml" --caustic-photons "$CAUSTIC" \
-   --repeat "$REPEAT" --warmup "$WARMUP" --json "$OUT/caustic.json" | tee "$OUT/caustic.txt"
+   --caustic-estimates unbiased --repeat "$REPEAT" --warmup "$WARMUP" --json "$OUT/caustic.json" | tee "$OUT/caustic.txt"
 step "GL lookup tests"
 tests > "$OUT/tests.txt" 2>&1; tail -n 3 "$OUT/tests.txt"
 step "done: $OUT"
