@@ -112,11 +112,19 @@ def test_a_sparse_plane_above_a_floor_gets_its_own_buckets():
     pts = pm.photons(60_000, np.random.default_rng(0))
     index = BlockHashIndex(pts, k=20, A=8)
     q = _tilted_plane(2000, np.random.default_rng(1)).astype(np.float32)
-    found = index.query(q)
     exact = exact_knn(index.positions, q, 20)
+    # The buckets themselves, through the hash query (no walk over the node boxes): each
+    # query's own buckets and the probes across their nearest cuts.
+    found = index.query(q, best_first=False)
     _, avg = dilations(found[0], exact[0])
     assert avg.max() < 1.3, f"a query on the plane found neighbours {avg.max():.1f}x as far"
     assert false_negatives(found[1], exact[1], len(pts)).mean() / 20 < 0.01
+    # The default walk (one tree) on the same buckets stays within the A = 8 targets; it
+    # misses more here than hashing (4.4 % against 0.5 %; five trees: 0.3 %), BENCHMARKS.md.
+    found = index.query(q)
+    _, avg = dilations(found[0], exact[0])
+    assert avg.mean() < 1.05 and avg.max() < 2.0
+    assert false_negatives(found[1], exact[1], len(pts)).mean() / 20 < 0.1
 
 
 def test_a_gap_between_surfaces_is_cut_mid_way():
