@@ -264,16 +264,12 @@ def test_a_candidate_cap_beyond_the_register_set_is_refused_with_the_way_out():
 
 
 
-def two_patches_and_far_points(n=6000, m=200):
-    """Photons on two small patches at opposite corners (planes z = 0 and z = 1), shading
-    points on the plane z = 0.5 between them: the walk prunes, pops many nodes and fills
-    its queue (tests/test_best_first.py)."""
-    rng = np.random.default_rng(3)
-    pts = np.zeros((n, 3))
-    pts[:, :2] = rng.random((n, 2)) * 0.1
-    pts[n // 2:] += (0.9, 0.9, 1.0)
-    q = np.full((m, 3), 0.5, dtype=np.float32)
-    q[:, :2] = rng.random((m, 2))
+def two_patches_and_far_points():
+    """tests/test_best_first.py's two patches and far shading points, smaller, with a NaN and
+    an infinite point: the walk prunes, pops many nodes and fills its queue."""
+    from test_best_first import two_patches_and_far_points as patches
+
+    pts, q = patches(6000, 200)
     q[7] = np.nan
     q[8, 2] = np.inf
     return pts, q

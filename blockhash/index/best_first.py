@@ -38,7 +38,7 @@ import numba
 import numpy as np
 
 from .node_boxes import box_dist2
-from .query import _take
+from .query import _take, _unpack
 from .thresholds import LEAF
 
 #: Entries the walk's queue holds (glsl/bh_walk.glsl BH_QUEUE; a multiple of 32, the
@@ -189,17 +189,7 @@ def bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bits
                         drops[qi] += dropped
             longest[qi] = max(longest[qi], size)
         if slot_bits > 0:
-            for i in range(k):
-                if packed[i] == _NONE:
-                    break
-                cand = np.int64(packed[i] & mask)
-                blk = taken[cand // 10]
-                s = starts[blk] + cand % 10
-                dx = positions[s, 0] - qx
-                dy = positions[s, 1] - qy
-                dz = positions[s, 2] - qz
-                bd[i] = (dx * dx + dy * dy) + dz * dz
-                bs[i] = s
+            _unpack(packed, mask, taken, starts, positions, qx, qy, qz, k, bd, bs)
         examined[qi] = count
         fetched[qi] = ntaken
     return d2, slots, examined, fetched, pops, drops, longest

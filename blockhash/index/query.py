@@ -84,6 +84,23 @@ def _take(ti, key, refs, starts, positions, qx, qy, qz, taken, ntaken, count, ca
     return ntaken, count
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _unpack(packed, mask, taken, starts, positions, qx, qy, qz, k, bd, bs):
+    """The packed selection's keys (distance bits | candidate number) back to float32
+    distances and photon slots, nearest first, into bd and bs."""
+    for i in range(k):
+        if packed[i] == np.uint32(0xFFFFFFFF):
+            break
+        cand = np.int64(packed[i] & mask)
+        blk = taken[cand // 10]
+        s = starts[blk] + cand % 10
+        dx = positions[s, 0] - qx
+        dy = positions[s, 1] - qy
+        dz = positions[s, 2] - qz
+        bd[i] = (dx * dx + dy * dy) + dz * dz
+        bs[i] = s
+
+
 @numba.njit(cache=True, nogil=True, parallel=True)
 def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positions, k, cap,
              by_priority=True, slot_bits=0, probe=False, step=None):
@@ -186,17 +203,7 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
                                               ntaken, count, cap, k, bd, bs, packed, mask,
                                               slot_bits, bits, bits_u)
         if slot_bits > 0:
-            for i in range(k):
-                if packed[i] == np.uint32(0xFFFFFFFF):
-                    break
-                cand = np.int64(packed[i] & mask)
-                blk = taken[cand // 10]
-                s = starts[blk] + cand % 10
-                dx = positions[s, 0] - qx
-                dy = positions[s, 1] - qy
-                dz = positions[s, 2] - qz
-                bd[i] = (dx * dx + dy * dy) + dz * dz
-                bs[i] = s
+            _unpack(packed, mask, taken, starts, positions, qx, qy, qz, k, bd, bs)
         examined[qi] = count
         fetched[qi] = ntaken
     return d2, slots, examined, fetched
