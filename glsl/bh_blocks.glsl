@@ -29,13 +29,16 @@ uvec4 bh_block_head(uint b) {
 // [lo16 << 16, hi16 << 16 | 0xFFFF]; the bound is decoded like a photon and then
 // lowered by 2^-18 of the box's magnitude per axis (far more than the rounding of
 // decoding a photon, of float(u) and of this computation) and by 2^-16 relative
-// (more than the five roundings of a squared distance).
+// (more than the five roundings of a squared distance).  Every operation rounded on its
+// own (precise: nothing fused), as blockhash/index/query.py block_gap2 computes it: the
+// walk's culling decides which blocks are examined, so both sides must agree bit for bit.
 float bh_block_gap2(uvec4 h, vec3 q) {
-    vec3 lo = bh_lo + vec3(h.yzw << 16u) * bh_step;
-    vec3 hi = bh_lo + vec3((h.yzw & 0xFFFF0000u) | 0xFFFFu) * bh_step;
-    vec3 margin = (abs(bh_lo) + bh_step * 4294967296.0) * (1.0 / 262144.0);
-    vec3 g = max(max(lo - q, q - hi) - margin, vec3(0.0));
-    return ((g.x * g.x + g.y * g.y) + g.z * g.z) * (1.0 - 1.0 / 65536.0);
+    precise vec3 lo = bh_lo + vec3(h.yzw << 16u) * bh_step;
+    precise vec3 hi = bh_lo + vec3((h.yzw & 0xFFFF0000u) | 0xFFFFu) * bh_step;
+    precise vec3 margin = (abs(bh_lo) + bh_step * 4294967296.0) * (1.0 / 262144.0);
+    precise vec3 g = max(max(lo - q, q - hi) - margin, vec3(0.0));
+    precise float lb = ((g.x * g.x + g.y * g.y) + g.z * g.z) * (1.0 - 1.0 / 65536.0);
+    return lb;
 }
 
 // Decoded float32 position of photon j: lo + float(u) * step, one rounding per

@@ -7,7 +7,8 @@
 // across the adaptive layout's nearest cuts while the cap allows), BH_DEDUP, and
 // BH_TAKEN_MAX (bh_taken.glsl), BH_TAKE_LIMIT (the blocks a query stops at: L * B for
 // hashing, for the walk its bound, never reached), BH_CULL (off | box: skip blocks that
-// cannot hold a neighbour), BH_FETCH_ONLY (1: fetch and measure the same candidates but keep none, the
+// cannot hold a neighbour, same results; the walk culls whatever BH_CULL, and its culled
+// blocks are not examined: bh_block_far), BH_FETCH_ONLY (1: fetch and measure the same candidates but keep none, the
 // memory floor the benchmark compares with; bh_fetch_sink receives their sum),
 // BH_BEST_FIRST (1: the default preset's nearest-box-first walk, bh_walk.glsl, replaces
 // hashing, bucket order and probes).
@@ -64,7 +65,15 @@ uint bh_packed_key(uint b, uint j, vec3 q, uint cand) {
 // enter the k nearest, because the lower bound of its squared distances exceeds the
 // current k-th key.  Its photons are then neither fetched nor offered; they still count
 // as examined and the block as taken, so the result is the same as without culling.
-#if BH_CULL == BH_CULL_BOX && !BH_FETCH_ONLY
+// The walk (BH_BEST_FIRST) always culls, whatever BH_CULL, and otherwise: a far block is
+// not taken and its photons are not examined, so they do not count toward BH_CAP
+// (blockhash/index/best_first.py, the same bound and comparison on the CPU).
+#if BH_BEST_FIRST && !BH_FETCH_ONLY
+#define BH_WALK_CULL 1
+#else
+#define BH_WALK_CULL 0
+#endif
+#if BH_CULL == BH_CULL_BOX && !BH_FETCH_ONLY || BH_WALK_CULL
 bool bh_block_far(uvec4 h, vec3 q) {
     float lb = bh_block_gap2(h, q);
     uint bits = floatBitsToUint(lb);
@@ -117,7 +126,14 @@ void bh_take(uint t, uint key, uint nref, vec3 q, inout uint ntaken, inout uint 
 #else
 #error unknown BH_DEDUP
 #endif
-#if BH_CULL == BH_CULL_BOX && !BH_FETCH_ONLY
+#if BH_WALK_CULL
+        uvec4 head = bh_block_head(b);
+        uint n = head.x;
+        if (bh_block_far(head, q)) {
+            continue;  // not taken, not examined, not counted
+        }
+        {
+#elif BH_CULL == BH_CULL_BOX && !BH_FETCH_ONLY
         uvec4 head = bh_block_head(b);
         uint n = head.x;
         if (!bh_block_far(head, q)) {

@@ -35,6 +35,7 @@
 
 // Block culling: none, or skip a block whose box (words 61-63 of the GL upload) is
 // farther than the current k-th neighbour (bh_lookup.glsl bh_block_far); same results.
+// The walk (BH_BEST_FIRST) culls whatever BH_CULL, and does not examine culled blocks.
 #define BH_CULL_OFF 0
 #define BH_CULL_BOX 1
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from blockhash import BlockHashIndex, InputError
-from blockhash.index.best_first import QUEUE_CAPACITY, bf_query
+from blockhash.index.best_first import QUEUE_CAPACITY, bf_query, walk_cull
 from blockhash.index.metrics import exact_knn, false_negatives
 from blockhash.index.thresholds import LEAF, THRESHOLD_PAD
 from conftest import photon_set
@@ -79,8 +79,8 @@ def test_a_full_queue_drops_its_farthest_entries_and_counts_them():
     args = (q, index.thresholds, index.node_boxes, index.tables.refs, index.starts,
             index._positions, 20, 160, 0)
     # Walking all L tables fills the queue (one table's walk held at most 20 entries here).
-    full = bf_query(*args, QUEUE_CAPACITY, trees=index.params.L)
-    small = bf_query(*args, 32, trees=index.params.L)
+    full = bf_query(*args, QUEUE_CAPACITY, trees=index.params.L, cull=walk_cull(index))
+    small = bf_query(*args, 32, trees=index.params.L, cull=walk_cull(index))
     assert full[5].sum() == 0 and small[5].sum() > 0  # drops
     assert small[6].max() == 32 and full[6].max() > 32  # longest queue
     # Dropping the farthest entries costs little: the walk rarely reaches them.
@@ -129,10 +129,15 @@ def test_the_walk_has_no_block_cap_and_its_bound_is_tight():
     for A in (2, 16, 64):
         cap = A * 8
         *_, fetched, _, _, _ = bf_query(q, index.thresholds, index.node_boxes, index.tables.refs,
-                                        index.starts, index._positions, 8, cap, 0)
+                                        index.starts, index._positions, 8, cap, 0,
+                                        cull=walk_cull(index))
         assert fetched.max() <= walk_taken_bound(prm.B, cap)
-        if A < 64:  # at A = 64 the walk prunes its way to an end before the cap
+        if A < 64:  # at A = 64 the walk prunes and culls its way to an end before the cap
             assert fetched.max() >= walk_taken_bound(prm.B, cap) - 1  # the bound is tight
+    # k = 16 (culled blocks are not taken: at k = 8 a walk here ends within L * B blocks).
+    *_, fetched, _, _, _ = bf_query(q, index.thresholds, index.node_boxes, index.tables.refs,
+                                    index.starts, index._positions, 16, 16 * 16, 0,
+                                    cull=walk_cull(index))
     assert fetched.max() > prm.L * prm.B  # the hash query's block cap would have stopped it
 
 

@@ -205,15 +205,26 @@ def test_query_width_changes_the_tile_shape_not_the_results(caustic_index):
 @pytest.mark.parametrize("variant", ["default", "binary-branch-on-network-box"])
 def test_culling_skips_blocks_and_keeps_the_neighbours(variant):
     """Culled blocks (not fetched, not offered) leave every neighbour as the CPU reference
-    has it, and some blocks are culled: a lookup that never culls fails here."""
+    has it, and some blocks are culled: a lookup that never culls fails here.  The walk
+    (the default preset) culls whatever the variant's cull field; hashing with cull 'off'
+    culls nothing."""
     context_or_skip("egl")
     index = BlockHashIndex(photon_set("caustic", 20000), k=8, A=8)
     lookup = GLLookup(index, backend="egl")
     q = queries_for("caustic", m=400)
     assert_same_as_cpu(lookup, index, q, 8, 8, variant=variant)
-    assert lookup.counters["query.blocks_culled.mean"] > 1.0
-    lookup.query(q, 8, A=8, variant=Variant.parse(variant).name.rsplit("-", 1)[0] + "-off")
+    culled = lookup.counters["query.blocks_culled.mean"]
+    assert culled > 1.0
+    off = Variant.parse(variant).name.rsplit("-", 1)[0] + "-off"
+    assert_same_as_cpu(lookup, index, q, 8, 8, variant=off)
+    assert lookup.counters["query.blocks_culled.mean"] == culled
+    hashing = copy.copy(index)
+    hashing.params = replace(index.params, best_first=False)
+    lookup = GLLookup(hashing, backend="egl")
+    lookup.query(q, 8, A=8, variant=off)
     assert lookup.counters["query.blocks_culled.mean"] == 0.0
+    lookup.query(q, 8, A=8, variant=variant)
+    assert lookup.counters["query.blocks_culled.mean"] > 0.0
 
 
 def test_block_boxes_bound_every_photon_code():
@@ -294,7 +305,7 @@ def test_a_full_walk_queue_drops_the_same_entries_on_both_sides(far_index, monke
     that the CPU reference drops (the largest (distance, node id))."""
     context_or_skip("egl")
     import blockhash.gl.lookup as lookup_module
-    from blockhash.index.best_first import bf_query
+    from blockhash.index.best_first import bf_query, walk_cull
 
     monkeypatch.setattr(lookup_module, "QUEUE_CAPACITY", 32)
     q = two_patches_and_far_points()[1]
@@ -303,7 +314,7 @@ def test_a_full_walk_queue_drops_the_same_entries_on_both_sides(far_index, monke
     ix.params = replace(far_index.params, walk_trees=far_index.params.L)
     d2, slots, *_, drops, longest = bf_query(qf, ix.thresholds, ix.node_boxes, ix.tables.refs,
                                              ix.starts, ix._positions, 16, 128, 0, 32,
-                                             trees=ix.params.L)
+                                             trees=ix.params.L, cull=walk_cull(ix))
     assert drops.sum() > 0 and longest.max() == 32
     d, i = GLLookup(ix, backend="egl").query(q, k=16, A=8, variant="binary-branch-on-insertion")
     ok = np.isfinite(q).all(axis=1)
@@ -334,12 +345,13 @@ def test_the_walk_takes_more_than_L_B_blocks_the_same_on_both_sides(caustic_inde
     """The walk has no L * B block cap: queried at 8x the A k it was built for, it takes up
     to ceil(A k / 10) + 1 blocks (the candidates numbered in the packed keys' slot bits)."""
     context_or_skip("egl")
-    from blockhash.index.best_first import bf_query, walk_taken_bound
+    from blockhash.index.best_first import bf_query, walk_cull, walk_taken_bound
 
     ix = walking(caustic_index, trees)
     prm, q, k, A = ix.params, queries_for("caustic"), 32, 8
     qf = np.where(np.isfinite(q).all(axis=1)[:, None], q, np.float32(0))
     *_, fetched, _, _, _ = bf_query(qf, ix.thresholds, ix.node_boxes, ix.tables.refs, ix.starts,
-                                    ix._positions, k, A * k, 0, trees=trees)
+                                    ix._positions, k, A * k, 0, trees=trees,
+                                    cull=walk_cull(ix))
     assert prm.L * prm.B < fetched.max() <= walk_taken_bound(prm.B, A * k)
     assert_same_as_cpu(GLLookup(ix, backend="egl"), ix, q, k, A, variant=variant)

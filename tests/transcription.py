@@ -77,12 +77,29 @@ def box_distance(box, q):
                       + np.float32(g[2] * g[2]))
 
 
+def block_gap2(words, q, lo, step):
+    """The walk's block culling bound (glsl/bh_blocks.glsl bh_block_gap2) in plain Python:
+    ``words`` a block's three box words (blockhash/index/blocks.py block_boxes), one
+    float32 rounding per operation."""
+    f = np.float32
+    g = []
+    for a in range(3):
+        w = int(words[a])
+        blo = f(lo[a] + f(f((w & 0xFFFF) << 16) * step[a]))
+        bhi = f(lo[a] + f(f((w & 0xFFFF0000) | 0xFFFF) * step[a]))
+        margin = f(f(abs(lo[a]) + f(step[a] * f(2.0 ** 32))) * f(2.0 ** -18))
+        g.append(max(f(max(f(blo - q[a]), f(q[a] - bhi)) - margin), f(0)))
+    s = f(f(f(g[0] * g[0]) + f(g[1] * g[1])) + f(g[2] * g[2]))
+    return f(s * f(1 - 2.0 ** -16))
+
+
 def walked_query(index, q, k, A, trees=None):
     """The nearest-box-first walk (blockhash/index/best_first.py) in plain Python, with an
     unbounded sorted queue (the real one's capacity never binds on small maps), seeded with
     the first ``trees`` tables (default: the params' walk_trees), the A * k cap alone
     ending it (no block cap): the k nearest (slots, squared distances) of the photons of
-    the buckets it reaches."""
+    the buckets it reaches; once k are held, a block whose :func:`block_gap2` is above 0
+    and above the k-th distance is culled (not taken, not counted)."""
     best, _ = walk(index, q, k, A, trees)
     return [s for _, s in best], [v for v, _ in best]
 
@@ -95,6 +112,11 @@ def walk(index, q, k, A, trees=None):
     boxes, rows = index.node_boxes, index.thresholds
     nn = boxes.shape[1]
     from blockhash.index.best_first import MAX_LEAVES, MAX_POPS
+    from blockhash.index.blocks import block_boxes
+
+    cboxes = block_boxes(index.block_words)
+    lo = index.quantizer.lo.astype(np.float32)
+    step = index.quantizer.step.astype(np.float32)
 
     def nonempty(t, i):
         return boxes[t, i, 0] <= boxes[t, i, 3]
@@ -119,6 +141,10 @@ def walk(index, q, k, A, trees=None):
                     break
                 if blk in taken:
                     continue
+                if len(best) == k:
+                    gap = block_gap2(cboxes[blk], qf, lo, step)
+                    if gap > 0 and gap > best[-1][0]:
+                        continue
                 taken.append(int(blk))
                 for s in range(index.starts[blk], index.starts[blk + 1]):
                     count += 1

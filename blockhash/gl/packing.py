@@ -29,8 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import CapacityError
-from ..index.blocks import COUNT_WORD, PHOTONS_PER_BLOCK
-from ..index.codec import WORDS_PER_PHOTON
+from ..index.blocks import COUNT_WORD, block_boxes  # noqa: F401 (block_boxes: re-exported)
 from .context import check_gl
 
 
@@ -89,22 +88,6 @@ def box_texels(node_boxes) -> np.ndarray:
     out[:, 0, 3] = b[:, 0] <= b[:, 3]
     out[:, 1, :3] = b[:, 3:].view(np.uint32)
     return out.reshape(-1, 4)
-
-
-def block_boxes(block_words: np.ndarray) -> np.ndarray:
-    """(nblocks, 3) uint32: per axis, the top 16 bits of the block's smallest and largest
-    photon code, ``lo16 | hi16 << 16``: every photon code u of the block has
-    ``lo16 << 16 <= u <= hi16 << 16 | 0xFFFF``.  The lookup's block culling (BH_CULL,
-    glsl/bh_blocks.glsl bh_block_gap2) reads them from the spare words 61-63, which the
-    index leaves zero, in the same texel as the photon count.
-    """
-    w = np.asarray(block_words, dtype=np.uint32)
-    nb = len(w)
-    codes = w[:, :COUNT_WORD].reshape(nb, PHOTONS_PER_BLOCK, WORDS_PER_PHOTON)[:, :, :3]
-    valid = (np.arange(PHOTONS_PER_BLOCK)[None, :] < w[:, COUNT_WORD, None])[:, :, None]
-    lo = np.where(valid, codes, np.uint32(0xFFFFFFFF)).min(axis=1) >> np.uint32(16)
-    hi = np.where(valid, codes, np.uint32(0)).max(axis=1) >> np.uint32(16)
-    return (lo | (hi << np.uint32(16))).astype(np.uint32)
 
 
 def pack_index(ctx, index) -> PackedIndex:

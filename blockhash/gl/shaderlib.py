@@ -121,7 +121,10 @@ class Variant:
                                       bitonic merge)
     cull : {'off', 'box'}             blocks farther than the current k-th neighbour (by
                                       the box in their spare words) skipped, not fetched;
-                                      same results
+                                      same results.  The default preset's walk
+                                      (BH_BEST_FIRST) culls whatever this field, and
+                                      its culled blocks are not examined (they do not
+                                      count toward A * k: blockhash/index/best_first.py)
 
     A name lists the choices in this order, '-'-separated; a name of the first four
     (the paper's stages) means cull 'off'.

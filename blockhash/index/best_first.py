@@ -20,6 +20,14 @@ at most ``MAX_LEAVES * B`` whatever the blocks):
    not farther than ``kth``;
 3. keep the k nearest candidates as :mod:`blockhash.index.query` step 5 does.
 
+Block culling: once k neighbours are held, a block of a reached bucket whose lower bound
+of squared distances (:func:`blockhash.index.query.block_gap2`, from its 16-bit code box,
+:func:`blockhash.index.blocks.block_boxes`) is above 0 and, as float32 bits, above ``kth``
+is skipped: not taken (it has no candidate number, and the taken-block bound holds), its
+photons not examined and not counted toward the ``A * k`` cap, so the cap is spent on
+blocks that can still hold a neighbour rather than on a visited bucket's far blocks.
+The shader's walk always culls so, whatever its variant's ``cull`` field.
+
 ``kth`` is compared as float32 bits (distances are >= 0, so bits order as values):
 the k-th (distance, slot) key's distance bits when k are held (exact selection), the
 k-th packed key with its slot bits set (``slot_bits`` > 0: the shader's packed and
@@ -37,6 +45,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from .blocks import block_boxes
 from .node_boxes import box_dist2
 from .query import _take, _unpack
 from .thresholds import LEAF
@@ -91,10 +100,24 @@ def _push(qd, qn, size, d, node):
     return size, 1
 
 
-@numba.njit(cache=True, nogil=True, parallel=True)
+def walk_cull(index):
+    """The culling arguments of :func:`bf_query` for ``index``: (its blocks' box words,
+    :func:`blockhash.index.blocks.block_boxes`; the quantizer's lo and step as float32),
+    the box words computed once and kept on the index."""
+    cb = getattr(index, "_block_box_words", None)
+    if cb is None or len(cb) != len(index.block_words):
+        cb = block_boxes(index.block_words)
+        index._block_box_words = cb
+    q = index.quantizer
+    return cb, np.asarray(q.lo, dtype=np.float32), np.asarray(q.step, dtype=np.float32)
+
+
 def bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bits=0,
-             queue=QUEUE_CAPACITY, max_pops=MAX_POPS, max_leaves=MAX_LEAVES, trees=1):
+             queue=QUEUE_CAPACITY, max_pops=MAX_POPS, max_leaves=MAX_LEAVES, trees=1, *, cull):
     """Approximate k nearest photons of each query by the nearest-box-first walk.
+
+    ``cull`` is :func:`walk_cull` of the index (the walk's block culling, module
+    docstring), or None: no block culled (not the shader's walk; for studies).
 
     Parameters
     ----------
@@ -114,6 +137,21 @@ def bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bits
     drops : (m,) int32          entries dropped from a full queue
     longest : (m,) int32        most entries the queue held
     """
+    if cull is None:
+        cb, lo, step = np.empty((0, 3), np.uint32), np.zeros(3, np.float32), np.ones(3, np.float32)
+    else:
+        cb, lo, step = cull
+        cb = np.ascontiguousarray(cb, dtype=np.uint32).reshape(-1, 3)
+        lo = np.ascontiguousarray(lo, dtype=np.float32).reshape(3)
+        step = np.ascontiguousarray(step, dtype=np.float32).reshape(3)
+    return _bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bits, queue,
+                     max_pops, max_leaves, trees, cb, lo, step)
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bits, queue,
+              max_pops, max_leaves, trees, cbox, clo, cstep):
+    """:func:`bf_query` compiled."""
     m = qpos.shape[0]
     L = refs.shape[0]
     B = refs.shape[2]
@@ -177,7 +215,7 @@ def bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bits
                 leaves += 1
                 ntaken, count = _take(t, np.int64(meta >> 3), refs, starts, positions, qx, qy, qz,
                                       taken, ntaken, count, cap, k, bd, bs, packed, mask,
-                                      slot_bits, bits, bits_u)
+                                      slot_bits, bits, bits_u, cbox, clo, cstep)
                 continue
             c = np.int64(meta >> 3)
             for ch in range(2):

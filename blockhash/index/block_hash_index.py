@@ -23,7 +23,7 @@ from .blocks import BLOCK_WORDS, make_blocks, pack_blocks
 from .codec import WORDS_PER_PHOTON, PhotonRecords
 from .hashtables import insert_blocks
 from .hilbert import hilbert_keys
-from .best_first import bf_query
+from .best_first import bf_query, walk_cull
 from .node_boxes import node_boxes
 from .params import BlockHashParams, resolve_params
 from .query import bh_query
@@ -294,7 +294,8 @@ class BlockHashIndex:
                 as_int(walk_trees, "walk_trees", minimum=1), prm.L)
             d2, slots, examined, fetched, pops, drops, longest = bf_query(
                 qf, self.thresholds, self.node_boxes, self.tables.refs, self.starts,
-                self._positions, k_eff, A_eff * k_eff, slot_bits, trees=trees)
+                self._positions, k_eff, A_eff * k_eff, slot_bits, trees=trees,
+                cull=walk_cull(self))
             if finite.any():
                 extra = {"query.pops.mean": float(pops[finite].mean()),
                          "query.pops.max": float(pops[finite].max()),

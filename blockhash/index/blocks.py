@@ -41,6 +41,24 @@ def make_blocks(keys, *, builder: str = "bulk") -> LeafBlocks:
     raise InputError(f"builder={builder!r} is not known; choose one of {', '.join(BUILDERS)}")
 
 
+def block_boxes(block_words: np.ndarray) -> np.ndarray:
+    """(nblocks, 3) uint32: per axis, the top 16 bits of the block's smallest and largest
+    photon code, ``lo16 | hi16 << 16``: every photon code u of the block has
+    ``lo16 << 16 <= u <= hi16 << 16 | 0xFFFF``.  The GL upload (blockhash/gl/packing.py)
+    puts them in the spare words 61-63, which the index leaves zero, in the same texel as
+    the photon count: the lookup's block culling (BH_CULL, and the walk's, glsl/bh_blocks.glsl
+    bh_block_gap2) reads them there; the CPU walk (blockhash/index/best_first.py) computes the
+    same bound from them.
+    """
+    w = np.asarray(block_words, dtype=np.uint32)
+    nb = len(w)
+    codes = w[:, :COUNT_WORD].reshape(nb, PHOTONS_PER_BLOCK, WORDS_PER_PHOTON)[:, :, :3]
+    valid = (np.arange(PHOTONS_PER_BLOCK)[None, :] < w[:, COUNT_WORD, None])[:, :, None]
+    lo = np.where(valid, codes, np.uint32(0xFFFFFFFF)).min(axis=1) >> np.uint32(16)
+    hi = np.where(valid, codes, np.uint32(0)).max(axis=1) >> np.uint32(16)
+    return (lo | (hi << np.uint32(16))).astype(np.uint32)
+
+
 def pack_blocks(records: np.ndarray, starts: np.ndarray) -> np.ndarray:
     """Photon records in block order -> (nblocks, 64) uint32 block words.
 

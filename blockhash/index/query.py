@@ -38,9 +38,43 @@ from .thresholds import PROBE_CUTS, adaptive_bucket_of, adaptive_descend, bucket
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def block_gap2(cbox, blk, lo, step, qx, qy, qz):
+    """Lower bound of the float32 squared distance from q to every photon of block ``blk``
+    whose box words (:func:`blockhash.index.blocks.block_boxes`) are ``cbox[blk]``: the
+    float32 operations of glsl/bh_blocks.glsl bh_block_gap2 one by one (``lo``, ``step``:
+    the quantizer's float32 values)."""
+    one_18 = np.float32(1.0 / 262144.0)
+    shrink = np.float32(1.0 - 1.0 / 65536.0)
+    q = (qx, qy, qz)
+    s = np.float32(0.0)
+    for a in range(3):
+        w = np.int64(cbox[blk, a])
+        blo = lo[a] + np.float32(np.int64((w & 0xFFFF) << 16)) * step[a]
+        bhi = lo[a] + np.float32(np.int64((w & 0xFFFF0000) | 0xFFFF)) * step[a]
+        margin = (abs(lo[a]) + step[a] * np.float32(4294967296.0)) * one_18
+        u = blo - q[a]
+        v = q[a] - bhi
+        g = (u if u > v else v) - margin
+        if not g > np.float32(0.0):
+            g = np.float32(0.0)
+        if a == 0:
+            s = g * g
+        elif a == 1:
+            s = s + g * g
+        else:
+            s = (s + g * g) * shrink
+    return s
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def _take(ti, key, refs, starts, positions, qx, qy, qz, taken, ntaken, count, cap, k, bd, bs,
-          packed, mask, slot_bits, bits, bits_u):
-    """Take the blocks of bucket ``key`` of table ``ti`` not yet taken, while under the cap."""
+          packed, mask, slot_bits, bits, bits_u, cbox, clo, cstep):
+    """Take the blocks of bucket ``key`` of table ``ti`` not yet taken, while under the cap.
+
+    ``cbox`` non-empty (the walk, :mod:`blockhash.index.best_first`): a block whose
+    :func:`block_gap2` bound is above 0 and, as float32 bits, above the k-th key (as the
+    walk compares it; nothing while fewer than k are held) is culled: not taken, its
+    photons neither examined nor counted toward the cap.  Empty (0, 3): no culling."""
     B = refs.shape[2]
     for r in range(B):
         if count >= cap or ntaken >= taken.shape[0]:
@@ -55,6 +89,18 @@ def _take(ti, key, refs, starts, positions, qx, qy, qz, taken, ntaken, count, ca
                 break
         if dup:
             continue
+        if cbox.shape[0] > 0:
+            if slot_bits > 0:
+                kth = packed[k - 1] | mask
+            elif bs[k - 1] >= 0:
+                bits[0] = bd[k - 1]
+                kth = bits_u[0]
+            else:
+                kth = np.uint32(0xFFFFFFFF)
+            lb = block_gap2(cbox, blk, clo, cstep, qx, qy, qz)
+            bits[0] = lb
+            if lb > np.float32(0.0) and bits_u[0] > kth:
+                continue
         taken[ntaken] = blk
         ntaken += 1
         for s in range(starts[blk], starts[blk + 1]):
@@ -142,6 +188,8 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
     examined = np.zeros(m, dtype=np.int32)
     fetched = np.zeros(m, dtype=np.int32)
     mask = np.uint32((1 << slot_bits) - 1) if slot_bits > 0 else np.uint32(0)
+    nocull = np.empty((0, 3), dtype=np.uint32)  # hashing culls no block
+    nolo = np.zeros(3, dtype=np.float32)
     adaptive = nested == 2
     for qi in numba.prange(m):
         packed = np.full(k, np.uint32(0xFFFFFFFF), dtype=np.uint32)
@@ -185,7 +233,8 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
         for oi in range(L):
             t = order[oi]
             ntaken, count = _take(t, keys[t], refs, starts, positions, qx, qy, qz, taken, ntaken,
-                                  count, cap, k, bd, bs, packed, mask, slot_bits, bits, bits_u)
+                                  count, cap, k, bd, bs, packed, mask, slot_bits, bits, bits_u,
+                                  nocull, nolo, nolo)
         if probe and adaptive:
             for j in range(PROBE_CUTS):
                 for oi in range(L):
@@ -201,7 +250,7 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
                     if key != keys[t]:
                         ntaken, count = _take(t, key, refs, starts, positions, qx, qy, qz, taken,
                                               ntaken, count, cap, k, bd, bs, packed, mask,
-                                              slot_bits, bits, bits_u)
+                                              slot_bits, bits, bits_u, nocull, nolo, nolo)
         if slot_bits > 0:
             _unpack(packed, mask, taken, starts, positions, qx, qy, qz, k, bd, bs)
         examined[qi] = count
