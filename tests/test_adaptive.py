@@ -120,7 +120,7 @@ def test_a_sparse_plane_above_a_floor_gets_its_own_buckets():
     assert avg.max() < 1.3, f"a query on the plane found neighbours {avg.max():.1f}x as far"
     assert false_negatives(found[1], exact[1], len(pts)).mean() / 20 < 0.01
     # The default walk (one tree) on the same buckets stays within the A = 8 targets; it
-    # misses more here than hashing (4.4 % against 0.5 %; five trees: 0.3 %), BENCHMARKS.md.
+    # misses more here than hashing (4.4 % against 0.4 %; five trees: 0.1 %), BENCHMARKS.md.
     found = index.query(q)
     _, avg = dilations(found[0], exact[0])
     assert avg.mean() < 1.05 and avg.max() < 2.0
