@@ -181,8 +181,8 @@ def markdown(rows: list[dict]) -> str:
                     f"{100 * cells[A]['fn_mean']:.2f}%" if A in cells else "" for A in As) + " |")
     out += ["", "| map | set | A | FN mean | FN p90 | FN on / off surface | FN near / far (far share) "
             "| avg dil. | max dil. | candidates | refs/photon | bytes/photon | orphans "
-            "| build s (x cKDTree) |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "| query s | build s (x cKDTree) |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if r["preset"] == "default" and r["A"] in (8, 64):
             out.append(
@@ -192,7 +192,17 @@ def markdown(rows: list[dict]) -> str:
                 f"({100 * r.get('far_share', np.nan):.0f}%) | "
                 f"{r['avg_dilation']:.3f} | {r['max_dilation']:.3f} | {r['candidates']:.0f} | "
                 f"{r['refs_per_photon']:.2f} | {r['bytes_per_photon']:.0f} | {r['orphans']} | "
+                f"{r['query_seconds']:.2f} | "
                 f"{r['build_seconds']:.2f} ({r['build_seconds'] / r['ckdtree_build_seconds']:.1f}x) |")
+    out += ["", "Every row (query s: the whole query set, CPU reference):", "",
+            "| map | set | preset | A | FN mean | FN p90 | avg dil. | max dil. | candidates "
+            "| query s | build s | bytes/photon |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        out.append(f"| {r['map']} | {r['set']} | {r['preset']} | {r['A']} | "
+                   f"{100 * r['fn_mean']:.2f}% | {100 * r['fn_p90']:.0f}% | "
+                   f"{r['avg_dilation']:.3f} | {r['max_dilation']:.3f} | {r['candidates']:.0f} | "
+                   f"{r['query_seconds']:.2f} | {r['build_seconds']:.2f} | "
+                   f"{r['bytes_per_photon']:.0f} |")
     return "\n".join(out)
 
 
@@ -212,7 +222,12 @@ def main(argv=None) -> int:
     ap.add_argument("--tune", action="store_true", help="only the TUNE maps")
     ap.add_argument("--json", help="write the rows (and the machine) here")
     ap.add_argument("--markdown", help="write the table here")
+    ap.add_argument("--from-json", metavar="FILE",
+                    help="print the tables of a saved run (--json) instead of running")
     args = ap.parse_args(argv)
+    if args.from_json:
+        print(markdown(json.loads(Path(args.from_json).read_text())["rows"]))
+        return 0
     if args.quick:
         args.photons, args.queries, args.A = 1e5, 4000, "1,8,64"
     As = [int(a) for a in args.A.split(",")]
