@@ -30,6 +30,18 @@ def _swap(c, ids, i, j):
 
 
 @numba.njit
+def _split(c, ids, a, lo, hi, t):
+    """Rows lo..hi-1 with code < t on axis a first (plain two-pointer partition)."""
+    i, j = lo, hi - 1
+    while i <= j:
+        if c[i, a] < t:
+            i += 1
+        else:
+            _swap(c, ids, i, j)
+            j -= 1
+
+
+@numba.njit
 def _select(c, ids, a, lo, hi, p):
     while hi - lo > 1:
         mid = (lo + hi - 1) // 2
@@ -91,13 +103,7 @@ def _reference_tree(codes, S, offsets, scale):
                     split += 1
             if min(split, size - split) >= 0.5 * size / m:
                 a = gap
-                i, j = lo, hi - 1
-                while i <= j:
-                    if c[i, a] < t:
-                        i += 1
-                    else:
-                        _swap(c, ids, i, j)
-                        j -= 1
+                _split(c, ids, a, lo, hi, t)
             else:
                 gap = -1
                 split = -1
@@ -135,13 +141,7 @@ def _reference_tree(codes, S, offsets, scale):
                 t = np.uint32(v - (v - max_below - 1) // 2)
                 split = below
             if split > 0:
-                i, j = lo, hi - 1
-                while i <= j:
-                    if c[i, a] < t:
-                        i += 1
-                    else:
-                        _swap(c, ids, i, j)
-                        j -= 1
+                _split(c, ids, a, lo, hi, t)
         if split <= 0:
             nodes[2 * node] = 0
             nodes[2 * node + 1] = (np.uint32(buckets) << 3) | LEAF

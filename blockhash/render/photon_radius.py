@@ -18,8 +18,9 @@ standard deviation about sqrt(1.5 / j) with the cone filter) and raises the flux
 On synthetic fold lines and step edges (``tools/fold_bias.py --estimate conserving
 --photons 100000,1000000 --ks 10,50,100``, no scene) the rule keeps the flux within 0.2 %
 with the cone, Epanechnikov and Silverman filters (0.7 % with the box, whose weight does
-not fall to 0 at the disc's edge), where j = k - 1 loses 0.7 % with the cone at k = 50.  A map with fewer than j + 1 photons uses each photon's farthest other
-photon; a map of one photon has no radius (infinite: the photon adds nothing).
+not fall to 0 at the disc's edge).  A map with fewer than j + 1 photons uses each
+photon's farthest other photon; a map of one photon has no radius (infinite: the photon
+adds nothing).
 """
 
 from __future__ import annotations
