@@ -1,0 +1,181 @@
+"""CPU reference of the cell lookup, the oracle for ``glsl/bh_cells.glsl``.
+
+Three rounds of fetches, each independent within itself, bounded whatever N or the photon
+distribution:
+
+1. **own cells.**  The query's code (:meth:`Quantizer.quantize_query`, 21 bits per axis)
+   names its cell at every level; the counts of those cells, from ``first`` (the coarsest
+   level whose cells all hold at most ``cap = A k`` photons, :meth:`CellTable.first_level`)
+   up to the top, are looked up at once.  They grow with the level; ``top`` is the
+   coarsest level whose own cell holds at most ``cap``.
+2. **groups.**  At the levels ``top - 1``, ``top`` and ``top + 1``, the query's group is
+   the 2 x 2 x 2 cells around the cell corner nearest to it (the cell holding it and, on
+   each axis, the neighbour on its side): it covers every point within half a cell of the
+   query.  The 24 cells are looked up at once.  The group chosen is the coarsest one
+   with ``k <= count <= cap``; failing that, the finest holding at least ``k``; failing
+   that, the coarsest.
+3. **photons.**  The chosen group's cells, nearest box first (ties in cell order), are
+   read as runs of photon slots until ``cap`` candidates are taken (a cell that would
+   pass the cap is cut to fit).
+
+The k nearest candidates by float32 squared distance ``((dx*dx + dy*dy) + dz*dz)``,
+``d = p - q``, ties by slot, are the result.  The shader finds the same k by counting
+(bh_cells.glsl); the order it reports them in is restored by the caller.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from .cells import CODE_SHIFT, LEVEL_MIN, LEVEL_TOP, cell_lookup
+
+#: Rounds of dependent fetches of one cell query: own cells, group cells, photons.
+CELL_ROUNDS = 3
+#: Levels tried in round 2, relative to ``top``.
+TRIED = (-1, 0, 1)
+#: Group shape: 2 (2 x 2 x 2 cells around the nearest corner) or 3 (3 x 3 x 3 around q's cell).
+GROUP = 3
+GROUP_CELLS = GROUP ** 3
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def cell_gap2(cx, cy, cz, shift, lo, step, qx, qy, qz):
+    """Float32 squared distance from q to the box of a cell (codes ``c << shift`` to
+    ``c << shift | (1 << shift) - 1``), decoded like a photon; the operations of
+    bh_cells.glsl bh_cell_gap2 one by one."""
+    q = (qx, qy, qz)
+    c = (cx, cy, cz)
+    s = np.float32(0.0)
+    for a in range(3):
+        base = np.int64(c[a]) << np.int64(shift)
+        blo = lo[a] + np.float32(base) * step[a]
+        bhi = lo[a] + np.float32(base | ((np.int64(1) << np.int64(shift)) - 1)) * step[a]
+        u = blo - q[a]
+        v = q[a] - bhi
+        g = u if u > v else v
+        if not g > np.float32(0.0):
+            g = np.float32(0.0)
+        if a == 0:
+            s = g * g
+        elif a == 1:
+            s = s + g * g
+        else:
+            s = s + g * g
+    return s
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _group(slots, mask, level, c0x, c0y, c0z, gx, gy, gz, gfirst, gcount):
+    """The 8 cells of the query's group at ``level``: coordinates into gx..gz, runs into
+    gfirst/gcount (count 0 for a cell outside the grid or not stored); returns the total."""
+    side = np.int64(1) << np.int64(LEVEL_TOP - level)
+    cq = (c0x >> level, c0y >> level, c0z >> level)
+    up = ((c0x >> (level - 1)) & 1, (c0y >> (level - 1)) & 1, (c0z >> (level - 1)) & 1)
+    total = np.int64(0)
+    for j in range(GROUP_CELLS):
+        if GROUP == 2:
+            x = cq[0] + ((2 * up[0] - 1) if (j & 1) else 0)
+            y = cq[1] + ((2 * up[1] - 1) if (j & 2) else 0)
+            z = cq[2] + ((2 * up[2] - 1) if (j & 4) else 0)
+        else:
+            x = cq[0] + (j % 3) - 1
+            y = cq[1] + (j // 3) % 3 - 1
+            z = cq[2] + j // 9 - 1
+        gx[j], gy[j], gz[j] = x, y, z
+        if x < 0 or y < 0 or z < 0 or x >= side or y >= side or z >= side:
+            gfirst[j], gcount[j] = 0, 0
+            continue
+        f, n = cell_lookup(slots, mask, level, x, y, z)
+        gfirst[j], gcount[j] = f, n
+        total += n
+    return total
+
+
+@numba.njit(cache=True, parallel=True)
+def cells_query(qcodes, qpos, slots, buckets, first, positions, lo, step, k, cap):
+    """k nearest of each query's candidates.  Returns (d2 (m, k) float32, slots (m, k)
+    int64 (-1: none), examined, blocks, level chosen, group total) per query."""
+    m = qcodes.shape[0]
+    mask = np.uint32(buckets - 1)
+    d2 = np.full((m, k), np.inf, dtype=np.float32)
+    out = np.full((m, k), -1, dtype=np.int64)
+    examined = np.zeros(m, dtype=np.int64)
+    blocks = np.zeros(m, dtype=np.int64)
+    chosen = np.zeros(m, dtype=np.int64)
+    totals = np.zeros(m, dtype=np.int64)
+    for i in numba.prange(m):
+        c0x = np.int64(qcodes[i, 0] >> CODE_SHIFT)
+        c0y = np.int64(qcodes[i, 1] >> CODE_SHIFT)
+        c0z = np.int64(qcodes[i, 2] >> CODE_SHIFT)
+        qx, qy, qz = qpos[i, 0], qpos[i, 1], qpos[i, 2]
+        # Round 1: own cells above ``first``.
+        top = first
+        for level in range(first + 1, LEVEL_TOP + 1):
+            _, n = cell_lookup(slots, mask, level, c0x >> level, c0y >> level, c0z >> level)
+            if n <= cap:
+                top = level
+        # Round 2: the groups at top - 1, top, top + 1.
+        gx = np.zeros((3, GROUP_CELLS), dtype=np.int64)
+        gy = np.zeros((3, GROUP_CELLS), dtype=np.int64)
+        gz = np.zeros((3, GROUP_CELLS), dtype=np.int64)
+        gf = np.zeros((3, GROUP_CELLS), dtype=np.int64)
+        gc = np.zeros((3, GROUP_CELLS), dtype=np.int64)
+        tot = np.zeros(3, dtype=np.int64)
+        lev = np.zeros(3, dtype=np.int64)
+        for t in range(3):
+            level = min(max(top + TRIED[t], LEVEL_MIN), LEVEL_TOP)
+            lev[t] = level
+            tot[t] = _group(slots, mask, level, c0x, c0y, c0z, gx[t], gy[t], gz[t], gf[t], gc[t])
+        pick = -1
+        for t in range(3):
+            if tot[t] >= k and tot[t] <= cap:
+                pick = t
+        if pick < 0:
+            for t in range(2, -1, -1):
+                if tot[t] >= k:
+                    pick = t
+        if pick < 0:
+            pick = 2
+        level = lev[pick]
+        chosen[i] = level
+        totals[i] = tot[pick]
+        # Round 3: the group's cells nearest box first, cut at the cap.
+        shift = CODE_SHIFT + level
+        gap = np.empty(GROUP_CELLS, dtype=np.float32)
+        for j in range(GROUP_CELLS):
+            gap[j] = cell_gap2(gx[pick, j], gy[pick, j], gz[pick, j], shift, lo, step, qx, qy, qz)
+        order = np.argsort(gap, kind="mergesort")  # stable: ties in cell order
+        dist = np.empty(cap, dtype=np.float32)
+        cand = np.empty(cap, dtype=np.uint64)
+        taken = 0
+        nblocks = 0
+        for oj in range(GROUP_CELLS):
+            j = order[oj]
+            n = min(gc[pick, j], cap - taken)
+            if n <= 0:
+                continue
+            f = gf[pick, j]
+            nblocks += (f + n - 1) // 10 - f // 10 + 1
+            for s in range(f, f + n):
+                dx = positions[s, 0] - qx
+                dy = positions[s, 1] - qy
+                dz = positions[s, 2] - qz
+                dist[taken] = (dx * dx + dy * dy) + dz * dz
+                cand[taken] = np.uint64(s)
+                taken += 1
+        examined[i] = taken
+        blocks[i] = nblocks
+        bits = dist[:taken].view(np.uint32)
+        keys = (bits.astype(np.uint64) << np.uint64(32)) | cand[:taken]
+        best = np.sort(keys)
+        for j in range(min(k, taken)):
+            key = best[j]
+            hi = np.empty(1, dtype=np.uint32)
+            hi[0] = np.uint32(key >> np.uint64(32))
+            d2[i, j] = hi.view(np.float32)[0]
+            out[i, j] = np.int64(key & np.uint64(0xFFFFFFFF))
+    return d2, out, examined, blocks, chosen, totals
+
+
+__all__ = ["cells_query", "cell_gap2", "CELL_ROUNDS"]
