@@ -6,13 +6,20 @@
 // candidates plus one bit of the fetched data), and the blocks culled at culled[i].  Uniforms: bh_query_w (viewport
 // width), bh_queries_n (queries in this pass): a new image size needs no new program.
 // Defines: everything bh_lookup.glsl takes.
+layout(std430, binding = 0) writeonly buffer Results { uvec2 results[]; };
+#if BH_CELLS
+// The cell lookup (bh_cells.glsl) writes the k it selects in the order it meets them; the
+// caller sorts them (GLLookup.query).
+#define BH_CELLS_EMIT(i, key) results[i] = key
+#include "bh_cells.glsl"
+#else
 #include "bh_lookup.glsl"
+#endif
 
 uniform sampler2D bh_queries;
 uniform uint bh_query_w;    // viewport width: query i is pixel (i mod w, i div w)
 uniform uint bh_queries_n;  // queries in this pass
 
-layout(std430, binding = 0) writeonly buffer Results { uvec2 results[]; };
 layout(std430, binding = 1) writeonly buffer Counts { uint counts[]; };
 layout(std430, binding = 2) writeonly buffer Culled { uint culled[]; };  // blocks culled
 
@@ -26,6 +33,19 @@ void main() {
     }
     vec3 q = texelFetch(bh_queries, ivec2(gl_FragCoord.xy), 0).xyz;
     uint examined = 0u;
+#if BH_CELLS
+    uint base = i * uint(BH_K);
+    bh_emitted = 0u;
+    if (!(any(isnan(q)) || any(isinf(q)))) {
+        examined = bh_cells_select(q);
+        bh_cells_pass(BH_PASS_EMIT, q, base);
+    }
+    for (uint j = bh_emitted; j < uint(BH_K); ++j) {
+        results[base + j] = uvec2(0x7F800000u, 0xFFFFFFFFu);
+    }
+    counts[i] = examined;
+    culled[i] = 0u;
+#else
     if (any(isnan(q)) || any(isinf(q))) {
         bh_select_init();
     } else {
@@ -40,4 +60,5 @@ void main() {
     counts[i] = examined;
 #endif
     culled[i] = bh_culled;
+#endif
 }

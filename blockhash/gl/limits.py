@@ -124,7 +124,20 @@ def largest_A(params, variant, k: int) -> int:
     return lo
 
 
-def check_lookup(ctx, params, variant, k: int, A: int) -> None:
+#: Passes of the cell lookup's counting selection at most (glsl/bh_cells.glsl): the first,
+#: 11 on the distance bits, 11 on the slots, the pass that writes or sums the k, and one
+#: that finds the k-th for the estimate.
+CELL_PASSES = 1 + 11 + 11 + 1 + 1
+
+
+def cell_loop_iterations(k: int, cap: int) -> int:
+    """An upper bound on the loop iterations of one cell lookup in the shader: per pass, the
+    27 cells (a loop with a uniform bound) and the candidates in chunks of 4 (at most
+    ``cap / 4 + 27``); the own cells' and the groups' loops are unrolled; the output adds k."""
+    return int(CELL_PASSES * (27 + math.ceil(cap / 4) + 27) + k)
+
+
+def check_lookup(ctx, params, variant, k: int, A: int, lookup=None) -> None:
     """Raise before compiling when the shader cannot run this lookup exactly.
 
     InputError for k above :data:`MAX_K`; CapacityError on llvmpipe when the
@@ -135,6 +148,18 @@ def check_lookup(ctx, params, variant, k: int, A: int) -> None:
             f"k={k:,} is above the lookup shader's limit MAX_K={MAX_K} (the selection keeps the "
             f"k best in unrolled registers, glsl/bh_select_packed.glsl); use k <= {MAX_K}, or "
             "the CPU query BlockHashIndex.query, or the kd-tree shader (GLKdTree, k <= 512)")
+    from ..index.block_hash_index import resolve_lookup
+
+    if ctx is not None and is_llvmpipe(ctx) and resolve_lookup(params, lookup) == "cells":
+        need = cell_loop_iterations(k, A * k)
+        if need > LOOP_LIMIT:
+            best = max(1, (4 * ((LOOP_LIMIT - k) // CELL_PASSES - 54)) // k)
+            raise CapacityError(
+                f"the cell lookup with k={k}, A={A} (A*k={A * k:,} candidates) may run up to "
+                f"{need:,} shader loop iterations, above llvmpipe's {LOOP_LIMIT:,} (beyond it "
+                f"llvmpipe silently stops the loops and neighbours go missing); use A <= {best}, "
+                "or the CPU query BlockHashIndex.query, or a GPU driver")
+        return
     if ctx is not None and is_llvmpipe(ctx):
         need = loop_iterations(params, variant, k, A * k)
         if need > LOOP_LIMIT:

@@ -17,6 +17,8 @@ import numpy as np
 
 from ..errors import CapacityError, InputError
 from ..index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY, walk_taken_bound
+from ..index.block_hash_index import resolve_lookup
+from ..index.cell_query import GROUP_CELLS
 from ..index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
 from ..validate import as_int, as_points
 from .context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer, time_draws
@@ -84,9 +86,18 @@ class GLLookup:
             self._home = home_framebuffer(self.ctx)
         self._programs: dict = {}
 
-    def defines(self, variant: Variant, k: int, cap: int, *, fetch_only: bool = False) -> dict:
-        """The #defines of bh_lookup.glsl for this index, variant, k and candidate cap."""
+    def defines(self, variant: Variant, k: int, cap: int, *, fetch_only: bool = False,
+                lookup: str | None = None) -> dict:
+        """The #defines of bh_lookup.glsl (bh_cells.glsl for the cell lookup) for this index,
+        variant, k, candidate cap and lookup (default: the index params')."""
         prm = self.index.params
+        lookup = resolve_lookup(prm, lookup)
+        if lookup == "cells":
+            cells = self.index.cells
+            return {"BH_CELLS": 1, "BH_K": k, "BH_CAP": cap, "BH_FETCH_ONLY": int(fetch_only),
+                    "BH_CELL_MASK": cells.buckets - 1,  # one slot per bucket (cells.SLOTS)
+                    "BH_CELL_FIRST": cells.first_level(cap), **self.packed.widths}
+        prm = replace(prm, best_first=lookup == "walk")
         if prm.best_first:
             if getattr(self.index, "node_boxes", None) is None:
                 raise InputError(f"{prm!r} walks node boxes, but the index has none; build it "
@@ -117,7 +128,7 @@ class GLLookup:
             "BH_TAKEN_MAX": taken,
             # Blocks bh_take stops at: hashing L * B; the walk none (its bound, never reached).
             "BH_TAKE_LIMIT": taken if prm.best_first else prm.L * prm.B,
-            "BH_BEST_FIRST": int(prm.best_first), "BH_WALK_TREES": prm.trees_walked,
+            "BH_BEST_FIRST": int(prm.best_first), "BH_WALK_TREES": prm.trees_walked, "BH_CELLS": 0,
             "BH_QUEUE": QUEUE_CAPACITY,
             "BH_MAX_POPS": MAX_POPS, "BH_MAX_LEAVES": MAX_LEAVES,
             "BH_NODES": max(1, self.index.thresholds.shape[1] // 2),
@@ -127,7 +138,8 @@ class GLLookup:
         """Sampler name -> texture of the uploaded index."""
         p = self.packed
         return {"bh_blocks": p.blocks, "bh_headers": p.headers, "bh_refs": p.refs,
-                "bh_thresholds": p.thresholds, "bh_boxes": p.boxes}
+                "bh_thresholds": p.thresholds, "bh_boxes": p.boxes, "bh_cells": p.cells,
+                "bh_points": p.points}
 
     def set_uniforms(self, program) -> None:
         """The photon box (bh_box.glsl) and power scale, as exact float32 values."""
@@ -137,18 +149,21 @@ class GLLookup:
                 program[name].value = tuple(float(x) for x in value)
         if "bh_power_scale" in program:
             program["bh_power_scale"].value = float(self.index.records.power_scale)
+        if "bh_group_cells" in program:
+            program["bh_group_cells"].value = GROUP_CELLS
 
-    def _program(self, variant: Variant, k: int, cap: int, fetch_only: bool = False):
+    def _program(self, variant: Variant, k: int, cap: int, fetch_only: bool = False,
+                 lookup: str | None = None):
         """The lookup program; the query count and viewport width are uniforms, so one
         program serves every image size."""
-        defines = self.defines(variant, k, cap, fetch_only=fetch_only)
+        defines = self.defines(variant, k, cap, fetch_only=fetch_only, lookup=lookup)
         key = tuple(defines.items())
         if key not in self._programs:
             self._programs[key] = compile_program(self.ctx, "bh_query.frag", defines)
         return self._programs[key]
 
     def query(self, points, k=None, *, A=None, variant="default", fetch_only: bool = False,
-              width: int | None = None):
+              width: int | None = None, lookup: str | None = None):
         """Approximate k nearest photons computed by the shader; see BlockHashIndex.query.
 
         Returns ``(distances, indices)`` of shape (m, k) (no squeezing); rows with NaN
@@ -168,7 +183,7 @@ class GLLookup:
                                                      hint=f"use k <= N={n:,}")
         A = index.params.A if A is None else as_int(A, "A", minimum=1)
         v = variant if isinstance(variant, Variant) else Variant.parse(variant)
-        check_lookup(self.ctx, index.params, v, k, A)  # k and loop limits, before any compile
+        check_lookup(self.ctx, index.params, v, k, A, lookup)  # k, loop limits, before compiling
         q = as_points(points, "points", dtype=np.float32, finite=False)
         m = len(q)
         pairs = np.empty((m, k, 2), dtype=np.uint32)
@@ -181,21 +196,27 @@ class GLLookup:
                 chunk = q[first:first + per_pass]
                 self._run(chunk, v, k, A * k, pairs[first:first + len(chunk)],
                           counts[first:first + len(chunk)], culled[first:first + len(chunk)],
-                          fetch_only, width)
+                          fetch_only, width, lookup)
+        if resolve_lookup(index.params, lookup) == "cells":
+            # The cell lookup writes its k in the order it meets them: nearest first here,
+            # ties by slot (empty entries sort last: inf bits, slot 0xFFFFFFFF).
+            key = (pairs[..., 0].astype(np.uint64) << np.uint64(32)) | pairs[..., 1]
+            pairs = np.take_along_axis(pairs, np.argsort(key, axis=1)[..., None], axis=1)
         slots = pairs[..., 1].astype(np.int64)
         d2 = pairs[..., 0].copy().view(np.float32)
         found = (slots != NO_SLOT) & np.isfinite(d2)  # overflowed distances: missing, as on the CPU
         distances = np.where(found, np.sqrt(d2.astype(np.float64)), np.inf)
         indices = np.where(found, index.order[np.where(found, slots, 0)], n)
         finite = np.isfinite(q).all(axis=1)
+        self.last_counts = counts
         self.counters = {"query.points": float(m), "gl.draw_seconds": self._draw_seconds,
                          "query.candidates.mean": float(counts[finite].mean()) if finite.any() else 0.0,
                          "query.blocks_culled.mean": float(culled[finite].mean()) if finite.any() else 0.0}
         return distances, indices
 
     def _run(self, q, variant, k, cap, pairs_out, counts_out, culled_out, fetch_only=False,
-             width=None):
-        with _Pass(self, q, variant, k, cap, fetch_only, width) as p:
+             width=None, lookup=None):
+        with _Pass(self, q, variant, k, cap, fetch_only, width, lookup) as p:
             self._draw_seconds += draw_fullscreen(self.ctx, p.prog, p.fbo, p.size)
             check_gl(self.ctx, "the lookup draw")
             pairs_out[:] = np.frombuffer(p.results.read(), dtype=np.uint32).reshape(len(q), k, 2)
@@ -203,7 +224,8 @@ class GLLookup:
             culled_out[:] = np.frombuffer(p.culled.read(), dtype=np.uint32)
 
     def time_draws(self, points, k=None, *, A=None, variant="default", fetch_only: bool = False,
-                   repeat: int = 10, warmup: int = 2, width: int | None = None) -> dict:
+                   repeat: int = 10, warmup: int = 2, width: int | None = None,
+                   lookup: str | None = None) -> dict:
         """Time the lookup's draws the way GPU work is timed; returns the per-draw times.
 
         The queries are uploaded once; per pass, ``warmup`` draws of the very program
@@ -223,7 +245,7 @@ class GLLookup:
         with self.ctx:
             for first in range(0, len(q), self._per_pass(k)):
                 chunk = q[first:first + self._per_pass(k)]
-                with _Pass(self, chunk, v, k, A * k, fetch_only, width) as p:
+                with _Pass(self, chunk, v, k, A * k, fetch_only, width, lookup) as p:
                     w, g = time_draws(self.ctx, p.prog, p.fbo, p.size, repeat=repeat, warmup=warmup)
                     check_gl(self.ctx, "the timed lookup draws")
                 wall += w
@@ -245,7 +267,7 @@ class _Pass:
     """The GL objects of one pass of queries: query texture, result buffers, framebuffer,
     and the program with its uniforms and textures bound; released on exit."""
 
-    def __init__(self, lookup: GLLookup, q, variant, k, cap, fetch_only, width=None):
+    def __init__(self, lookup: GLLookup, q, variant, k, cap, fetch_only, width=None, which=None):
         ctx = lookup.ctx
         self.lookup = lookup
         m = len(q)
@@ -270,7 +292,7 @@ class _Pass:
         ready = False
         try:
             check_gl(ctx, f"allocating buffers for {m:,} queries x k={k}")
-            self.prog = lookup._program(variant, k, cap, fetch_only)
+            self.prog = lookup._program(variant, k, cap, fetch_only, which)
             lookup.set_uniforms(self.prog)
             self.prog["bh_query_w"].value = width
             self.prog["bh_queries_n"].value = m

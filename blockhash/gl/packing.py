@@ -13,6 +13,9 @@ blocks        RGBA32UI  16 texels per block: the block's 64 words (Figure 4), wi
 headers       RG32UI    bucket ``t * buckets + key``: (priority alpha, entries)
 refs          R32UI     ``(t * buckets + key) * B + slot``: block reference
 thresholds    R32UI     ``t * T + i``: threshold codes (blockhash/index/thresholds.py)
+cells         RGBA32UI  cuckoo slot ``i`` of the Hilbert cells: (key hi, key lo, first slot,
+                        count) (blockhash/index/cells.py)
+points        RGBA32F   photon slot ``s`` (block order): its decoded float32 position, 0
 boxes         RGBA32UI  2 texels per adaptive node ``t * (T / 2) + i``: (float32 bits of
                         lo x, y, z, 1 if the box holds photons else 0), (hi x, y, z, 0)
                         (blockhash/index/node_boxes.py; one zero texel for a grid layout)
@@ -70,10 +73,13 @@ class PackedIndex:
     refs: object
     thresholds: object
     boxes: object
+    cells: object
+    points: object
     widths: dict
 
     def release(self):
-        for tex in (self.blocks, self.headers, self.refs, self.thresholds, self.boxes):
+        for tex in (self.blocks, self.headers, self.refs, self.thresholds, self.boxes,
+                    self.cells, self.points):
             tex.release()
 
 
@@ -98,19 +104,25 @@ def pack_index(ctx, index) -> PackedIndex:
     thresholds = index.thresholds if index.thresholds.size else np.zeros((1, 1), dtype=np.uint32)
     words = index.block_words.copy()
     words[:, COUNT_WORD + 1:COUNT_WORD + 4] = block_boxes(words)
+    points = np.zeros((len(index), 4), dtype=np.float32)
+    points[:, :3] = index._positions
     done = []
     try:
-        for data, comps, what in ((words.reshape(-1, 4), 4, "photon block"),
-                                  (headers.reshape(-1, 2), 2, "bucket header"),
-                                  (refs.reshape(-1), 1, "block reference"),
-                                  (thresholds.reshape(-1), 1, "threshold"),
-                                  (box_texels(getattr(index, "node_boxes", None)), 4, "node box")):
-            done.append(upload(ctx, data, comps, what))
+        for data, comps, what, dtype in (
+                (words.reshape(-1, 4), 4, "photon block", "u4"),
+                (headers.reshape(-1, 2), 2, "bucket header", "u4"),
+                (refs.reshape(-1), 1, "block reference", "u4"),
+                (thresholds.reshape(-1), 1, "threshold", "u4"),
+                (box_texels(getattr(index, "node_boxes", None)), 4, "node box", "u4"),
+                (index.cells.slots, 4, "cell", "u4"),
+                (points, 4, "photon position", "f4")):
+            done.append(upload(ctx, data, comps, what, dtype=dtype))
     except CapacityError:
         for tex, _ in done:
             tex.release()
         raise
-    (blocks, wb), (hdr, wh), (ref, wr), (thr, wt), (box, wx) = done
+    (blocks, wb), (hdr, wh), (ref, wr), (thr, wt), (box, wx), (cel, wc), (pts, wp) = done
     return PackedIndex(blocks=blocks, headers=hdr, refs=ref, thresholds=thr, boxes=box,
+                       cells=cel, points=pts,
                        widths={"BH_BLK_W": wb, "BH_HDR_W": wh, "BH_REF_W": wr, "BH_THR_W": wt,
-                               "BH_BOX_W": wx})
+                               "BH_BOX_W": wx, "BH_CELL_W": wc, "BH_PT_W": wp})

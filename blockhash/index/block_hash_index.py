@@ -24,6 +24,8 @@ from .codec import WORDS_PER_PHOTON, PhotonRecords
 from .hashtables import insert_blocks
 from .hilbert import hilbert_keys
 from .best_first import bf_query, walk_cull
+from .cell_query import CELL_ROUNDS, cells_query
+from .cells import build_cells
 from .node_boxes import node_boxes
 from .params import BlockHashParams, resolve_params
 from .query import bh_query
@@ -33,6 +35,23 @@ from ..validate import as_int, as_points
 
 #: Bytes per 32-bit word.
 WORD = 4
+
+
+LOOKUPS = ("cells", "walk", "hash")
+
+
+def resolve_lookup(params, lookup=None, best_first=None) -> str:
+    """The query a call runs: ``lookup`` if given, else 'walk' or 'hash' when ``best_first``
+    is given, else the params' (``cells``, then ``best_first``)."""
+    if lookup is not None:
+        if lookup not in LOOKUPS:
+            raise InputError(f"lookup={lookup!r} is not known; choose one of {', '.join(LOOKUPS)}")
+        return lookup
+    if best_first is not None:
+        return "walk" if best_first else "hash"
+    if getattr(params, "cells", False):
+        return "cells"
+    return "walk" if params.best_first else "hash"
 
 
 class OrphanWarning(UserWarning):
@@ -50,7 +69,8 @@ class IndexStats:
     Bytes: ``photon_bytes`` (24 N, the records themselves), ``block_bytes`` (256
     per block), ``reference_bytes`` (4 L P^3 B), ``threshold_bytes``,
     ``priority_bytes`` (one word per bucket), ``box_bytes`` (the adaptive tables'
-    node boxes, 24 bytes a node) and ``index_bytes`` (the last four).
+    node boxes, 24 bytes a node), ``cell_bytes`` (the Hilbert cells' cuckoo slots, 16
+    bytes a slot) and ``index_bytes`` (the last five).
     ``overhead`` is equation (1) on the real structure: (references + thresholds +
     blocks - photon data) / photon data; ``overhead_with_priority`` adds the
     priority words that the paper's formula leaves out.
@@ -73,10 +93,12 @@ class IndexStats:
     threshold_bytes: int
     priority_bytes: int
     box_bytes: int = 0
+    cell_bytes: int = 0
 
     @property
     def index_bytes(self) -> int:
-        return self.reference_bytes + self.threshold_bytes + self.priority_bytes + self.box_bytes
+        return (self.reference_bytes + self.threshold_bytes + self.priority_bytes + self.box_bytes
+                + self.cell_bytes)
 
     @property
     def overhead(self) -> float:
@@ -99,7 +121,8 @@ class IndexStats:
             f"bucket load {self.bucket_load:.1%}; block references per photon "
             f"{self.refs_per_photon:.2f} allocated, {self.used_refs_per_photon:.2f} used",
             f"memory: photon blocks {self.block_bytes / 2**20:.1f} MiB, index "
-            f"{self.index_bytes / 2**20:.1f} MiB; overhead (eq. 1) {self.overhead:.1%}",
+            f"{self.index_bytes / 2**20:.1f} MiB (cells {self.cell_bytes / 2**20:.1f} MiB); "
+            f"overhead (eq. 1) {self.overhead:.1%}",
         ]
         if self.orphans:
             lines.insert(0, f"WARNING: {self.orphans:,} orphaned blocks: {self.orphan_photons:,} "
@@ -176,7 +199,11 @@ class BlockHashIndex:
         self.node_boxes = None
         if prm.layout == ThresholdLayout.ADAPTIVE:
             self.node_boxes = node_boxes(self.thresholds, photon_keys, self._positions, prm.buckets)
-        timings["boxes"] = time.perf_counter() - t5
+        t6 = time.perf_counter()
+        timings["boxes"] = t6 - t5
+        #: The Hilbert cells (:mod:`.cells`), the default lookup's computed hash.
+        self.cells = build_cells(sorted_codes, min_split=max(1, prm.k // 8))
+        timings["cells"] = time.perf_counter() - t6
         timings["total"] = time.perf_counter() - t0
         self.timings = timings
         self.counters: dict[str, float] = {}
@@ -227,12 +254,12 @@ class BlockHashIndex:
             refs_per_photon=prm.refs / n, used_refs_per_photon=float(t.entries.sum()) / n,
             photon_bytes=n * WORDS_PER_PHOTON * WORD, block_bytes=nblocks * BLOCK_WORDS * WORD,
             reference_bytes=prm.refs * WORD, threshold_bytes=self.thresholds.size * WORD,
-            priority_bytes=prm.L * prm.buckets * WORD,
+            priority_bytes=prm.L * prm.buckets * WORD, cell_bytes=self.cells.nbytes,
             box_bytes=0 if self.node_boxes is None else self.node_boxes.nbytes)
 
     def query(self, points, k=None, *, A=None, by_priority: bool = True, slot_bits: int = 0,
               probe: bool | None = None, best_first: bool | None = None,
-              walk_trees: int | None = None):
+              walk_trees: int | None = None, lookup: str | None = None):
         """Approximate k nearest photons, like ``scipy.spatial.cKDTree.query``.
 
         Parameters
@@ -265,6 +292,11 @@ class BlockHashIndex:
         walk_trees : int, optional
             Tables the walk is seeded with (1 .. L, more is L); default: the
             params' ``walk_trees`` (1 for 'default').
+        lookup : {'cells', 'walk', 'hash'}, optional
+            The query: the Hilbert cells (:mod:`blockhash.index.cell_query`, the
+            default preset's), the tables' nearest-box-first walk, or their hash query;
+            default: the params' (``cells``, else ``best_first``).  ``best_first`` given
+            alone chooses between the last two.
 
         Returns
         -------
@@ -283,13 +315,23 @@ class BlockHashIndex:
         finite = np.isfinite(q).all(axis=1)
         qf = np.where(finite[:, None], q, np.float32(0.0))
         prm = self.params
-        walk = prm.best_first if best_first is None else bool(best_first)
+        lookup = resolve_lookup(prm, lookup, best_first)
+        walk = lookup == "walk"
         if walk and self.node_boxes is None:
             raise InputError(f"best_first=True needs the adaptive layout's node boxes; this index "
                              f"has the {prm.layout.name.lower()} layout: build it with "
                              "layout='adaptive' (the default preset) or query with best_first=False")
         extra = {}
-        if walk:
+        if lookup == "cells":
+            cap = A_eff * k_eff
+            d2, slots, examined, fetched, _, _ = cells_query(
+                self.quantizer.quantize_query(qf), qf, self.cells.slots, self.cells.buckets,
+                self.cells.first_level(cap), self._positions,
+                self.quantizer.lo.astype(np.float32), self.quantizer.step.astype(np.float32),
+                k_eff, cap)
+            extra = {"query.rounds.mean": float(CELL_ROUNDS) if finite.any() else 0.0,
+                     "query.rounds.max": float(CELL_ROUNDS) if finite.any() else 0.0}
+        elif walk:
             trees = prm.trees_walked if walk_trees is None else min(
                 as_int(walk_trees, "walk_trees", minimum=1), prm.L)
             d2, slots, examined, fetched, pops, drops, longest = bf_query(
@@ -297,7 +339,12 @@ class BlockHashIndex:
                 self._positions, k_eff, A_eff * k_eff, slot_bits, trees=trees,
                 cull=walk_cull(self))
             if finite.any():
-                extra = {"query.pops.mean": float(pops[finite].mean()),
+                # Each pop waits on the box the previous pop fetched; the last leaf's
+                # references and blocks add two rounds (a lower bound: leaves met on the
+                # way add theirs between pops).
+                extra = {"query.rounds.mean": float(pops[finite].mean()) + 2.0,
+                         "query.rounds.max": float(pops[finite].max()) + 2.0,
+                         "query.pops.mean": float(pops[finite].mean()),
                          "query.pops.max": float(pops[finite].max()),
                          "query.queue.max": float(longest[finite].max()),
                          "query.queue_drops.sum": float(drops[finite].sum())}

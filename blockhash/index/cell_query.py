@@ -9,14 +9,14 @@ distribution:
    up to the top, are looked up at once.  They grow with the level; ``top`` is the
    coarsest level whose own cell holds at most ``cap``.
 2. **groups.**  At the levels ``top - 1``, ``top`` and ``top + 1``, the query's group is
-   the 2 x 2 x 2 cells around the cell corner nearest to it (the cell holding it and, on
-   each axis, the neighbour on its side): it covers every point within half a cell of the
-   query.  The 24 cells are looked up at once.  The group chosen is the coarsest one
+   the 3 x 3 x 3 cells around its own: it holds every photon within one cell side of the
+   query.  The 81 cells are looked up at once.  The group chosen is the coarsest one
    with ``k <= count <= cap``; failing that, the finest holding at least ``k``; failing
    that, the coarsest.
-3. **photons.**  The chosen group's cells, nearest box first (ties in cell order), are
-   read as runs of photon slots until ``cap`` candidates are taken (a cell that would
-   pass the cap is cut to fit).
+3. **photons.**  The chosen group's cells, own cell first, then the 6 sharing a face, the
+   12 sharing an edge and the 8 sharing a corner (:data:`SHELL_ORDER`), are read as runs
+   of photon slots until ``cap`` candidates are taken (a cell that would pass the cap is
+   cut to fit).
 
 The k nearest candidates by float32 squared distance ``((dx*dx + dy*dy) + dz*dz)``,
 ``d = p - q``, ties by slot, are the result.  The shader finds the same k by counting
@@ -33,36 +33,12 @@ from .cells import CODE_SHIFT, LEVEL_MIN, LEVEL_TOP, cell_lookup
 #: Rounds of dependent fetches of one cell query: own cells, group cells, photons.
 CELL_ROUNDS = 3
 #: Levels tried in round 2, relative to ``top``.
-TRIED = (-1, 0, 1)
-#: Group shape: 2 (2 x 2 x 2 cells around the nearest corner) or 3 (3 x 3 x 3 around q's cell).
-GROUP = 3
-GROUP_CELLS = GROUP ** 3
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def cell_gap2(cx, cy, cz, shift, lo, step, qx, qy, qz):
-    """Float32 squared distance from q to the box of a cell (codes ``c << shift`` to
-    ``c << shift | (1 << shift) - 1``), decoded like a photon; the operations of
-    bh_cells.glsl bh_cell_gap2 one by one."""
-    q = (qx, qy, qz)
-    c = (cx, cy, cz)
-    s = np.float32(0.0)
-    for a in range(3):
-        base = np.int64(c[a]) << np.int64(shift)
-        blo = lo[a] + np.float32(base) * step[a]
-        bhi = lo[a] + np.float32(base | ((np.int64(1) << np.int64(shift)) - 1)) * step[a]
-        u = blo - q[a]
-        v = q[a] - bhi
-        g = u if u > v else v
-        if not g > np.float32(0.0):
-            g = np.float32(0.0)
-        if a == 0:
-            s = g * g
-        elif a == 1:
-            s = s + g * g
-        else:
-            s = s + g * g
-    return s
+TRIED = (-2, -1, 0)
+#: Cells of a group: the 3 x 3 x 3 around the query's own.
+GROUP_CELLS = 27
+#: The order a group's cells are read in: by shell (|dx| + |dy| + |dz|), then by index
+#: j = (dx + 1) + 3 (dy + 1) + 9 (dz + 1); bh_cells.glsl visits them the same way.
+SHELL_ORDER = np.array(sorted(range(27), key=lambda j: (abs(j % 3 - 1) + abs(j // 3 % 3 - 1) + abs(j // 9 - 1), j)), dtype=np.int64)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -71,17 +47,11 @@ def _group(slots, mask, level, c0x, c0y, c0z, gx, gy, gz, gfirst, gcount):
     gfirst/gcount (count 0 for a cell outside the grid or not stored); returns the total."""
     side = np.int64(1) << np.int64(LEVEL_TOP - level)
     cq = (c0x >> level, c0y >> level, c0z >> level)
-    up = ((c0x >> (level - 1)) & 1, (c0y >> (level - 1)) & 1, (c0z >> (level - 1)) & 1)
     total = np.int64(0)
     for j in range(GROUP_CELLS):
-        if GROUP == 2:
-            x = cq[0] + ((2 * up[0] - 1) if (j & 1) else 0)
-            y = cq[1] + ((2 * up[1] - 1) if (j & 2) else 0)
-            z = cq[2] + ((2 * up[2] - 1) if (j & 4) else 0)
-        else:
-            x = cq[0] + (j % 3) - 1
-            y = cq[1] + (j // 3) % 3 - 1
-            z = cq[2] + j // 9 - 1
+        x = cq[0] + (j % 3) - 1
+        y = cq[1] + (j // 3) % 3 - 1
+        z = cq[2] + j // 9 - 1
         gx[j], gy[j], gz[j] = x, y, z
         if x < 0 or y < 0 or z < 0 or x >= side or y >= side or z >= side:
             gfirst[j], gcount[j] = 0, 0
@@ -141,17 +111,12 @@ def cells_query(qcodes, qpos, slots, buckets, first, positions, lo, step, k, cap
         chosen[i] = level
         totals[i] = tot[pick]
         # Round 3: the group's cells nearest box first, cut at the cap.
-        shift = CODE_SHIFT + level
-        gap = np.empty(GROUP_CELLS, dtype=np.float32)
-        for j in range(GROUP_CELLS):
-            gap[j] = cell_gap2(gx[pick, j], gy[pick, j], gz[pick, j], shift, lo, step, qx, qy, qz)
-        order = np.argsort(gap, kind="mergesort")  # stable: ties in cell order
         dist = np.empty(cap, dtype=np.float32)
         cand = np.empty(cap, dtype=np.uint64)
         taken = 0
         nblocks = 0
         for oj in range(GROUP_CELLS):
-            j = order[oj]
+            j = SHELL_ORDER[oj]
             n = min(gc[pick, j], cap - taken)
             if n <= 0:
                 continue
@@ -178,4 +143,4 @@ def cells_query(qcodes, qpos, slots, buckets, first, positions, lo, step, k, cap
     return d2, out, examined, blocks, chosen, totals
 
 
-__all__ = ["cells_query", "cell_gap2", "CELL_ROUNDS"]
+__all__ = ["cells_query", "CELL_ROUNDS", "SHELL_ORDER"]

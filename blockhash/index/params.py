@@ -18,7 +18,11 @@ Two presets choose them:
     tables (one) nearest first, under the ``A k`` candidate cap alone
     (:mod:`blockhash.index.best_first`; ``best_first=False`` at query time gives
     the hash query instead: buckets visited deepest first and multi-probed across
-    their nearest borders, :mod:`blockhash.index.query`).  A is the one knob:
+    their nearest borders, :mod:`blockhash.index.query`).  Its lookup, though, is the
+    Hilbert cells (``cells=True``, :mod:`blockhash.index.cells`): a computed hash of
+    octree cells, three rounds of independent fetches, no tree descent and no queue;
+    ``lookup='walk'`` or ``'hash'`` at query time (or ``cells=False`` in the params)
+    gives the tables' queries.  A is the one knob:
     ``S = DEFAULT_PHOTONS_PER_BUCKET * k * A / ADAPTIVE_REFERENCE_A`` grows with
     the candidate budget ``A k``, and ``B`` with ``S``, so the memory per photon
     stays about ``L B / S`` at every A.
@@ -121,6 +125,9 @@ class BlockHashParams:
     #: The walk's tables: it is seeded with the roots of the first ``walk_trees``
     #: (1 .. L; L or more walks all of them).
     walk_trees: int = 1
+    #: Query the Hilbert cells (:mod:`blockhash.index.cells`, three rounds of independent
+    #: fetches, selection by counting) instead of the tables; the default preset's lookup.
+    cells: bool = False
 
     def __post_init__(self):
         if int(self.walk_trees) < 1:
@@ -151,7 +158,8 @@ class BlockHashParams:
             return (f"BlockHashParams(preset={self.preset!r}, k={self.k}, A={self.A}, L={self.L}, "
                     f"S={self.bucket_photons:g} photons/bucket{built}, B={self.B}, layout=adaptive"
                     f"{', probe' if self.probe and not self.best_first else ''}"
-                    f"{f', nearest-box-first over {self.trees_walked}' if self.best_first else ''})")
+                    f"{f', nearest-box-first over {self.trees_walked}' if self.best_first else ''}"
+                    f"{', lookup=cells' if self.cells else ''})")
         return (f"BlockHashParams(preset={self.preset!r}, k={self.k}, A={self.A}, L={self.L}, "
                 f"P=({px}, {py}, {pz}), B={self.B}, layout={self.layout.name.lower()})")
 
@@ -207,7 +215,7 @@ def adaptive_params(positions: np.ndarray, *, k: int, A: int,
     B = max(1, min(B_need, B_budget, MAX_B))
     return BlockHashParams(k=k, A=A, L=L, P=(1, 1, 1), B=B, layout=ThresholdLayout.ADAPTIVE,
                            preset="default", bucket_photons=float(S), probe=True,
-                           best_first=True, walk_trees=walk_trees)
+                           best_first=True, walk_trees=walk_trees, cells=True)
 
 
 def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",
@@ -243,7 +251,9 @@ def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",
             params = grid_params(positions, params, changes.pop("layout"))
             changes["P"] = params.P
     if changes:
-        params = replace(params, preset=f"{params.preset}+overrides", **changes)
+        # Tables overridden: their own query answers (the cells do not read L, P, B or the
+        # layout); lookup='cells' at query time still reads the cells.
+        params = replace(params, preset=f"{params.preset}+overrides", cells=False, **changes)
     if params.layout != ThresholdLayout.ADAPTIVE:  # probing follows the adaptive layout's cuts
         params = replace(params, probe=False, best_first=False, bucket_photons=0.0)
     elif params.bucket_photons == 0.0:  # the paper's preset on the adaptive layout
