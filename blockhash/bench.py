@@ -99,8 +99,9 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
                   variants=("default",), data="caustic", repeat=10, warmup=2, backend=None, seed=0,
                   kdtree=True, query_set="image", clock="auto", hashing=False, progress=print):
     """Run the benchmark and return a list of result rows (dicts).  ``hashing``: also time
-    each variant with the nearest-box-first walk off (the same index's tables hashed and
-    probed, ``best_first=False``), beside the walk, where the preset walks."""
+    each variant with the cells off (the same index's tables walked nearest box first,
+    ``cells=False``) and with the walk off too (the tables hashed and probed,
+    ``best_first=False``), beside the default, each with its own fetch-only floor."""
     from scipy.spatial import cKDTree
 
     from .gl.lookup import GLLookup
@@ -111,10 +112,14 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
     positions = index.positions.astype(np.float64)
     lookup = GLLookup(index, backend=backend)
     lookups = [("", lookup)]
-    if hashing and index.params.best_first:
+    if hashing and index.params.cells:
+        walked = copy.copy(index)
+        walked.params = replace(index.params, cells=False)
+        lookups.append((" (tables walked, cells off)", GLLookup(walked, backend=backend)))
+    if hashing and (index.params.best_first or index.params.cells):
         hashed = copy.copy(index)
-        hashed.params = replace(index.params, best_first=False)
-        lookups.append((" (hashing, walk off)", GLLookup(hashed, backend=backend)))
+        hashed.params = replace(index.params, best_first=False, cells=False)
+        lookups.append((" (tables hashed, walk and cells off)", GLLookup(hashed, backend=backend)))
     device = device_info(lookup.ctx)
     clk = resolve_clock(clock, device["renderer"])
     progress(f"{device['renderer']} ({device['gl_version']}); clock: {clk}")
@@ -138,8 +143,8 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
     progress(f"cKDTree: {rows[0]['seconds']:.3f} s")
     for A in A_values:
         runs = [(f"BH {v}{tag}", lk, {"variant": v}) for tag, lk in lookups for v in variants]
-        for name, lk, kwargs in runs + [("BH fetch-only floor", lookups[-1][1],
-                                         {"fetch_only": True})]:
+        floors = [(f"BH fetch-only floor{tag}", lk, {"fetch_only": True}) for tag, lk in lookups]
+        for name, lk, kwargs in runs + floors:
             times = lk.time_draws(q, k, A=A, repeat=repeat, warmup=warmup, width=width, **kwargs)
             row = {"method": name, "A": A, **summarize(times, clk), **device}
             _, idx = lk.query(q, k=k, A=A, width=width, **kwargs)

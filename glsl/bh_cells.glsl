@@ -73,6 +73,7 @@ uint bh_group_total(int level, ivec3 own) {
 // The chosen group: its level and the query's own cell there.
 int bh_level;
 ivec3 bh_own;
+uint bh_total;  // the chosen group's photons
 uint bh_top_bits;  // the bracket's top key: the selected candidates are those at or below it
 uint bh_top_slot;
 
@@ -103,6 +104,7 @@ void bh_cells_choose(vec3 q) {
     pick = pick < 0 ? finest : pick;
     pick = pick < 0 ? 2 : pick;
     bh_level = pick == 0 ? lev[0] : (pick == 1 ? lev[1] : lev[2]);
+    bh_total = pick == 0 ? tot[0] : (pick == 1 ? tot[1] : tot[2]);
     bh_own = c0 >> bh_level;
 }
 
@@ -190,8 +192,12 @@ uint bh_split(bool lo_none, uint lo, uint hi, int i) {
 // Returns the candidates.
 uint bh_cells_select(vec3 q) {
     bh_cells_choose(q);
+    // The first pass's splits: a guess of the k-th squared distance from the group (k of
+    // its photons in 3 x 3 x 3 cells of side h: 3 h^2 k / photons), times 2^-3 .. 2^3.
+    float h = bh_step.x * float(1u << (BH_CODE_SHIFT + uint(bh_level)));
+    float guess = 3.0 * h * h * float(BH_K) / float(max(min(bh_total, uint(BH_CAP)), 1u));
     for (int i = 0; i < BH_SPLITS; ++i) {
-        bh_sb[i] = 0u;
+        bh_sb[i] = floatBitsToUint(guess * exp2(float(i - 3)));
         bh_ss[i] = 0xFFFFFFFFu;
         bh_sc[i] = 0u;
     }
@@ -202,20 +208,23 @@ uint bh_cells_select(vec3 q) {
     bh_top_bits = bh_max_bits;
     bh_top_slot = bh_max_slot;
     uint top_count = m;
-    // Phase 1 over distance bits: count(bits <= lo) < k <= count(bits <= hi), starting
-    // just below the nearest candidate.
+    // Phase 1 over distance bits: count(bits <= lo) < k <= count(bits <= hi), from just
+    // below the nearest candidate to the farthest, narrowed by the first pass's splits and
+    // then by splits inside the bracket.
     bool lo_none = bh_min_bits == 0u;
     uint lo = lo_none ? 0u : bh_min_bits - 1u;
     uint lo_count = 0u;
     uint hi = bh_max_bits;
-    for (int pass = 0; pass < BH_MAX_PASSES && top_count > uint(BH_K) &&
+    for (int pass = 0; pass <= BH_MAX_PASSES && top_count > uint(BH_K) &&
                        !(!lo_none && hi == lo + 1u) && !(lo_none && hi == 0u); ++pass) {
-        for (int i = 0; i < BH_SPLITS; ++i) {
-            bh_sb[i] = bh_split(lo_none, lo, hi, i);
-            bh_ss[i] = 0xFFFFFFFFu;
-            bh_sc[i] = 0u;
+        if (pass > 0) {
+            for (int i = 0; i < BH_SPLITS; ++i) {
+                bh_sb[i] = bh_split(lo_none, lo, hi, i);
+                bh_ss[i] = 0xFFFFFFFFu;
+                bh_sc[i] = 0u;
+            }
+            bh_cells_pass(BH_PASS_COUNT, q, 0u);
         }
-        bh_cells_pass(BH_PASS_COUNT, q, 0u);
         bool found = false;
         for (int i = 0; i < BH_SPLITS; ++i) {
             bool hit = !found && bh_sc[i] >= uint(BH_K) && bh_sb[i] < hi;
@@ -228,13 +237,12 @@ uint bh_cells_select(vec3 q) {
             found = found || hit;
         }
         bh_top_bits = hi;
-        bh_top_slot = 0xFFFFFFFFu;
+        bh_top_slot = hi == bh_max_bits ? bh_max_slot : 0xFFFFFFFFu;
     }
     // Phase 2, ties at D = hi: lo_count keys lie below D; find the slot.
     bool slo_none = true;
     uint slo = 0u;
-    uint shi = bh_top_bits == bh_max_bits ? bh_max_slot : 0xFFFFFFFFu;
-    bh_top_slot = shi;
+    uint shi = bh_top_slot;
     for (int pass = 0; pass < BH_MAX_PASSES && top_count > uint(BH_K) &&
                        !(!slo_none && shi == slo + 1u) && !(slo_none && shi == 0u); ++pass) {
         for (int i = 0; i < BH_SPLITS; ++i) {

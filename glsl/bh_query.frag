@@ -37,8 +37,17 @@ void main() {
     uint base = i * uint(BH_K);
     bh_emitted = 0u;
     if (!(any(isnan(q)) || any(isinf(q)))) {
+#if BH_FETCH_ONLY
+        // The memory floor: the same candidates read once, nothing selected.
+        bh_cells_choose(q);
+        bh_max_bits = 0u;
+        bh_max_slot = 0u;
+        bh_min_bits = 0u;
+        examined = bh_cells_pass(BH_PASS_COUNT, q, 0u) + (bh_max_bits & 1u);
+#else
         examined = bh_cells_select(q);
         bh_cells_pass(BH_PASS_EMIT, q, base);
+#endif
     }
     for (uint j = bh_emitted; j < uint(BH_K); ++j) {
         results[base + j] = uvec2(0x7F800000u, 0xFFFFFFFFu);

@@ -23,7 +23,9 @@
 #ifndef CAUSTIC_ESTIMATE_GLSL
 #define CAUSTIC_ESTIMATE_GLSL
 #include "bh_blocks.glsl"
+#if !BH_CELLS
 #include "bh_select.glsl"
+#endif
 
 #define CAUSTIC_PI 3.14159265358979
 uniform float bh_power_scale;
@@ -47,6 +49,7 @@ vec3 caustic_phong(vec3 wi, vec3 wo, vec3 n, vec3 kd, vec3 ks, float e) {
     return kd / CAUSTIC_PI + ks * ((e + 2.0) / (2.0 * CAUSTIC_PI)) * pow(c, e);
 }
 
+#if !BH_CELLS
 // Number of photons found: bh_best holds them first, nearest first, then empty keys.
 // A binary search of constant count (unrolled: it adds nothing to llvmpipe's loop budget).
 int caustic_found() {
@@ -64,6 +67,7 @@ int caustic_found() {
     }
     return lo;
 }
+#endif
 
 // Filter weight from t^2 = (d / r)^2, normalised to mean 1 over the unit disc.
 float caustic_filter(float t2) {
@@ -81,6 +85,97 @@ float caustic_filter(float t2) {
 #endif
 }
 
+// The contribution of the photon in slot `slot` at squared distance d2 from q, before the
+// division by pi r^2 (0 when a test rejects it).
+vec3 caustic_photon(uint slot, float d2, vec3 q, vec3 n, vec3 wo, vec3 kd, vec3 ks, float e,
+                    float r2, float height) {
+    uint b = slot / 10u;
+    uint j = slot % 10u;
+    uint texel = b * uint(BH_BLOCK_TEXELS) + ((6u * j + 3u) >> 2u);
+    uvec4 a = bh_fetch4(bh_blocks, BH_BLK_W, texel);
+    uvec3 w = ((j & 1u) == 0u) ? uvec3(a.w, bh_fetch4(bh_blocks, BH_BLK_W, texel + 1u).xy)
+                               : a.yzw;  // words 6j+3 .. 6j+5
+    vec3 wi = -caustic_polar(w.x & 0xFFFFu);
+    if (dot(wi, n) <= 0.0) {
+        return vec3(0.0);
+    }
+    if (caustic_normal_cos > -1.5 && dot(caustic_polar(w.x >> 16u), n) < caustic_normal_cos) {
+        return vec3(0.0);  // the photon landed on a surface facing elsewhere
+    }
+    if (caustic_disc > -1.5 && abs(dot(bh_photon_position(b, j) - q, n)) > height) {
+        return vec3(0.0);  // outside the flattened neighbourhood
+    }
+    vec2 c12 = unpackHalf2x16(w.y);
+    vec2 c34 = unpackHalf2x16(w.z);
+    vec3 power = vec3(c12, c34.x) * bh_power_scale;
+#if CAUSTIC_ESTIMATE == 2
+    float h2 = texelFetch(caustic_own_r2, bh_texel(slot, uint(CAUSTIC_OWN_W)), 0).r;
+    float t2 = d2 / h2;
+    if (!(t2 < 1.0)) {
+        return vec3(0.0);  // the photon's own disc does not reach the shading point
+    }
+    return caustic_filter(t2) * caustic_phong(wi, wo, n, kd, ks, e) * power * (r2 / h2);
+#else
+    float t2 = d2 / r2;
+    return caustic_filter(t2) * caustic_phong(wi, wo, n, kd, ks, e) * power;
+#endif
+}
+
+#if BH_CELLS
+// The cell lookup keeps no list: the selected photons are visited again (bh_cells_pass,
+// BH_PASS_VISIT), each through caustic_visit with the estimate's inputs held here.
+vec3 ce_sum;
+vec3 ce_q;
+vec3 ce_n;
+vec3 ce_wo;
+vec3 ce_kd;
+vec3 ce_ks;
+float ce_e;
+float ce_r2;
+float ce_height;
+bool ce_skip;  // unbiased: the farthest selected photon (bh_max_bits, bh_max_slot) left out
+
+void caustic_visit(uint s, uint bits) {
+    if (ce_skip && bits == bh_max_bits && s == bh_max_slot) {
+        return;
+    }
+    ce_sum += caustic_photon(s, uintBitsToFloat(bits), ce_q, ce_n, ce_wo, ce_kd, ce_ks, ce_e,
+                             ce_r2, ce_height);
+}
+
+vec3 caustic_radiance(vec3 q, vec3 n, vec3 wo, vec3 kd, vec3 ks, float e) {
+    uint m = bh_cells_select(q);
+    if (m == 0u) {
+        return vec3(0.0);
+    }
+    // The radius is the farthest selected photon's distance: one more pass finds it where
+    // the form needs it (the conserving form's r^2 cancels unless the disc test is on).
+#if CAUSTIC_ESTIMATE == 2
+    bool need = caustic_disc > -1.5;
+#else
+    bool need = true;
+#endif
+    float r2 = 1.0;
+    bh_max_bits = 0u;
+    bh_max_slot = 0u;
+    if (need) {
+        bh_cells_pass(BH_PASS_MAX, q, 0u);
+        r2 = max(uintBitsToFloat(bh_max_bits), caustic_min_r2);
+    }
+    ce_skip = CAUSTIC_ESTIMATE == 1;
+    ce_sum = vec3(0.0);
+    ce_q = q;
+    ce_n = n;
+    ce_wo = wo;
+    ce_kd = kd;
+    ce_ks = ks;
+    ce_e = e;
+    ce_r2 = r2;
+    ce_height = caustic_disc * sqrt(r2);
+    bh_cells_pass(BH_PASS_VISIT, q, 0u);
+    return ce_sum / (CAUSTIC_PI * r2);
+}
+#else
 vec3 caustic_radiance(vec3 q, vec3 n, vec3 wo, vec3 kd, vec3 ks, float e) {
     int m = caustic_found();
     if (m == 0) {
@@ -98,38 +193,10 @@ vec3 caustic_radiance(vec3 q, vec3 n, vec3 wo, vec3 kd, vec3 ks, float e) {
     vec3 sum = vec3(0.0);
     for (int i = 0; i < used; ++i) {
         uvec2 key = bh_best[i];
-        uint b = key.y / 10u;
-        uint j = key.y % 10u;
-        uint texel = b * uint(BH_BLOCK_TEXELS) + ((6u * j + 3u) >> 2u);
-        uvec4 a = bh_fetch4(bh_blocks, BH_BLK_W, texel);
-        uvec3 w = ((j & 1u) == 0u) ? uvec3(a.w, bh_fetch4(bh_blocks, BH_BLK_W, texel + 1u).xy)
-                                   : a.yzw;  // words 6j+3 .. 6j+5
-        vec3 wi = -caustic_polar(w.x & 0xFFFFu);
-        if (dot(wi, n) <= 0.0) {
-            continue;
-        }
-        if (caustic_normal_cos > -1.5 && dot(caustic_polar(w.x >> 16u), n) < caustic_normal_cos) {
-            continue;  // the photon landed on a surface facing elsewhere
-        }
-        if (caustic_disc > -1.5 && abs(dot(bh_photon_position(b, j) - q, n)) > height) {
-            continue;  // outside the flattened neighbourhood
-        }
-        vec2 c12 = unpackHalf2x16(w.y);
-        vec2 c34 = unpackHalf2x16(w.z);
-        vec3 power = vec3(c12, c34.x) * bh_power_scale;
-#if CAUSTIC_ESTIMATE == 2
-        float h2 = texelFetch(caustic_own_r2, bh_texel(key.y, uint(CAUSTIC_OWN_W)), 0).r;
-        float t2 = uintBitsToFloat(key.x) / h2;
-        if (!(t2 < 1.0)) {
-            continue;  // the photon's own disc does not reach the shading point
-        }
-        sum += caustic_filter(t2) * caustic_phong(wi, wo, n, kd, ks, e) * power * (r2 / h2);
-#else
-        float t2 = uintBitsToFloat(key.x) / r2;
-        sum += caustic_filter(t2) * caustic_phong(wi, wo, n, kd, ks, e) * power;
-#endif
+        sum += caustic_photon(key.y, uintBitsToFloat(key.x), q, n, wo, kd, ks, e, r2, height);
     }
     return sum / (CAUSTIC_PI * r2);
 }
+#endif
 
 #endif

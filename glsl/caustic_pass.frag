@@ -6,7 +6,13 @@
 // Defines: everything bh_lookup.glsl takes (the lookup variant included), and
 // CP_LOOKUP_ONLY (1: run the lookup alone and write a value that depends on its result,
 // for timing the pass's stages; with BH_FETCH_ONLY, the lookup's fetches alone).
+#if BH_CELLS
+void caustic_visit(uint s, uint bits);  // caustic_estimate.glsl
+#define BH_CELLS_VISIT(s, bits) caustic_visit(s, bits)
+#include "bh_cells.glsl"
+#else
 #include "bh_lookup.glsl"
+#endif
 #include "caustic_estimate.glsl"
 
 uniform sampler2D cp_position;
@@ -28,11 +34,26 @@ void main() {
     vec4 nw = texelFetch(cp_normal, px, 0);
     vec3 wo = texelFetch(cp_view, px, 0).xyz;
     int m = int(pos.w);
+#if BH_CELLS && CP_LOOKUP_ONLY && BH_FETCH_ONLY
+    bh_cells_choose(pos.xyz);  // the floor: the candidates read once
+    bh_max_bits = 0u;
+    bh_max_slot = 0u;
+    bh_min_bits = 0u;
+    uint examined = bh_cells_pass(BH_PASS_COUNT, pos.xyz, 0u);
+    frag_color = vec4(uintBitsToFloat(bh_max_bits), float(examined), 0.0, nw.w + wo.x);
+    return;
+#elif BH_CELLS && CP_LOOKUP_ONLY
+    uint examined = bh_cells_select(pos.xyz);
+    frag_color = vec4(uintBitsToFloat(bh_top_bits), float(examined), 0.0, nw.w + wo.x);
+    return;
+#elif CP_LOOKUP_ONLY
     uint examined = bh_lookup(pos.xyz);
-#if CP_LOOKUP_ONLY
     frag_color = vec4(uintBitsToFloat(bh_best[BH_K - 1].x), float(examined),
                       float(bh_fetch_sink & 1u), nw.w + wo.x);
     return;
+#endif
+#if !BH_CELLS
+    bh_lookup(pos.xyz);
 #endif
     vec3 l = caustic_radiance(pos.xyz, nw.xyz, wo, cp_kd[m], cp_ks[m], cp_exponent[m]);
     frag_color = vec4(l * nw.w, 1.0);

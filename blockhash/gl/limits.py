@@ -127,7 +127,7 @@ def largest_A(params, variant, k: int) -> int:
 #: Passes of the cell lookup's counting selection at most (glsl/bh_cells.glsl): the first,
 #: 11 on the distance bits, 11 on the slots, the pass that writes or sums the k, and one
 #: that finds the k-th for the estimate.
-CELL_PASSES = 1 + 11 + 11 + 1 + 1
+CELL_PASSES = 1 + 12 + 11 + 1 + 1
 
 
 def cell_loop_iterations(k: int, cap: int) -> int:
