@@ -99,9 +99,9 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
                   variants=("default",), data="caustic", repeat=10, warmup=2, backend=None, seed=0,
                   kdtree=True, query_set="image", clock="auto", hashing=False, progress=print):
     """Run the benchmark and return a list of result rows (dicts).  ``hashing``: also time
-    each variant with the cells off (the same index's tables walked nearest box first,
-    ``cells=False``) and with the walk off too (the tables hashed and probed,
-    ``best_first=False``), beside the default, each with its own fetch-only floor."""
+    each variant on the same index's Hilbert cells (``cells=True``) and with the walk off
+    (the tables hashed and probed, ``best_first=False``), beside the default, each with its
+    own fetch-only floor."""
     from scipy.spatial import cKDTree
 
     from .gl.lookup import GLLookup
@@ -112,14 +112,14 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
     positions = index.positions.astype(np.float64)
     lookup = GLLookup(index, backend=backend)
     lookups = [("", lookup)]
-    if hashing and index.params.cells:
-        walked = copy.copy(index)
-        walked.params = replace(index.params, cells=False)
-        lookups.append((" (tables walked, cells off)", GLLookup(walked, backend=backend)))
-    if hashing and (index.params.best_first or index.params.cells):
+    if hashing and not index.params.cells:
+        celled = copy.copy(index)
+        celled.params = replace(index.params, cells=True)
+        lookups.append((" (Hilbert cells)", GLLookup(celled, backend=backend)))
+    if hashing and index.params.best_first:
         hashed = copy.copy(index)
         hashed.params = replace(index.params, best_first=False, cells=False)
-        lookups.append((" (tables hashed, walk and cells off)", GLLookup(hashed, backend=backend)))
+        lookups.append((" (tables hashed, walk off)", GLLookup(hashed, backend=backend)))
     device = device_info(lookup.ctx)
     clk = resolve_clock(clock, device["renderer"])
     progress(f"{device['renderer']} ({device['gl_version']}); clock: {clk}")

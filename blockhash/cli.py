@@ -300,8 +300,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="time the ratios compare: GL timer queries (gpu) or wall time; auto: "
                         "wall on llvmpipe, whose timer queries miss most of a draw, gpu elsewhere")
     p.add_argument("--hashing", action="store_true",
-                   help="also time each variant with the nearest-box-first walk off (the same "
-                        "tables hashed and probed), side by side")
+                   help="also time each variant on the same index's Hilbert cells and with the "
+                        "nearest-box-first walk off (the tables hashed and probed), side by "
+                        "side, each with its fetch-only floor")
     p.add_argument("--caustic", metavar="SCENE",
                    help="also time the caustic pass of SCENE (e.g. scenes/ring.toml) per stage")
     p.add_argument("--caustic-photons", type=int, help="photons to store for --caustic "

@@ -355,3 +355,23 @@ def test_the_walk_takes_more_than_L_B_blocks_the_same_on_both_sides(caustic_inde
                                     cull=walk_cull(ix))
     assert prm.L * prm.B < fetched.max() <= walk_taken_bound(prm.B, A * k)
     assert_same_as_cpu(GLLookup(ix, backend="egl"), ix, q, k, A, variant=variant)
+
+
+@pytest.mark.parametrize("name,k,A", [("caustic", 20, 8), ("clustered", 8, 4), ("uniform", 1, 8),
+                                      ("room", 50, 2)])
+def test_cell_shader_returns_what_the_cpu_cells_return(name, k, A):
+    from dataclasses import replace as _replace
+
+    from blockhash.index.photon_maps import MAPS, queries
+
+    pm = MAPS[name]
+    pts = pm.photons(8_000, np.random.default_rng(3))
+    q = queries(pm, 700, np.random.default_rng(4)).astype(np.float32)
+    q[0] = np.nan
+    index = BlockHashIndex(pts, k=k, A=A)
+    index.params = _replace(index.params, cells=True)
+    d, i = index.query(q, k=[k] and k)
+    if k == 1:
+        d, i = d[:, None], i[:, None]
+    gd, gi = GLLookup(index).query(q)
+    assert np.array_equal(gi, i) and np.array_equal(gd, d)

@@ -18,11 +18,11 @@ Two presets choose them:
     tables (one) nearest first, under the ``A k`` candidate cap alone
     (:mod:`blockhash.index.best_first`; ``best_first=False`` at query time gives
     the hash query instead: buckets visited deepest first and multi-probed across
-    their nearest borders, :mod:`blockhash.index.query`).  Its lookup, though, is the
-    Hilbert cells (``cells=True``, :mod:`blockhash.index.cells`): a computed hash of
-    octree cells, three rounds of independent fetches, no tree descent and no queue;
-    ``lookup='walk'`` or ``'hash'`` at query time (or ``cells=False`` in the params)
-    gives the tables' queries.  A is the one knob:
+    their nearest borders, :mod:`blockhash.index.query`).  ``lookup='cells'`` at query
+    time (or ``cells=True`` in the params, for the shaders) reads the Hilbert cells
+    instead (:mod:`blockhash.index.cells`): a computed hash of octree cells, three
+    rounds of independent fetches, no tree descent and no queue; not the default
+    while it misses queries far from every photon (BENCHMARKS.md).  A is the one knob:
     ``S = DEFAULT_PHOTONS_PER_BUCKET * k * A / ADAPTIVE_REFERENCE_A`` grows with
     the candidate budget ``A k``, and ``B`` with ``S``, so the memory per photon
     stays about ``L B / S`` at every A.
@@ -126,7 +126,7 @@ class BlockHashParams:
     #: (1 .. L; L or more walks all of them).
     walk_trees: int = 1
     #: Query the Hilbert cells (:mod:`blockhash.index.cells`, three rounds of independent
-    #: fetches, selection by counting) instead of the tables; the default preset's lookup.
+    #: fetches, selection by counting) instead of the tables.
     cells: bool = False
 
     def __post_init__(self):
@@ -215,7 +215,7 @@ def adaptive_params(positions: np.ndarray, *, k: int, A: int,
     B = max(1, min(B_need, B_budget, MAX_B))
     return BlockHashParams(k=k, A=A, L=L, P=(1, 1, 1), B=B, layout=ThresholdLayout.ADAPTIVE,
                            preset="default", bucket_photons=float(S), probe=True,
-                           best_first=True, walk_trees=walk_trees, cells=True)
+                           best_first=True, walk_trees=walk_trees)
 
 
 def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",
