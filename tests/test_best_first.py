@@ -102,7 +102,9 @@ def test_stats_count_the_node_boxes():
     index = BlockHashIndex(photon_set("uniform", 5000), k=8, A=4)
     s = index.stats
     assert s.box_bytes == index.node_boxes.nbytes > 0
-    assert s.index_bytes == s.reference_bytes + s.threshold_bytes + s.priority_bytes + s.box_bytes
+    assert s.cell_bytes == index.cells.nbytes > 0
+    assert s.index_bytes == (s.reference_bytes + s.threshold_bytes + s.priority_bytes
+                             + s.box_bytes + s.cell_bytes)
     assert "nearest-box-first" in repr(index.params)
 
 

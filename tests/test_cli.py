@@ -61,10 +61,12 @@ def test_bench_command_prints_the_table_and_writes_json(tmp_path, capsys):
     import json
 
     rows = json.loads(out_json.read_text())
-    assert {r["method"] for r in rows} == {"cKDTree (CPU, all workers)", "BH default",
-                                           "BH default (hashing, walk off)", "BH fetch-only floor"}
+    lookups = ("BH default", "BH default (Hilbert cells)", "BH default (tables hashed, walk off)")
+    floors = ("BH fetch-only floor", "BH fetch-only floor (Hilbert cells)",
+              "BH fetch-only floor (tables hashed, walk off)")
+    assert {r["method"] for r in rows} == {"cKDTree (CPU, all workers)", *lookups, *floors}
     by = {r["method"]: r for r in rows}
-    for name in ("BH default", "BH default (hashing, walk off)"):  # both measured on their own
+    for name in lookups:  # each measured on its own
         assert 0 <= by[name]["fn_percent"] < 100 and by[name]["candidates"] > 0
     assert all(r["seconds"] > 0 for r in rows)
     gl_rows = [r for r in rows if r["method"] != "cKDTree (CPU, all workers)"]

@@ -111,7 +111,7 @@ def timed(fn):
     return time.perf_counter() - t0, out
 
 
-def evaluate(name: str, n: int, m: int, k: int, As, presets, configs=({},)) -> list[dict]:
+def evaluate(name: str, n: int, m: int, k: int, As, presets, configs=({},), lookup=None) -> list[dict]:
     pm = photon_map(name)
     pts = pm.photons(n, np.random.default_rng(0))
     q = queries(pm, m, np.random.default_rng(1))
@@ -130,7 +130,8 @@ def evaluate(name: str, n: int, m: int, k: int, As, presets, configs=({},)) -> l
                 # The float32 query the index sees (10^4 m from the origin, float32 rounds
                 # a coordinate by up to 0.5 mm): quantization is not the index's error.
                 exact = exact_knn(index.positions, q.astype(np.float32), k)
-            t_query, found = timed(lambda: index.query(q))
+            t_query, found = timed(lambda: index.query(q, lookup=lookup))
+            rounds = index.counters.get("query.rounds.mean", float("nan"))
             half = m // 2
             acc = accuracy(found, exact, n)
             on = accuracy((found[0][:half], found[1][:half]), (exact[0][:half], exact[1][:half]), n)
@@ -148,7 +149,8 @@ def evaluate(name: str, n: int, m: int, k: int, As, presets, configs=({},)) -> l
                 "fn_near": float(fn[~far].mean() / k) if (~far).any() else 0.0,
                 "fn_far": float(fn[far].mean() / k) if far.any() else 0.0,
                 "avg_dilation": acc.avg_dilation["mean"], "max_dilation": acc.max_dilation["mean"],
-                "candidates": index.counters["query.candidates.mean"],
+                "candidates": index.counters["query.candidates.mean"], "rounds": rounds,
+                "lookup": lookup or "preset",
                 "pops": index.counters.get("query.pops.mean", 0.0),
                 "query_seconds": t_query, "build_seconds": t_build, "ckdtree_build_seconds": t_kd,
                 "refs_per_photon": s.refs_per_photon,
@@ -220,6 +222,9 @@ def main(argv=None) -> int:
     ap.add_argument("--slack", help="sweep: block slack")
     ap.add_argument("--walk-trees", help="sweep: tables the nearest-box-first walk is seeded with")
     ap.add_argument("--tune", action="store_true", help="only the TUNE maps")
+    ap.add_argument("--lookup", choices=("cells", "walk", "hash"),
+                    help="the query (default: the preset's); rounds of dependent fetches per "
+                         "query are printed where the query counts them")
     ap.add_argument("--json", help="write the rows (and the machine) here")
     ap.add_argument("--markdown", help="write the table here")
     ap.add_argument("--from-json", metavar="FILE",
@@ -243,7 +248,7 @@ def main(argv=None) -> int:
     BlockHashIndex(MAPS["uniform"].photons(5000, np.random.default_rng(9)), k=8, A=2).query(np.zeros((4, 3)))
     for name in args.maps.split(","):
         rows += evaluate(name, int(args.photons), args.queries, args.k, As, args.presets.split(","),
-                         configs)
+                         configs, args.lookup)
     table = markdown(rows)
     print(table)
     if args.markdown:
