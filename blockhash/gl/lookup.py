@@ -93,6 +93,10 @@ class GLLookup:
         prm = self.index.params
         lookup = resolve_lookup(prm, lookup)
         if lookup == "cells":
+            if not self.packed.with_cells:
+                raise InputError("lookup='cells' needs the cells uploaded: build GLLookup from an "
+                                 "index whose params have cells=True (dataclasses.replace("
+                                 "index.params, cells=True))")
             cells = self.index.cells
             return {"BH_CELLS": 1, "BH_K": k, "BH_CAP": cap, "BH_FETCH_ONLY": int(fetch_only),
                     "BH_CELL_MASK": cells.buckets - 1,  # one slot per bucket (cells.SLOTS)

@@ -76,6 +76,7 @@ class PackedIndex:
     cells: object
     points: object
     widths: dict
+    with_cells: bool = False
 
     def release(self):
         for tex in (self.blocks, self.headers, self.refs, self.thresholds, self.boxes,
@@ -104,8 +105,12 @@ def pack_index(ctx, index) -> PackedIndex:
     thresholds = index.thresholds if index.thresholds.size else np.zeros((1, 1), dtype=np.uint32)
     words = index.block_words.copy()
     words[:, COUNT_WORD + 1:COUNT_WORD + 4] = block_boxes(words)
-    points = np.zeros((len(index), 4), dtype=np.float32)
-    points[:, :3] = index._positions
+    # The cell lookup's textures only where the index queries its cells (params.cells).
+    with_cells = bool(getattr(index.params, "cells", False))
+    points = np.zeros((len(index) if with_cells else 1, 4), dtype=np.float32)
+    if with_cells:
+        points[:, :3] = index._positions
+    cell_slots = index.cells.slots if with_cells else np.zeros((1, 4), dtype=np.uint32)
     done = []
     try:
         for data, comps, what, dtype in (
@@ -114,7 +119,7 @@ def pack_index(ctx, index) -> PackedIndex:
                 (refs.reshape(-1), 1, "block reference", "u4"),
                 (thresholds.reshape(-1), 1, "threshold", "u4"),
                 (box_texels(getattr(index, "node_boxes", None)), 4, "node box", "u4"),
-                (index.cells.slots, 4, "cell", "u4"),
+                (cell_slots, 4, "cell", "u4"),
                 (points, 4, "photon position", "f4")):
             done.append(upload(ctx, data, comps, what, dtype=dtype))
     except CapacityError:
@@ -123,6 +128,6 @@ def pack_index(ctx, index) -> PackedIndex:
         raise
     (blocks, wb), (hdr, wh), (ref, wr), (thr, wt), (box, wx), (cel, wc), (pts, wp) = done
     return PackedIndex(blocks=blocks, headers=hdr, refs=ref, thresholds=thr, boxes=box,
-                       cells=cel, points=pts,
+                       cells=cel, points=pts, with_cells=with_cells,
                        widths={"BH_BLK_W": wb, "BH_HDR_W": wh, "BH_REF_W": wr, "BH_THR_W": wt,
                                "BH_BOX_W": wx, "BH_CELL_W": wc, "BH_PT_W": wp})
