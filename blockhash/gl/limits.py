@@ -125,7 +125,7 @@ def largest_A(params, variant, k: int) -> int:
 
 
 #: Passes of the cell lookup's counting selection at most (glsl/bh_cells.glsl): the first,
-#: 11 on the distance bits, 11 on the slots, the pass that writes or sums the k, and one
+#: 12 on the distance bits (its splits applied, then 11), 11 on the slots, the pass that writes or sums the k, and one
 #: that finds the k-th for the estimate.
 CELL_PASSES = 1 + 12 + 11 + 1 + 1
 

@@ -212,7 +212,6 @@ class GLLookup:
         distances = np.where(found, np.sqrt(d2.astype(np.float64)), np.inf)
         indices = np.where(found, index.order[np.where(found, slots, 0)], n)
         finite = np.isfinite(q).all(axis=1)
-        self.last_counts = counts
         self.counters = {"query.points": float(m), "gl.draw_seconds": self._draw_seconds,
                          "query.candidates.mean": float(counts[finite].mean()) if finite.any() else 0.0,
                          "query.blocks_culled.mean": float(culled[finite].mean()) if finite.any() else 0.0}

@@ -324,7 +324,7 @@ class BlockHashIndex:
         extra = {}
         if lookup == "cells":
             cap = A_eff * k_eff
-            d2, slots, examined, fetched, _, _ = cells_query(
+            d2, slots, examined, fetched = cells_query(
                 self.quantizer.quantize_query(qf), qf, self.cells.slots, self.cells.buckets,
                 self.cells.first_level(cap), self._positions,
                 self.quantizer.lo.astype(np.float32), self.quantizer.step.astype(np.float32),

@@ -42,9 +42,8 @@ SHELL_ORDER = np.array(sorted(range(27), key=lambda j: (abs(j % 3 - 1) + abs(j /
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _group(slots, mask, level, c0x, c0y, c0z, gx, gy, gz, gfirst, gcount):
-    """The 8 cells of the query's group at ``level``: coordinates into gx..gz, runs into
-    gfirst/gcount (count 0 for a cell outside the grid or not stored); returns the total."""
+def _group(slots, mask, level, c0x, c0y, c0z, gfirst, gcount):
+    """The 27 cells of the query's group at ``level``: their runs into gfirst/gcount (count 0 for a cell outside the grid or not stored); returns the total."""
     side = np.int64(1) << np.int64(LEVEL_TOP - level)
     cq = (c0x >> level, c0y >> level, c0z >> level)
     total = np.int64(0)
@@ -52,7 +51,6 @@ def _group(slots, mask, level, c0x, c0y, c0z, gx, gy, gz, gfirst, gcount):
         x = cq[0] + (j % 3) - 1
         y = cq[1] + (j // 3) % 3 - 1
         z = cq[2] + j // 9 - 1
-        gx[j], gy[j], gz[j] = x, y, z
         if x < 0 or y < 0 or z < 0 or x >= side or y >= side or z >= side:
             gfirst[j], gcount[j] = 0, 0
             continue
@@ -65,15 +63,13 @@ def _group(slots, mask, level, c0x, c0y, c0z, gx, gy, gz, gfirst, gcount):
 @numba.njit(cache=True, parallel=True)
 def cells_query(qcodes, qpos, slots, buckets, first, positions, lo, step, k, cap):
     """k nearest of each query's candidates.  Returns (d2 (m, k) float32, slots (m, k)
-    int64 (-1: none), examined, blocks, level chosen, group total) per query."""
+    int64 (-1: none), examined, blocks) per query."""
     m = qcodes.shape[0]
     mask = np.uint32(buckets - 1)
     d2 = np.full((m, k), np.inf, dtype=np.float32)
     out = np.full((m, k), -1, dtype=np.int64)
     examined = np.zeros(m, dtype=np.int64)
     blocks = np.zeros(m, dtype=np.int64)
-    chosen = np.zeros(m, dtype=np.int64)
-    totals = np.zeros(m, dtype=np.int64)
     for i in numba.prange(m):
         c0x = np.int64(qcodes[i, 0] >> CODE_SHIFT)
         c0y = np.int64(qcodes[i, 1] >> CODE_SHIFT)
@@ -86,9 +82,6 @@ def cells_query(qcodes, qpos, slots, buckets, first, positions, lo, step, k, cap
             if n <= cap:
                 top = level
         # Round 2: the groups at top - 1, top, top + 1.
-        gx = np.zeros((3, GROUP_CELLS), dtype=np.int64)
-        gy = np.zeros((3, GROUP_CELLS), dtype=np.int64)
-        gz = np.zeros((3, GROUP_CELLS), dtype=np.int64)
         gf = np.zeros((3, GROUP_CELLS), dtype=np.int64)
         gc = np.zeros((3, GROUP_CELLS), dtype=np.int64)
         tot = np.zeros(3, dtype=np.int64)
@@ -96,7 +89,7 @@ def cells_query(qcodes, qpos, slots, buckets, first, positions, lo, step, k, cap
         for t in range(3):
             level = min(max(top + TRIED[t], LEVEL_MIN), LEVEL_TOP)
             lev[t] = level
-            tot[t] = _group(slots, mask, level, c0x, c0y, c0z, gx[t], gy[t], gz[t], gf[t], gc[t])
+            tot[t] = _group(slots, mask, level, c0x, c0y, c0z, gf[t], gc[t])
         pick = -1
         for t in range(3):
             if tot[t] >= k and tot[t] <= cap:
@@ -108,9 +101,7 @@ def cells_query(qcodes, qpos, slots, buckets, first, positions, lo, step, k, cap
         if pick < 0:
             pick = 2
         level = lev[pick]
-        chosen[i] = level
-        totals[i] = tot[pick]
-        # Round 3: the group's cells nearest box first, cut at the cap.
+        # Round 3: the group's cells in shell order, cut at the cap.
         dist = np.empty(cap, dtype=np.float32)
         cand = np.empty(cap, dtype=np.uint64)
         taken = 0
@@ -140,7 +131,7 @@ def cells_query(qcodes, qpos, slots, buckets, first, positions, lo, step, k, cap
             hi[0] = np.uint32(key >> np.uint64(32))
             d2[i, j] = hi.view(np.float32)[0]
             out[i, j] = np.int64(key & np.uint64(0xFFFFFFFF))
-    return d2, out, examined, blocks, chosen, totals
+    return d2, out, examined, blocks
 
 
 __all__ = ["cells_query", "CELL_ROUNDS", "SHELL_ORDER"]
