@@ -342,13 +342,14 @@ def test_the_walk_over_more_tables_equals_the_cpu_reference(far_index, trees, va
 @pytest.mark.parametrize("trees", [1, 5])
 @pytest.mark.parametrize("variant", ["default", "binary-branch-on-packed", "binary-zero-off-network"])
 def test_the_walk_takes_more_than_L_B_blocks_the_same_on_both_sides(caustic_index, trees, variant):
-    """The walk has no L * B block cap: queried at 8x the A k it was built for, it takes up
-    to ceil(A k / 10) + 1 blocks (the candidates numbered in the packed keys' slot bits)."""
+    """The walk has no L * B block cap: queried at 16x the A k it was built for, it takes more
+    than L B blocks and up to ceil(A k / 10) + 1 (the candidates numbered in the packed keys'
+    slot bits)."""
     context_or_skip("egl")
     from blockhash.index.best_first import bf_query, walk_cull, walk_taken_bound
 
     ix = walking(caustic_index, trees)
-    prm, q, k, A = ix.params, queries_for("caustic"), 32, 8
+    prm, q, k, A = ix.params, queries_for("caustic"), 64, 8
     qf = np.where(np.isfinite(q).all(axis=1)[:, None], q, np.float32(0))
     *_, fetched, _, _, _ = bf_query(qf, ix.thresholds, ix.node_boxes, ix.tables.refs, ix.starts,
                                     ix._positions, k, A * k, 0, trees=trees,
