@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import itertools
 import re
+from contextlib import contextmanager
 from dataclasses import dataclass, fields
 from importlib import resources
 from pathlib import Path
@@ -205,6 +206,31 @@ def define_block(defines: dict[str, object]) -> str:
 _PROGRAMS: dict = {}
 
 
+@dataclass(frozen=True)
+class Compiled:
+    """One fragment shader as :func:`compile_program` handed it to the GL driver."""
+
+    file: str
+    defines: dict
+    text: str
+
+
+_RECORDS: list[list[Compiled]] = []
+
+
+@contextmanager
+def recording():
+    """Collect every fragment shader compiled inside the block, cached programs included,
+    as a list of :class:`Compiled` (the GPU compiler check reads what the renderer and the
+    lookup really run this way, whichever code path chose the defines)."""
+    got: list[Compiled] = []
+    _RECORDS.append(got)
+    try:
+        yield got
+    finally:
+        _RECORDS.remove(got)
+
+
 def compile_program(ctx, fragment: str, defines: dict[str, object], *, vertex: str = None):
     """Compile ``fragment`` (a file of the library) with ``defines`` into a moderngl Program.
 
@@ -215,6 +241,8 @@ def compile_program(ctx, fragment: str, defines: dict[str, object], *, vertex: s
     import moderngl
 
     src = preprocess(fragment, define_block(defines))
+    for record in _RECORDS:
+        record.append(Compiled(fragment, dict(defines), src.text))
     key = (id(ctx), fragment, src.text, vertex)
     if key in _PROGRAMS:
         return _PROGRAMS[key]

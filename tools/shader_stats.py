@@ -1,0 +1,295 @@
+"""A GPU compiler's view of the shaders blockhash runs: registers, scratch memory, occupancy.
+
+Mesa's RADV Vulkan driver compiles pipelines on a null device, with no GPU
+(``RADV_FORCE_FAMILY``).  This tool records the fragment shaders that the lookup
+(``GLLookup.query``), the exact kd-tree shader and the caustic pass really hand the GL
+driver (``blockhash.gl.shaderlib.recording``; llvmpipe compiles them as usual), turns
+each into SPIR-V with glslang's relaxed GL rules (no text changed), and reads ACO's
+statistics through ``tools/gpu_compiler/pipeline_stats.c`` (built on first use).
+
+    python tools/shader_stats.py                       # the named shaders, RDNA2/RDNA3/GCN
+    python tools/shader_stats.py --family navi21 --variants   # plus every lookup variant
+    python tools/shader_stats.py --json docs/shader-stats.json
+
+Figures are static and per shader: they show what lands in scratch memory (local arrays
+indexed by variables, spills) and the register demand that sets occupancy; they do not
+time anything.  Needs glslangValidator, a C compiler, the Vulkan headers and loader and
+Mesa's RADV ICD (Debian: glslang-tools gcc libvulkan-dev mesa-vulkan-drivers).
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+C_SOURCE = HERE / "gpu_compiler" / "pipeline_stats.c"
+RADV_ICDS = ("/usr/share/vulkan/icd.d/radeon_icd.x86_64.json",
+             "/usr/share/vulkan/icd.d/radeon_icd.json")
+#: RADV_FORCE_FAMILY names: RDNA2 (gfx1030), RDNA3 (gfx1100), GCN5 (gfx900).
+FAMILIES = ("navi21", "gfx1100", "vega10")
+#: The budget of issue-level targets for the default lookup and caustic pass, RDNA2 wave64.
+VGPR_BUDGET = 64
+
+GLSLANG = ("glslangValidator", "-V", "-R", "--amb", "--aml", "--target-env", "vulkan1.2")
+
+
+class CompilerUnavailable(RuntimeError):
+    """A piece of the toolchain (glslang, cc, Vulkan headers, RADV) is missing."""
+
+
+def radv_icd() -> str:
+    for path in RADV_ICDS:
+        if Path(path).is_file():
+            return path
+    raise CompilerUnavailable("Mesa's RADV Vulkan driver is not installed (no radeon_icd*.json "
+                              "in /usr/share/vulkan/icd.d); apt-get install mesa-vulkan-drivers")
+
+
+def tool_path() -> Path:
+    """The compiled pipeline_stats, built once per source text into a cache folder."""
+    digest = hashlib.sha256(C_SOURCE.read_bytes()).hexdigest()[:12]
+    cache = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "blockhash"
+    exe = cache / f"pipeline_stats-{digest}"
+    if exe.is_file():
+        return exe
+    cc = shutil.which(os.environ.get("CC", "cc")) or shutil.which("gcc")
+    if not cc:
+        raise CompilerUnavailable("no C compiler (cc or gcc) to build pipeline_stats; "
+                                  "apt-get install gcc")
+    cache.mkdir(parents=True, exist_ok=True)
+    tmp = exe.with_suffix(f".{os.getpid()}.tmp")
+    run = subprocess.run([cc, "-O1", "-o", str(tmp), str(C_SOURCE), "-lvulkan"],
+                         capture_output=True, text=True)
+    if run.returncode:
+        raise CompilerUnavailable(f"building {C_SOURCE.name} failed (the Vulkan headers and "
+                                  f"loader come with apt-get install libvulkan-dev):\n{run.stderr}")
+    tmp.replace(exe)
+    return exe
+
+
+def available() -> str | None:
+    """None when the whole toolchain is here, else what is missing and how to get it."""
+    try:
+        if not shutil.which(GLSLANG[0]):
+            raise CompilerUnavailable("glslangValidator is not on PATH; apt-get install glslang-tools")
+        radv_icd()
+        tool_path()
+    except CompilerUnavailable as exc:
+        return str(exc)
+    return None
+
+
+def _spirv(text: str, stage: str, folder: Path) -> Path:
+    src, spv = folder / f"shader.{stage}", folder / f"{stage}.spv"
+    src.write_text(text)
+    run = subprocess.run([*GLSLANG, "-S", stage, "-o", str(spv), str(src)],
+                         capture_output=True, text=True)
+    if run.returncode:
+        raise RuntimeError(f"glslang rejected the {stage} shader:\n{run.stdout}{run.stderr}")
+    return spv
+
+
+def compile_stats(fragment: str, family: str = "navi21", *, wave32: bool = False) -> dict:
+    """ACO's statistics of ``fragment`` (GLSL 4.50 text) in a full-screen pipeline on
+    RADV's null ``family``.  Keys: VGPRs, preVGPRs, SGPRs, spilledVGPRs, spilledSGPRs,
+    scratch_wave (bytes per wave), scratch_lane (bytes per lane), waves_per_simd (RADV's
+    "subgroups per SIMD", in wave32 equivalents on RDNA), instructions, code_bytes, wave."""
+    from blockhash.gl.shaderlib import FULLSCREEN_VS
+
+    env = dict(os.environ, RADV_FORCE_FAMILY=family, VK_ICD_FILENAMES=radv_icd(),
+               MESA_SHADER_CACHE_DISABLE="true")
+    env.pop("VK_DRIVER_FILES", None)
+    if wave32:
+        env["RADV_PERFTEST"] = "pswave32"
+    with tempfile.TemporaryDirectory(prefix="bh-stats-") as tmp:
+        folder = Path(tmp)
+        vs, fs = _spirv(FULLSCREEN_VS, "vert", folder), _spirv(fragment, "frag", folder)
+        run = subprocess.run([str(tool_path()), str(vs), str(fs)], capture_output=True,
+                             text=True, env=env)
+    if run.returncode:
+        raise RuntimeError(f"pipeline_stats failed on {family}:\n{run.stderr}")
+    raw = {}
+    for line in run.stdout.splitlines():
+        stage, name, value = line.split("\t")
+        if stage == "fragment":
+            raw[name] = value
+    wave = int(raw["Subgroup size"])
+    scratch = int(raw["Scratch size"])
+    return {"family": family, "wave": wave, "VGPRs": int(raw["VGPRs"]),
+            "preVGPRs": int(raw["Pre-Sched VGPRs"]), "SGPRs": int(raw["SGPRs"]),
+            "spilledVGPRs": int(raw["Spilled VGPRs"]), "spilledSGPRs": int(raw["Spilled SGPRs"]),
+            "scratch_wave": scratch, "scratch_lane": scratch // wave,
+            "waves_per_simd": int(raw["Subgroups per SIMD"]),
+            "instructions": int(raw["Instructions"]), "code_bytes": int(raw["Code size"])}
+
+
+def over_budget(stats: dict, vgprs: int = VGPR_BUDGET) -> list[str]:
+    """What in ``stats`` breaks the GPU budget: scratch memory, spills, or a register
+    demand (ACO's pre-scheduling VGPRs) above ``vgprs``; [] when it fits."""
+    broken = []
+    if stats["scratch_lane"]:
+        broken.append(f"{stats['scratch_lane']} B of scratch memory per lane")
+    if stats["spilledVGPRs"] or stats["spilledSGPRs"]:
+        broken.append(f"{stats['spilledVGPRs']} VGPRs and {stats['spilledSGPRs']} SGPRs spilled")
+    if stats["preVGPRs"] > vgprs:
+        broken.append(f"{stats['preVGPRs']} VGPRs demanded (budget {vgprs})")
+    return broken
+
+
+# --- the shaders blockhash runs ---------------------------------------------------------------
+
+def sample_photons(n: int = 20_000, seed: int = 1) -> np.ndarray:
+    """A caustic-like map: half in a thin cardioid band on a floor, half spread over it."""
+    rng = np.random.default_rng(seed)
+    t = rng.uniform(0, 2 * np.pi, n // 2)
+    r = 0.25 * (1 - np.cos(t)) + rng.normal(0, 0.005, t.size)
+    band = np.stack([r * np.cos(t), np.zeros_like(t), r * np.sin(t)], 1)
+    floor = rng.uniform(-1, 1, (n - n // 2, 3))
+    floor[:, 1] = 0
+    return np.concatenate([band, floor]).astype(np.float32)
+
+
+def _largest(record) -> str:
+    return max(record, key=lambda c: len(c.text)).text
+
+
+def lookup_shaders(k: int = 50, A: int = 8, *, every_variant: bool = False,
+                   backend: str | None = None) -> dict[str, str]:
+    """The lookup's fragment shaders, as ``GLLookup.query`` compiles them: each lookup
+    (the walk, the tables hashed, the Hilbert cells, the paper preset) with its fetch-only
+    floor, the exact kd-tree shader, and with ``every_variant`` each named shader variant
+    of the default index."""
+    from blockhash import BlockHashIndex
+    from blockhash.gl import GLLookup
+    from blockhash.gl.kdtree import GLKdTree
+    from blockhash.gl.shaderlib import recording, variants
+
+    P = sample_photons()
+    q = P[:64]
+    index = BlockHashIndex(P, k=k, A=A)
+    walk = index
+    hashed = copy.copy(index)
+    hashed.params = replace(index.params, best_first=False, cells=False)
+    cells = copy.copy(index)
+    cells.params = replace(index.params, cells=True)
+    paper = BlockHashIndex(P, k=k, A=A, preset="paper")
+    out = {}
+    for name, ix, variant in (("walk", walk, "default"), ("hash", hashed, "default"),
+                              ("cells", cells, "default"), ("paper", paper, "paper")):
+        lookup = GLLookup(ix, backend=backend)
+        for fetch_only in (False, True):
+            with recording() as got:
+                lookup.query(q, k, A=A, variant=variant, fetch_only=fetch_only)
+            out[f"lookup {name}{' fetch-only' if fetch_only else ''}"] = _largest(got)
+        if every_variant and name in ("walk", "hash"):
+            for v in variants():
+                with recording() as got:
+                    lookup.query(q, k, A=A, variant=v)
+                out[f"lookup {name} variant {v}"] = _largest(got)
+        lookup.release()
+    with recording() as got:
+        GLKdTree(P, backend=backend).query(q, k)
+    out["kd-tree"] = _largest(got)
+    return out
+
+
+def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_000,
+                    backend: str | None = None) -> dict[str, str]:
+    """The caustic pass's three stages (blockhash.render.caustic.STAGES) on the scene's own
+    pixels at 16 x 16, for the walk and for the Hilbert cells."""
+    from blockhash import BlockHashIndex
+    from blockhash.gl.shaderlib import recording
+    from blockhash.render.caustic import STAGES, CausticPass
+    from blockhash.render.gbuffer import rasterize
+    from blockhash.render.pipeline import _receiver_materials
+    from blockhash.render.scene import MirrorMaterial
+    from blockhash.render.scene_toml import load_scene
+    from blockhash.render.shading import SceneRays, shading_points
+    from blockhash.render.tracing import trace_caustic_photons
+
+    sc = load_scene(scene)
+    pm = trace_caustic_photons(sc, photons, seed=sc.photons.seed)
+    index = BlockHashIndex(pm.positions, k=k, A=A, directions=pm.directions,
+                           normals=pm.normals, powers=pm.powers)
+    gbuf = rasterize(sc.camera, sc.objects, size=(16, 16), backend=backend)
+    points = shading_points(sc.camera, gbuf, sc.objects, SceneRays(sc.objects), (MirrorMaterial,))
+    cells = copy.copy(index)
+    cells.params = replace(index.params, cells=True)
+    out = {}
+    for name, ix in (("walk", index), ("cells", cells)):
+        cp = CausticPass(ix, backend=backend)
+        for stage in STAGES:
+            with recording() as got:
+                cp.time_stages(points, _receiver_materials(sc), k=k, A=A, repeat=1, warmup=0,
+                               stages=(stage,))
+            out[f"caustic {name}: {stage}"] = _largest(got)
+    return out
+
+
+def gather(families=FAMILIES, *, scene=None, k=50, A=8, every_variant=False, wave32=False,
+           backend=None, progress=print) -> list[dict]:
+    """One row per shader and family: its name, family and :func:`compile_stats`."""
+    shaders = lookup_shaders(k, A, every_variant=every_variant, backend=backend)
+    if scene:
+        shaders.update(caustic_shaders(scene, k=k, A=A, backend=backend))
+    rows = []
+    for name, text in shaders.items():
+        for fam in families:
+            rows.append({"shader": name, **compile_stats(text, fam, wave32=wave32)})
+            progress(format_row(rows[-1]))
+    return rows
+
+
+COLUMNS = (("shader", "{:<44}"), ("family", "{:<8}"), ("wave", "{:>4}"), ("VGPRs", "{:>5}"),
+           ("preVGPRs", "{:>8}"), ("spilledVGPRs", "{:>6}"), ("scratch_lane", "{:>12}"),
+           ("waves_per_simd", "{:>5}"), ("instructions", "{:>6}"), ("code_bytes", "{:>6}"))
+HEADER = ("shader", "family", "wave", "VGPRs", "preVGPR", "spillV", "scratch B/ln", "w/SIMD",
+          "instrs", "code B")
+
+
+def format_row(row: dict) -> str:
+    return " ".join(fmt.format(row[key]) for key, fmt in COLUMNS)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--family", default=",".join(FAMILIES),
+                    help="RADV_FORCE_FAMILY names, comma-separated (default %(default)s)")
+    ap.add_argument("--scene", default=str(HERE.parent / "scenes" / "ring.toml"),
+                    help="scene whose caustic pass is compiled ('' for none)")
+    ap.add_argument("--k", type=int, default=50)
+    ap.add_argument("--A", type=int, default=8)
+    ap.add_argument("--variants", action="store_true",
+                    help="also every named shader variant of the walk and of the hashing")
+    ap.add_argument("--wave32", action="store_true", help="RDNA fragment shaders in wave32")
+    ap.add_argument("--backend", choices=("egl", "osmesa"), default=None)
+    ap.add_argument("--json", help="write the rows to this JSON file")
+    a = ap.parse_args(argv)
+    missing = available()
+    if missing:
+        print(f"shader_stats: {missing}", file=sys.stderr)
+        return 2
+    print(" ".join(fmt.format(h) for h, (_, fmt) in zip(HEADER, COLUMNS)))
+    rows = gather(a.family.split(","), scene=a.scene or None, k=a.k, A=a.A,
+                  every_variant=a.variants, wave32=a.wave32, backend=a.backend)
+    if a.json:
+        Path(a.json).write_text(json.dumps({"command": " ".join(["python tools/shader_stats.py",
+                                                                  *(argv or sys.argv[1:])]),
+                                            "rows": rows}, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
