@@ -28,6 +28,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -165,12 +166,15 @@ def _largest(record) -> str:
     return max(record, key=lambda c: len(c.text)).text
 
 
-def lookup_shaders(k: int = 50, A: int = 8, *, every_variant: bool = False,
-                   backend: str | None = None) -> dict[str, str]:
+LOOKUPS = ("walk", "hash", "cells", "paper")
+
+
+def lookup_shaders(k: int = 50, A: int = 8, *, lookups=LOOKUPS, kdtree: bool = True,
+                   every_variant: bool = False, backend: str | None = None) -> dict[str, str]:
     """The lookup's fragment shaders, as ``GLLookup.query`` compiles them: each lookup
     (the walk, the tables hashed, the Hilbert cells, the paper preset) with its fetch-only
-    floor, the exact kd-tree shader, and with ``every_variant`` each named shader variant
-    of the default index."""
+    floor (``lookups``, of :data:`LOOKUPS`), the exact kd-tree shader, and with
+    ``every_variant`` each named shader variant of the walk and of the hashing."""
     from blockhash import BlockHashIndex
     from blockhash.gl import GLLookup
     from blockhash.gl.kdtree import GLKdTree
@@ -184,10 +188,15 @@ def lookup_shaders(k: int = 50, A: int = 8, *, every_variant: bool = False,
     hashed.params = replace(index.params, best_first=False, cells=False)
     cells = copy.copy(index)
     cells.params = replace(index.params, cells=True)
-    paper = BlockHashIndex(P, k=k, A=A, preset="paper")
     out = {}
     for name, ix, variant in (("walk", walk, "default"), ("hash", hashed, "default"),
-                              ("cells", cells, "default"), ("paper", paper, "paper")):
+                              ("cells", cells, "default"), ("paper", None, "paper")):
+        if name not in lookups:
+            continue
+        if ix is None:
+            with warnings.catch_warnings():  # the paper's marginal layout orphans blocks
+                warnings.simplefilter("ignore")
+                ix = BlockHashIndex(P, k=k, A=A, preset="paper")
         lookup = GLLookup(ix, backend=backend)
         for fetch_only in (False, True):
             with recording() as got:
@@ -199,16 +208,17 @@ def lookup_shaders(k: int = 50, A: int = 8, *, every_variant: bool = False,
                     lookup.query(q, k, A=A, variant=v)
                 out[f"lookup {name} variant {v}"] = _largest(got)
         lookup.release()
-    with recording() as got:
-        GLKdTree(P, backend=backend).query(q, k)
-    out["kd-tree"] = _largest(got)
+    if kdtree:
+        with recording() as got:
+            GLKdTree(P, backend=backend).query(q, k)
+        out["kd-tree"] = _largest(got)
     return out
 
 
 def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_000,
-                    backend: str | None = None) -> dict[str, str]:
+                    lookups=("walk", "cells"), backend: str | None = None) -> dict[str, str]:
     """The caustic pass's three stages (blockhash.render.caustic.STAGES) on the scene's own
-    pixels at 16 x 16, for the walk and for the Hilbert cells."""
+    pixels at 16 x 16, for each of ``lookups`` ('walk', 'cells')."""
     from blockhash import BlockHashIndex
     from blockhash.gl.shaderlib import recording
     from blockhash.render.caustic import STAGES, CausticPass
@@ -229,6 +239,8 @@ def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_00
     cells.params = replace(index.params, cells=True)
     out = {}
     for name, ix in (("walk", index), ("cells", cells)):
+        if name not in lookups:
+            continue
         cp = CausticPass(ix, backend=backend)
         for stage in STAGES:
             with recording() as got:
