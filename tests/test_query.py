@@ -85,3 +85,33 @@ def test_query_hashes_a_photon_to_the_buckets_that_hold_its_block(layout):
     assert index.stats.overflowing_buckets == 0
     for t in range(prm.L):
         assert all(block[s] in index.tables.refs[t, keys[t, s]] for s in range(0, len(block), 97))
+
+
+@pytest.mark.parametrize("preset,layout_rounds", [("default", None), ("paper", 1)])
+def test_the_hash_query_counts_its_dependent_fetch_rounds(preset, layout_rounds):
+    """Rounds = the deepest table's threshold chain + the bucket + the blocks: an adaptive
+    row's depth (followed here node by node), or one for the marginal layout's thresholds."""
+    from blockhash.index.thresholds import LEAF
+
+    pts = photon_set("clustered", 20_000)
+    index = BlockHashIndex(pts, k=8, A=8, preset=preset)
+    q = photon_set("clustered", 200, seed=5)
+    index.query(q, lookup="hash")
+    if layout_rounds is None:
+        codes = index.quantizer.quantize_query(q.astype(np.float32))
+        deepest = []
+        for c in codes:
+            depths = []
+            for row in index.thresholds:
+                i, depth = 0, 1
+                while not row[2 * i + 1] & LEAF:
+                    meta = int(row[2 * i + 1])
+                    i = (meta >> 3) + int(c[meta & 3] >= row[2 * i])
+                    depth += 1
+                depths.append(depth)
+            deepest.append(max(depths))
+        expect = np.array(deepest) + 2
+    else:
+        expect = np.full(len(q), layout_rounds + 2)
+    assert index.counters["query.rounds.mean"] == pytest.approx(expect.mean())
+    assert index.counters["query.rounds.max"] == expect.max()

@@ -29,7 +29,7 @@ from .cells import build_cells
 from .node_boxes import node_boxes
 from .params import BlockHashParams, resolve_params
 from .query import bh_query
-from .thresholds import ThresholdLayout, build_thresholds
+from .thresholds import ThresholdLayout, build_thresholds, descent_rounds
 from ..errors import InputError
 from ..validate import as_int, as_points
 
@@ -349,12 +349,20 @@ class BlockHashIndex:
                          "query.queue.max": float(longest[finite].max()),
                          "query.queue_drops.sum": float(drops[finite].sum())}
         else:
+            codes = self.quantizer.quantize_query(qf)
             d2, slots, examined, fetched = bh_query(
-                self.quantizer.quantize_query(qf), qf, self.thresholds,
+                codes, qf, self.thresholds,
                 np.asarray(prm.P, dtype=np.int64), int(prm.layout), self.tables.refs,
                 self.priority, self.starts, self._positions, k_eff, A_eff * k_eff, by_priority,
                 slot_bits, prm.probe if probe is None else bool(probe),
                 self.quantizer.step.astype(np.float32))
+            if finite.any():
+                # The tables descend side by side; the buckets' references and then their
+                # blocks add two rounds (a lower bound: multi-probe descends again below a
+                # cut, and its blocks follow).
+                rounds = descent_rounds(self.thresholds, int(prm.layout), codes[finite]) + 2
+                extra = {"query.rounds.mean": float(rounds.mean()),
+                         "query.rounds.max": float(rounds.max())}
         d2[~finite] = np.inf
         slots[~finite] = -1
         self.counters = {

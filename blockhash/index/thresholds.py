@@ -113,6 +113,36 @@ def adaptive_bucket_of(row, cx, cy, cz):
     return np.int64(-1)
 
 
+@numba.njit(cache=True, nogil=True, parallel=True)
+def descent_rounds(thresholds, layout, codes):
+    """Per query, the longest chain of threshold fetches that each wait on the last, over
+    the tables (they descend side by side): an ``ADAPTIVE`` row's depth to the query's
+    bucket; 1 for ``MARGINAL`` (every threshold of a row can be fetched at once); 3 for
+    ``NESTED`` (the y thresholds depend on x's cell, z's on both)."""
+    n = codes.shape[0]
+    out = np.zeros(n, dtype=np.int64)
+    for j in numba.prange(n):
+        if layout != 2:
+            out[j] = 1 if layout == 0 else 3
+            continue
+        deepest = 0
+        for t in range(thresholds.shape[0]):
+            row = thresholds[t]
+            i = 0
+            depth = 0
+            for _ in range(MAX_DEPTH):
+                meta = row[2 * i + 1]
+                depth += 1
+                if meta & LEAF:
+                    break
+                a = meta & 3
+                c = codes[j, 0] if a == 0 else (codes[j, 1] if a == 1 else codes[j, 2])
+                i = np.int64(meta >> 3) + (1 if c >= row[2 * i] else 0)
+            deepest = max(deepest, depth)
+        out[j] = deepest
+    return out
+
+
 #: Cuts nearest to the query, per table, that a multi-probe query may cross (PROBE_CUTS).
 PROBE_CUTS = 3
 #: A cut's distance in codes drops its low 8 bits before it becomes float32, so that the
