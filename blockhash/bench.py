@@ -95,6 +95,10 @@ def summarize(times: dict, clock: str) -> dict:
     return out
 
 
+#: Queries the CPU reference runs to count a lookup's rounds of dependent fetches.
+ROUNDS_SAMPLE = 4096
+
+
 def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2, 4, 8, 16),
                   variants=("default",), data="caustic", repeat=10, warmup=2, backend=None, seed=0,
                   kdtree=True, query_set="image", clock="auto", hashing=False, progress=print):
@@ -152,6 +156,10 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
             row["blocks_culled"] = lk.counters["query.blocks_culled.mean"]
             if not kwargs.get("fetch_only"):
                 row["fn_percent"] = 100.0 * false_negatives(idx, exact[1], len(index)).mean() / k
+                # Rounds of dependent fetches, from the CPU reference of the same lookup.
+                lk.index.query(q[:ROUNDS_SAMPLE], k, A=A)
+                row["rounds_mean"] = lk.index.counters.get("query.rounds.mean")
+                row["rounds_max"] = lk.index.counters.get("query.rounds.max")
             rows.append(row)
             progress(f"{name} A={A}: {row['seconds']:.4f} s")
     if kdtree:
@@ -229,7 +237,8 @@ def format_table(rows, queries) -> str:
     lines = [f"{first['renderer']} | {first['gl_version']} | backend {first['backend']} | "
              f"{first['cpus']} CPUs",
              f"{'method':<34} {'A':>3} {'median ms':>10} {'min ms':>8} {'GPU med':>8} {'wall med':>8} "
-             f"{'queries/s':>12} {'/cKDTree':>9} {'/kd-tree':>9} {'/floor':>7} {'FN %k':>6}"]
+             f"{'queries/s':>12} {'/cKDTree':>9} {'/kd-tree':>9} {'/floor':>7} {'FN %k':>6} "
+             f"{'rounds':>11}"]
     for r in rows:
         floor = by.get(("BH fetch-only floor", r["A"]), {}).get("seconds")
         clock_min = r[f"{r.get('clock', 'wall')}_min"]
@@ -242,7 +251,9 @@ def format_table(rows, queries) -> str:
                  f"{r['seconds'] / ckd:>9.2f}" if ckd and "pixels" not in r else f"{'-':>9}",
                  f"{r['seconds'] / kd:>9.2f}" if kd and "pixels" not in r else f"{'-':>9}",
                  f"{r['seconds'] / floor:>7.2f}" if floor and r["A"] and "pixels" not in r else f"{'-':>7}",
-                 f"{r['fn_percent']:>6.1f}" if "fn_percent" in r else f"{'-':>6}"]
+                 f"{r['fn_percent']:>6.1f}" if "fn_percent" in r else f"{'-':>6}",
+                 f"{r['rounds_mean']:>6.1f}/{r['rounds_max']:<4.0f}" if r.get("rounds_mean")
+                 else f"{'-':>11}"]
         lines.append(" ".join(cells))
     return "\n".join(lines)
 

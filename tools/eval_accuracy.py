@@ -132,6 +132,7 @@ def evaluate(name: str, n: int, m: int, k: int, As, presets, configs=({},), look
                 exact = exact_knn(index.positions, q.astype(np.float32), k)
             t_query, found = timed(lambda: index.query(q, lookup=lookup))
             rounds = index.counters.get("query.rounds.mean", float("nan"))
+            rounds_max = index.counters.get("query.rounds.max", float("nan"))
             half = m // 2
             acc = accuracy(found, exact, n)
             on = accuracy((found[0][:half], found[1][:half]), (exact[0][:half], exact[1][:half]), n)
@@ -150,6 +151,7 @@ def evaluate(name: str, n: int, m: int, k: int, As, presets, configs=({},), look
                 "fn_far": float(fn[far].mean() / k) if far.any() else 0.0,
                 "avg_dilation": acc.avg_dilation["mean"], "max_dilation": acc.max_dilation["mean"],
                 "candidates": index.counters["query.candidates.mean"], "rounds": rounds,
+                "rounds_max": rounds_max, "blocks": index.counters["query.blocks.mean"],
                 "lookup": lookup or "preset",
                 "pops": index.counters.get("query.pops.mean", 0.0),
                 "query_seconds": t_query, "build_seconds": t_build, "ckdtree_build_seconds": t_kd,
@@ -162,7 +164,7 @@ def evaluate(name: str, n: int, m: int, k: int, As, presets, configs=({},), look
                   f"(p90 {100 * r['fn_p90']:5.1f}%, on {100 * r['fn_on']:5.2f}%, off "
                   f"{100 * r['fn_off']:5.2f}%; near {100 * r['fn_near']:5.2f}%, far "
                   f"{100 * r['fn_far']:5.2f}% of {100 * r['far_share']:.0f}%)  dil {r['avg_dilation']:.3f}/{r['max_dilation']:.3f}  "
-                  f"cand {r['candidates']:6.0f}  pops {r['pops']:5.0f}  refs/ph {r['refs_per_photon']:.2f}  build "
+                  f"cand {r['candidates']:6.0f}  blocks {r['blocks']:5.1f}  rounds {r['rounds']:5.1f}/{r['rounds_max']:.0f}  refs/ph {r['refs_per_photon']:.2f}  build "
                   f"{t_build:.2f}s ({t_build / t_kd:.1f}x cKDTree)  orphans {s.orphans}", flush=True)
     return rows
 
@@ -182,9 +184,9 @@ def markdown(rows: list[dict]) -> str:
                 out.append(f"| {name} | {first['set']} | {preset} | " + " | ".join(
                     f"{100 * cells[A]['fn_mean']:.2f}%" if A in cells else "" for A in As) + " |")
     out += ["", "| map | set | A | FN mean | FN p90 | FN on / off surface | FN near / far (far share) "
-            "| avg dil. | max dil. | candidates | refs/photon | bytes/photon | orphans "
-            "| query s | build s (x cKDTree) |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "| avg dil. | max dil. | candidates | blocks | rounds mean / max | refs/photon "
+            "| bytes/photon | orphans | query s | build s (x cKDTree) |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if r["preset"] == "default" and r["A"] in (8, 64):
             out.append(
@@ -193,7 +195,8 @@ def markdown(rows: list[dict]) -> str:
                 f"{100 * r.get('fn_near', np.nan):.2f}% / {100 * r.get('fn_far', np.nan):.2f}% "
                 f"({100 * r.get('far_share', np.nan):.0f}%) | "
                 f"{r['avg_dilation']:.3f} | {r['max_dilation']:.3f} | {r['candidates']:.0f} | "
-                f"{r['refs_per_photon']:.2f} | {r['bytes_per_photon']:.0f} | {r['orphans']} | "
+                f"{r.get('blocks', np.nan):.1f} | {r.get('rounds', np.nan):.1f} / "
+                f"{r.get('rounds_max', np.nan):.0f} | {r['refs_per_photon']:.2f} | {r['bytes_per_photon']:.0f} | {r['orphans']} | "
                 f"{r['query_seconds']:.2f} | "
                 f"{r['build_seconds']:.2f} ({r['build_seconds'] / r['ckdtree_build_seconds']:.1f}x) |")
     out += ["", "Every row (query s: the whole query set, CPU reference):", "",
