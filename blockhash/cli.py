@@ -24,6 +24,7 @@ from .errors import BlockHashError, InputError
 from .index.block_hash_index import BlockHashIndex
 from .index.metrics import accuracy, exact_knn
 from .index.params import PRESETS
+from .render.subpixel import DEFAULT_SPP
 
 
 def _load_photons(spec: str, n: int, seed: int) -> np.ndarray:
@@ -153,16 +154,17 @@ def cmd_render(args) -> int:
         warnings.simplefilter("always")
         result = render_scene(scene, photons=args.photons, k=args.k, A=args.A, method=args.method,
                               variant=args.variant, size=args.size, seed=args.seed,
-                              backend=args.backend, progress=True, options=options_from(args))
+                              backend=args.backend, progress=True, options=options_from(args),
+                              spp=args.spp)
     for w in caught:
         print(f"WARNING: {w.message}", file=sys.stderr)
-    write_exr(out, result.layers())
+    write_exr(out, result.layers(), {"blockhash:spp": result.spp})
     png = out.with_suffix(".png")
     write_png(png, result.combined)
     info = result.info
     print(f"scene: {args.scene} -> {out} (+ {png.name})")
     print(f"photons stored: {info.get('photons_stored', 0):,} of {info.get('photons_emitted', 0):,} emitted")
-    print(f"density estimate: {info.get('estimate')}")
+    print(f"density estimate: {info.get('estimate')}; {result.spp} samples per pixel")
     if "index" in info:
         print(info["index"])
     print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
@@ -332,6 +334,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="bh: Block Hashing shader; kdtree: exact kNN (kd-tree shader); cpu: BH CPU reference")
     p.add_argument("--variant", default="default", help="BH shader variant")
     p.add_argument("--size", type=_size, help="image size WIDTHxHEIGHT (default: the camera's)")
+    p.add_argument("--spp", type=int, help="samples per pixel, a square number (stratified "
+                   "jitter, box filter; default: the scene's [camera] spp, else "
+                   f"{DEFAULT_SPP})")
     p.add_argument("--seed", type=int, help="photon seed (default: the scene's)")
     p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
     p.add_argument("--time-budget", type=float, metavar="SECONDS",

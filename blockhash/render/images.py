@@ -18,8 +18,9 @@ from ..errors import InputError
 CHANNELS = ("R", "G", "B")
 
 
-def write_exr(path, layers: dict[str, np.ndarray]) -> None:
-    """Write ``{name: (h, w, 3) float}`` as one float EXR with channels name.R/G/B."""
+def write_exr(path, layers: dict[str, np.ndarray], attributes: dict | None = None) -> None:
+    """Write ``{name: (h, w, 3) float}`` as one float EXR with channels name.R/G/B, and
+    ``attributes`` (``{"blockhash:spp": 4}``) as header metadata."""
     names = list(layers)
     h, w, _ = layers[names[0]].shape
     # Contiguous whatever the inputs' strides: OpenImageIO refuses non-contiguous channels.
@@ -28,7 +29,18 @@ def write_exr(path, layers: dict[str, np.ndarray]) -> None:
     spec = oiio.ImageSpec(w, h, data.shape[2], oiio.FLOAT)
     spec.channelnames = tuple(f"{n}.{c}" for n in names for c in CHANNELS)
     spec.attribute("compression", "zip")
+    for name, value in (attributes or {}).items():
+        spec.attribute(name, value)
     _write(path, spec, data)
+
+
+def read_attribute(path, name: str, default=None):
+    """One header attribute of an image file (``default`` when it has none)."""
+    buf = oiio.ImageBuf(str(path))
+    if buf.has_error:
+        raise InputError(f"{path}: cannot read: {buf.geterror()}")
+    value = buf.spec().getattribute(name)
+    return default if value is None else value
 
 
 def white_point(image: np.ndarray, *, percentile: float = 99.5) -> float:

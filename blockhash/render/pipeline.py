@@ -23,6 +23,7 @@ from ..gl.limits import MAX_K
 from .gbuffer import rasterize
 from ..index.block_hash_index import BlockHashIndex
 from .shading import SceneRays, direct_light, shading_points
+from .subpixel import DEFAULT_SPP, SPP_SEED, box_filter, raycast_gbuffer, spp_side
 
 METHODS = ("bh", "kdtree", "cpu")
 
@@ -33,11 +34,19 @@ class NoCausticWarning(UserWarning):
 
 @dataclass
 class RenderResult:
+    """The layers of a render, (h, w, 3) float32 pixel means of ``spp`` samples each."""
+
     direct: np.ndarray
     caustic: np.ndarray
     timings: dict = field(default_factory=dict)
     info: dict = field(default_factory=dict)
     index: BlockHashIndex | None = None
+    spp: int = 1
+
+    @property
+    def samples(self) -> np.ndarray:
+        """(h, w) int32 samples averaged into each pixel."""
+        return np.full(self.direct.shape[:2], self.spp, dtype=np.int32)
 
     @property
     def combined(self) -> np.ndarray:
@@ -62,7 +71,7 @@ def _receiver_materials(scene):
 def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="default",
                  size=None, seed=None, backend=None, progress=False, photon_map=None,
                  estimate=None, filter=None, normal_cos=None, normal_test=True, disc=None,
-                 options=None) -> RenderResult:
+                 options=None, spp=None) -> RenderResult:
     """Render ``scene`` (see :mod:`blockhash.render.scene`).
 
     Parameters
@@ -87,6 +96,13 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
     options : EstimateOptions, optional
         The density estimate's options (:mod:`blockhash.render.estimate`); the keywords
         above change single fields of it (default: ``EstimateOptions()``).
+    spp : int, optional
+        Samples per pixel, a square number S * S (default: the scene's ``[camera] spp``,
+        else :data:`.subpixel.DEFAULT_SPP`).  1 shades the pixel centres the rasteriser
+        gives; S * S > 1 casts one ray per cell of an S x S stratified, jittered grid in
+        each pixel (a fixed pattern, :data:`.subpixel.SPP_SEED`), and every sample gets
+        its own hit, direct light and caustic estimate (one caustic pass over all of
+        them) before the box filter averages them into pixels.
     """
     from .scene import MirrorMaterial
     from .tracing import trace_caustic_photons
@@ -103,8 +119,10 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
                                  disc=disc)
     if not normal_test:
         options = replace(options, normal_cos=None)
+    side = spp_side((scene.camera.spp or DEFAULT_SPP) if spp is None else spp)
     timings, info = {}, {}
     info["estimate"] = options.label
+    info["spp"] = side * side
     t0 = time.perf_counter()
     if photon_map is None and scene.specular_objects:
         photon_map = trace_caustic_photons(scene, photons or settings.count,
@@ -116,8 +134,11 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
     if photon_map is not None:
         info["photons_emitted"] = photon_map.emitted
     t = time.perf_counter()
-    gbuf = rasterize(scene.camera, scene.objects, size=size, backend=backend)
     rays = SceneRays(scene.objects)
+    if side == 1:
+        gbuf = rasterize(scene.camera, scene.objects, size=size, backend=backend)
+    else:
+        gbuf = raycast_gbuffer(scene.camera, rays, size=size, samples=side, seed=SPP_SEED)
     points = shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,))
     timings["gbuffer"] = time.perf_counter() - t
     t = time.perf_counter()
@@ -151,5 +172,5 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
                                      options=options).astype(np.float32)
         timings["caustic"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
-    return RenderResult(direct=direct.astype(np.float32), caustic=np.asarray(caustic, np.float32),
-                        timings=timings, info=info, index=index)
+    return RenderResult(direct=box_filter(direct, side), caustic=box_filter(caustic, side),
+                        timings=timings, info=info, index=index, spp=side * side)

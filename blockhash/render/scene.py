@@ -42,7 +42,8 @@ class Camera:
     ``eye``, ``target``, ``up`` : (3,) float64, metres; ``fov_y_deg`` the
     vertical field of view in degrees; ``width``, ``height`` the image size in
     pixels.  ``up`` need not be perpendicular to the view direction, only not
-    parallel to it.
+    parallel to it.  ``spp``: samples per pixel, a square number (None: the
+    renderer's default, :data:`.subpixel.DEFAULT_SPP`).
     """
 
     eye: np.ndarray
@@ -51,6 +52,7 @@ class Camera:
     fov_y_deg: float
     width: int
     height: int
+    spp: int | None = None
 
     def __post_init__(self):
         with _owned("Camera"):
@@ -63,6 +65,16 @@ class Camera:
                                             hint="give the vertical field of view in degrees, e.g. 38"))
             set_(self, "width", _integer(self.width, "width", lo=1, hi=MAX_IMAGE_SIDE))
             set_(self, "height", _integer(self.height, "height", lo=1, hi=MAX_IMAGE_SIDE))
+            if self.spp is not None:
+                from .subpixel import MAX_SPP
+                spp = _integer(self.spp, "spp", lo=1, hi=MAX_SPP,
+                               hint="give a square number of samples per pixel: 1, 4, 9, 16, ...")
+                side = math.isqrt(spp)
+                if side * side != spp:
+                    raise _FieldError("spp", f"expected a square number (samples are stratified "
+                                      f"in S x S cells per pixel); got {spp}; use {side * side} "
+                                      f"or {(side + 1) ** 2}")
+                set_(self, "spp", spp)
             view = self.target - self.eye
             dist = float(np.linalg.norm(view))
             if dist == 0.0:

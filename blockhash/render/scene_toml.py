@@ -14,6 +14,8 @@ typo is never silently ignored)::
     fov_y_deg = 38.0                # required, vertical field of view, 0 < fov < 180
     width = 512                     # required, pixels, 1 .. 16384
     height = 512                    # required, pixels, 1 .. 16384
+    spp = 4                         # default: the renderer's (DEFAULT_SPP); samples per
+                                    #   pixel, a square number 1 .. 1024, stratified jitter
 
     [materials.NAME]                # one table per material; at least one
     kind = "phong"                  # modified Phong (Lafortune & Willems 1994):
@@ -148,11 +150,12 @@ def _array_of_tables(value, key: str, *, what: str) -> list:
 
 
 def _parse_camera(t) -> Camera:
-    _keys(t, "camera", ("eye", "target", "fov_y_deg", "width", "height"), ("up",),
+    _keys(t, "camera", ("eye", "target", "fov_y_deg", "width", "height"), ("up", "spp"),
           what="the camera")
     with _under("camera"):
         return Camera(eye=t["eye"], target=t["target"], up=t.get("up", [0.0, 1.0, 0.0]),
-                      fov_y_deg=t["fov_y_deg"], width=t["width"], height=t["height"])
+                      fov_y_deg=t["fov_y_deg"], width=t["width"], height=t["height"],
+                      spp=t.get("spp"))
 
 
 def _parse_materials(t) -> dict:

@@ -17,11 +17,44 @@ so the estimate and the reference integrate over the same footprint by construct
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .gbuffer import GBuffer
 from ..errors import InputError
 from ..validate import as_int
+
+#: Samples per pixel of a render unless the call or the scene's ``[camera] spp`` says
+#: otherwise; chosen by measurement (BENCHMARKS.md, "Samples per pixel").
+DEFAULT_SPP = 1
+#: Most samples per pixel (a 32 x 32 grid).
+MAX_SPP = 1024
+#: The jitter pattern of every render: fixed, so that an image is the same in every run and
+#: on every backend (the points are cast on the CPU).
+SPP_SEED = 20020901
+
+
+def spp_side(spp, name: str = "spp") -> int:
+    """S for ``spp = S * S`` samples per pixel (stratified in S x S cells); InputError for
+    anything else."""
+    n = as_int(spp, name, minimum=1, maximum=MAX_SPP,
+               hint="give a square number of samples per pixel: 1, 4, 9, 16, ...")
+    side = math.isqrt(n)
+    if side * side != n:
+        raise InputError(f"{name}={n} is not a square number; samples are stratified in S x S "
+                         f"cells per pixel, so use {side * side} or {(side + 1) ** 2}")
+    return side
+
+
+def box_filter(image: np.ndarray, side: int) -> np.ndarray:
+    """(h * S, w * S, ...) samples -> (h, w, ...) pixel means (the box filter), float32."""
+    if side == 1:
+        return np.asarray(image, dtype=np.float32)
+    hs, ws = image.shape[:2]
+    blocks = np.asarray(image, dtype=np.float64).reshape(hs // side, side, ws // side, side,
+                                                         *image.shape[2:])
+    return blocks.mean(axis=(1, 3)).astype(np.float32)
 
 
 def subpixel_points(width: int, height: int, samples: int, seed: int | None = None, *,
