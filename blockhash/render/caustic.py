@@ -23,7 +23,7 @@ import numpy as np
 from ..index.codec import decode_directions, decode_powers, unpack_records
 from ..errors import InputError
 from .estimate import EstimateOptions, photon_weights
-from .photon_radius import own_radii2
+from .photon_radius import exact_radii2, own_radii2
 from ..gl.context import bind_textures, check_gl, draw_timed, home_framebuffer, time_draws
 from ..gl.limits import check_lookup
 from ..gl.lookup import GLLookup, lookup_slot_bits
@@ -102,21 +102,26 @@ def estimate_exact(index, points: ShadingPoints, materials, *, k=None, backend=N
 
         tree = GLKdTree(index.positions, backend=backend)
         return estimate_from_neighbours(index, points, materials, lambda q: tree.query(q, k), k,
-                                        options=options)
+                                        options=options, radii=exact_radii2)
     from ..index.metrics import exact_knn
 
     return estimate_from_neighbours(index, points, materials,
-                                    lambda q: exact_knn(index.positions, q, k), k, options=options)
+                                    lambda q: exact_knn(index.positions, q, k), k, options=options,
+                                    radii=exact_radii2)
 
 
 def estimate_from_neighbours(index, points: ShadingPoints, materials, search, k, *,
-                             options: EstimateOptions | None = None) -> np.ndarray:
+                             options: EstimateOptions | None = None, radii=None) -> np.ndarray:
     """The density estimate of the module docstring with neighbours from ``search(q)``.
 
-    ``search`` maps (m, 3) float32 points to cKDTree-style ``(distances, indices)``.
+    ``search`` maps (m, 3) float32 points to cKDTree-style ``(distances, indices)``;
+    ``radii(index, k)`` the photons' own squared radii of the conserving estimate
+    (default :func:`.photon_radius.own_radii2`, from the index's own query; the exact
+    estimate passes :func:`.photon_radius.exact_radii2`).
     """
     options = EstimateOptions() if options is None else options
-    return Neighbours.find(index, points, search, k, own=[options]).estimate(materials, options)
+    return Neighbours.find(index, points, search, k, own=[options],
+                           radii=radii).estimate(materials, options)
 
 
 @dataclass(frozen=True)
@@ -136,9 +141,10 @@ class Neighbours:
     own_r2: np.ndarray | None = None  # (q, k) float64 each photon's own squared radius
 
     @classmethod
-    def find(cls, index, points: ShadingPoints, search, k, *, own=()) -> "Neighbours":
+    def find(cls, index, points: ShadingPoints, search, k, *, own=(), radii=None) -> "Neighbours":
         """The neighbours of ``points``; ``own``: the options that will be estimated (the
-        photons' own radii are looked up when one of them is the conserving estimate)."""
+        photons' own radii, ``radii(index, k)``, default :func:`.photon_radius.own_radii2`,
+        are looked up when one of them is the conserving estimate)."""
         mat = points.material.reshape(-1)
         live = mat >= 0
         q = points.position.reshape(-1, 3)[live]
@@ -161,7 +167,8 @@ class Neighbours:
         r2 = np.where(found.any(axis=1), np.maximum(d2[np.arange(nq), last], min_r2(index)), 0.0)
         own_r2 = None
         if any(o.estimate == "conserving" for o in own):
-            own_r2 = np.where(found, own_radii2(index, k)[np.where(found, idx, 0)], np.inf)
+            per_photon = (radii or own_radii2)(index, k)
+            own_r2 = np.where(found, per_photon[np.where(found, idx, 0)], np.inf)
         return cls(points, live, d2, found, r2, wi, normal,
                    pos - q.astype(np.float64)[:, None, :], power.reshape(nq, k, 3), own_r2)
 

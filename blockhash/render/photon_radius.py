@@ -21,6 +21,13 @@ with the cone, Epanechnikov and Silverman filters (0.7 % with the box, whose wei
 not fall to 0 at the disc's edge).  A map with fewer than j + 1 photons uses each
 photon's farthest other photon; a map of one photon has no radius (infinite: the photon
 adds nothing).
+
+The j-th nearest other photon comes from the photon map's own index: the CPU reference of
+its default lookup (:meth:`BlockHashIndex.query`) with every photon as a query, at the
+index's A.  It is approximate like every other search of the renderer, and never nearer
+than the exact one (a missed neighbour only moves the j-th outward), so a radius is at
+least the exact radius; :func:`exact_radii2` (scipy's cKDTree) is the oracle the tests
+and ``tools/photon_radii.py`` compare with.
 """
 
 from __future__ import annotations
@@ -48,24 +55,42 @@ def neighbours_for(k: int) -> int:
 
 def own_radii2(index, k: int) -> np.ndarray:
     """(n,) float64 squared radius of every photon (input order), for an estimate with k
-    neighbours (module docstring).  Computed once per index and k, with scipy's cKDTree."""
+    neighbours (module docstring).  Computed once per index and k, by the index's own query."""
+    def jth(pos, rank):
+        d, _ = index.query(pos, k=rank + 1)
+        return np.asarray(d, dtype=np.float64).reshape(len(pos), -1)[:, rank]
+    return _radii2(index, neighbours_for(k), jth, "own")
+
+
+def exact_radii2(index, k: int) -> np.ndarray:
+    """:func:`own_radii2` with the exact j-th nearest other photon (scipy's cKDTree)."""
     from scipy.spatial import cKDTree
 
+    def jth(pos, rank):
+        d, _ = cKDTree(pos).query(pos, k=[rank + 1], workers=-1)
+        return d[:, 0]
+    return _radii2(index, neighbours_for(k), jth, "exact")
+
+
+def _radii2(index, j: int, jth, kind: str) -> np.ndarray:
+    """Squared radii from ``jth(positions, rank)``, the distance to each photon's rank-th
+    nearest other photon (its (rank + 1)-th nearest, itself first), floored at the map's
+    position error; in float32 steps, as the shader reads them.  Cached per index, j and
+    ``kind``."""
     from .caustic import min_r2
 
-    j = neighbours_for(k)
     per_index = _CACHE.setdefault(index, {})
-    if j not in per_index:
-        pos = np.asarray(index.positions, dtype=np.float64)
-        n = len(pos)
-        rank = min(j, n - 1)
-        if rank < 1:
-            r2 = np.full(n, np.inf)
-        else:
-            d, _ = cKDTree(pos).query(pos, k=[rank + 1], workers=-1)
-            r2 = np.maximum(d[:, 0] ** 2, min_r2(index))
-        per_index[j] = r2.astype(np.float32).astype(np.float64)  # as the shader reads them
-    return per_index[j]
+    if (kind, j) in per_index:
+        return per_index[kind, j]
+    pos = np.asarray(index.positions, dtype=np.float64)
+    n = len(pos)
+    rank = min(j, n - 1)
+    if rank < 1:
+        r2 = np.full(n, np.inf)
+    else:
+        r2 = np.maximum(jth(pos, rank) ** 2, min_r2(index)).astype(np.float32).astype(np.float64)
+    per_index[kind, j] = r2
+    return r2
 
 
 def slot_radii2(index, k: int) -> np.ndarray:

@@ -22,6 +22,7 @@ from ..errors import InputError
 from ..gl.limits import MAX_K
 from .gbuffer import rasterize
 from ..index.block_hash_index import BlockHashIndex
+from .photon_radius import exact_radii2, own_radii2
 from .shading import SceneRays, direct_light, shading_points
 from .subpixel import DEFAULT_SPP, SPP_SEED, box_filter, raycast_gbuffer, spp_side
 
@@ -133,6 +134,17 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
     info["photons_stored"] = stored
     if photon_map is not None:
         info["photons_emitted"] = photon_map.emitted
+    index = None
+    if stored >= k:
+        t = time.perf_counter()
+        index = BlockHashIndex(photon_map.positions, k=k, A=A, directions=photon_map.directions,
+                               normals=photon_map.normals, powers=photon_map.powers)
+        timings["index"] = time.perf_counter() - t
+        info["index"] = index.stats.summary()
+        if options.estimate == "conserving":
+            t = time.perf_counter()
+            (exact_radii2 if method == "kdtree" else own_radii2)(index, k)  # cached for the pass
+            timings["photon radii"] = time.perf_counter() - t
     t = time.perf_counter()
     rays = SceneRays(scene.objects)
     if side == 1:
@@ -145,7 +157,6 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
     direct = direct_light(points, scene.objects, scene.lights, rays)
     timings["direct"] = time.perf_counter() - t
     caustic = np.zeros_like(direct, dtype=np.float32)
-    index = None
     if stored == 0:
         why = ("the scene has no specular object" if not scene.specular_objects
                else "no caustic photon reached a receiver")
@@ -154,11 +165,6 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
         raise InputError(f"only {stored} caustic photons were stored, fewer than k={k}; "
                          "trace more photons (--photons) or lower --k")
     else:
-        t = time.perf_counter()
-        index = BlockHashIndex(photon_map.positions, k=k, A=A, directions=photon_map.directions,
-                               normals=photon_map.normals, powers=photon_map.powers)
-        timings["index"] = time.perf_counter() - t
-        info["index"] = index.stats.summary()
         materials = _receiver_materials(scene)
         t = time.perf_counter()
         if method == "bh":
