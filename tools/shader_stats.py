@@ -178,7 +178,7 @@ def lookup_shaders(k: int = 50, A: int = 8, *, lookups=LOOKUPS, kdtree: bool = T
     from blockhash import BlockHashIndex
     from blockhash.gl import GLLookup
     from blockhash.gl.kdtree import GLKdTree
-    from blockhash.gl.shaderlib import recording, variants
+    from blockhash.gl.shaderlib import Variant, recording, variants
 
     P = sample_photons()
     q = P[:64]
@@ -203,10 +203,14 @@ def lookup_shaders(k: int = 50, A: int = 8, *, lookups=LOOKUPS, kdtree: bool = T
                 lookup.query(q, k, A=A, variant=variant, fetch_only=fetch_only)
             out[f"lookup {name}{' fetch-only' if fetch_only else ''}"] = _largest(got)
         if every_variant and name in ("walk", "hash"):
+            seen = {Variant.parse("default").name: out[f"lookup {name}"]}
             for v in variants():
-                with recording() as got:
-                    lookup.query(q, k, A=A, variant=v)
-                out[f"lookup {name} variant {v}"] = _largest(got)
+                canonical = Variant.parse(v).name
+                if canonical not in seen:  # GLLookup compiles each variant once
+                    with recording() as got:
+                        lookup.query(q, k, A=A, variant=v)
+                    seen[canonical] = _largest(got)
+                out[f"lookup {name} variant {v}"] = seen[canonical]
         lookup.release()
     if kdtree:
         with recording() as got:
@@ -275,6 +279,26 @@ def format_row(row: dict) -> str:
     return " ".join(fmt.format(row[key]) for key, fmt in COLUMNS)
 
 
+def markdown(rows: list[dict]) -> str:
+    """The BENCHMARKS.md table of ``rows``: RDNA2 in full, RDNA3's registers and spills and
+    GCN5's occupancy beside it (a family not in the rows is left out)."""
+    by: dict = {}
+    for r in rows:
+        by.setdefault(r["shader"], {})[r["family"]] = r
+    out = ["| shader | VGPRs (ACO demand) | spilled | scratch B/lane | waves/SIMD (w32 eq.) "
+           "| instructions | RDNA3: VGPRs, spilled | GCN5: waves/SIMD |",
+           "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for name, f in by.items():
+        a, b, c = f.get("navi21"), f.get("gfx1100"), f.get("vega10")
+        if a is None:
+            continue
+        out.append(f"| {name} | {a['VGPRs']} ({a['preVGPRs']}) | {a['spilledVGPRs']} | "
+                   f"{a['scratch_lane']:,} | {a['waves_per_simd']} | {a['instructions']:,} | "
+                   + (f"{b['VGPRs']}, {b['spilledVGPRs']}" if b else "-") + " | "
+                   + (f"{c['waves_per_simd']}" if c else "-") + " |")
+    return "\n".join(out)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--family", default=",".join(FAMILIES),
@@ -288,7 +312,12 @@ def main(argv=None) -> int:
     ap.add_argument("--wave32", action="store_true", help="RDNA fragment shaders in wave32")
     ap.add_argument("--backend", choices=("egl", "osmesa"), default=None)
     ap.add_argument("--json", help="write the rows to this JSON file")
+    ap.add_argument("--table", metavar="JSON", help="print the markdown table of a JSON file "
+                    "this tool wrote, and nothing else")
     a = ap.parse_args(argv)
+    if a.table:
+        print(markdown(json.loads(Path(a.table).read_text())["rows"]))
+        return 0
     missing = available()
     if missing:
         print(f"shader_stats: {missing}", file=sys.stderr)
