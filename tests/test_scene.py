@@ -377,7 +377,7 @@ ERRORS = {
                            r"objects\[0\]\.shape\.x: expected \[min, max\] with min < max"),
     "unknown shape kind": ('kind = "ring"', 'kind = "torus"',
                            r"objects\[1\]\.shape\.kind: expected one of 'rectangle', 'ring', "
-                           r"'bust'; got 'torus'"),
+                           r"'sphere', 'bust'; got 'torus'"),
     "up parallel to view": ("target = [0.0, 0.0, 0.05]", "target = [0.0, 0.0, 0.05]\n"
                             "up = [0.0, -1.9, -1.55]",
                             r"camera\.up: up \(0, -1\.9, -1\.55\) is parallel to the view "
@@ -397,7 +397,7 @@ ERRORS = {
                                r"materials\.floor\.n: missing required key; a phong material with "
                                r"ks > 0 needs the exponent n"),
     "unknown material kind": ('kind = "mirror"', 'kind = "glass"',
-                              r"materials\.mirror\.kind: expected one of 'phong', 'mirror'; "
+                              r"materials\.mirror\.kind: expected one of 'phong', 'mirror', 'dielectric'; "
                               r"got 'glass'"),
     "mirror with phong key": ("reflectance = [0.95, 0.78, 0.45]",
                               "reflectance = [0.95, 0.78, 0.45]\nkd = 0.5",
@@ -547,6 +547,6 @@ def test_scene_objects_reject_wrong_types():
                       material=MirrorMaterial(reflectance=0.9))
     with pytest.raises(InputError, match=r"Scene\.lights: the scene has no light"):
         Scene(camera=cam, lights=(), objects=(obj,))
-    with pytest.raises(InputError, match=r"SceneObject\.material: expected a PhongMaterial or "
-                                         r"MirrorMaterial; got str"):
+    with pytest.raises(InputError, match=r"SceneObject\.material: expected a PhongMaterial, "
+                                         r"MirrorMaterial or DielectricMaterial; got str"):
         SceneObject(name="r", mesh=obj.mesh, material="mirror")

@@ -250,7 +250,7 @@ def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
         for start in range(0, m_total, batch_size):
             count = min(batch_size, m_total - start)
             origins, dirs, weights, _ = emitter.sample(photon_uniforms(seed, start, count))
-            b = trace_batch(geom, origins, dirs, weights, max_bounces)
+            b = trace_batch(geom, origins, dirs, weights, max_bounces, seed=seed, start=start)
             stats["stored"] += len(b.stored)
             _connect(b, pin, rays, kd, ks, e, sum1, sum2, stats)
             if bar is not None:

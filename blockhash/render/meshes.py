@@ -187,6 +187,29 @@ def rectangle(*, x=(-1.5, 1.5), z=(-1.5, 1.5), y: float = 0.0) -> trimesh.Trimes
     return with_normals(vertices, faces, normals)
 
 
+# --------------------------------------------------------------------------- sphere
+
+#: Icosphere subdivisions of a generated sphere unless given (20 * 4**s triangles); chosen
+#: by measuring the glass scene's caustic against a finer sphere (BENCHMARKS.md, "Glass").
+SPHERE_SUBDIVISIONS = 5
+
+
+def sphere(*, center=(0.0, 0.0, 0.0), radius: float = 1.0,
+           subdivisions: int = SPHERE_SUBDIVISIONS) -> trimesh.Trimesh:
+    """A closed sphere: an icosahedron subdivided ``subdivisions`` times (20 * 4**s
+    triangles, vertices on the sphere, faces wound outward) with the exact smooth normals
+    ``(v - center) / radius``."""
+    c = _check_point("sphere center", center)
+    r = _check_positive("sphere radius", radius)
+    s = _check_segments("sphere subdivisions", subdivisions, 0)
+    if s > 8:
+        raise InputError(f"sphere subdivisions must be at most 8 (1.3 M triangles); got {s}")
+    ico = trimesh.creation.icosphere(subdivisions=s, radius=1.0)
+    unit = np.asarray(ico.vertices, dtype=np.float64)
+    unit /= np.linalg.norm(unit, axis=1, keepdims=True)
+    return with_normals(c + r * unit, np.asarray(ico.faces), unit)
+
+
 # --------------------------------------------------------------------------- ring
 
 def _annulus_faces(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -37,10 +37,15 @@ class EmbreeGeometry:
         self._keep = []  # TriangleMesh objects must outlive the scene
         geom_faces, tri, vnrm, fnrm, fobj = [], [], [], [], []
         self.is_specular = np.array([o.is_specular for o in objects], dtype=bool)
+        #: per object: a dielectric, its index of refraction (1 elsewhere) and tint
+        self.is_dielectric = np.array([o.is_dielectric for o in objects], dtype=bool)
+        self.ior = np.array([getattr(o.material, "ior", 1.0) for o in objects], dtype=np.float64)
+        self.tint = np.array([getattr(o.material, "tint", np.ones(3)) for o in objects],
+                             dtype=np.float64).reshape(len(objects), 3)
         self.reflectance = np.zeros((len(objects), 3))
         all_vertices = []
         for i, obj in enumerate(objects):
-            if self.is_specular[i]:
+            if self.is_specular[i] and not self.is_dielectric[i]:
                 self.reflectance[i] = np.asarray(obj.material.reflectance, dtype=np.float64)
             mesh = obj.mesh
             faces = np.asarray(mesh.faces, dtype=np.int64)
@@ -73,6 +78,12 @@ class EmbreeGeometry:
         hit = (geom >= 0) & np.isfinite(res["tfar"]) & (res["primID"] >= 0)
         face = self.face_offset[geom[hit]] + res["primID"][hit].astype(np.int64)
         return hit, face, res["u"][hit].astype(np.float64), res["v"][hit].astype(np.float64)
+
+
+def entering(geom: EmbreeGeometry, face, d) -> np.ndarray:
+    """(m,) bool: rays ``d`` meet ``face`` from its outer side (against its face normal;
+    a closed mesh's faces point outward)."""
+    return np.einsum("ij,ij->i", d, geom.face_normals[face]) < 0.0
 
 
 def surface_hits(geom: EmbreeGeometry, face, u, v, d):

@@ -177,6 +177,37 @@ class MirrorMaterial:
         return f"MirrorMaterial(reflectance={_fmt(self.reflectance)})"
 
 
+#: Largest index of refraction a dielectric may have (diamond is 2.42; germanium in the
+#: infrared about 4).
+MAX_IOR = 4.0
+
+
+@dataclass(frozen=True, eq=False)
+class DielectricMaterial:
+    """A smooth dielectric (glass, water): ``ior`` the index of refraction (1 < ior <= 4,
+    the outside being air, index 1) and ``tint`` (3,) float64 in [0, 1] the transmittance
+    per crossing of the surface (default 1: clear).  Reflection and refraction follow
+    Fresnel and Snell (:mod:`.optics`)."""
+
+    ior: float
+    tint: np.ndarray = field(default_factory=lambda: np.ones(3))
+
+    def __post_init__(self):
+        with _owned("DielectricMaterial"):
+            object.__setattr__(self, "ior", _number(
+                self.ior, "ior", lo=1.0, hi=MAX_IOR, lo_open=True,
+                hint="give the index of refraction, e.g. 1.5 for glass or 1.33 for water"))
+            object.__setattr__(self, "tint", _rgb(self.tint, "tint", hi=1.0,
+                                                  what="transmittance per crossing"))
+
+    def __repr__(self) -> str:
+        return f"DielectricMaterial(ior={self.ior:g}, tint={_fmt(self.tint)})"
+
+
+#: Materials that scatter light specularly: they cast caustics and are followed, not shaded.
+SPECULAR_MATERIALS = (MirrorMaterial, DielectricMaterial)
+
+
 def _power(value, key: str) -> np.ndarray:
     p = _rgb(value, key, what="power in watts")
     if not p.any():
@@ -245,7 +276,7 @@ class SceneObject:
 
     name: str
     mesh: trimesh.Trimesh
-    material: PhongMaterial | MirrorMaterial
+    material: PhongMaterial | MirrorMaterial | DielectricMaterial
 
     def __post_init__(self):
         with _owned("SceneObject"):
@@ -253,13 +284,17 @@ class SceneObject:
             if not isinstance(self.mesh, trimesh.Trimesh):
                 raise _FieldError("mesh", f"expected a trimesh.Trimesh; got {type(self.mesh).__name__}")
             check_mesh(self.mesh, "mesh")
-            if not isinstance(self.material, (PhongMaterial, MirrorMaterial)):
-                raise _FieldError("material", "expected a PhongMaterial or MirrorMaterial; got "
-                                  f"{type(self.material).__name__}")
+            if not isinstance(self.material, (PhongMaterial, *SPECULAR_MATERIALS)):
+                raise _FieldError("material", "expected a PhongMaterial, MirrorMaterial or "
+                                  f"DielectricMaterial; got {type(self.material).__name__}")
 
     @property
     def is_specular(self) -> bool:
-        return isinstance(self.material, MirrorMaterial)
+        return isinstance(self.material, SPECULAR_MATERIALS)
+
+    @property
+    def is_dielectric(self) -> bool:
+        return isinstance(self.material, DielectricMaterial)
 
     def __repr__(self) -> str:
         return (f"SceneObject(name={self.name!r}, mesh=<{len(self.mesh.vertices):,} vertices, "
@@ -317,8 +352,9 @@ class Scene:
 
     @property
     def specular_objects(self) -> tuple[SceneObject, ...]:
-        """Objects with a :class:`MirrorMaterial` (they cast the caustics)."""
-        return tuple(o for o in self.objects if isinstance(o.material, MirrorMaterial))
+        """Objects with a :class:`MirrorMaterial` or :class:`DielectricMaterial` (they cast
+        the caustics)."""
+        return tuple(o for o in self.objects if o.is_specular)
 
     @property
     def diffuse_objects(self) -> tuple[SceneObject, ...]:
@@ -348,6 +384,8 @@ class Scene:
         for o in self.objects:
             m = o.material
             mat = (f"mirror, reflectance {_fmt(m.reflectance)}" if isinstance(m, MirrorMaterial)
+                   else f"dielectric, ior {m.ior:g}, tint {_fmt(m.tint)}"
+                   if isinstance(m, DielectricMaterial)
                    else f"phong, kd {_fmt(m.kd)}, ks {_fmt(m.ks)}, n {m.n:g}")
             lines.append(f"  object  {o.name:<{width}}  {len(o.mesh.faces):>9,} triangles  {mat}")
         p = self.photons
@@ -356,7 +394,7 @@ class Scene:
         lo, hi = self.bounds
         lines.append(f"  bounds  {_fmt(lo)} .. {_fmt(hi)} m")
         if not self.specular_objects:
-            lines.append("  note    no specular (mirror) object: the scene has no caustics")
+            lines.append("  note    no specular (mirror or glass) object: the scene has no caustics")
         return "\n".join(lines)
 
     def __repr__(self) -> str:

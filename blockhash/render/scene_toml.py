@@ -29,6 +29,12 @@ typo is never silently ignored)::
     kind = "mirror"                 # perfect specular reflector
     reflectance = [0.95, 0.78, 0.45]  # required, number or [r, g, b], each in [0, 1]
 
+    [materials.GLASS]
+    kind = "dielectric"             # smooth dielectric: Fresnel reflection, Snell refraction
+    ior = 1.5                       #   required, index of refraction, 1 < ior <= 4 (air outside)
+    tint = [1.0, 0.95, 0.9]         #   default 1, number or [r, g, b] in [0, 1]: the
+                                    #   transmittance per crossing of the surface
+
     [[lights]]                      # one table per light; at least one
     kind = "point"                  # isotropic point light
     position = [-2.0, 1.0, 0.0]     # required, metres
@@ -55,6 +61,8 @@ typo is never silently ignored)::
     #   ring: inner_radius, outer_radius, height (required, > 0, inner < outer),
     #         segments = 256 (3 .. 65536), center = [0, 0, 0] (centre of the base),
     #         bottom = false (close the base; for a ring that floats)
+    #   sphere: center, radius (required, > 0), subdivisions = 5 (0 .. 8): an
+    #         icosphere of 20 * 4**subdivisions triangles with exact smooth normals
     #   bust: center = [0, 0, 0] (centre of the base), segments = 384 (8 .. 4096),
     #         rings = 200 (4 .. 4096); 0.66 m tall, facing +z, neck at 0.35 .. 0.425 m
     #         above the base, 152,064 triangles by default
@@ -68,7 +76,9 @@ typo is never silently ignored)::
     k = 50                          # photons per density estimate, 1 <= k <= count
     A = 8                           # accuracy multiplier: A * k candidates (section 4.3), >= 1
     seed = 1                        # random seed, >= 0
-    max_bounces = 4                 # specular bounces followed per photon, >= 1
+    max_bounces = 4                 # specular events (mirror bounces, glass reflections
+                                    #   and refractions) followed per photon, >= 1;
+                                    #   default 4, or 8 when the scene holds a dielectric
 
 Every error raised while loading is an :class:`~blockhash.errors.InputError`
 naming the file and the key path, what was expected, what was received and the
@@ -90,7 +100,7 @@ import trimesh
 
 from . import meshes
 from ..errors import InputError
-from .scene import (Camera, MirrorMaterial, PhongMaterial, PhotonSettings, PointLight, Scene,
+from .scene import (Camera, DielectricMaterial, MirrorMaterial, PhongMaterial, PhotonSettings, PointLight, Scene,
                     SceneObject, SpotLight, check_mesh)
 from .scene_values import (FieldError as _FieldError, boolean as _boolean, choice as _choice,
                            got as _got, integer as _integer, number as _number, rgb as _rgb,
@@ -166,11 +176,12 @@ def _parse_materials(t) -> dict:
     for name, m in t.items():
         key = f"materials.{name}"
         if not isinstance(m, dict):
-            raise _FieldError(key, f"expected a table [materials.{name}] with kind = \"phong\" or "
-                              f"\"mirror\"; got {_got(m)}")
+            raise _FieldError(key, f"expected a table [materials.{name}] with kind = \"phong\", "
+                              f"\"mirror\" or \"dielectric\"; got {_got(m)}")
         if "kind" not in m:
-            raise _FieldError(f"{key}.kind", "missing required key; expected \"phong\" or \"mirror\"")
-        kind = _choice(m["kind"], f"{key}.kind", ("phong", "mirror"))
+            raise _FieldError(f"{key}.kind", "missing required key; expected \"phong\", "
+                              "\"mirror\" or \"dielectric\"")
+        kind = _choice(m["kind"], f"{key}.kind", ("phong", "mirror", "dielectric"))
         with _under(key):
             if kind == "phong":
                 _keys(m, "", ("kind", "kd"), ("ks", "n"), what="a phong material")
@@ -179,9 +190,12 @@ def _parse_materials(t) -> dict:
                     raise _FieldError("n", "missing required key; a phong material with ks > 0 needs "
                                       "the exponent n (e.g. n = 20)")
                 out[name] = PhongMaterial(kd=m["kd"], ks=ks, n=m.get("n", 0.0))
-            else:
+            elif kind == "mirror":
                 _keys(m, "", ("kind", "reflectance"), what="a mirror material")
                 out[name] = MirrorMaterial(reflectance=m["reflectance"])
+            else:
+                _keys(m, "", ("kind", "ior"), ("tint",), what="a dielectric material")
+                out[name] = DielectricMaterial(ior=m["ior"], tint=m.get("tint", 1.0))
     return out
 
 
@@ -221,12 +235,16 @@ _SHAPES = {
         "height": (_positive, _REQUIRED),
         "segments": (lambda v, k: _integer(v, k, lo=3, hi=65536), 256),
         "center": (_vector, [0.0, 0.0, 0.0]), "bottom": (_boolean, False)},
+    "sphere": {
+        "center": (_vector, _REQUIRED), "radius": (_positive, _REQUIRED),
+        "subdivisions": (lambda v, k: _integer(v, k, lo=0, hi=8), meshes.SPHERE_SUBDIVISIONS)},
     "bust": {
         "center": (_vector, [0.0, 0.0, 0.0]),
         "segments": (lambda v, k: _integer(v, k, lo=8, hi=4096), 384),
         "rings": (lambda v, k: _integer(v, k, lo=4, hi=4096), 200)},
 }
-_BUILDERS = {"rectangle": meshes.rectangle, "ring": meshes.ring, "bust": meshes.bust}
+_BUILDERS = {"rectangle": meshes.rectangle, "ring": meshes.ring, "sphere": meshes.sphere,
+             "bust": meshes.bust}
 
 
 def _parse_shape(t, key: str) -> trimesh.Trimesh:
@@ -277,11 +295,19 @@ def _parse_object(t, i: int, materials: dict, base: Path) -> SceneObject:
                            material=materials[mat])
 
 
-def _parse_photons(t) -> PhotonSettings:
+#: ``[photons] max_bounces`` when the file leaves it out and the scene holds a dielectric:
+#: a path through a glass ball is already two events, and internal reflections add more.
+DIELECTRIC_MAX_BOUNCES = 8
+
+
+def _parse_photons(t, dielectric: bool) -> PhotonSettings:
     fields = ("count", "k", "A", "seed", "max_bounces")
     _keys(t, "photons", (), fields, what="the photon settings")
+    given = {k: t[k] for k in fields if k in t}
+    if dielectric:
+        given.setdefault("max_bounces", DIELECTRIC_MAX_BOUNCES)
     with _under("photons"):
-        return PhotonSettings(**{k: t[k] for k in fields if k in t})
+        return PhotonSettings(**given)
 
 
 def _parse(data: dict, base: Path, path: Path | None) -> Scene:
@@ -301,7 +327,7 @@ def _parse(data: dict, base: Path, path: Path | None) -> Scene:
                               f"objects[{seen[obj.name]}]); expected unique names; rename one")
         seen[obj.name] = i
         objects.append(obj)
-    photons = _parse_photons(data.get("photons", {}))
+    photons = _parse_photons(data.get("photons", {}), any(o.is_dielectric for o in objects))
     return Scene(camera=camera, lights=tuple(lights), objects=tuple(objects), photons=photons,
                  path=path, description=description)
 

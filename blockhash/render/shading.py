@@ -12,10 +12,17 @@ from __future__ import annotations
 import numpy as np
 
 from .caustic import ShadingPoints, phong_brdf
-from .raycast import RAY_OFFSET, EmbreeGeometry, surface_hits
+from .optics import choice_uniforms, scatter
+from .raycast import RAY_OFFSET, EmbreeGeometry, entering, surface_hits
 
 #: Mirror-to-mirror reflections followed for camera rays.
 MAX_MIRROR_BOUNCES = 4
+#: Specular events (mirror bounces, glass reflections and refractions) followed for camera
+#: rays in a scene that holds a dielectric.
+MAX_DIELECTRIC_EVENTS = 8
+#: Seed of the camera rays' reflect-or-refract choices at glass (one stream, fixed, so an
+#: image is the same in every run).
+CAMERA_CHOICE_SEED = 0x9A55
 
 
 class SceneRays:
@@ -25,19 +32,25 @@ class SceneRays:
         self.geometry = EmbreeGeometry(tuple(objects))
         self.scale = self.geometry.scale
 
-    def first_hit(self, origins, dirs):
-        """(hit mask, points, shading normals, object ids, geometric normals) for each ray.
+    def first_hit(self, origins, dirs, *, sides: bool = False):
+        """(hit mask, points, shading normals, object ids, geometric normals) for each ray,
+        and with ``sides`` also (n,) bool: the ray met the face's outer side.
 
         Normals face the side the ray came from; rays that hit nothing get zeros and -1.
         """
         n = len(origins)
         hit, face, u, v = self.geometry.intersect(origins, dirs)
-        p, ns, ng = surface_hits(self.geometry, face, u, v, np.asarray(dirs, dtype=np.float64)[hit])
+        d = np.asarray(dirs, dtype=np.float64)[hit]
+        p, ns, ng = surface_hits(self.geometry, face, u, v, d)
         points, shade, geo = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
         points[hit], shade[hit], geo[hit] = p, ns, ng
         obj = np.full(n, -1)
         obj[hit] = self.geometry.face_object[face]
-        return hit, points, shade, obj, geo
+        if not sides:
+            return hit, points, shade, obj, geo
+        outer = np.zeros(n, dtype=bool)
+        outer[hit] = entering(self.geometry, face, d)
+        return hit, points, shade, obj, geo, outer
 
     def visible(self, points, normals, targets) -> np.ndarray:
         """(n,) bool: nothing blocks the segment from each point (lifted off its surface) to its target."""
@@ -51,7 +64,18 @@ class SceneRays:
 
 
 def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> ShadingPoints:
-    """Per-pixel shading points; mirror pixels follow their reflection (path weight = reflectance)."""
+    """Per-pixel shading points; a pixel that sees a mirror or glass follows the ray.
+
+    At a mirror the ray reflects and its path weight takes the reflectance.  At glass
+    (:class:`.scene.DielectricMaterial`) it reflects or refracts with the Fresnel
+    probabilities (:func:`.optics.scatter`, one branch per shading point, chosen by a fixed
+    stream of uniforms per point, :data:`CAMERA_CHOICE_SEED`), its weight unchanged in
+    expectation; a refraction multiplies it by the glass's tint.  With several samples per
+    pixel (:mod:`.subpixel`) the pixel mean averages the branches.  A ray still on a
+    specular surface after the last event, or leaving the scene, shades nothing.
+    """
+    from .scene import DielectricMaterial
+
     h, w = gbuffer.object.shape
     pos = gbuffer.position.reshape(-1, 3).astype(np.float64)
     nrm = gbuffer.normal.reshape(-1, 3).astype(np.float64)
@@ -60,24 +84,54 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> S
     view /= np.maximum(np.linalg.norm(view, axis=1, keepdims=True), 1e-30)
     weight = np.ones((h * w, 3))
     # Per object (index len(objects) stands for "nothing hit", obj == -1).
-    mirror = np.array([isinstance(o.material, mirror_types) for o in objects] + [False])
+    glass = np.array([isinstance(o.material, DielectricMaterial) for o in objects] + [False])
+    mirror = np.array([isinstance(o.material, mirror_types) for o in objects] + [False]) & ~glass
+    specular = mirror | glass
     reflectance = np.array([getattr(o.material, "reflectance", np.ones(3)) for o in objects]
                            + [np.ones(3)], dtype=np.float64)
-    for _ in range(MAX_MIRROR_BOUNCES):
-        is_mirror = mirror[obj]
-        if not is_mirror.any():
+    ior = np.array([getattr(o.material, "ior", 1.0) for o in objects] + [1.0])
+    tint = np.array([getattr(o.material, "tint", np.ones(3)) for o in objects] + [np.ones(3)],
+                    dtype=np.float64).reshape(-1, 3)
+    choices = outer = None
+    if glass.any():
+        choices = choice_uniforms(CAMERA_CHOICE_SEED, 0, h * w)
+        # Whether the G-buffer's hit met its face's outer side: cast the camera ray again.
+        first = np.flatnonzero(glass[obj])
+        d0 = -view[first]
+        outer = np.zeros(h * w, dtype=bool)
+        eye = np.broadcast_to(np.asarray(camera.eye, np.float64), d0.shape).copy()
+        outer[first] = rays.first_hit(eye, d0, sides=True)[5]
+    events = MAX_DIELECTRIC_EVENTS if glass.any() else MAX_MIRROR_BOUNCES
+    offset = RAY_OFFSET * rays.scale
+    for event in range(events):
+        on = specular[obj]
+        if not on.any():
             break
-        idx = np.flatnonzero(is_mirror)
-        weight[idx] *= reflectance[obj[idx]]
+        idx = np.flatnonzero(on)
         wi = view[idx]
         n = nrm[idx]
+        d = -wi
         r = 2.0 * np.sum(n * wi, axis=1, keepdims=True) * n - wi
-        hit, p, sn, o, _ = rays.first_hit(pos[idx] + n * (RAY_OFFSET * rays.scale), r)
+        side = np.ones(len(idx))
+        m = mirror[obj[idx]]
+        weight[idx[m]] *= reflectance[obj[idx[m]]]
+        g = ~m
+        if g.any():
+            gi = idx[g]
+            og = obj[gi]
+            u = choices[gi, event % choices.shape[1]]
+            r[g], through, factor = scatter(d[g], n[g], n[g], outer[gi], ior[og], tint[og], u)
+            weight[gi] *= factor
+            side[np.flatnonzero(g)[through]] = -1.0
+        hit, p, sn, o, _, out_side = rays.first_hit(pos[idx] + n * (side * offset)[:, None], r,
+                                                    sides=True)
         flip = np.sum(sn * -r, axis=1) < 0
         sn[flip] *= -1  # face the incoming ray
         pos[idx], nrm[idx], view[idx] = p, sn, -r
         obj[idx] = np.where(hit, o, -1)
-    obj[mirror[obj]] = -1  # still on a mirror after the last bounce: nothing to shade
+        if outer is not None:
+            outer[idx] = out_side
+    obj[specular[obj]] = -1  # still on a specular surface after the last event: nothing to shade
     return ShadingPoints(position=pos.reshape(h, w, 3).astype(np.float32),
                          normal=nrm.reshape(h, w, 3).astype(np.float32),
                          view=view.reshape(h, w, 3).astype(np.float32),

@@ -46,7 +46,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .emission import Emitter, photon_uniforms
-from .raycast import RAY_OFFSET, EmbreeGeometry, reflect, surface_hits
+from .optics import choice_uniforms, scatter
+from .raycast import RAY_OFFSET, EmbreeGeometry, entering, reflect, surface_hits
 from ..errors import InputError
 from ..validate import as_int
 
@@ -160,11 +161,16 @@ class _Batch:
                       self.geo_normals[keep])
 
 
-def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int) -> _Batch:
-    """Follow a batch of photons through mirrors to their first diffuse hit (vectorised).
+def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int, *,
+                seed: int = 0, start: int = 0) -> _Batch:
+    """Follow a batch of photons through mirrors and glass to their first diffuse hit
+    (vectorised).
 
     Shared by the photon map (:func:`trace_caustic_photons`) and the light tracer
-    (:mod:`.lighttrace`); ``weights`` are not yet divided by the photons emitted.
+    (:mod:`.lighttrace`); ``weights`` are not yet divided by the photons emitted.  At a
+    dielectric a photon reflects or refracts with the Fresnel probabilities
+    (:func:`.optics.scatter`), drawing its choices from :func:`.optics.choice_uniforms` of
+    ``seed`` for photon ``start + i``, so a photon's path does not depend on the batch.
     """
     n = len(origins)
     fate = np.full(n, -1, dtype=np.int8)
@@ -173,6 +179,8 @@ def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int) 
     fate[zero] = OUTSIDE_SPOT
     idx = np.flatnonzero(~zero)
     o, d, w = origins[idx], dirs[idx], weights[idx]
+    choices = choice_uniforms(seed, start, n) if geom.is_dielectric.any() else None
+    events = np.zeros(n, dtype=np.int64)  # dielectric events so far, per photon
     parts = []
     rays = 0
     offset = RAY_OFFSET * geom.scale
@@ -201,20 +209,37 @@ def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int) 
             break
         idx, d, w, face = idx[spec], d[spec], w[spec], face[spec]
         p, ns, ng = surface_hits(geom, face, u[spec], v[spec], d)
-        w = w * geom.reflectance[geom.face_object[face]]
-        r = reflect(d, ns)
-        under = np.einsum("ij,ij->i", r, ng) <= 0.0  # shading normal sent it into the surface
-        if under.any():
-            r[under] = reflect(d[under], ng[under])
-            fallbacks[idx[under]] += 1
-        r /= np.sqrt(np.einsum("ij,ij->i", r, r))[:, None]
+        obj = geom.face_object[face]
+        glass = geom.is_dielectric[obj]
+        r = np.empty_like(d)
+        side = np.ones(len(d))  # +1: leave on the incoming side, -1: pass through
+        mirror = ~glass
+        if mirror.any():
+            w[mirror] = w[mirror] * geom.reflectance[obj[mirror]]
+            rm = reflect(d[mirror], ns[mirror])
+            under = np.einsum("ij,ij->i", rm, ng[mirror]) <= 0.0  # shading normal sent it in
+            if under.any():
+                mi = np.flatnonzero(mirror)[under]
+                rm[under] = reflect(d[mi], ng[mi])
+                fallbacks[idx[mi]] += 1
+            r[mirror] = rm / np.sqrt(np.einsum("ij,ij->i", rm, rm))[:, None]
+        if glass.any():
+            gi = np.flatnonzero(glass)
+            pid = idx[gi]
+            uc = choices[pid, events[pid] % choices.shape[1]]
+            events[pid] += 1
+            og = obj[gi]
+            r[gi], through, factor = scatter(d[gi], ns[gi], ng[gi], entering(geom, face[gi], d[gi]),
+                                             geom.ior[og], geom.tint[og], uc)
+            w[gi] = w[gi] * factor
+            side[gi[through]] = -1.0
         dead = ~np.any(w > 0.0, axis=1)
         if dead.any():
             fate[idx[dead]] = ABSORBED
             live = ~dead
-            idx, r, w, p, ng = idx[live], r[live], w[live], p[live], ng[live]
+            idx, r, w, p, ng, side = idx[live], r[live], w[live], p[live], ng[live], side[live]
         d = r
-        o = p + ng * offset
+        o = p + ng * (side * offset)[:, None]
 
     if parts:
         cat = [np.concatenate(a) for a in zip(*parts)]
@@ -321,7 +346,7 @@ def trace_caustic_photons(scene, n_stored_target: int | None = None, *, seed: in
             count = min(batch_size, cap - start, guess)
             u = photon_uniforms(seed, start, count)
             origins, dirs, weights, light = emitter.sample(u)
-            batch = trace_batch(geom, origins, dirs, weights, max_bounces)
+            batch = trace_batch(geom, origins, dirs, weights, max_bounces, seed=seed, start=start)
             batches += 1
             traced += count
             rays += batch.rays
