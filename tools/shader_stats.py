@@ -299,6 +299,31 @@ def markdown(rows: list[dict]) -> str:
     return "\n".join(out)
 
 
+def variant_summary(rows: list[dict]) -> str:
+    """The named shader variants' rows (``lookup L variant V``) summed up per lookup,
+    selection and duplicate removal: ranges over the other choices (search, priority, cull)."""
+    from blockhash.gl.shaderlib import Variant
+
+    groups: dict = {}
+    for r in rows:
+        if " variant " in r["shader"] and r["family"] == "navi21":
+            lookup, name = r["shader"].split(" variant ")
+            v = Variant.parse(name)
+            groups.setdefault((lookup.split()[1], v.select, v.dedup), []).append(r)
+    out = ["| lookup | select | dedup | variants | VGPR demand | scratch B/lane | waves/SIMD "
+           "| instructions |", "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    for key in sorted(groups):
+        rs = groups[key]
+
+        def span(k):
+            lo, hi = min(r[k] for r in rs), max(r[k] for r in rs)
+            return f"{lo:,}" if lo == hi else f"{lo:,}-{hi:,}"
+        scratch = ", ".join(f"{v:,}" for v in sorted({r["scratch_lane"] for r in rs}))
+        out.append(f"| {key[0]} | {key[1]} | {key[2]} | {len(rs)} | {span('preVGPRs')} | "
+                   f"{scratch} | {span('waves_per_simd')} | {span('instructions')} |")
+    return "\n".join(out)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--family", default=",".join(FAMILIES),
@@ -316,7 +341,9 @@ def main(argv=None) -> int:
                     "this tool wrote, and nothing else")
     a = ap.parse_args(argv)
     if a.table:
-        print(markdown(json.loads(Path(a.table).read_text())["rows"]))
+        rows = json.loads(Path(a.table).read_text())["rows"]
+        print(variant_summary(rows) if any(" variant " in r["shader"] for r in rows)
+              else markdown(rows))
         return 0
     missing = available()
     if missing:
