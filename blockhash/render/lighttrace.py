@@ -322,7 +322,8 @@ def scene_digest(scene) -> str:
     for o in scene.objects:
         m = o.material
         h.update(repr((o.name, type(m).__name__,
-                       *(np.asarray(getattr(m, a)).tolist() for a in ("kd", "ks", "n", "reflectance")
+                       *(np.asarray(getattr(m, a)).tolist()
+                         for a in ("kd", "ks", "n", "reflectance", "ior", "tint")
                          if hasattr(m, a)))).encode())
         for arr in (o.mesh.vertices, o.mesh.faces, o.mesh.vertex_normals):
             h.update(np.ascontiguousarray(arr).tobytes())

@@ -47,7 +47,8 @@ def preview(scene, *, size=None):
     """(colour (h, w, 3) uint8, depth (h, w) float32 eye-space depth along the view axis, 0 where empty)."""
     size = size or (scene.camera.width, scene.camera.height)
     meshes = [(o.mesh.vertices, o.mesh.faces, o.mesh.vertex_normals) for o in scene.objects]
-    colours = [tuple(o.material.reflectance if o.is_specular
+    colours = [tuple(o.material.tint if o.is_dielectric  # a flat preview: glass as its tint
+                     else o.material.reflectance if o.is_specular
                      else np.clip(np.asarray(o.material.kd) + np.asarray(o.material.ks), 0, 1))
                for o in scene.objects]
     # pyrender gets point lights of the same intensity (W/sr): a spot's power fills its cone.
