@@ -102,7 +102,7 @@ def cmd_tolerance(args) -> int:
     report = seed_tolerances(scene, seeds=args.seeds, first_seed=args.first_seed,
                              photons=args.photons, size=args.size, k=args.k, A=args.A,
                              method=args.method, margin=args.margin, backend=args.backend,
-                             progress=lambda s: print(s, file=sys.stderr))
+                             progress=lambda s: print(s, file=sys.stderr), spp=args.spp)
     out = sys.stderr if args.json == "-" else sys.stdout
     print(report.table(), file=out)
     print(f"proposed: blockhash compare A.exr B.exr {report.options()}", file=out)
@@ -163,6 +163,8 @@ def add_parsers(sub) -> None:
     p.add_argument("--k", type=int, help="photons per estimate (default: the scene's)")
     p.add_argument("--A", type=int, help="accuracy multiplier (default: the scene's)")
     p.add_argument("--method", choices=("bh", "kdtree", "cpu"), default="bh")
+    p.add_argument("--spp", type=int, help="samples per pixel (default: the scene's, else the "
+                   "renderer's)")
     p.add_argument("--margin", type=float, default=1.5,
                    help="proposed limit = largest seed-pair value x MARGIN (default 1.5)")
     p.add_argument("--json", metavar="PATH", help="write the report as JSON to PATH ('-': stdout)")

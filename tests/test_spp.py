@@ -145,3 +145,29 @@ def test_render_command_records_spp_in_the_exr(tmp_path, capsys):
     assert main(["render", str(ROOT / "scenes" / "ring.toml"), "--spp", "3",
                  "-o", str(out)]) == 2
     assert "spp=3 is not a square number" in capsys.readouterr().err
+
+
+def test_spp_1_is_the_pixel_centre_render_of_the_rasteriser():
+    """spp = 1 takes the renderer's single-sample path unchanged: the rasterised G-buffer's
+    shading points, their direct light and one caustic pass, with no filter."""
+    context_or_skip("egl")
+    from blockhash import BlockHashIndex
+    from blockhash.render.caustic import CausticPass
+    from blockhash.render.gbuffer import rasterize
+    from blockhash.render.pipeline import _receiver_materials
+    from blockhash.render.scene import MirrorMaterial
+    from blockhash.render.shading import SceneRays, direct_light, shading_points
+    from blockhash.render.tracing import trace_caustic_photons
+
+    scene = load_scene(ROOT / "scenes" / "ring.toml")
+    pm = trace_caustic_photons(scene, 5000, seed=1)
+    r = render_scene(scene, photon_map=pm, size=(24, 24), spp=1)
+    rays = SceneRays(scene.objects)
+    pts = shading_points(scene.camera, rasterize(scene.camera, scene.objects, size=(24, 24)),
+                         scene.objects, rays, (MirrorMaterial,))
+    index = BlockHashIndex(pm.positions, k=scene.photons.k, A=scene.photons.A,
+                           directions=pm.directions, normals=pm.normals, powers=pm.powers)
+    caustic = CausticPass(index).render(pts, _receiver_materials(scene))
+    np.testing.assert_array_equal(r.caustic, caustic)
+    np.testing.assert_array_equal(r.direct, direct_light(pts, scene.objects, scene.lights,
+                                                         rays).astype(np.float32))

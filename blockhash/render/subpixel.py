@@ -27,7 +27,7 @@ from ..validate import as_int
 
 #: Samples per pixel of a render unless the call or the scene's ``[camera] spp`` says
 #: otherwise; chosen by measurement (BENCHMARKS.md, "Samples per pixel").
-DEFAULT_SPP = 1
+DEFAULT_SPP = 9
 #: Most samples per pixel (a 32 x 32 grid).
 MAX_SPP = 1024
 #: The jitter pattern of every render: fixed, so that an image is the same in every run and

@@ -88,11 +88,13 @@ def _round_up(x: float) -> str:
 
 def seed_tolerances(scene, *, seeds: int = 4, first_seed: int = 0, photons=None, size=(64, 64),
                     k=None, A=None, method: str = "bh", margin: float = 1.5, backend=None,
-                    progress=None) -> ToleranceReport:
+                    progress=None, spp=None) -> ToleranceReport:
     """Render ``scene`` with ``seeds`` photon seeds and propose limits (module docstring).
 
     progress : callable(str), optional
         Told after each render.
+    spp : int, optional
+        Samples per pixel of every render (default: the scene's, else the renderer's).
     """
     from .pipeline import render_scene
 
@@ -107,12 +109,13 @@ def seed_tolerances(scene, *, seeds: int = 4, first_seed: int = 0, photons=None,
     for seed in seed_list:
         t = time.perf_counter()
         r = render_scene(scene, photons=photons, k=k, A=A, method=method, size=size, seed=seed,
-                         backend=backend)
+                         backend=backend, spp=spp)
         renders.append(r.layers())
         if progress:
             progress(f"seed {seed}: rendered in {time.perf_counter() - t:.1f} s")
     settings = {"size": f"{size[0]}x{size[1]}", "photons": photons or scene.photons.count,
-                "k": k or scene.photons.k, "A": A or scene.photons.A, "method": method}
+                "k": k or scene.photons.k, "A": A or scene.photons.A, "method": method,
+                "spp": r.spp}
     report = ToleranceReport(seeds=seed_list, settings=settings, margin=margin)
     layers = list(renders[0])
     report.pairs = {layer: {m: [] for m in PROPOSED} for layer in layers}
