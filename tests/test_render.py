@@ -39,7 +39,9 @@ def ring_points(ring):
 
 @pytest.fixture(scope="module")
 def ring_renders(ring, ring_photons):
-    return {A: render_scene(ring, photon_map=ring_photons, A=A, size=SIZE) for A in (1, 2, 8)}
+    # One sample per pixel: the rasterised pixel centres of ``ring_points``.
+    return {A: render_scene(ring, photon_map=ring_photons, A=A, size=SIZE, spp=1)
+            for A in (1, 2, 8)}
 
 
 # Limits: docs/image-tests.md says how each was chosen (blockhash tolerance for the noise).
