@@ -246,3 +246,19 @@ def test_the_glass_ball_renders_with_its_caustic_in_its_shadow():
     assert row > 32 and abs(col - 32) < 8
     # The ball's pixels see the floor and its caustic through the glass: not black.
     assert r.direct[20:28, 28:36].mean() > 0
+
+
+def test_every_method_renders_glass_and_the_exact_one_agrees_with_the_cpu(tmp_path):
+    context_or_skip("egl")
+    from blockhash.render.pipeline import render_scene
+    from blockhash.testing import assert_images_close
+    from blockhash.tradeoff.measure import flux_ratio
+
+    scene = load_scene(ROOT / "scenes" / "glass.toml")
+    from blockhash.render.tracing import trace_caustic_photons
+    pm = trace_caustic_photons(scene, 8000, seed=1)
+    bh, exact, cpu = (render_scene(scene, photon_map=pm, size=(24, 24), spp=4, method=m)
+                      for m in ("bh", "kdtree", "cpu"))
+    assert_images_close(bh.caustic, cpu.caustic, max_rel_rms=1e-4, out_dir=tmp_path)
+    everywhere = np.ones((24, 24), bool)
+    assert flux_ratio(bh.caustic, exact.caustic, everywhere) == pytest.approx(1.0, abs=0.05)
