@@ -220,7 +220,10 @@ class CausticPass:
     GL timer-query time.
     """
 
-    def __init__(self, index, *, backend=None):
+    def __init__(self, index, *, backend=None, radii=None):
+        """``radii(index, k)``: the photons' own squared radii of the conserving estimate
+        (default :func:`.photon_radius.own_radii2`, from the index's own query)."""
+        self.radii = radii
         self.lookup = GLLookup(index, backend=backend)
         self.index = index
         self.ctx = self.lookup.ctx
@@ -268,7 +271,7 @@ class CausticPass:
 
         if k not in self._own:
             with self.ctx:
-                self._own[k] = upload(self.ctx, slot_radii2(self.index, k), 1,
+                self._own[k] = upload(self.ctx, slot_radii2(self.index, k, self.radii), 1,
                                       "photon radius", dtype="f4")
         return self._own[k]
 

@@ -103,12 +103,13 @@ def _radii2(index, j: int, jth, kind: str) -> np.ndarray:
     return r2
 
 
-def slot_radii2(index, k: int) -> np.ndarray:
-    """(slots,) float32 squared radii in block slot order (block b, photon i: slot 10 b + i),
-    as the caustic pass reads them by the slot that its lookup returns; 0 in empty slots."""
+def slot_radii2(index, k: int, radii=None) -> np.ndarray:
+    """(slots,) float32 squared radii (``radii(index, k)``, default :func:`own_radii2`) in
+    block slot order (block b, photon i: slot 10 b + i), as the caustic pass reads them by
+    the slot that its lookup returns; 0 in empty slots."""
     from ..index.blocks import PHOTONS_PER_BLOCK
 
-    r2 = own_radii2(index, k)
+    r2 = (radii or own_radii2)(index, k)
     out = np.zeros(len(index.block_words) * PHOTONS_PER_BLOCK, dtype=np.float32)
     out[index.slot_of] = r2.astype(np.float32)
     return out
