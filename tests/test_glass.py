@@ -110,6 +110,16 @@ def glass(name, mesh, ior=1.5, tint=1.0):
     return SceneObject(name=name, mesh=mesh, material=DielectricMaterial(ior=ior, tint=tint))
 
 
+def slab_mesh(thickness, y, side=8.0):
+    """A box of the given thickness centred at height y, with flat normals (trimesh's box
+    shares its corners, whose averaged normals would tilt every refraction)."""
+    box = trimesh.creation.box(extents=(side, thickness, side),
+                               transform=trimesh.transformations.translation_matrix((0, y, 0)))
+    tri = np.asarray(box.triangles).reshape(-1, 3)
+    faces = np.arange(len(tri)).reshape(-1, 3)
+    return meshes.with_normals(tri, faces, np.repeat(box.face_normals, 3, axis=0))
+
+
 def trace_down(objects, m, cone_deg, *, height=3.0, max_bounces=16, seed=3):
     """Photons from a spot light straight above the origin, through the objects, to the
     floor: the batch, and the photons' total starting weight."""
@@ -130,9 +140,7 @@ def test_a_glass_slab_at_normal_incidence_transmits_the_multiple_reflection_sum(
     """A slab between light and floor: the floor receives (1 - R)^2 t^2 / (1 - R^2) of the
     light at normal incidence (t the tint per crossing; internal reflections summed)."""
     n = 1.5
-    slab = glass("slab", trimesh.creation.box(extents=(8.0, 0.2, 8.0),
-                                              transform=trimesh.transformations.translation_matrix(
-                                                  (0, 1.0, 0))), ior=n, tint=tint)
+    slab = glass("slab", slab_mesh(0.2, 1.0), ior=n, tint=tint)
     m = 200_000
     batch, w = trace_down([floor_object(), slab], m, cone_deg=0.5)
     R = normal_reflectance(n)
@@ -262,3 +270,30 @@ def test_every_method_renders_glass_and_the_exact_one_agrees_with_the_cpu(tmp_pa
     assert_images_close(bh.caustic, cpu.caustic, max_rel_rms=1e-4, out_dir=tmp_path)
     everywhere = np.ones((24, 24), bool)
     assert flux_ratio(bh.caustic, exact.caustic, everywhere) == pytest.approx(1.0, abs=0.05)
+
+
+def test_the_light_tracer_sees_a_point_light_through_a_glass_slab():
+    """The light tracer through glass, against the analytic floor radiance under a slab:
+    a spot light straight down through a slab of thickness t and index n onto a Lambertian
+    floor seen from below the slab.  At the floor point under the light the irradiance is
+    T I / h'^2, with T = (1 - R)^2 / (1 - R^2) (normal incidence, internal reflections
+    summed) and h' = h - t (1 - 1/n) (the slab moves the light's image closer, paraxially);
+    the radiance is kd E / pi."""
+    from blockhash.render.lighttrace import light_trace
+
+    n, t, h, kd, power, cone = 1.5, 0.2, 3.0, 0.5, 10.0, 10.0
+    slab = glass("slab", slab_mesh(t, 1.5), ior=n)
+    floor = SceneObject(name="floor", mesh=meshes.rectangle(x=(-4, 4), z=(-4, 4)),
+                        material=PhongMaterial(kd=kd, ks=0.0, n=1.0))
+    light = SpotLight(position=[0, h, 0], direction=[0, -1, 0], power=power, cone_deg=cone)
+    camera = Camera(eye=[0, 0.8, 0], target=[0, 0, 0], up=[0, 0, -1], fov_y_deg=4.0,
+                    width=8, height=8)
+    scene = Scene(camera=camera, lights=(light,), objects=(floor, slab))
+    img = light_trace(scene, 4_000_000, seed=7)
+    R = normal_reflectance(n)
+    intensity = power / (2 * np.pi * (1 - np.cos(np.radians(cone))))
+    expect = kd / np.pi * (1 - R) ** 2 / (1 - R ** 2) * intensity / (h - t * (1 - 1 / n)) ** 2
+    centre = img.radiance[2:6, 2:6, 0]
+    se = np.sqrt((img.stderr[2:6, 2:6, 0] ** 2).sum()) / centre.size
+    assert img.visible.all()
+    assert centre.mean() == pytest.approx(expect, abs=4 * se + 0.01 * expect)
