@@ -7,8 +7,9 @@ measured against it:
 
 1. Photons leave the lights exactly as the photon map's do (:mod:`.emission`, the
    same cone sampling and counter-based Philox streams, photon ``i`` of a seed has
-   the same numbers whatever the batch size) and bounce off perfect mirrors to their
-   first diffuse hit (:func:`.tracing.trace_batch`); only paths L S+ D are kept.
+   the same numbers whatever the batch size) and bounce off perfect mirrors and through
+   glass (the same Fresnel choices) to their first diffuse hit
+   (:func:`.tracing.trace_batch`); only paths L S+ D are kept.
    Unlike the map, a fixed number ``M`` of photons is shot, so each carries
    ``Phi_i = w_i / M`` (``w_i`` the emission weight times the mirror reflectances).
 2. Every such hit ``x`` is connected to the pinhole at ``e``: the camera must lie on

@@ -1,9 +1,11 @@
 """Shading points and direct light (the non-caustic part of the image).
 
 Ray queries go through the photon tracer's embree scene
-(:class:`blockhash.render.raycast.EmbreeGeometry`, embreex called directly).  Perfect mirrors seen by the camera are resolved by one
+(:class:`blockhash.render.raycast.EmbreeGeometry`, embreex called directly).  Perfect mirrors seen by the camera are resolved by
 reflection: the pixel's shading point moves to what the mirror reflects, with the
-mirror's reflectance as path weight (up to ``MAX_MIRROR_BOUNCES``).  Direct light
+mirror's reflectance as path weight (up to ``MAX_MIRROR_BOUNCES``); glass reflects or
+refracts each shading point's ray by the Fresnel probabilities (up to
+``MAX_DIELECTRIC_EVENTS``).  Direct light
 is point and spot lights with shadow rays, through the modified Phong BRDF.
 """
 

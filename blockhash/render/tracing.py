@@ -1,8 +1,10 @@
 """Caustic photon tracing: Jensen's caustic photon map (paper sections 1 and 6).
 
-Photons leave each light only toward the specular objects, bounce off perfect
-mirrors and are stored at the first non-specular (modified Phong) hit, so the map
-holds the caustic paths L S+ D and nothing else.  Direct light is the renderer's
+Photons leave each light only toward the specular objects (mirrors and glass), bounce
+off perfect mirrors, reflect or refract at glass with the Fresnel probabilities
+(:mod:`.optics`), and are stored at the first non-specular (modified Phong) hit, so the
+map holds the caustic paths L S+ D and nothing else.  ``max_bounces`` counts every
+specular event.  Direct light is the renderer's
 job (shadow rays), so photons whose first hit is diffuse are dropped.
 
 Emission (importance sampling toward the mirrors, still unbiased):
