@@ -297,3 +297,14 @@ def test_the_light_tracer_sees_a_point_light_through_a_glass_slab():
     se = np.sqrt((img.stderr[2:6, 2:6, 0] ** 2).sum()) / centre.size
     assert img.visible.all()
     assert centre.mean() == pytest.approx(expect, abs=4 * se + 0.01 * expect)
+
+
+def test_a_scene_built_in_code_with_glass_follows_8_events_too():
+    ball = glass("ball", meshes.sphere(center=(0, 1.0, 0), radius=0.5, subdivisions=2))
+    camera = Camera(eye=[0, 1, 3], target=[0, 0, 0], up=[0, 1, 0], fov_y_deg=40, width=8,
+                    height=8)
+    light = SpotLight(position=[0, 3, 0], direction=[0, -1, 0], power=1.0, cone_deg=20.0)
+    assert Scene(camera=camera, lights=(light,), objects=(floor_object(), ball)).photons \
+        .max_bounces == 8
+    assert Scene(camera=camera, lights=(light,), objects=(floor_object(),)).photons \
+        .max_bounces == 4

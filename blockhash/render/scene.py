@@ -14,7 +14,7 @@ normals from the faces.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -301,17 +301,27 @@ class SceneObject:
                 f"{len(self.mesh.faces):,} triangles>, material={self.material!r})")
 
 
+#: Specular events a photon follows unless the scene says: 4, or 8 in a scene that holds a
+#: dielectric (a path through a glass ball is already two events; internal reflections
+#: add more).
+MAX_BOUNCES = 4
+DIELECTRIC_MAX_BOUNCES = 8
+
+
 @dataclass(frozen=True)
 class PhotonSettings:
     """Photon tracing and lookup settings: ``count`` photons to store (a
     target), ``k`` photons per estimate, accuracy multiplier ``A`` (section
-    4.3), ``seed``, and ``max_bounces`` specular bounces followed per photon."""
+    4.3), ``seed``, and ``max_bounces`` specular events (mirror bounces, glass
+    reflections and refractions) followed per photon; None lets the
+    :class:`Scene` choose: :data:`MAX_BOUNCES`, or :data:`DIELECTRIC_MAX_BOUNCES`
+    when it holds a dielectric."""
 
     count: int = 200_000
     k: int = 50
     A: int = 8
     seed: int = 1
-    max_bounces: int = 4
+    max_bounces: int | None = None
 
     def __post_init__(self):
         with _owned("PhotonSettings"):
@@ -320,8 +330,11 @@ class PhotonSettings:
                      hint="k cannot exceed the photon count; lower k or raise count")
             _integer(self.A, "A", lo=1)
             _integer(self.seed, "seed", lo=0, hi=2**63 - 1)
-            _integer(self.max_bounces, "max_bounces", lo=1)
-            for name in ("count", "k", "A", "seed", "max_bounces"):
+            names = ["count", "k", "A", "seed"]
+            if self.max_bounces is not None:
+                _integer(self.max_bounces, "max_bounces", lo=1)
+                names.append("max_bounces")
+            for name in names:
                 object.__setattr__(self, name, int(getattr(self, name)))
 
 
@@ -349,6 +362,10 @@ class Scene:
             dup = sorted({n for n in names if names.count(n) > 1})
             if dup:
                 raise _FieldError("objects", f"object names must be unique; {dup} used more than once")
+            if self.photons.max_bounces is None:
+                glass = any(o.is_dielectric for o in self.objects)
+                object.__setattr__(self, "photons", replace(
+                    self.photons, max_bounces=DIELECTRIC_MAX_BOUNCES if glass else MAX_BOUNCES))
 
     @property
     def specular_objects(self) -> tuple[SceneObject, ...]:

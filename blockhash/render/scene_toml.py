@@ -295,19 +295,12 @@ def _parse_object(t, i: int, materials: dict, base: Path) -> SceneObject:
                            material=materials[mat])
 
 
-#: ``[photons] max_bounces`` when the file leaves it out and the scene holds a dielectric:
-#: a path through a glass ball is already two events, and internal reflections add more.
-DIELECTRIC_MAX_BOUNCES = 8
-
-
-def _parse_photons(t, dielectric: bool) -> PhotonSettings:
+def _parse_photons(t) -> PhotonSettings:
     fields = ("count", "k", "A", "seed", "max_bounces")
     _keys(t, "photons", (), fields, what="the photon settings")
-    given = {k: t[k] for k in fields if k in t}
-    if dielectric:
-        given.setdefault("max_bounces", DIELECTRIC_MAX_BOUNCES)
     with _under("photons"):
-        return PhotonSettings(**given)
+        # max_bounces left out: the Scene chooses (4, or 8 with a dielectric)
+        return PhotonSettings(**{k: t[k] for k in fields if k in t})
 
 
 def _parse(data: dict, base: Path, path: Path | None) -> Scene:
@@ -327,7 +320,7 @@ def _parse(data: dict, base: Path, path: Path | None) -> Scene:
                               f"objects[{seen[obj.name]}]); expected unique names; rename one")
         seen[obj.name] = i
         objects.append(obj)
-    photons = _parse_photons(data.get("photons", {}), any(o.is_dielectric for o in objects))
+    photons = _parse_photons(data.get("photons", {}))
     return Scene(camera=camera, lights=tuple(lights), objects=tuple(objects), photons=photons,
                  path=path, description=description)
 
