@@ -1,0 +1,91 @@
+"""The scene's materials: modified Phong receivers, perfect mirrors and smooth dielectrics.
+
+Frozen dataclasses that validate their own fields (errors name the key, the expectation and
+the way out); :mod:`.scene` builds objects from them, :mod:`.scene_toml` reads them from
+``[materials.NAME]`` tables.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .scene_values import (FieldError as _FieldError, fmt as _fmt, number as _number, owned as _owned,
+                           rgb as _rgb)
+
+
+@dataclass(frozen=True, eq=False)
+class PhongMaterial:
+    """Modified Phong BRDF (Lafortune & Willems 1994), RGB:
+    ``f = kd / pi + ks (n + 2) / (2 pi) cos^n(alpha)``, alpha the angle between
+    the outgoing direction and the mirror direction of the incoming one.
+    ``kd``, ``ks`` : (3,) float64 >= 0 with ``kd + ks <= 1`` per channel
+    (energy conservation); ``n`` >= 0."""
+
+    kd: np.ndarray
+    ks: np.ndarray
+    n: float
+
+    def __post_init__(self):
+        with _owned("PhongMaterial"):
+            kd = _rgb(self.kd, "kd", what="kd")
+            ks = _rgb(self.ks, "ks", what="ks")
+            n = _number(self.n, "n", lo=0.0, hint="the Phong exponent is >= 0")
+            if np.any(kd + ks > 1.0):
+                c = int(np.argmax(kd + ks))
+                raise _FieldError("ks", f"kd + ks = {_fmt(kd + ks)} exceeds 1 in channel {'rgb'[c]}; "
+                                  "expected kd + ks <= 1 per channel (energy conservation); "
+                                  "lower kd or ks")
+            object.__setattr__(self, "kd", kd)
+            object.__setattr__(self, "ks", ks)
+            object.__setattr__(self, "n", n)
+
+    def __repr__(self) -> str:
+        return f"PhongMaterial(kd={_fmt(self.kd)}, ks={_fmt(self.ks)}, n={self.n:g})"
+
+
+@dataclass(frozen=True, eq=False)
+class MirrorMaterial:
+    """Perfect specular reflector; ``reflectance`` : (3,) float64 in [0, 1]."""
+
+    reflectance: np.ndarray
+
+    def __post_init__(self):
+        with _owned("MirrorMaterial"):
+            object.__setattr__(self, "reflectance",
+                               _rgb(self.reflectance, "reflectance", hi=1.0, what="reflectance"))
+
+    def __repr__(self) -> str:
+        return f"MirrorMaterial(reflectance={_fmt(self.reflectance)})"
+
+
+#: Largest index of refraction a dielectric may have (diamond is 2.42; germanium in the
+#: infrared about 4).
+MAX_IOR = 4.0
+
+
+@dataclass(frozen=True, eq=False)
+class DielectricMaterial:
+    """A smooth dielectric (glass, water): ``ior`` the index of refraction (1 < ior <= 4,
+    the outside being air, index 1) and ``tint`` (3,) float64 in [0, 1] the transmittance
+    per crossing of the surface (default 1: clear).  Reflection and refraction follow
+    Fresnel and Snell (:mod:`.optics`)."""
+
+    ior: float
+    tint: np.ndarray = field(default_factory=lambda: np.ones(3))
+
+    def __post_init__(self):
+        with _owned("DielectricMaterial"):
+            object.__setattr__(self, "ior", _number(
+                self.ior, "ior", lo=1.0, hi=MAX_IOR, lo_open=True,
+                hint="give the index of refraction, e.g. 1.5 for glass or 1.33 for water"))
+            object.__setattr__(self, "tint", _rgb(self.tint, "tint", hi=1.0,
+                                                  what="transmittance per crossing"))
+
+    def __repr__(self) -> str:
+        return f"DielectricMaterial(ior={self.ior:g}, tint={_fmt(self.tint)})"
+
+
+#: Materials that scatter light specularly: they cast caustics and are followed, not shaded.
+SPECULAR_MATERIALS = (MirrorMaterial, DielectricMaterial)
