@@ -8,6 +8,7 @@ import pytest
 from blockhash import BlockHashIndex, InputError
 from blockhash.index.best_first import QUEUE_CAPACITY, bf_query, walk_cull
 from blockhash.index.metrics import exact_knn, false_negatives
+from blockhash.index.params import DEFAULT_WALK_FLOOR, candidate_cap
 from blockhash.index.thresholds import LEAF, THRESHOLD_PAD
 from conftest import photon_set
 
@@ -68,9 +69,31 @@ def test_the_walk_stops_at_the_candidate_cap_and_without_k_neighbours_prunes_not
     index = BlockHashIndex(photon_set("uniform", 20_000), k=8, A=2)
     q = photon_set("uniform", 200, seed=4).astype(np.float32)
     index.query(q)
-    assert index.counters["query.candidates.mean"] <= 2 * 8 + 9
+    # k = 8 is below the walk's floor: the cap is A * walk_floor, not A * k
+    assert candidate_cap(index.params, 8, 2) == 2 * index.params.walk_floor == 40
+    assert index.counters["query.candidates.mean"] <= 40 + 9
     d, i = index.query(q, k=1, A=1)  # one candidate block is enough
     assert np.isfinite(d).all()
+
+
+def test_below_its_floor_the_walk_takes_more_candidates_over_every_table():
+    """k = 1 at A = 8: the A k cap alone takes 8 candidates, less than one block, and walks
+    one table whose buckets lost some of their blocks; the floor fixes both."""
+    pts = photon_set("uniform", 50_000)
+    q = photon_set("uniform", 2_000, seed=6).astype(np.float32)
+    index = BlockHashIndex(pts, k=1, A=8)
+    prm = index.params
+    assert prm.walk_floor == DEFAULT_WALK_FLOOR and prm.walk_tables(1) == prm.L
+    assert prm.walk_tables(DEFAULT_WALK_FLOOR) == prm.trees_walked == 1
+    _, exact = exact_knn(index.positions, q, 1)
+    _, found = index.query(q, k=1)
+    floored = false_negatives(found.reshape(-1, 1), exact, len(pts)).mean()
+    index.params = replace(prm, walk_floor=0)
+    _, found = index.query(q, k=1)
+    capped = false_negatives(found.reshape(-1, 1), exact, len(pts)).mean()
+    assert capped > 0.5 and floored < 0.05, (capped, floored)
+    # at and above the floor nothing changes
+    assert candidate_cap(prm, 50, 8) == 400 and candidate_cap(prm, 1, 8, "hash") == 8
 
 
 def test_a_full_queue_drops_its_farthest_entries_and_counts_them():
@@ -154,9 +177,9 @@ def test_walk_trees_seeds_the_walk_with_that_many_tables():
         index.query(q, walk_trees=trees)
         pops.append(index.counters["query.pops.mean"])
     assert pops[0] < pops[1] < pops[2] == pops[3]
-    d1, i1 = index.query(q)
-    d2, i2 = index.query(q, walk_trees=1)
-    np.testing.assert_array_equal(i1, i2)
+    # The params' tables: one at or above the walk's floor, all L below it (k = 8 here).
+    np.testing.assert_array_equal(index.query(q, k=32)[1], index.query(q, k=32, walk_trees=1)[1])
+    np.testing.assert_array_equal(index.query(q)[1], index.query(q, walk_trees=prm.L)[1])
     with pytest.raises(InputError, match=r"walk_trees=0 must be >= 1"):
         replace(prm, walk_trees=0)
     with pytest.raises(InputError, match=r"walk_trees"):

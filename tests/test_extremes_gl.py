@@ -10,7 +10,7 @@ from blockhash.errors import ShaderCompileError
 from blockhash.gl import limits
 from blockhash.gl.context import check_gl
 from blockhash.gl.limits import LOOP_LIMIT, MAX_K, check_lookup, largest_A, loop_iterations
-from blockhash.gl.lookup import GLLookup, lookup_slot_bits
+from blockhash.gl.lookup import GLLookup, query_slot_bits
 from blockhash.gl.packing import pack_index, texture_shape, upload
 from blockhash.gl.shaderlib import Variant, compile_program
 from blockhash.render.estimate import EstimateOptions
@@ -20,7 +20,7 @@ from conftest import context_or_skip
 
 def same_as_cpu(lookup, index, q, k, A, variant="default"):
     v = Variant.parse(variant)
-    bits = lookup_slot_bits(index.params, A * k) if v.select == "packed" else 0
+    bits = query_slot_bits(index.params, k, A) if v.select == "packed" else 0
     d, i = lookup.query(q, k=k, A=A, variant=variant)
     dc, ic = index.query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
     np.testing.assert_array_equal(i, ic.reshape(len(q), k))

@@ -12,7 +12,7 @@ from scipy.spatial import cKDTree
 from blockhash import BlockHashIndex, CapacityError, InputError, OrphanWarning
 from blockhash.index.codec import decode_powers, encode_powers
 from blockhash.index.fixedpoint import MIN_RESOLVED_EXTENT, Quantizer
-from blockhash.index.params import MAX_B, MAX_L
+from blockhash.index.params import MAX_B, MAX_L, candidate_cap
 
 EPS32 = 2.0**-24  # one float32 rounding, relative
 
@@ -102,7 +102,10 @@ def test_A_1_examines_at_most_k_plus_one_block():
     index = BlockHashIndex(pts, k=8, A=1)
     d, i = index.query(pts[:200])
     assert_valid_result(index, pts[:200], d, i, 8)
-    assert index.counters["query.candidates.mean"] <= 8 + 10
+    # below the walk's floor the cap is A * walk_floor candidates (20 here), not A * k
+    cap = candidate_cap(index.params, 8, 1)
+    assert cap == index.params.walk_floor
+    assert index.counters["query.candidates.mean"] <= cap + 10
 
 
 def test_huge_A_examines_everything_it_reaches_and_is_exact_on_a_small_map():

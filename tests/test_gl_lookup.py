@@ -8,8 +8,9 @@ import pytest
 
 from blockhash import BlockHashIndex, CapacityError, InputError
 from blockhash.errors import GLUnavailableError
+from blockhash.index.params import candidate_cap
 from blockhash.gl.context import check_gl, get_context, gl_info
-from blockhash.gl.lookup import GLLookup, lookup_slot_bits
+from blockhash.gl.lookup import GLLookup, query_slot_bits
 from blockhash.gl.packing import texture_shape
 from blockhash.gl.shaderlib import Variant, variants
 from conftest import context_or_skip, photon_set
@@ -28,7 +29,7 @@ def queries_for(name, m=300, seed=21):
 def assert_same_as_cpu(lookup, index, q, k, A, variant="default"):
     """The variant's neighbours equal the CPU reference run in the same mode."""
     v = Variant.parse(variant)
-    bits = lookup_slot_bits(index.params, A * k) if v.packed_keys else 0
+    bits = query_slot_bits(index.params, k, A) if v.packed_keys else 0
     d, i = lookup.query(q, k=k, A=A, variant=variant)
     dc, ic = index.query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
     dc, ic = dc.reshape(len(q), k), ic.reshape(len(q), k)
@@ -313,7 +314,8 @@ def test_a_full_walk_queue_drops_the_same_entries_on_both_sides(far_index, monke
     ix = copy.copy(far_index)  # walking all L tables fills the queue (one table's walk: 20)
     ix.params = replace(far_index.params, walk_trees=far_index.params.L)
     d2, slots, *_, drops, longest = bf_query(qf, ix.thresholds, ix.node_boxes, ix.tables.refs,
-                                             ix.starts, ix._positions, 16, 128, 0, 32,
+                                             ix.starts, ix._positions, 16,
+                                             candidate_cap(ix.params, 16, 8), 0, 32,
                                              trees=ix.params.L, cull=walk_cull(ix))
     assert drops.sum() > 0 and longest.max() == 32
     d, i = GLLookup(ix, backend="egl").query(q, k=16, A=8, variant="binary-branch-on-insertion")

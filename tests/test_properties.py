@@ -88,7 +88,7 @@ def test_query_invariants(args):
 @given(problem)
 def test_shader_equals_the_cpu_reference(variant, args):
     from conftest import context_or_skip
-    from blockhash.gl.lookup import GLLookup, lookup_slot_bits
+    from blockhash.gl.lookup import GLLookup, query_slot_bits
     from blockhash.gl.shaderlib import Variant
 
     context_or_skip("egl")
@@ -96,7 +96,7 @@ def test_shader_equals_the_cpu_reference(variant, args):
     pts, k, index = build(shape, n, seed, k, A)
     q = (pts[np.random.default_rng(qseed).integers(0, n, 16)] + 0.01).astype(np.float32)
     v = Variant.parse(variant)
-    bits = lookup_slot_bits(index.params, index.params.A * k) if v.select == "packed" else 0
+    bits = query_slot_bits(index.params, k, index.params.A) if v.select == "packed" else 0
     d, i = GLLookup(index, backend="egl").query(q, k=k, variant=variant)
     dc, ic = index.query(q, k=[k] and k, slot_bits=bits)
     np.testing.assert_array_equal(i, ic.reshape(len(q), k))

@@ -96,8 +96,8 @@ def block_gap2(words, q, lo, step):
 def walked_query(index, q, k, A, trees=None):
     """The nearest-box-first walk (blockhash/index/best_first.py) in plain Python, with an
     unbounded sorted queue (the real one's capacity never binds on small maps), seeded with
-    the first ``trees`` tables (default: the params' walk_trees), the A * k cap alone
-    ending it (no block cap): the k nearest (slots, squared distances) of the photons of
+    the first ``trees`` tables (default: the params' for k: all L below its walk_floor), the
+    cap of A * max(k, walk_floor) candidates alone ending it (no block cap): the k nearest (slots, squared distances) of the photons of
     the buckets it reaches; once k are held, a block whose :func:`block_gap2` is above 0
     and above the k-th distance is culled (not taken, not counted)."""
     best, _ = walk(index, q, k, A, trees)
@@ -107,7 +107,9 @@ def walked_query(index, q, k, A, trees=None):
 def walk(index, q, k, A, trees=None):
     """:func:`walked_query`'s walk: (the k best (d2, slot), sorted; the blocks taken)."""
     prm = index.params
-    trees = prm.trees_walked if trees is None else min(trees, prm.L)
+    trees = prm.walk_tables(k) if trees is None else min(trees, prm.L)
+    # The candidate cap: A * k, or A * walk_floor below the params' floor.
+    cap = A * max(k, prm.walk_floor)
     qf = np.asarray(q, dtype=np.float32)
     boxes, rows = index.node_boxes, index.thresholds
     nn = boxes.shape[1]
@@ -124,7 +126,7 @@ def walk(index, q, k, A, trees=None):
     queue = sorted((box_distance(boxes[t, 0], qf), t * nn) for t in range(trees) if nonempty(t, 0))
     best, taken, count, leaves = [], [], 0, 0   # best: sorted (d2, slot), at most k
     for _ in range(MAX_POPS):
-        if count >= A * k or not queue:
+        if count >= cap or not queue:
             break
         d, node = queue.pop(0)
         kth = best[-1][0] if len(best) == k else np.float32(np.inf)
@@ -137,7 +139,7 @@ def walk(index, q, k, A, trees=None):
                 break
             leaves += 1
             for blk in index.tables.refs[t, meta >> 3]:
-                if count >= A * k or blk < 0:
+                if count >= cap or blk < 0:
                     break
                 if blk in taken:
                     continue

@@ -36,6 +36,7 @@ import math
 
 from ..errors import CapacityError, InputError
 from ..index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY, walk_taken_bound
+from ..index.params import candidate_cap
 from ..index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
 from .shaderlib import NAMED
 
@@ -103,7 +104,7 @@ def loop_iterations(params, variant, k: int, cap: int) -> int:
     hashing = L * hash_steps + L * L
     if walk:
         chunks = QUEUE_CAPACITY // 32
-        hashing = params.trees_walked * (1 + chunks) + MAX_POPS * (1 + 3 * chunks)
+        hashing = params.walk_tables(k) * (1 + chunks) + MAX_POPS * (1 + 3 * chunks)
     total = hashing + refs * (1 + scan) + cap + 10 + k
     if getattr(variant, "select", "packed") == "insertion":
         total += (cap + 10) * k
@@ -112,12 +113,14 @@ def loop_iterations(params, variant, k: int, cap: int) -> int:
 
 def largest_A(params, variant, k: int) -> int:
     """The largest A whose lookup keeps within ``LOOP_LIMIT`` (0 if none does)."""
+    lookup = "walk" if getattr(params, "best_first", False) else "hash"
     lo, hi = 0, 1
-    while loop_iterations(params, variant, k, hi * k) <= LOOP_LIMIT and hi < 1 << 20:
+    while (loop_iterations(params, variant, k, candidate_cap(params, k, hi, lookup)) <= LOOP_LIMIT
+           and hi < 1 << 20):
         lo, hi = hi, hi * 2
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        if loop_iterations(params, variant, k, mid * k) <= LOOP_LIMIT:
+        if loop_iterations(params, variant, k, candidate_cap(params, k, mid, lookup)) <= LOOP_LIMIT:
             lo = mid
         else:
             hi = mid
@@ -161,7 +164,8 @@ def check_lookup(ctx, params, variant, k: int, A: int, lookup=None) -> None:
                 "or the CPU query BlockHashIndex.query, or a GPU driver")
         return
     if ctx is not None and is_llvmpipe(ctx):
-        need = loop_iterations(params, variant, k, A * k)
+        need = loop_iterations(params, variant, k, candidate_cap(params, k, A, resolve_lookup(
+            params, lookup)))
         if need > LOOP_LIMIT:
             best = largest_A(params, variant, k)
             way = (f"use A <= {best}" if best >= 1 else "use a smaller k, L or B")

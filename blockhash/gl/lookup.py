@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import CapacityError, InputError
 from ..index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY, walk_taken_bound
 from ..index.block_hash_index import resolve_lookup
+from ..index.params import candidate_cap
 from ..index.cell_query import GROUP_CELLS
 from ..index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
 from ..validate import as_int, as_points
@@ -62,6 +63,12 @@ def lookup_slot_bits(params, cap: int) -> int:
     if getattr(params, "best_first", False):
         return max(1, int(lookup_taken_bound(params, cap) * PHOTONS_PER_BLOCK - 1).bit_length())
     return slot_bits(params.L, params.B)
+
+
+def query_slot_bits(params, k: int, A: int, lookup: str | None = None) -> int:
+    """:func:`lookup_slot_bits` of a query for k neighbours at A (the cap of
+    :func:`..index.params.candidate_cap` for this index's ``lookup``)."""
+    return lookup_slot_bits(params, candidate_cap(params, k, A, resolve_lookup(params, lookup)))
 
 
 class GLLookup:
@@ -132,7 +139,7 @@ class GLLookup:
             "BH_TAKEN_MAX": taken,
             # Blocks bh_take stops at: hashing L * B; the walk none (its bound, never reached).
             "BH_TAKE_LIMIT": taken if prm.best_first else prm.L * prm.B,
-            "BH_BEST_FIRST": int(prm.best_first), "BH_WALK_TREES": prm.trees_walked, "BH_CELLS": 0,
+            "BH_BEST_FIRST": int(prm.best_first), "BH_WALK_TREES": prm.walk_tables(k), "BH_CELLS": 0,
             "BH_QUEUE": QUEUE_CAPACITY,
             "BH_MAX_POPS": MAX_POPS, "BH_MAX_LEAVES": MAX_LEAVES,
             "BH_NODES": max(1, self.index.thresholds.shape[1] // 2),
@@ -198,7 +205,7 @@ class GLLookup:
         with self.ctx:
             for first in range(0, m, per_pass):
                 chunk = q[first:first + per_pass]
-                self._run(chunk, v, k, A * k, pairs[first:first + len(chunk)],
+                self._run(chunk, v, k, self._cap(k, A, lookup), pairs[first:first + len(chunk)],
                           counts[first:first + len(chunk)], culled[first:first + len(chunk)],
                           fetch_only, width, lookup)
         if resolve_lookup(index.params, lookup) == "cells":
@@ -248,12 +255,17 @@ class GLLookup:
         with self.ctx:
             for first in range(0, len(q), self._per_pass(k)):
                 chunk = q[first:first + self._per_pass(k)]
-                with _Pass(self, chunk, v, k, A * k, fetch_only, width, lookup) as p:
+                with _Pass(self, chunk, v, k, self._cap(k, A, lookup), fetch_only, width,
+                           lookup) as p:
                     w, g = time_draws(self.ctx, p.prog, p.fbo, p.size, repeat=repeat, warmup=warmup)
                     check_gl(self.ctx, "the timed lookup draws")
                 wall += w
                 gpu += g
         return {"wall": wall.tolist(), "gpu": gpu.tolist()}
+
+    def _cap(self, k: int, A: int, lookup: str | None) -> int:
+        """The candidate cap of this index's ``lookup`` (:func:`..index.params.candidate_cap`)."""
+        return candidate_cap(self.index.params, k, A, resolve_lookup(self.index.params, lookup))
 
     def _per_pass(self, k: int) -> int:
         limit = self.ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE", 1 << 27) // (8 * k)

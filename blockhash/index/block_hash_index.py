@@ -27,7 +27,7 @@ from .best_first import bf_query, walk_cull
 from .cell_query import CELL_ROUNDS, cells_query
 from .cells import build_cells
 from .node_boxes import node_boxes
-from .params import BlockHashParams, resolve_params
+from .params import BlockHashParams, candidate_cap, resolve_params
 from .query import bh_query
 from .thresholds import ThresholdLayout, build_thresholds, descent_rounds
 from ..errors import InputError
@@ -279,7 +279,7 @@ class BlockHashIndex:
             0 (default) selects by exact distance.  The shader's 'packed' selection
             variant compares distances with their low ``slot_bits`` bits replaced by
             the candidate's number; passing its value
-            (``gl.lookup.lookup_slot_bits(params, A * k)``) reproduces that variant exactly.  Neighbours then differ from the exact
+            (``gl.lookup.query_slot_bits(params, k, A)``) reproduces that variant exactly.  Neighbours then differ from the exact
             selection only where squared distances agree to 2**-(23 - slot_bits).
         probe : bool, optional
             Multi-probe beyond the query's own buckets while the cap allows
@@ -332,12 +332,12 @@ class BlockHashIndex:
             extra = {"query.rounds.mean": float(CELL_ROUNDS) if finite.any() else 0.0,
                      "query.rounds.max": float(CELL_ROUNDS) if finite.any() else 0.0}
         elif walk:
-            trees = prm.trees_walked if walk_trees is None else min(
+            trees = prm.walk_tables(k_eff) if walk_trees is None else min(
                 as_int(walk_trees, "walk_trees", minimum=1), prm.L)
             d2, slots, examined, fetched, pops, drops, longest = bf_query(
                 qf, self.thresholds, self.node_boxes, self.tables.refs, self.starts,
-                self._positions, k_eff, A_eff * k_eff, slot_bits, trees=trees,
-                cull=walk_cull(self))
+                self._positions, k_eff, candidate_cap(prm, k_eff, A_eff), slot_bits,
+                trees=trees, cull=walk_cull(self))
             if finite.any():
                 # Each pop waits on the box the previous pop fetched; the last leaf's
                 # references and blocks add two rounds (a lower bound: leaves met on the

@@ -81,6 +81,15 @@ DEFAULT_L = 5
 #: clustered map's neighbours at A = 8 / 64 against 11.8 / 6.4% for all five tables under
 #: the L B block cap (venus 1.6 / 0.06% against 2.8 / 0.16%), in 3-4x fewer pops: 1.
 DEFAULT_WALK_TREES = 1
+#: The default preset's walk examines at least A * DEFAULT_WALK_FLOOR candidates, and walks
+#: all L tables, for k below it.  With the A k cap alone a query for k = 1 at A = 8 takes
+#: 8 candidates, less than one block, and missed 72-82% of the nearest neighbours on every
+#: map (tools/accuracy_by_k.py); a quarter of the photons' blocks are also missing from
+#: their own bucket in the one table walked (its buckets overflow), which 98.7% of the
+#: misses at k = 1, A = 64 came from.  Chosen on the TUNE maps (`python tools/small_k.py`):
+#: floors 0 / 10 / 20 with 1 / 1 / L tables left 82 / 21 / 0.8% of clustered's neighbours
+#: missed at k = 1, A = 8 (uniform 82 / 9.2 / 0.1%): 20.
+DEFAULT_WALK_FLOOR = 20
 #: A memory bound on block references per photon (the index issue's target is 2.5).
 DEFAULT_REFS_PER_PHOTON = 2.4
 #: B holds up to this many times the blocks that a bucket's photons fill.  Blocks straddle
@@ -128,6 +137,9 @@ class BlockHashParams:
     #: Query the Hilbert cells (:mod:`blockhash.index.cells`, three rounds of independent
     #: fetches, selection by counting) instead of the tables.
     cells: bool = False
+    #: The walk's small-k floor: for k below it the walk examines up to A * walk_floor
+    #: candidates (not A * k) over all L tables (0: none, the A k cap alone).
+    walk_floor: int = 0
 
     def __post_init__(self):
         if int(self.walk_trees) < 1:
@@ -138,6 +150,11 @@ class BlockHashParams:
     def trees_walked(self) -> int:
         """The tables the nearest-box-first walk is seeded with, ``min(walk_trees, L)``."""
         return min(int(self.walk_trees), self.L)
+
+    def walk_tables(self, k: int) -> int:
+        """Tables the walk is seeded with for k neighbours: all L below ``walk_floor``,
+        else :attr:`trees_walked`."""
+        return self.L if k < self.walk_floor else self.trees_walked
 
     @property
     def buckets(self) -> int:
@@ -162,6 +179,14 @@ class BlockHashParams:
                     f"{', lookup=cells' if self.cells else ''})")
         return (f"BlockHashParams(preset={self.preset!r}, k={self.k}, A={self.A}, L={self.L}, "
                 f"P=({px}, {py}, {pz}), B={self.B}, layout={self.layout.name.lower()})")
+
+
+def candidate_cap(params, k: int, A: int, lookup: str = "walk") -> int:
+    """The candidates a query examines at most: ``A * k``, and for the walk of an index with
+    a ``walk_floor``, ``A * max(k, walk_floor)``."""
+    if lookup == "walk" and k < getattr(params, "walk_floor", 0):
+        return int(A) * int(params.walk_floor)
+    return int(A) * int(k)
 
 
 def paper_params(n: int, *, k: int, A: int) -> BlockHashParams:
@@ -206,7 +231,8 @@ def adaptive_params(positions: np.ndarray, *, k: int, A: int,
                     L: int = DEFAULT_L,
                     refs_per_photon: float = DEFAULT_REFS_PER_PHOTON,
                     block_slack: float = DEFAULT_BLOCK_SLACK,
-                    walk_trees: int = DEFAULT_WALK_TREES) -> BlockHashParams:
+                    walk_trees: int = DEFAULT_WALK_TREES,
+                    walk_floor: int = DEFAULT_WALK_FLOOR) -> BlockHashParams:
     """The default preset: the ADAPTIVE layout (:mod:`.adaptive`) with buckets of
     ``S = photons_per_bucket * k * A / ADAPTIVE_REFERENCE_A`` photons (at least a block's)."""
     S = max(PHOTONS_PER_BLOCK, photons_per_bucket * k * A / ADAPTIVE_REFERENCE_A)
@@ -215,7 +241,7 @@ def adaptive_params(positions: np.ndarray, *, k: int, A: int,
     B = max(1, min(B_need, B_budget, MAX_B))
     return BlockHashParams(k=k, A=A, L=L, P=(1, 1, 1), B=B, layout=ThresholdLayout.ADAPTIVE,
                            preset="default", bucket_photons=float(S), probe=True,
-                           best_first=True, walk_trees=walk_trees)
+                           best_first=True, walk_trees=walk_trees, walk_floor=walk_floor)
 
 
 def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",

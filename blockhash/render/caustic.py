@@ -26,7 +26,7 @@ from .estimate import EstimateOptions, photon_weights
 from .photon_radius import exact_radii2, own_radii2
 from ..gl.context import bind_textures, check_gl, draw_timed, home_framebuffer, time_draws
 from ..gl.limits import check_lookup
-from ..gl.lookup import GLLookup, lookup_slot_bits
+from ..gl.lookup import GLLookup, query_slot_bits
 from ..gl.shaderlib import Variant
 
 def min_radius(index) -> float:
@@ -85,7 +85,7 @@ def estimate_cpu(index, points: ShadingPoints, materials, *, k=None, A=None,
     v = Variant.parse(variant)
     prm = index.params
     k = prm.k if k is None else k
-    bits = lookup_slot_bits(prm, (prm.A if A is None else A) * k) if v.packed_keys else 0
+    bits = query_slot_bits(prm, k, prm.A if A is None else A) if v.packed_keys else 0
 
     def search(q):
         return index.query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
@@ -288,7 +288,7 @@ class CausticPass:
         ctx = self.ctx
         check_lookup(ctx, prm, Variant.parse(variant), k, A)
         options = EstimateOptions() if options is None else options
-        defines = {**self.lookup.defines(Variant.parse(variant), k, A * k,
+        defines = {**self.lookup.defines(Variant.parse(variant), k, self.lookup._cap(k, A, None),
                                          fetch_only=stage == STAGES[0]),
                    "CP_LOOKUP_ONLY": int(stage != STAGES[-1]), **options.defines()}
         own = {}

@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from ..gl.lookup import lookup_slot_bits
+from ..gl.lookup import query_slot_bits
 from ..index.block_hash_index import BlockHashIndex
 from ..index.metrics import exact_knn
 from ..render.caustic import Neighbours, ShadingPoints
@@ -113,7 +113,7 @@ def upsample(mask, s: int) -> np.ndarray:
 
 def searches(index, k: int, A: int) -> dict:
     """``{'bh': the CPU reference of the default shader variant, 'exact': cKDTree}``."""
-    bits = lookup_slot_bits(index.params, A * k)
+    bits = query_slot_bits(index.params, k, A)
     return {"bh": lambda q: index.query(q, k=k, A=A, slot_bits=bits),
             "exact": lambda q: exact_knn(index.positions, q, k)}
 

@@ -175,7 +175,7 @@ def run_sweep(scene, plan: SweepPlan = QUICK, *, seed=None, cache_dir=None, back
     """Run ``plan`` on ``scene`` and return the study as a dict (see the module docstring)."""
     from ..gl.context import get_context
     from ..gl.shaderlib import Variant
-    from ..gl.lookup import lookup_slot_bits
+    from ..gl.lookup import query_slot_bits
 
     if not scene.specular_objects:
         raise InputError(f"scene {scene.path}: no specular (mirror) object, so no caustic to "
@@ -232,7 +232,7 @@ def run_sweep(scene, plan: SweepPlan = QUICK, *, seed=None, cache_dir=None, back
         img = box_down(img, ss)
         v = Variant.parse(variant)
         approx = index.query(queries, k=k, A=A, by_priority=v.priority == "on",
-                             slot_bits=lookup_slot_bits(index.params, A * k)
+                             slot_bits=query_slot_bits(index.params, k, A)
                              if v.select == "packed" else 0)
         acc = accuracy(approx, knn[(n, k)], len(index))
         row = {"method": "bh", "photons": n, "emitted": photons.emitted, "k": k, "A": A,
