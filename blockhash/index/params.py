@@ -86,9 +86,10 @@ DEFAULT_WALK_TREES = 1
 #: 8 candidates, less than one block, and missed 72-82% of the nearest neighbours on every
 #: map (tools/accuracy_by_k.py); a quarter of the photons' blocks are also missing from
 #: their own bucket in the one table walked (its buckets overflow), which 98.7% of the
-#: misses at k = 1, A = 64 came from.  Chosen on the TUNE maps (`python tools/small_k.py`):
-#: floors 0 / 10 / 20 with 1 / 1 / L tables left 82 / 21 / 0.8% of clustered's neighbours
-#: missed at k = 1, A = 8 (uniform 82 / 9.2 / 0.1%): 20.
+#: misses at k = 1, A = 64 came from.  Chosen on the TUNE maps (`python tools/small_k.py`,
+#: A = 8): at k = 1 clustered missed 82.3% with no floor, 20.8% with a floor of 20 over one
+#: table and 0.75% over all five (uniform 81.9 / 9.2 / 0.12%); a floor of 10 over all
+#: tables still missed 15% at k = 8; 20 over all tables at most 3.0% for k <= 16: 20.
 DEFAULT_WALK_FLOOR = 20
 #: A memory bound on block references per photon (the index issue's target is 2.5).
 DEFAULT_REFS_PER_PHOTON = 2.4
