@@ -199,15 +199,14 @@ class BlockHashIndex:
         self.node_boxes = None
         if prm.layout == ThresholdLayout.ADAPTIVE:
             self.node_boxes = node_boxes(self.thresholds, photon_keys, self._positions, prm.buckets)
-        t6 = time.perf_counter()
-        timings["boxes"] = t6 - t5
-        #: The Hilbert cells (:mod:`.cells`), the default lookup's computed hash.
-        self.cells = build_cells(sorted_codes, min_split=max(1, prm.k // 8))
-        timings["cells"] = time.perf_counter() - t6
+        timings["boxes"] = time.perf_counter() - t5
+        self._cells = None
         timings["total"] = time.perf_counter() - t0
         self.timings = timings
         self.counters: dict[str, float] = {}
         self.stats = self._stats()
+        if prm.cells:  # an index built to query its cells has them from the start
+            self._build_cells()
         if self.stats.orphans:
             fix = ("raise B or L, or use preset='default'" if prm.layout != ThresholdLayout.ADAPTIVE
                    else "a bucket holds more blocks than its B references (photons at one "
@@ -254,8 +253,25 @@ class BlockHashIndex:
             refs_per_photon=prm.refs / n, used_refs_per_photon=float(t.entries.sum()) / n,
             photon_bytes=n * WORDS_PER_PHOTON * WORD, block_bytes=nblocks * BLOCK_WORDS * WORD,
             reference_bytes=prm.refs * WORD, threshold_bytes=self.thresholds.size * WORD,
-            priority_bytes=prm.L * prm.buckets * WORD, cell_bytes=self.cells.nbytes,
+            priority_bytes=prm.L * prm.buckets * WORD,
+            cell_bytes=0 if self._cells is None else self._cells.nbytes,
             box_bytes=0 if self.node_boxes is None else self.node_boxes.nbytes)
+
+    @property
+    def cells(self):
+        """The Hilbert cells (:mod:`.cells`) that ``lookup='cells'`` reads: built on first
+        use (half the build time of the rest of the index at 10^6 photons, which the walk and
+        the hashing never read); ``stats.cell_bytes`` counts them from then on."""
+        if self._cells is None:
+            self._build_cells()
+        return self._cells
+
+    def _build_cells(self) -> None:
+        t = time.perf_counter()
+        self._cells = build_cells(self.records.records[:, :3],  # the codes, in Hilbert order
+                                  min_split=max(1, self.params.k // 8))
+        self.timings["cells"] = time.perf_counter() - t
+        self.stats = replace(self.stats, cell_bytes=self._cells.nbytes)
 
     def query(self, points, k=None, *, A=None, by_priority: bool = True, slot_bits: int = 0,
               probe: bool | None = None, best_first: bool | None = None,
@@ -293,8 +309,8 @@ class BlockHashIndex:
             Tables the walk is seeded with (1 .. L, more is L); default: the
             params' ``walk_trees`` (1 for 'default').
         lookup : {'cells', 'walk', 'hash'}, optional
-            The query: the Hilbert cells (:mod:`blockhash.index.cell_query`, the
-            default preset's), the tables' nearest-box-first walk, or their hash query;
+            The query: the Hilbert cells (:mod:`blockhash.index.cell_query`), the tables'
+            nearest-box-first walk (the default preset's), or their hash query;
             default: the params' (``cells``, else ``best_first``).  ``best_first`` given
             alone chooses between the last two.
 
@@ -326,9 +342,7 @@ class BlockHashIndex:
             cap = A_eff * k_eff
             d2, slots, examined, fetched = cells_query(
                 self.quantizer.quantize_query(qf), qf, self.cells.slots, self.cells.buckets,
-                self.cells.first_level(cap), self._positions,
-                self.quantizer.lo.astype(np.float32), self.quantizer.step.astype(np.float32),
-                k_eff, cap)
+                self.cells.first_level(cap), self._positions, k_eff, cap)
             extra = {"query.rounds.mean": float(CELL_ROUNDS) if finite.any() else 0.0,
                      "query.rounds.max": float(CELL_ROUNDS) if finite.any() else 0.0}
         elif walk:

@@ -8,7 +8,7 @@ distribution:
    level whose cells all hold at most ``cap = A k`` photons, :meth:`CellTable.first_level`)
    up to the top, are looked up at once.  They grow with the level; ``top`` is the
    coarsest level whose own cell holds at most ``cap``.
-2. **groups.**  At the levels ``top - 1``, ``top`` and ``top + 1``, the query's group is
+2. **groups.**  At the levels ``top - 2``, ``top - 1`` and ``top`` (:data:`TRIED`), the query's group is
    the 3 x 3 x 3 cells around its own: it holds every photon within one cell side of the
    query.  The 81 cells are looked up at once.  The group chosen is the coarsest one
    with ``k <= count <= cap``; failing that, the finest holding at least ``k``; failing
@@ -61,7 +61,7 @@ def _group(slots, mask, level, c0x, c0y, c0z, gfirst, gcount):
 
 
 @numba.njit(cache=True, parallel=True)
-def cells_query(qcodes, qpos, slots, buckets, first, positions, lo, step, k, cap):
+def cells_query(qcodes, qpos, slots, buckets, first, positions, k, cap):
     """k nearest of each query's candidates.  Returns (d2 (m, k) float32, slots (m, k)
     int64 (-1: none), examined, blocks) per query."""
     m = qcodes.shape[0]
@@ -81,7 +81,7 @@ def cells_query(qcodes, qpos, slots, buckets, first, positions, lo, step, k, cap
             _, n = cell_lookup(slots, mask, level, c0x >> level, c0y >> level, c0z >> level)
             if n <= cap:
                 top = level
-        # Round 2: the groups at top - 1, top, top + 1.
+        # Round 2: the groups at top - 2, top - 1, top.
         gf = np.zeros((3, GROUP_CELLS), dtype=np.int64)
         gc = np.zeros((3, GROUP_CELLS), dtype=np.int64)
         tot = np.zeros(3, dtype=np.int64)

@@ -1,4 +1,4 @@
-"""Hilbert cells: the default lookup's computed hash (a GPU-shaped form of sections 3-4).
+"""Hilbert cells: the computed hash of ``lookup='cells'`` (a GPU-shaped form of sections 3-4).
 
 Photons are stored in Hilbert order (:mod:`.hilbert`, 21 bits per axis of the 32-bit
 codes).  Every cube of the octree over those 21-bit codes is then one contiguous run of
@@ -128,12 +128,10 @@ def build_cells(sorted_codes: np.ndarray, *, min_split: int) -> CellTable:
             keep = parent_counts[parent] > min_split
         if keep.any():
             max_count[level] = int(cnt[keep].max())
-            s, k, xyz = starts[keep], cnt[keep], coords[keep].astype(np.uint64)
-            lo = (xyz[:, 2] | (xyz[:, 1] << np.uint64(19))) & np.uint64(0xFFFFFFFF)
-            hi = (xyz[:, 1] >> np.uint64(13)) | (xyz[:, 0] << np.uint64(6)) | \
-                np.uint64(level << 25)
-            keys_hi.append(hi.astype(np.uint32))
-            keys_lo.append(lo.astype(np.uint32))
+            s, k, xyz = starts[keep], cnt[keep], coords[keep]
+            hi, lo = cell_key.py_func(level, xyz[:, 0], xyz[:, 1], xyz[:, 2])  # on arrays
+            keys_hi.append(np.asarray(hi, dtype=np.uint32))
+            keys_lo.append(np.asarray(lo, dtype=np.uint32))
             firsts.append(s.astype(np.uint32))
             counts.append(k.astype(np.uint32))
         parent_starts, parent_counts = starts, cnt
@@ -155,7 +153,7 @@ def build_cells(sorted_codes: np.ndarray, *, min_split: int) -> CellTable:
 
 @numba.njit(cache=True, nogil=True)
 def _cuckoo_insert(entries, slots, buckets):
-    """Insert every entry into one of 4 slots of its two buckets, evicting as needed;
+    """Insert every entry into one of the SLOTS slots of its two buckets, evicting as needed;
     False when an insertion fails after MAX_KICKS moves (the caller doubles the table)."""
     mask = np.uint32(buckets - 1)
     state = np.uint32(12345)

@@ -99,18 +99,25 @@ MAX_DEPTH = 48
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def adaptive_bucket_of(row, cx, cy, cz):
-    """Bucket of one code triple in one ``ADAPTIVE`` row (:mod:`.adaptive`): descend
-    ``i = left + (code[axis] >= t)`` from node 0 to a bucket node."""
+def adaptive_descent(row, cx, cy, cz):
+    """(bucket, nodes read) of one code triple in one ``ADAPTIVE`` row (:mod:`.adaptive`):
+    descend ``i = left + (code[axis] >= t)`` from node 0 to a bucket node (bucket -1 past
+    ``MAX_DEPTH``); each node read waits on the one before."""
     i = 0
-    for _ in range(MAX_DEPTH):
+    for depth in range(1, MAX_DEPTH + 1):
         meta = row[2 * i + 1]
         if meta & LEAF:
-            return np.int64(meta >> 3)
+            return np.int64(meta >> 3), depth
         a = meta & 3
         c = cx if a == 0 else (cy if a == 1 else cz)
         i = np.int64(meta >> 3) + (1 if c >= row[2 * i] else 0)
-    return np.int64(-1)
+    return np.int64(-1), MAX_DEPTH
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def adaptive_bucket_of(row, cx, cy, cz):
+    """Bucket of one code triple in one ``ADAPTIVE`` row: :func:`adaptive_descent`'s."""
+    return adaptive_descent(row, cx, cy, cz)[0]
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
@@ -127,17 +134,7 @@ def descent_rounds(thresholds, layout, codes):
             continue
         deepest = 0
         for t in range(thresholds.shape[0]):
-            row = thresholds[t]
-            i = 0
-            depth = 0
-            for _ in range(MAX_DEPTH):
-                meta = row[2 * i + 1]
-                depth += 1
-                if meta & LEAF:
-                    break
-                a = meta & 3
-                c = codes[j, 0] if a == 0 else (codes[j, 1] if a == 1 else codes[j, 2])
-                i = np.int64(meta >> 3) + (1 if c >= row[2 * i] else 0)
+            _, depth = adaptive_descent(thresholds[t], codes[j, 0], codes[j, 1], codes[j, 2])
             deepest = max(deepest, depth)
         out[j] = deepest
     return out
