@@ -185,6 +185,23 @@ uint bh_split(bool lo_none, uint lo, uint hi, int i) {
     return min(base + max(span >> 3u, 1u) * uint(i + 1) - 1u, hi);
 }
 
+// One step of a bracket search over the split values v (bh_sb or bh_ss) and their counts
+// bh_sc: the first split holding at least k keys becomes hi (top_count its count), the
+// splits before it, holding fewer, move lo up to the last of them.
+void bh_narrow(uint v[BH_SPLITS], inout bool lo_none, inout uint lo, inout uint hi,
+               inout uint top_count) {
+    bool found = false;
+    for (int i = 0; i < BH_SPLITS; ++i) {
+        bool hit = !found && bh_sc[i] >= uint(BH_K) && v[i] < hi;
+        bool below = !found && bh_sc[i] < uint(BH_K) && (lo_none || v[i] > lo);
+        hi = hit ? v[i] : hi;
+        top_count = hit ? bh_sc[i] : top_count;
+        lo = below ? v[i] : lo;
+        lo_none = below ? false : lo_none;
+        found = found || hit;
+    }
+}
+
 // Choose the group, then find the k-th key by counting: first the distance bits D of the
 // k-th (the least D with at least k keys of bits <= D), then, where several candidates sit
 // at D, the slot.  Afterwards the selected candidates are exactly those with a key at or
@@ -213,7 +230,6 @@ uint bh_cells_select(vec3 q) {
     // then by splits inside the bracket.
     bool lo_none = bh_min_bits == 0u;
     uint lo = lo_none ? 0u : bh_min_bits - 1u;
-    uint lo_count = 0u;
     uint hi = bh_max_bits;
     for (int pass = 0; pass <= BH_MAX_PASSES && top_count > uint(BH_K) &&
                        !(!lo_none && hi == lo + 1u) && !(lo_none && hi == 0u); ++pass) {
@@ -225,21 +241,11 @@ uint bh_cells_select(vec3 q) {
             }
             bh_cells_pass(BH_PASS_COUNT, q, 0u);
         }
-        bool found = false;
-        for (int i = 0; i < BH_SPLITS; ++i) {
-            bool hit = !found && bh_sc[i] >= uint(BH_K) && bh_sb[i] < hi;
-            bool below = !found && bh_sc[i] < uint(BH_K) && (lo_none || bh_sb[i] > lo);
-            hi = hit ? bh_sb[i] : hi;
-            top_count = hit ? bh_sc[i] : top_count;
-            lo = below ? bh_sb[i] : lo;
-            lo_count = below ? bh_sc[i] : lo_count;
-            lo_none = below ? false : lo_none;
-            found = found || hit;
-        }
+        bh_narrow(bh_sb, lo_none, lo, hi, top_count);
         bh_top_bits = hi;
         bh_top_slot = hi == bh_max_bits ? bh_max_slot : 0xFFFFFFFFu;
     }
-    // Phase 2, ties at D = hi: lo_count keys lie below D; find the slot.
+    // Phase 2, ties at D = hi: find the slot.
     bool slo_none = true;
     uint slo = 0u;
     uint shi = bh_top_slot;
@@ -251,16 +257,7 @@ uint bh_cells_select(vec3 q) {
             bh_sc[i] = 0u;
         }
         bh_cells_pass(BH_PASS_COUNT, q, 0u);
-        bool found = false;
-        for (int i = 0; i < BH_SPLITS; ++i) {
-            bool hit = !found && bh_sc[i] >= uint(BH_K) && bh_ss[i] < shi;
-            bool below = !found && bh_sc[i] < uint(BH_K) && (slo_none || bh_ss[i] > slo);
-            shi = hit ? bh_ss[i] : shi;
-            top_count = hit ? bh_sc[i] : top_count;
-            slo = below ? bh_ss[i] : slo;
-            slo_none = below ? false : slo_none;
-            found = found || hit;
-        }
+        bh_narrow(bh_ss, slo_none, slo, shi, top_count);
         bh_top_slot = shi;
     }
     return m;

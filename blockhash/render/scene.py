@@ -68,14 +68,13 @@ class Camera:
             set_(self, "width", _integer(self.width, "width", lo=1, hi=MAX_IMAGE_SIDE))
             set_(self, "height", _integer(self.height, "height", lo=1, hi=MAX_IMAGE_SIDE))
             if self.spp is not None:
-                from .subpixel import MAX_SPP
+                from .subpixel import MAX_SPP, spp_side
                 spp = _integer(self.spp, "spp", lo=1, hi=MAX_SPP,
                                hint="give a square number of samples per pixel: 1, 4, 9, 16, ...")
-                side = math.isqrt(spp)
-                if side * side != spp:
-                    raise _FieldError("spp", f"expected a square number (samples are stratified "
-                                      f"in S x S cells per pixel); got {spp}; use {side * side} "
-                                      f"or {(side + 1) ** 2}")
+                try:
+                    spp_side(spp)
+                except InputError as exc:
+                    raise _FieldError("spp", str(exc)) from None
                 set_(self, "spp", spp)
             view = self.target - self.eye
             dist = float(np.linalg.norm(view))
