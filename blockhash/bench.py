@@ -30,9 +30,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from .index.datasets import DISTRIBUTIONS
-from .index.block_hash_index import BlockHashIndex
-from .index.metrics import exact_knn, false_negatives
+from blockhash.index.datasets import DISTRIBUTIONS
+from blockhash.index.block_hash_index import BlockHashIndex
+from blockhash.index.metrics import exact_knn, false_negatives
 
 
 QUERY_SETS = ("image", "random")
@@ -61,7 +61,7 @@ def make_queries(pts: np.ndarray, m: int, kind: str, seed: int, data: str) -> np
 
 def device_info(ctx) -> dict:
     """The GL renderer, vendor, version and backend, and the CPU count, for every result."""
-    from .gl.context import gl_info
+    from blockhash.gl.context import gl_info
 
     info = gl_info(ctx)
     return {"renderer": info["renderer"], "vendor": info["vendor"], "gl_version": info["version"],
@@ -71,7 +71,7 @@ def device_info(ctx) -> dict:
 def resolve_clock(clock: str, renderer: str) -> str:
     """'gpu' or 'wall' for ``clock`` in CLOCKS; 'auto' is wall time on llvmpipe only."""
     if clock not in CLOCKS:
-        from .errors import InputError
+        from blockhash.errors import InputError
 
         raise InputError(f"clock={clock!r} is not known; choose one of {', '.join(CLOCKS)}")
     if clock == "auto":
@@ -108,7 +108,7 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
     own fetch-only floor."""
     from scipy.spatial import cKDTree
 
-    from .gl.lookup import GLLookup
+    from blockhash.gl.lookup import GLLookup
 
     pts = DISTRIBUTIONS[data](photons, np.random.default_rng(seed))
     q = make_queries(pts, queries, query_set, seed + 1, data)
@@ -175,7 +175,7 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
 def _kdtree_row(index, q, k, repeat, warmup, backend, clock, device) -> dict:
     """The exact kd-tree shader on the same queries: its program (one per k and tree) is
     warmed up by whole queries, then each timed query sums its passes' draws."""
-    from .gl.kdtree import GLKdTree
+    from blockhash.gl.kdtree import GLKdTree
 
     kd = GLKdTree(index.positions, backend=backend)
     times = {"wall": [], "gpu": []}
@@ -194,14 +194,14 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
     scene's own pixels, then the whole pass once more with each of ``estimates`` (forms of
     :class:`~blockhash.render.estimate.EstimateOptions`, the other fields the default's);
     returns result rows like :func:`run_benchmark`."""
-    from .render.estimate import EstimateOptions
-    from .render.caustic import STAGES, CausticPass
-    from .render.gbuffer import rasterize
-    from .render.pipeline import _receiver_materials
-    from .render.scene_toml import load_scene
-    from .render.shading import SceneRays, shading_points
-    from .render.scene import MirrorMaterial
-    from .render.tracing import trace_caustic_photons
+    from blockhash.render.estimate import EstimateOptions
+    from blockhash.render.caustic import STAGES, CausticPass
+    from blockhash.render.gbuffer import rasterize
+    from blockhash.scene.materials import receiver_materials
+    from blockhash.scene.loader import load_scene
+    from blockhash.render.shading import SceneRays, shading_points
+    from blockhash.scene.model import MirrorMaterial
+    from blockhash.photons.tracing import trace_caustic_photons
 
     forms = [EstimateOptions(estimate=form) for form in estimates]  # unknown names fail first
     scene = load_scene(scene_path)
@@ -219,10 +219,10 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
     live = int((points.material >= 0).sum())
     progress(f"caustic pass of {scene_path}: {len(index):,} photons stored, {w} x {h} pixels "
              f"({live:,} shaded), k={settings.k}, A={A or settings.A}; {device['renderer']}")
-    stages = cp.time_stages(points, _receiver_materials(scene), A=A, variant=variant,
+    stages = cp.time_stages(points, receiver_materials(scene.objects), A=A, variant=variant,
                             repeat=repeat, warmup=warmup)
     for opt in forms:
-        timed = cp.time_stages(points, _receiver_materials(scene), A=A, variant=variant,
+        timed = cp.time_stages(points, receiver_materials(scene.objects), A=A, variant=variant,
                                repeat=repeat, warmup=warmup, options=opt, stages=STAGES[-1:])
         stages[f"{STAGES[-1]} ({opt.estimate})"] = timed[STAGES[-1]]
     rows = []

@@ -15,16 +15,16 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .bench import QUERY_SETS
-from .cli_images import add_parsers as add_image_parsers, size as _size
-from .cli_estimate import add_arguments as add_estimate_arguments, options_from
-from .index.datasets import DISTRIBUTIONS
-from .errors import BlockHashError, InputError
-from .index.block_hash_index import BlockHashIndex
-from .index.metrics import accuracy, exact_knn
-from .index.params import PRESETS
-from .render.subpixel import DEFAULT_SPP
+from blockhash import __version__
+from blockhash.bench import QUERY_SETS
+from blockhash.cli_images import add_parsers as add_image_parsers, size as _size
+from blockhash.cli_estimate import add_arguments as add_estimate_arguments, options_from
+from blockhash.index.datasets import DISTRIBUTIONS
+from blockhash.errors import BlockHashError, InputError
+from blockhash.index.block_hash_index import BlockHashIndex
+from blockhash.index.metrics import accuracy, exact_knn
+from blockhash.index.params import PRESETS
+from blockhash.scene.camera import DEFAULT_SPP
 
 
 def _load_photons(spec: str, n: int, seed: int) -> np.ndarray:
@@ -77,10 +77,10 @@ def cmd_index(args) -> int:
 
 
 def cmd_info(args) -> int:
-    from .gl.context import get_context, gl_info
+    from blockhash.gl.context import get_context, gl_info
 
     ctx = get_context(args.backend)
-    from .gl.limits import LOOP_LIMIT, MAX_K, is_llvmpipe
+    from blockhash.gl.limits import LOOP_LIMIT, MAX_K, is_llvmpipe
 
     with ctx:
         info = gl_info(ctx)
@@ -94,7 +94,7 @@ def cmd_info(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from .bench import format_table, run_benchmark, run_caustic_benchmark, write_results
+    from blockhash.bench import format_table, run_benchmark, run_caustic_benchmark, write_results
 
     if args.repeat < 1 or args.warmup < 0:
         raise InputError(f"--repeat {args.repeat} / --warmup {args.warmup}: need at least one "
@@ -138,9 +138,9 @@ def _writable(path: Path, flag: str) -> Path:
 
 
 def cmd_render(args) -> int:
-    from .render.images import write_exr, write_png
-    from .render.pipeline import render_scene
-    from .render.scene_toml import load_scene
+    from blockhash.render.images import write_exr, write_png
+    from blockhash.render.pipeline import render_scene
+    from blockhash.scene.loader import load_scene
 
     out = Path(args.output or Path(args.scene).with_suffix(".exr").name)
     if out.suffix.lower() != ".exr":
@@ -177,7 +177,7 @@ def _choose_settings(args, scene) -> None:
         print("settings: the scene has no specular object, so no caustic photons are traced and "
               "no index is built; the budget applies to nothing")
         return
-    from .tradeoff.budget import choose, study_for
+    from blockhash.studies.budget import choose, study_for
 
     if args.photons is not None or args.k is not None or args.A is not None:
         raise InputError("--time-budget / --target-error choose --photons, --k and --A; give "
@@ -196,9 +196,9 @@ def _choose_settings(args, scene) -> None:
 
 
 def cmd_preview(args) -> int:
-    from .render.images import write_rgb8
-    from .render.preview import preview
-    from .render.scene_toml import load_scene
+    from blockhash.render.images import write_rgb8
+    from blockhash.scene.preview import preview
+    from blockhash.scene.loader import load_scene
 
     out = _writable(Path(args.output or Path(args.scene).with_suffix(".preview.png").name), "--output")
     scene = load_scene(args.scene)
@@ -218,14 +218,14 @@ def _int_list(text: str) -> tuple[int, ...]:
 
 
 def cmd_tradeoff(args) -> int:
-    from .render.lighttrace import lambertian
-    from .render.scene_toml import load_scene
-    from .tradeoff.budget import remember
-    from .tradeoff.report import write_study
-    from .tradeoff.sweep import QUICK, SweepPlan, run_sweep, with_plan
+    from blockhash.reference.lighttrace import lambertian
+    from blockhash.scene.loader import load_scene
+    from blockhash.studies.budget import remember
+    from blockhash.studies.report import write_study
+    from blockhash.studies.sweep import QUICK, SweepPlan, run_sweep, with_plan
 
     if args.replot:
-        from .tradeoff.report import rewrite_report
+        from blockhash.studies.report import rewrite_report
 
         print(f"report: {rewrite_report(args.output)}")
         return 0

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 
-from .render.estimate import ESTIMATES, FILTERS, EstimateOptions
+from blockhash.render.estimate import ESTIMATES, FILTERS, EstimateOptions
 
 _DEFAULT = EstimateOptions()
 

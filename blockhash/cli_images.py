@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from blockhash.errors import InputError
 
 
 def size(text: str) -> tuple[int, int]:
@@ -68,8 +68,8 @@ def _emit_json(dest: str, data: dict) -> None:
 
 
 def cmd_compare(args) -> int:
-    from .render.imagediff import compare_layers, write_pictures
-    from .render.images import write_exr
+    from blockhash.evaluate.imagediff import compare_layers, write_pictures
+    from blockhash.render.images import write_exr
 
     result = compare_layers(args.a, args.b, max_rms=_limits(args.max_rms),
                             max_rel_rms=_limits(args.max_rel_rms), max_flip=_limits(args.max_flip),
@@ -95,8 +95,8 @@ def cmd_compare(args) -> int:
 
 
 def cmd_tolerance(args) -> int:
-    from .render.scene_toml import load_scene
-    from .render.tolerance import seed_tolerances
+    from blockhash.scene.loader import load_scene
+    from blockhash.evaluate.tolerance import seed_tolerances
 
     scene = load_scene(args.scene)
     report = seed_tolerances(scene, seeds=args.seeds, first_seed=args.first_seed,
@@ -107,7 +107,7 @@ def cmd_tolerance(args) -> int:
     print(report.table(), file=out)
     print(f"proposed: blockhash compare A.exr B.exr {report.options()}", file=out)
     if args.heatmap:
-        from .render.plots import save_heatmap
+        from blockhash.evaluate.plots import save_heatmap
 
         save_heatmap(args.heatmap, report.spread_maps, label="std over seeds",
                      title=f"{args.scene}: per-pixel spread over {args.seeds} seeds")

@@ -11,7 +11,7 @@ import numbers
 
 import numpy as np
 
-from .errors import InputError, InputTypeError
+from blockhash.errors import InputError, InputTypeError
 
 
 def as_points(value, name: str, *, dtype=np.float64, allow_empty: bool = True,

@@ -35,3 +35,19 @@ def context_or_skip(backend):
         if backend in os.environ.get("BLOCKHASH_REQUIRE_GL", "").split(","):
             raise
         pytest.skip(f"{backend} unavailable: {exc}")
+
+
+@pytest.fixture(autouse=True)
+def gl_error_checked():
+    """After every test, each GL context it used reports no error: moderngl records GL
+    errors in ``ctx.error`` instead of raising, so a test could pass over one."""
+    yield
+    import sys
+
+    context = sys.modules.get("blockhash.gl.context")
+    if context is None:
+        return
+    for name, ctx in context.open_contexts().items():
+        with ctx:
+            err = ctx.error
+        assert err == "GL_NO_ERROR", f"the {name} context was left with {err}"

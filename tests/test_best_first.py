@@ -12,6 +12,8 @@ from blockhash.index.params import DEFAULT_WALK_FLOOR, candidate_cap
 from blockhash.index.thresholds import LEAF, THRESHOLD_PAD
 from conftest import photon_set
 
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
+
 
 def test_node_boxes_are_tight_around_their_photons():
     index = BlockHashIndex(photon_set("clustered", 20_000), k=8, A=8)

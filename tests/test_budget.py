@@ -1,4 +1,4 @@
-"""Settings for a budget (blockhash.tradeoff.budget) from a synthetic trade study."""
+"""Settings for a budget (blockhash.studies.budget) from a synthetic trade study."""
 
 from __future__ import annotations
 
@@ -8,7 +8,9 @@ import pytest
 
 from blockhash.cli import main
 from blockhash.errors import InputError
-from blockhash.tradeoff.budget import choose, predicted_seconds, study_for
+from blockhash.studies.budget import choose, predicted_seconds, study_for
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 
 def row(n, A, seconds, error, preset="default"):

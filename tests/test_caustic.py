@@ -4,8 +4,11 @@ import numpy as np
 import pytest
 
 from blockhash import BlockHashIndex
-from blockhash.render.caustic import CausticPass, ShadingPoints, estimate_cpu, phong_brdf
-from blockhash.testing import assert_images_close
+from blockhash.render.caustic import CausticPass, ShadingPoints, estimate_cpu
+from blockhash.scene.materials import phong_brdf
+from blockhash.evaluate.testing import assert_images_close
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 N = 100_000
 FLUX = 10.0  # watts over the unit square

@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-from dataclasses import replace
 
 from blockhash import BlockHashIndex
 from blockhash.index.cells import LEVEL_MIN, LEVEL_TOP, build_cells, cell_lookup, cell_runs

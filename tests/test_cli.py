@@ -1,8 +1,13 @@
+"""The command line, end to end (blockhash.cli.main)."""
+
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from blockhash.cli import main
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 

@@ -6,9 +6,11 @@ import pytest
 
 from blockhash import BlockHashIndex
 from blockhash.render.pipeline import render_scene
-from blockhash.render.tracing import trace_caustic_photons
+from blockhash.photons.tracing import trace_caustic_photons
 from conftest import context_or_skip
 from test_extremes_render import scene
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 FIELDS = ("positions", "directions", "normals", "powers")
 

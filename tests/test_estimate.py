@@ -11,7 +11,9 @@ from blockhash.cli import main
 from blockhash.errors import InputError
 from blockhash.render.caustic import CausticPass, ShadingPoints, estimate_cpu, estimate_from_neighbours
 from blockhash.render.estimate import FILTERS, EstimateOptions, kernel
-from blockhash.testing import assert_images_close
+from blockhash.evaluate.testing import assert_images_close
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 KD = 0.5
 LAMBERT = [((KD,) * 3, (0, 0, 0), 1.0)]
@@ -170,8 +172,8 @@ def test_render_command_takes_the_estimate_flags(tmp_path, capsys):
 def test_estimate_study_measures_every_option_on_the_same_neighbours(tmp_path):
     from pathlib import Path
 
-    from blockhash.render.scene_toml import load_scene
-    from blockhash.tradeoff.estimates import default_options, markdown_table, study_scene, summary_table
+    from blockhash.scene.loader import load_scene
+    from blockhash.studies.estimates import default_options, markdown_table, study_scene, summary_table
 
     corner = load_scene(Path(__file__).resolve().parents[1] / "scenes" / "corner.toml")
     study = study_scene(corner, photons=(3_000,), ks=(20,), size=(24, 24), supersample=1,

@@ -14,8 +14,11 @@ from blockhash.gl.lookup import GLLookup, query_slot_bits
 from blockhash.gl.packing import pack_index, texture_shape, upload
 from blockhash.gl.shaderlib import Variant, compile_program
 from blockhash.render.estimate import EstimateOptions
-from blockhash.render.caustic import CausticPass, ShadingPoints, estimate_cpu, min_radius
+from blockhash.index.fixedpoint import min_radius
+from blockhash.render.caustic import CausticPass, ShadingPoints, estimate_cpu
 from conftest import context_or_skip
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 
 def same_as_cpu(lookup, index, q, k, A, variant="default"):

@@ -8,8 +8,10 @@ import pytest
 from blockhash import CapacityError, InputError
 from blockhash.render.gbuffer import rasterize
 from blockhash.render.pipeline import NoCausticWarning, render_scene
-from blockhash.render.scene_toml import parse_scene
+from blockhash.scene.loader import parse_scene
 from conftest import context_or_skip
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 RING = """
 [camera]
@@ -91,7 +93,7 @@ def test_light_on_the_floor_reaches_the_ring_and_gets_a_clear_error():
     # Emission starts off the light's own surface, so the photons reach the ring rather
     # than all hitting the floor at t = 0; a vertical mirror cannot send light from the
     # floor's plane back down to it, so there is no caustic, and the error says so.
-    from blockhash.render.tracing import trace_caustic_photons
+    from blockhash.photons.tracing import trace_caustic_photons
 
     with pytest.raises(InputError, match=r"no caustic photon stored after [\d,]+ photons.*"
                                          r"'direct_diffuse': 0, 'escaped': [1-9].*move the light"):
@@ -110,13 +112,13 @@ def test_scene_without_a_mirror_renders_direct_light_only():
 def test_a_mirror_no_photon_reaches_is_a_clear_error():
     # The light is under the floor, which hides the ring from it.
     with pytest.raises(InputError, match=r"no .*photon|reach"):
-        from blockhash.render.tracing import trace_caustic_photons
+        from blockhash.photons.tracing import trace_caustic_photons
 
         trace_caustic_photons(scene(light="[0.0, -1.0, 0.0]"), 100, max_emitted=20_000)
 
 
 def test_k_above_the_shader_limit_is_refused_before_tracing(monkeypatch):
-    import blockhash.render.tracing as tracing
+    import blockhash.photons.tracing as tracing
 
     monkeypatch.setattr(tracing, "trace_caustic_photons", lambda *a, **k: pytest.fail("traced anyway"))
     with pytest.raises(InputError, match=r"k=129 is above the lookup shader's limit MAX_K=128; "

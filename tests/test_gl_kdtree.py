@@ -12,6 +12,8 @@ from blockhash.gl.kdtree import (LOOP_LIMIT, MAX_K, GLKdTree, build_kdtree,
 from blockhash.gl.shaderlib import FULLSCREEN_VS, define_block, preprocess
 from conftest import context_or_skip, photon_set
 
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
+
 BACKENDS = ["egl", "osmesa"]
 N = 3000
 #: cKDTree works in float64 on the float32 points, the shader in float32: a squared distance

@@ -15,6 +15,8 @@ from blockhash.gl.packing import texture_shape
 from blockhash.gl.shaderlib import Variant, variants
 from conftest import context_or_skip, photon_set
 
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
+
 BACKENDS = ["egl", "osmesa"]
 
 

@@ -9,14 +9,16 @@ import pytest
 import trimesh
 
 from blockhash.errors import InputError
-from blockhash.render import meshes
-from blockhash.render.optics import fresnel, refract, scatter
-from blockhash.render.raycast import EmbreeGeometry
-from blockhash.render.scene import (Camera, DielectricMaterial, PhongMaterial, Scene, SceneObject,
+from blockhash.scene import meshes
+from blockhash.scene.optics import fresnel, refract, scatter
+from blockhash.scene.raycast import EmbreeGeometry
+from blockhash.scene.model import (Camera, DielectricMaterial, PhongMaterial, Scene, SceneObject,
                                     SpotLight)
-from blockhash.render.scene_toml import load_scene, parse_scene
-from blockhash.render.tracing import ABSORBED, ESCAPED, MAX_BOUNCES, STORED, trace_batch
+from blockhash.scene.loader import load_scene, parse_scene
+from blockhash.photons.tracing import ABSORBED, ESCAPED, MAX_BOUNCES, STORED, trace_batch
 from conftest import context_or_skip
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -259,11 +261,11 @@ def test_the_glass_ball_renders_with_its_caustic_in_its_shadow():
 def test_every_method_renders_glass_and_the_exact_one_agrees_with_the_cpu(tmp_path):
     context_or_skip("egl")
     from blockhash.render.pipeline import render_scene
-    from blockhash.testing import assert_images_close
-    from blockhash.tradeoff.measure import flux_ratio
+    from blockhash.evaluate.testing import assert_images_close
+    from blockhash.studies.measure import flux_ratio
 
     scene = load_scene(ROOT / "scenes" / "glass.toml")
-    from blockhash.render.tracing import trace_caustic_photons
+    from blockhash.photons.tracing import trace_caustic_photons
     pm = trace_caustic_photons(scene, 8000, seed=1)
     bh, exact, cpu = (render_scene(scene, photon_map=pm, size=(24, 24), spp=4, method=m)
                       for m in ("bh", "kdtree", "cpu"))
@@ -279,7 +281,7 @@ def test_the_light_tracer_sees_a_point_light_through_a_glass_slab():
     T I / h'^2, with T = (1 - R)^2 / (1 - R^2) (normal incidence, internal reflections
     summed) and h' = h - t (1 - 1/n) (the slab moves the light's image closer, paraxially);
     the radiance is kd E / pi."""
-    from blockhash.render.lighttrace import light_trace
+    from blockhash.reference.lighttrace import light_trace
 
     n, t, h, kd, power, cone = 1.5, 0.2, 3.0, 0.5, 10.0, 10.0
     slab = glass("slab", slab_mesh(t, 1.5), ior=n)

@@ -16,6 +16,8 @@ from conftest import context_or_skip
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
 import shader_stats  # noqa: E402
 
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
+
 
 @pytest.fixture(scope="module", autouse=True)
 def toolchain():

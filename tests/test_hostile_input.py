@@ -10,7 +10,9 @@ from hypothesis import strategies as st
 
 from blockhash import InputError
 from blockhash.cli import main
-from blockhash.render.scene_toml import load_scene, parse_scene
+from blockhash.scene.loader import load_scene, parse_scene
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 RING = Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"
 RING_TEXT = RING.read_text()

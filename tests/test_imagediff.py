@@ -5,8 +5,9 @@ import OpenImageIO as oiio
 import pytest
 
 from blockhash.errors import InputError
-from blockhash.render.imagediff import compare_layers, flip_map
-from blockhash.render.images import compare_images, read_layers, write_exr, write_rgb8
+from blockhash.evaluate.imagediff import compare_layers, flip_map
+from blockhash.evaluate.imagediff import compare_images
+from blockhash.render.images import read_layers, write_exr, write_rgb8
 
 
 def layers(h=24, w=32, seed=0):

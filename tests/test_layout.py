@@ -1,4 +1,5 @@
-"""The package reads as its data flows: index -> gl -> render -> command line.
+"""The package reads as its data flows: scene -> photons -> index -> gl -> render ->
+reference -> evaluate -> studies -> command line.
 
 Every import between blockhash's modules (lazy ones inside functions included)
 goes from a later part to an earlier one, never back; modules stay short unless
@@ -13,8 +14,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "blockhash"
 #: Rank of each part in the data flow; a module may import only ranks <= its own.
-RANKS = {"errors": 0, "validate": 0, "index": 1, "gl": 2, "render": 3,
-         "bench": 4, "tradeoff": 4, "testing": 4, "cli": 5, "cli_estimate": 5, "cli_images": 5, "__init__": 5, "__main__": 5}
+RANKS = {"errors": 0, "validate": 0, "code_version": 0, "scene": 1, "photons": 2, "index": 3, "gl": 4, "render": 5,
+         "reference": 6, "evaluate": 7, "studies": 8, "bench": 8,
+         "cli": 9, "cli_estimate": 9, "cli_images": 9, "__init__": 9, "__main__": 9}
 #: Lines above which a module's docstring must say why it is long.
 LONG_MODULE = 420
 LONG_REASON = "Why this module is long:"
@@ -72,7 +74,7 @@ def test_module_imports_only_earlier_parts(path):
 
 
 def test_the_three_parts_are_packages():
-    for part in ("index", "gl", "render"):
+    for part in ("scene", "photons", "index", "gl", "render", "reference", "evaluate", "studies"):
         assert (PACKAGE / part / "__init__.py").is_file()
     assert not sorted(p.name for p in PACKAGE.glob("*.py")
                       if p.stem not in RANKS), "top-level modules outside the known parts"
@@ -96,3 +98,49 @@ def test_import_check_sees_a_backward_import(tmp_path):
             test_module_imports_only_earlier_parts(fake)
     finally:
         fake.unlink()
+
+
+def _module_graph():
+    """{dotted module: {dotted blockhash modules it imports}}, lazy imports included."""
+    modules = {".".join(_dotted(p)): p for p in _modules()}
+    graph = {}
+    for name, path in modules.items():
+        targets = set()
+        for _, t in _imports(path):
+            dotted = ".".join(t)
+            while dotted and dotted not in modules:  # "from pkg.mod import name": the module
+                dotted = dotted.rpartition(".")[0]
+            if dotted and dotted != name and dotted != "blockhash":
+                targets.add(dotted)
+        graph[name] = targets
+    return graph
+
+
+def test_no_import_circles():
+    """No module reaches itself through imports, lazy ones inside functions included."""
+    graph = _module_graph()
+    circles = []
+    for start in graph:
+        stack, seen = [(start, [start])], set()
+        while stack:
+            node, path = stack.pop()
+            for nxt in graph.get(node, ()):
+                if nxt == start:
+                    circles.append(" -> ".join(path + [start]))
+                elif nxt not in seen:
+                    seen.add(nxt)
+                    stack.append((nxt, path + [nxt]))
+    assert not circles, f"import circles: {sorted(set(circles))[:5]}"
+
+
+@pytest.mark.parametrize("path", _modules(), ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_no_private_names_cross_modules(path):
+    """``from blockhash.x import _name`` is not allowed: what another module uses is public."""
+    own = ".".join(_dotted(path))
+    private = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("blockhash"):
+            if node.module != own:
+                private += [f"line {node.lineno}: {node.module}.{a.name}" for a in node.names
+                            if a.name.startswith("_") and not a.name.startswith("__")]
+    assert not private, f"{path.name} imports private names: {private}"

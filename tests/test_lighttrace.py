@@ -1,4 +1,4 @@
-"""The light tracer (blockhash.render.lighttrace) against an analytic caustic.
+"""The light tracer (blockhash.reference.lighttrace) against an analytic caustic.
 
 A point light at height HL below a plane mirror (y = H, facing down) over a Lambertian
 floor (y = 0): the caustic on the floor is the light's mirror image at y = 2H - HL, times
@@ -13,10 +13,13 @@ import pytest
 import trimesh
 
 from blockhash.errors import InputError
-from blockhash.render.lighttrace import (Pinhole, cached_reference, lambertian, light_trace,
-                                         scene_digest)
-from blockhash.render.scene import (Camera, MirrorMaterial, PhongMaterial, PhotonSettings,
+from blockhash.reference.lighttrace import cached_reference, lambertian, light_trace, scene_digest
+from blockhash.scene.camera import Pinhole
+from blockhash.scene.loader import load_scene
+from blockhash.scene.model import (Camera, MirrorMaterial, PhongMaterial, PhotonSettings,
                                     PointLight, Scene, SceneObject)
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 H, HL, KD, POWER = 2.0, 0.5, 0.5, 100.0
 REFL = np.array([0.9, 0.6, 0.3])
@@ -130,9 +133,9 @@ def test_exact_knn_photon_map_agrees_with_the_light_tracer(traced):
     from blockhash import BlockHashIndex
     from blockhash.render.caustic import estimate_exact
     from blockhash.render.gbuffer import rasterize
-    from blockhash.render.pipeline import _receiver_materials
+    from blockhash.scene.materials import receiver_materials
     from blockhash.render.shading import SceneRays, shading_points
-    from blockhash.render.tracing import trace_caustic_photons
+    from blockhash.photons.tracing import trace_caustic_photons
 
     scene, img = traced
     photons = trace_caustic_photons(scene, 200_000, seed=4)
@@ -140,7 +143,7 @@ def test_exact_knn_photon_map_agrees_with_the_light_tracer(traced):
                            normals=photons.normals, powers=photons.powers)
     g = rasterize(scene.camera, scene.objects, backend="egl")
     points = shading_points(scene.camera, g, scene.objects, SceneRays(scene.objects), (MirrorMaterial,))
-    est = estimate_exact(index, points, _receiver_materials(scene), gpu=False)
+    est = estimate_exact(index, points, receiver_materials(scene.objects), gpu=False)
     exact = analytic(scene)
     # The default (conserving) estimate's noise is about sqrt(1.5 / 36) = 0.2 per pixel
     # (each photon over the disc to its 36th neighbour, cone filter); both images must
@@ -178,3 +181,58 @@ def test_visible_pixels_line_up_with_the_renderers_gbuffer():
     seen = rasterize(scene.camera, scene.objects, backend="egl").object == 0
     assert 0.1 < seen.mean() < 0.6
     assert np.mean(img.visible != seen) < 0.05  # edge pixels may differ
+
+
+FILL_CACHE = """
+import sys
+import numpy as np
+from blockhash.reference.lighttrace import cached_reference
+from blockhash.scene.loader import load_scene
+img, path = cached_reference(load_scene(sys.argv[1]), 30_000, size=(24, 16), cache_dir=sys.argv[2])
+np.save(sys.argv[3], img.radiance)
+print(path)
+"""
+
+
+def test_two_processes_fill_one_cache_entry_at_once(tmp_path):
+    """Two renders that trace the same reference at the same time both get the whole
+    image, and the cache holds one complete file and nothing half-written."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    scene = Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"
+    cache = tmp_path / "cache"
+    procs = [subprocess.Popen([sys.executable, "-c", FILL_CACHE, str(scene), str(cache),
+                               str(tmp_path / f"out{i}.npy")], stdout=subprocess.PIPE, text=True)
+             for i in range(2)]
+    paths = [p.communicate(timeout=600)[0].strip() for p in procs]
+    assert [p.returncode for p in procs] == [0, 0]
+    assert paths[0] == paths[1]
+    assert sorted(f.name for f in cache.iterdir()) == [Path(paths[0]).name]
+    a, b = np.load(tmp_path / "out0.npy"), np.load(tmp_path / "out1.npy")
+    np.testing.assert_array_equal(a, b)
+    assert a.sum() > 0
+    again, _ = cached_reference(load_scene(scene), 30_000, size=(24, 16), cache_dir=cache)
+    np.testing.assert_array_equal(again.radiance, a)
+
+
+def test_an_unreadable_cache_file_is_traced_again(tmp_path):
+    scene = mirror_scene()
+    first, path = cached_reference(scene, 5_000, cache_dir=tmp_path)
+    path.write_bytes(path.read_bytes()[:100])  # cut short
+    with pytest.warns(UserWarning, match="unreadable"):
+        again, path2 = cached_reference(scene, 5_000, cache_dir=tmp_path)
+    assert path2 == path
+    np.testing.assert_array_equal(again.radiance, first.radiance)
+    third, _ = cached_reference(scene, 5_000, cache_dir=tmp_path)  # whole again
+    np.testing.assert_array_equal(third.radiance, first.radiance)
+
+
+def test_the_cache_key_follows_the_code(tmp_path, monkeypatch):
+    import blockhash.reference.lighttrace as lt
+    scene = mirror_scene()
+    _, path = cached_reference(scene, 5_000, cache_dir=tmp_path)
+    monkeypatch.setattr(lt, "source_digest", lambda parts: "edited")
+    _, moved = cached_reference(scene, 5_000, cache_dir=tmp_path)
+    assert moved != path

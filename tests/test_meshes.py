@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from blockhash.render import meshes
+from blockhash.scene import meshes
 from blockhash.errors import InputError
 
 

@@ -7,7 +7,8 @@ from scipy.spatial import cKDTree
 
 from blockhash import BlockHashIndex
 from blockhash.errors import InputError
-from blockhash.render.caustic import ShadingPoints, estimate_cpu, min_r2
+from blockhash.index.fixedpoint import min_r2
+from blockhash.render.caustic import ShadingPoints, estimate_cpu
 from blockhash.render.estimate import EstimateOptions
 from blockhash.render.photon_radius import exact_radii2, neighbours_for, own_radii2, slot_radii2
 

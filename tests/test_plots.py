@@ -6,7 +6,7 @@ import pytest
 from matplotlib import colormaps
 
 from blockhash.errors import InputError
-from blockhash.render.plots import CMAP, save_heatmap, save_strip
+from blockhash.evaluate.plots import CMAP, save_heatmap, save_strip
 
 
 def pixels(path):

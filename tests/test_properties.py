@@ -13,6 +13,8 @@ from scipy.spatial import cKDTree
 from blockhash import BlockHashIndex, OrphanWarning
 from transcription import examined_blocks
 
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
+
 SHAPES = ("uniform", "clustered", "plane", "line", "duplicates")
 
 

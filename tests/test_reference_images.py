@@ -11,8 +11,10 @@ import pytest
 
 from blockhash.render.images import read_layers
 from blockhash.render.pipeline import render_scene
-from blockhash.render.scene_toml import load_scene
-from blockhash.testing import assert_images_close
+from blockhash.scene.loader import load_scene
+from blockhash.evaluate.testing import assert_images_close
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "tests" / "data" / "ring-48x48.exr"

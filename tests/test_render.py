@@ -8,14 +8,17 @@ import pytest
 from blockhash.render.caustic import estimate_cpu, estimate_exact
 from blockhash.cli import main
 from blockhash.render.gbuffer import rasterize
-from blockhash.render.preview import gbuffer_depth, preview
-from blockhash.render.pipeline import NoCausticWarning, _receiver_materials, render_scene
-from blockhash.render.scene import MirrorMaterial
-from blockhash.render.scene_toml import load_scene
+from blockhash.scene.preview import gbuffer_depth, preview
+from blockhash.render.pipeline import NoCausticWarning, render_scene
+from blockhash.scene.materials import receiver_materials
+from blockhash.scene.model import MirrorMaterial
+from blockhash.scene.loader import load_scene
 from blockhash.render.shading import SceneRays, shading_points
-from blockhash.render.tracing import trace_caustic_photons
-from blockhash.render.imagediff import compare_layers
-from blockhash.testing import assert_images_close
+from blockhash.photons.tracing import trace_caustic_photons
+from blockhash.evaluate.imagediff import compare_layers
+from blockhash.evaluate.testing import assert_images_close
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 RING = Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"
 SIZE = (96, 96)
@@ -51,14 +54,14 @@ SAME_ESTIMATE = 1e-4
 
 def test_shader_caustic_equals_the_cpu_reference_estimate(ring, ring_renders, ring_points, tmp_path):
     r = ring_renders[8]
-    cpu = estimate_cpu(r.index, ring_points, _receiver_materials(ring), A=8)
+    cpu = estimate_cpu(r.index, ring_points, receiver_materials(ring.objects), A=8)
     assert r.caustic.max() > 0
     assert_images_close(r.caustic, cpu, max_rel_rms=SAME_ESTIMATE, out_dir=tmp_path)
 
 
 def test_kdtree_shader_caustic_equals_the_ckdtree_estimate(ring, ring_renders, ring_points, tmp_path):
     index = ring_renders[8].index
-    mats = _receiver_materials(ring)
+    mats = receiver_materials(ring.objects)
     gpu = estimate_exact(index, ring_points, mats, gpu=True)
     cpu = estimate_exact(index, ring_points, mats, gpu=False)
     assert_images_close(gpu, cpu, max_rel_rms=SAME_ESTIMATE, out_dir=tmp_path)
@@ -66,7 +69,7 @@ def test_kdtree_shader_caustic_equals_the_ckdtree_estimate(ring, ring_renders, r
 
 def test_bh_error_against_exact_falls_with_A_and_is_small_at_8(ring, ring_renders, ring_points,
                                                                tmp_path):
-    exact = estimate_exact(ring_renders[8].index, ring_points, _receiver_materials(ring), gpu=False)
+    exact = estimate_exact(ring_renders[8].index, ring_points, receiver_materials(ring.objects), gpu=False)
     errors = [compare_layers(ring_renders[A].caustic, exact).metrics["rgb"]["relative_rms"]
               for A in (1, 2, 8)]
     assert errors[0] > errors[1] > errors[2]

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 import trimesh
 
-from blockhash.render import meshes
+from blockhash.scene import meshes
 from blockhash.errors import InputError
-from blockhash.render.scene import (Camera, MirrorMaterial, PhongMaterial, PhotonSettings,
+from blockhash.scene.model import (Camera, MirrorMaterial, PhongMaterial, PhotonSettings,
                                     PointLight, Scene, SceneObject, SpotLight)
-from blockhash.render.scene_toml import load_scene, parse_scene
+from blockhash.scene.loader import load_scene, parse_scene
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 

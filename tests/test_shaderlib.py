@@ -8,6 +8,8 @@ from blockhash.errors import InputError
 from blockhash.gl.shaderlib import (CHOICES, NAMED, Source, Variant, define_block, glsl_dir,
                                     preprocess, variants)
 
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
+
 
 def write(tmp_path, files):
     for name, text in files.items():

@@ -7,11 +7,14 @@ import numpy as np
 import pytest
 
 from blockhash.errors import InputError
-from blockhash.render.lighttrace import Pinhole
+from blockhash.scene.camera import Pinhole
 from blockhash.render.pipeline import NoCausticWarning, render_scene
-from blockhash.render.scene_toml import load_scene
-from blockhash.render.subpixel import box_filter, spp_side
+from blockhash.scene.loader import load_scene
+from blockhash.render.subpixel import box_filter
+from blockhash.scene.camera import spp_side
 from conftest import context_or_skip
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -154,10 +157,10 @@ def test_spp_1_is_the_pixel_centre_render_of_the_rasteriser():
     from blockhash import BlockHashIndex
     from blockhash.render.caustic import CausticPass
     from blockhash.render.gbuffer import rasterize
-    from blockhash.render.pipeline import _receiver_materials
-    from blockhash.render.scene import MirrorMaterial
+    from blockhash.scene.materials import receiver_materials
+    from blockhash.scene.model import MirrorMaterial
     from blockhash.render.shading import SceneRays, direct_light, shading_points
-    from blockhash.render.tracing import trace_caustic_photons
+    from blockhash.photons.tracing import trace_caustic_photons
 
     scene = load_scene(ROOT / "scenes" / "ring.toml")
     pm = trace_caustic_photons(scene, 5000, seed=1)
@@ -167,7 +170,7 @@ def test_spp_1_is_the_pixel_centre_render_of_the_rasteriser():
                          scene.objects, rays, (MirrorMaterial,))
     index = BlockHashIndex(pm.positions, k=scene.photons.k, A=scene.photons.A,
                            directions=pm.directions, normals=pm.normals, powers=pm.powers)
-    caustic = CausticPass(index).render(pts, _receiver_materials(scene))
+    caustic = CausticPass(index).render(pts, receiver_materials(scene.objects))
     np.testing.assert_array_equal(r.caustic, caustic)
     np.testing.assert_array_equal(r.direct, direct_light(pts, scene.objects, scene.lights,
                                                          rays).astype(np.float32))

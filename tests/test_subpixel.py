@@ -1,5 +1,5 @@
 """Shading points inside pixels (blockhash.render.subpixel) and the done-when check's
-pixel means (blockhash.tradeoff.sampling)."""
+pixel means (blockhash.studies.sampling)."""
 
 from pathlib import Path
 
@@ -7,9 +7,11 @@ import numpy as np
 import pytest
 
 from blockhash.errors import InputError
-from blockhash.render.lighttrace import Pinhole
-from blockhash.render.scene_toml import load_scene
+from blockhash.scene.camera import Pinhole
+from blockhash.scene.loader import load_scene
 from blockhash.render.subpixel import raycast_gbuffer, subpixel_points
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
@@ -103,7 +105,7 @@ def test_estimate_images_in_chunks_equal_one_search_and_only_fill_what_was_asked
 
     from blockhash.render.caustic import Neighbours
     from blockhash.render.estimate import EstimateOptions
-    from blockhash.tradeoff.estimates import estimate_images
+    from blockhash.studies.estimates import estimate_images
 
     index = surfaces([(4000, 1, 0.0, FLOOR)], k=10)
     pts = floor_points(12, 10)
@@ -122,7 +124,7 @@ def test_estimate_images_in_chunks_equal_one_search_and_only_fill_what_was_asked
 
 @pytest.fixture(scope="module")
 def small_study(tmp_path_factory):
-    from blockhash.tradeoff.sampling import done_when_study
+    from blockhash.studies.sampling import done_when_study
 
     return done_when_study(load_scene(SCENES / "corner.toml"), photons=3_000, ks=(20,), size=(24, 24),
                            samples=2, seeds=(1, 2, 3), refine=5, refine_samples=4,
@@ -131,7 +133,7 @@ def small_study(tmp_path_factory):
 
 
 def test_done_when_study_rows_summary_and_tables(small_study):
-    from blockhash.tradeoff.sampling import context_table, done_when_table, options, summary
+    from blockhash.studies.sampling import context_table, done_when_table, options, summary
 
     rows = small_study["rows"]
     labels = [o.label for o in options()]
@@ -154,11 +156,11 @@ def test_done_when_study_rows_summary_and_tables(small_study):
 
 def test_refinement_replaces_only_the_most_uneven_pixels_with_fresh_points():
     from blockhash.index.block_hash_index import BlockHashIndex
-    from blockhash.render.lighttrace import lambertian
-    from blockhash.render.pipeline import _receiver_materials
+    from blockhash.reference.lighttrace import lambertian
+    from blockhash.scene.materials import receiver_materials
     from blockhash.render.shading import SceneRays
-    from blockhash.render.tracing import trace_caustic_photons
-    from blockhash.tradeoff.sampling import options, pixel_means, refine_seed
+    from blockhash.photons.tracing import trace_caustic_photons
+    from blockhash.studies.sampling import options, pixel_means, refine_seed
 
     scene = lambertian(load_scene(SCENES / "ring.toml"))
     pm = trace_caustic_photons(scene, 5_000, seed=1)
@@ -166,7 +168,7 @@ def test_refinement_replaces_only_the_most_uneven_pixels_with_fresh_points():
                            powers=pm.powers)
     rays = SceneRays(scene.objects)
     mask = np.ones((20, 20), bool)
-    args = (scene, index, rays, _receiver_materials(scene), index.query, 20, options(), mask)
+    args = (scene, index, rays, receiver_materials(scene.objects), index.query, 20, options(), mask)
     plain, n0 = pixel_means(*args, size=(20, 20), samples=3, seed=4, refine=0)
     refined, n = pixel_means(*args, size=(20, 20), samples=3, seed=4, refine=7, refine_samples=6)
     assert n0 == 0 and n == 7
@@ -209,7 +211,7 @@ def test_the_k_nearest_estimate_adds_flux_at_a_fold_and_less_with_more_photons()
 
 
 def test_verdict_reads_two_standard_errors_of_the_seeds_and_the_reference():
-    from blockhash.tradeoff.sampling import verdict
+    from blockhash.studies.sampling import verdict
 
     def s(flux, se, blur=0.02, blur_se=0.001):
         return {"flux": flux, "flux_se": se, "flux_region": flux, "flux_region_se": se,

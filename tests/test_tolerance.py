@@ -7,8 +7,10 @@ import pytest
 
 from blockhash.cli import main
 from blockhash.errors import InputError
-from blockhash.render.scene_toml import load_scene
-from blockhash.render.tolerance import FLOORS, _round_up, seed_tolerances
+from blockhash.scene.loader import load_scene
+from blockhash.evaluate.tolerance import FLOORS, _round_up, seed_tolerances
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 RING = Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"
 SETTINGS = dict(seeds=3, photons=4000, size=(32, 32), k=20)

@@ -1,4 +1,4 @@
-"""The trade study (blockhash.tradeoff) on a tiny ring study: keys, trends, report, errors."""
+"""The trade study (blockhash.studies) on a tiny ring study: keys, trends, report, errors."""
 
 from __future__ import annotations
 
@@ -10,11 +10,13 @@ import numpy as np
 import pytest
 
 from blockhash.errors import InputError
-from blockhash.render.scene_toml import load_scene
-from blockhash.tradeoff.claims import check_claims
-from blockhash.tradeoff.measure import flux_ratio, masked_blur, rel_rms
-from blockhash.tradeoff.report import pareto_front, write_study
-from blockhash.tradeoff.sweep import QUICK, SweepPlan, run_sweep, with_plan
+from blockhash.scene.loader import load_scene
+from blockhash.studies.claims import check_claims
+from blockhash.studies.measure import flux_ratio, masked_blur, rel_rms
+from blockhash.studies.report import pareto_front, write_study
+from blockhash.studies.sweep import QUICK, SweepPlan, run_sweep, with_plan
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 RING = Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"
 #: Smaller than --quick: CPU engine (no shader compiles), 32 x 32, three photon counts.

@@ -5,7 +5,7 @@ photons agrees with the reference within 3% in total caustic flux".  Every Phong
 material's ks is set to 0 (Lambertian receivers); the caustic layer is rendered at
 ``--supersample`` times the size and box-filtered; exact kNN is scipy's cKDTree on the
 photon map, BH the CPU reference of the caustic pass (the shader's neighbours); the
-reference is :func:`blockhash.render.lighttrace.light_trace`, cached.  Flux ratios and
+reference is :func:`blockhash.reference.lighttrace.light_trace`, cached.  Flux ratios and
 blurred relative RMS are taken over the reference's comparison mask (receivers seen
 directly; caustics seen in mirrors are in neither sum).
 
@@ -24,14 +24,14 @@ import numpy as np
 from blockhash import BlockHashIndex
 from blockhash.render.caustic import estimate_cpu, estimate_exact
 from blockhash.render.gbuffer import rasterize
-from blockhash.render.lighttrace import cached_reference, lambertian
-from blockhash.render.pipeline import _receiver_materials
-from blockhash.render.scene import MirrorMaterial
-from blockhash.render.scene_toml import load_scene
+from blockhash.reference.lighttrace import cached_reference, lambertian
+from blockhash.scene.materials import receiver_materials
+from blockhash.scene.model import MirrorMaterial
+from blockhash.scene.loader import load_scene
 from blockhash.render.shading import SceneRays, shading_points
-from blockhash.render.tracing import trace_caustic_photons
-from blockhash.tradeoff.measure import errors_against
-from blockhash.tradeoff.sweep import box_down
+from blockhash.photons.tracing import trace_caustic_photons
+from blockhash.studies.measure import errors_against
+from blockhash.studies.sweep import box_down
 
 
 def main() -> None:
@@ -61,7 +61,7 @@ def main() -> None:
           f"{mask.sum():,} pixels compared, reference flux standard error {noise:.2%}")
     g = rasterize(scene.camera, scene.objects, size=(w * ss, h * ss))
     points = shading_points(scene.camera, g, scene.objects, SceneRays(scene.objects), (MirrorMaterial,))
-    materials = _receiver_materials(scene)
+    materials = receiver_materials(scene.objects)
     print(f"{'method':<22} {'N':>10} {'flux / reference':>17} {'rel RMS':>8} {'rel RMS (2 px blur)':>20}")
     for n in (int(float(v)) for v in args.photons.split(",")):
         photons = trace_caustic_photons(scene, n, seed=args.seed)

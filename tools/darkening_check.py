@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from blockhash.render.images import read_layers
-from blockhash.render.lighttrace import cached_reference, lambertian
-from blockhash.render.scene_toml import load_scene
-from blockhash.tradeoff.measure import errors_against
+from blockhash.reference.lighttrace import cached_reference, lambertian
+from blockhash.scene.loader import load_scene
+from blockhash.studies.measure import errors_against
 
 
 def load(study_dir: Path, cache: str):

@@ -6,12 +6,12 @@
 
 Every Phong ks is set to 0 (Lambertian receivers).  For each scene, N and k one photon
 map and one Block Hashing search per shading point; every option of
-blockhash.tradeoff.estimates.default_options() is evaluated on those neighbours.  Prints
+blockhash.studies.estimates.default_options() is evaluated on those neighbours.  Prints
 one line per row, writes the rows as JSON (--json) and the markdown tables (--markdown;
 --from-json FILE prints them again from a saved study).  --jitter SEED places the shading
 points by stratified jitter instead of the rasterised grid.
 
---done-when is the issue's check (blockhash.tradeoff.sampling): ring, venus and corner at
+--done-when is the issue's check (blockhash.studies.sampling): ring, venus and corner at
 N = 10^6, k = 50, pixel means from 8 x 8 jittered shading points per pixel with the 100
 most uneven pixels estimated again at 32 x 32, over jitter seeds 1 to 8, the paper's
 estimate and the default, with each measure's mean and standard error over the seeds.
@@ -34,9 +34,9 @@ def _ints(text):
 
 
 def _done_when(args, studies):
-    from blockhash.render import scene_toml
-    from blockhash.tradeoff.estimates import default_options
-    from blockhash.tradeoff.sampling import context_table, done_when_study, done_when_table
+    from blockhash.scene import loader as scene_toml
+    from blockhash.studies.estimates import default_options
+    from blockhash.studies.sampling import context_table, done_when_study, done_when_table
 
     for name in [] if args.from_json else (args.scenes or "ring,venus,corner").split(","):
         scene = scene_toml.load_scene(ROOT / "scenes" / f"{name}.toml")
@@ -55,8 +55,8 @@ def _done_when(args, studies):
 
 
 def main() -> int:
-    from blockhash.render import scene_toml
-    from blockhash.tradeoff.estimates import (markdown_table, option_table, study_scene,
+    from blockhash.scene import loader as scene_toml
+    from blockhash.studies.estimates import (markdown_table, option_table, study_scene,
                                               summary_table)
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -25,16 +25,16 @@ sys.path.insert(0, str(ROOT))
 
 from blockhash import BlockHashIndex  # noqa: E402
 from blockhash.render.caustic import CausticPass  # noqa: E402
-from blockhash.render.lighttrace import cached_reference, lambertian  # noqa: E402
+from blockhash.reference.lighttrace import cached_reference, lambertian  # noqa: E402
 from blockhash.render.photon_radius import exact_radii2, own_radii2  # noqa: E402
-from blockhash.render.pipeline import _receiver_materials  # noqa: E402
-from blockhash.render.scene_toml import load_scene  # noqa: E402
+from blockhash.scene.materials import receiver_materials  # noqa: E402
+from blockhash.scene.loader import load_scene  # noqa: E402
 from blockhash.render.subpixel import SPP_SEED, box_filter, raycast_gbuffer, spp_side  # noqa: E402
 from blockhash.render.shading import SceneRays, shading_points  # noqa: E402
-from blockhash.render.scene import MirrorMaterial  # noqa: E402
-from blockhash.render.tracing import trace_caustic_photons  # noqa: E402
-from blockhash.tradeoff.estimates import caustic_region, measure  # noqa: E402
-from blockhash.tradeoff.measure import rel_rms  # noqa: E402
+from blockhash.scene.model import MirrorMaterial  # noqa: E402
+from blockhash.photons.tracing import trace_caustic_photons  # noqa: E402
+from blockhash.studies.estimates import caustic_region, measure  # noqa: E402
+from blockhash.studies.measure import rel_rms  # noqa: E402
 
 
 def timed(fn):
@@ -74,7 +74,7 @@ def main(argv=None) -> int:
         points = shading_points(scene.camera, g, scene.objects, rays, (MirrorMaterial,))
         images = {}
         for name, radii in (("own", own_radii2), ("exact", exact_radii2)):
-            img = CausticPass(index, radii=radii).render(points, _receiver_materials(scene))
+            img = CausticPass(index, radii=radii).render(points, receiver_materials(scene.objects))
             images[name] = box_filter(img, side)
             m = measure(images[name], ref.radiance, mask, region)
             print(f"  {name:>5} radii: flux {m['flux']:.4f}  blurred rel. RMS "

@@ -16,8 +16,8 @@ import warnings
 
 from blockhash import BlockHashIndex
 from blockhash.index.metrics import accuracy, exact_knn
-from blockhash.render.scene_toml import load_scene
-from blockhash.render.tracing import trace_caustic_photons
+from blockhash.scene.loader import load_scene
+from blockhash.photons.tracing import trace_caustic_photons
 
 
 def main() -> None:

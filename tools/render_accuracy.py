@@ -15,11 +15,12 @@ import numpy as np
 
 from blockhash.render.caustic import estimate_exact
 from blockhash.render.gbuffer import rasterize
-from blockhash.render.pipeline import _receiver_materials, render_scene
-from blockhash.render.scene import MirrorMaterial
-from blockhash.render.scene_toml import load_scene
+from blockhash.render.pipeline import render_scene
+from blockhash.scene.materials import receiver_materials
+from blockhash.scene.model import MirrorMaterial
+from blockhash.scene.loader import load_scene
 from blockhash.render.shading import SceneRays, shading_points
-from blockhash.render.tracing import trace_caustic_photons
+from blockhash.photons.tracing import trace_caustic_photons
 
 
 def main() -> None:
@@ -42,7 +43,7 @@ def main() -> None:
     for A in (int(a) for a in args.A.split(",")):
         r = render_scene(scene, photon_map=photons, A=A, size=size)
         if exact is None:
-            exact = estimate_exact(r.index, points, _receiver_materials(scene), gpu=False)
+            exact = estimate_exact(r.index, points, receiver_materials(scene.objects), gpu=False)
         err = np.sqrt(np.mean((r.caustic - exact) ** 2)) / np.sqrt(np.mean(exact ** 2))
         print(f"{A:>3} {err:>13.4f} {r.caustic.mean() / exact.mean():>14.4f} "
               f"{r.timings['caustic']:>15.2f}", flush=True)

@@ -227,11 +227,11 @@ def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_00
     from blockhash.gl.shaderlib import recording
     from blockhash.render.caustic import STAGES, CausticPass
     from blockhash.render.gbuffer import rasterize
-    from blockhash.render.pipeline import _receiver_materials
-    from blockhash.render.scene import MirrorMaterial
-    from blockhash.render.scene_toml import load_scene
+    from blockhash.scene.materials import receiver_materials
+    from blockhash.scene.model import MirrorMaterial
+    from blockhash.scene.loader import load_scene
     from blockhash.render.shading import SceneRays, shading_points
-    from blockhash.render.tracing import trace_caustic_photons
+    from blockhash.photons.tracing import trace_caustic_photons
 
     sc = load_scene(scene)
     pm = trace_caustic_photons(sc, photons, seed=sc.photons.seed)
@@ -248,7 +248,7 @@ def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_00
         cp = CausticPass(ix, backend=backend)
         for stage in STAGES:
             with recording() as got:
-                cp.time_stages(points, _receiver_materials(sc), k=k, A=A, repeat=1, warmup=0,
+                cp.time_stages(points, receiver_materials(sc.objects), k=k, A=A, repeat=1, warmup=0,
                                stages=(stage,))
             out[f"caustic {name}: {stage}"] = _largest(got)
     return out

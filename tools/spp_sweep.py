@@ -4,7 +4,7 @@ For each scene (Lambertian receivers: every ks set to 0, :func:`lighttrace.lambe
 one photon map is traced (the scene's seed, ``--photons`` stored), and the caustic layer is
 rendered the way ``blockhash render`` renders it (``render_scene``, the default lookup and
 estimate) at each spp.  Each image is compared with the light tracer's pixel means
-(``render/lighttrace.py``, ``--reference`` photons shot, cached under ``--cache``) on the
+(``blockhash/reference/lighttrace.py``, ``--reference`` photons shot, cached under ``--cache``) on the
 pixels whose view ray meets a diffuse surface first (``comparison_mask``):
 
 * ``flux``: caustic flux ratio, sum(render) / sum(reference);
@@ -28,16 +28,15 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from blockhash.render.lighttrace import cached_reference, lambertian  # noqa: E402
+from blockhash.reference.lighttrace import cached_reference, lambertian  # noqa: E402
 from blockhash.render.pipeline import render_scene  # noqa: E402
-from blockhash.render.scene_toml import load_scene  # noqa: E402
-from blockhash.render.tracing import trace_caustic_photons  # noqa: E402
-from blockhash.tradeoff.estimates import caustic_region, measure  # noqa: E402
+from blockhash.scene.loader import load_scene  # noqa: E402
+from blockhash.photons.tracing import trace_caustic_photons  # noqa: E402
+from blockhash.studies.estimates import caustic_region, measure  # noqa: E402
 
 #: Light-tracer photons of the reference: its blurred relative noise in the caustic region
 #: is printed beside every row.

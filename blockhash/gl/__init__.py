@@ -5,6 +5,6 @@ Sits between the index (:mod:`blockhash.index`, which it uploads) and the render
 renderer.  ``GLLookup(index).query(points)`` answers like ``index.query(points)``.
 """
 
-from .lookup import GLLookup
+from blockhash.gl.lookup import GLLookup
 
 __all__ = ["GLLookup"]

@@ -12,7 +12,7 @@ import os
 
 import moderngl
 
-from ..errors import CapacityError, GLUnavailableError
+from blockhash.errors import CapacityError, GLUnavailableError
 
 BACKENDS = ("auto", "egl", "osmesa")
 #: GL 4.5 core: integer textures, texelFetch, SSBO writes from fragment shaders.
@@ -26,7 +26,7 @@ _contexts: dict[str, moderngl.Context] = {}
 def _create(backend: str) -> moderngl.Context:
     if backend == "egl":
         return moderngl.create_standalone_context(backend="egl", require=REQUIRED_GL)
-    from .osmesa import OSMesaLoader
+    from blockhash.gl.osmesa import OSMesaLoader
 
     loader = OSMesaLoader()
     previous = moderngl._store.default_context
@@ -73,6 +73,11 @@ def get_context(backend: str | None = None) -> moderngl.Context:
         "no OpenGL 4.5 context could be created; tried " + "; ".join(failures)
         + f". Install the system packages ({packages}) or choose another backend with "
           "BLOCKHASH_GL=egl|osmesa")
+
+
+def open_contexts() -> dict[str, moderngl.Context]:
+    """The contexts :func:`get_context` has created so far, by backend."""
+    return dict(_contexts)
 
 
 def backend_of(ctx: moderngl.Context) -> str:

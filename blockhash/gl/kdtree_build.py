@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from ..errors import CapacityError
-from ..validate import as_points
+from blockhash.errors import CapacityError
+from blockhash.validate import as_points
 
 #: The node's original index shares a 32-bit word with the split axis (2 bits).
 AXIS_SHIFT = 30

@@ -34,11 +34,11 @@ from __future__ import annotations
 
 import math
 
-from ..errors import CapacityError, InputError
-from ..index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY, walk_taken_bound
-from ..index.params import candidate_cap
-from ..index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
-from .shaderlib import NAMED
+from blockhash.errors import CapacityError, InputError
+from blockhash.index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY, walk_taken_bound
+from blockhash.index.params import candidate_cap
+from blockhash.index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
+from blockhash.gl.shaderlib import NAMED
 
 #: Largest k the lookup shader keeps (the packed selection's unrolled table ends at 128).
 MAX_K = 128
@@ -151,7 +151,7 @@ def check_lookup(ctx, params, variant, k: int, A: int, lookup=None) -> None:
             f"k={k:,} is above the lookup shader's limit MAX_K={MAX_K} (the selection keeps the "
             f"k best in unrolled registers, glsl/bh_select_packed.glsl); use k <= {MAX_K}, or "
             "the CPU query BlockHashIndex.query, or the kd-tree shader (GLKdTree, k <= 512)")
-    from ..index.block_hash_index import resolve_lookup
+    from blockhash.index.block_hash_index import resolve_lookup
 
     if ctx is not None and is_llvmpipe(ctx) and resolve_lookup(params, lookup) == "cells":
         need = cell_loop_iterations(k, A * k)

@@ -31,9 +31,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import CapacityError
-from ..index.blocks import COUNT_WORD, block_boxes  # noqa: F401 (block_boxes: re-exported)
-from .context import check_gl
+from blockhash.errors import CapacityError
+from blockhash.index.blocks import COUNT_WORD, block_boxes  # noqa: F401 (block_boxes: re-exported)
+from blockhash.gl.context import check_gl
 
 
 

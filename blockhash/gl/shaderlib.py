@@ -19,7 +19,7 @@ from dataclasses import dataclass, fields
 from importlib import resources
 from pathlib import Path
 
-from ..errors import GLUnavailableError, InputError, ShaderCompileError
+from blockhash.errors import GLUnavailableError, InputError, ShaderCompileError
 
 GLSL_VERSION = "#version 450 core"
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')

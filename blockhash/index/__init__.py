@@ -9,6 +9,6 @@ that ties them together (:mod:`.block_hash_index`).  :mod:`.metrics` (exact kNN,
 false negatives, dilations) and :mod:`.datasets` (synthetic photon sets) measure it.
 """
 
-from .block_hash_index import BlockHashIndex, IndexStats, OrphanWarning
+from blockhash.index.block_hash_index import BlockHashIndex, IndexStats, OrphanWarning
 
 __all__ = ["BlockHashIndex", "IndexStats", "OrphanWarning"]

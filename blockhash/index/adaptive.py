@@ -67,12 +67,12 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ..errors import InputError
-from .partition import kth_smallest, partition, photon_rows, select
-from .probe import PROBE_SLOTS
-from .probe import spreads as _spreads
-from .taskpool import run_largest_first
-from .thresholds import LEAF, MAX_DEPTH, THRESHOLD_PAD, table_offsets
+from blockhash.errors import InputError
+from blockhash.index.partition import kth_smallest, partition, photon_rows, select
+from blockhash.index.probe import PROBE_SLOTS
+from blockhash.index.probe import spreads as _spreads
+from blockhash.index.taskpool import run_largest_first
+from blockhash.index.thresholds import LEAF, MAX_DEPTH, THRESHOLD_PAD, table_offsets
 
 #: Nodes larger than this take their cut's code from a strided sample of this many photons
 #: (a selection in the sample) instead of a quickselect over all of them.

@@ -4,7 +4,7 @@ The L adaptive tables are kd-trees whose nodes carry tight photon boxes
 (:mod:`blockhash.index.node_boxes`).  A query walks the first ``trees`` of them
 (``BlockHashParams.walk_trees``: 1 for the default preset, L for all) at once, nearest
 box first, and takes the blocks of each bucket it reaches as the hash query does
-(:func:`blockhash.index.query._take`: references in slot order, duplicates skipped,
+(:func:`blockhash.index.query.take_bucket`: references in slot order, duplicates skipped,
 the candidate cap checked before each block).  The walk has no cap on blocks (the
 hash query's ``L * B``): the ``A * k`` cap alone ends it, so with compact blocks (all
 full but the last) it takes at most ``ceil(A k / 10) + 1`` blocks (:func:`walk_taken_bound`;
@@ -45,10 +45,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .blocks import block_boxes
-from .node_boxes import box_dist2
-from .query import _take, _unpack
-from .thresholds import LEAF
+from blockhash.index.blocks import block_boxes
+from blockhash.index.node_boxes import box_dist2
+from blockhash.index.query import take_bucket, unpack_selection
+from blockhash.index.thresholds import LEAF
 
 #: Entries the walk's queue holds (glsl/bh_walk.glsl BH_QUEUE; a multiple of 32, the
 #: shader's unrolled scan chunk).  At N = 10^6, k = 50 the queue held at most 172
@@ -213,7 +213,7 @@ def _bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bit
                 if leaves >= max_leaves:
                     break
                 leaves += 1
-                ntaken, count = _take(t, np.int64(meta >> 3), refs, starts, positions, qx, qy, qz,
+                ntaken, count = take_bucket(t, np.int64(meta >> 3), refs, starts, positions, qx, qy, qz,
                                       taken, ntaken, count, cap, k, bd, bs, packed, mask,
                                       slot_bits, bits, bits_u, cbox, clo, cstep)
                 continue
@@ -227,7 +227,7 @@ def _bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bit
                         drops[qi] += dropped
             longest[qi] = max(longest[qi], size)
         if slot_bits > 0:
-            _unpack(packed, mask, taken, starts, positions, qx, qy, qz, k, bd, bs)
+            unpack_selection(packed, mask, taken, starts, positions, qx, qy, qz, k, bd, bs)
         examined[qi] = count
         fetched[qi] = ntaken
     return d2, slots, examined, fetched, pops, drops, longest

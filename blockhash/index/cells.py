@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from ..errors import CapacityError
+from blockhash.errors import CapacityError
 
 #: Hilbert key bits per axis (:data:`.hilbert.KEY_BITS_PER_AXIS`): cells sit on codes >> 11.
 CODE_SHIFT = 11

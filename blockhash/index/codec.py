@@ -32,9 +32,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError, InputTypeError
-from .fixedpoint import Quantizer
-from ..validate import as_points
+from blockhash.errors import InputError, InputTypeError
+from blockhash.index.fixedpoint import Quantizer
+from blockhash.validate import as_points
 
 #: 32-bit words per photon record (Figure 4): x, y, z, d|n, c1|c2, c3|c4.
 WORDS_PER_PHOTON = 6

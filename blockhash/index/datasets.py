@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..validate import as_int
+from blockhash.validate import as_int
 
 #: Seed of the fixed geometry of the clustered and caustic-like distributions.
 LAYOUT_SEED = 20021

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from ..errors import InputError
-from ..validate import as_points
+from blockhash.errors import InputError
+from blockhash.validate import as_points
 
 #: Codes per axis: positions map to [0, 2**32).
 CODE_RANGE = 2.0**32
@@ -189,3 +189,16 @@ def _encode(p, lo, step):
                 if first_bad < 0:
                     first_bad = r
     return codes, first_bad
+
+
+def min_radius(index) -> float:
+    """The smallest radius the density estimate divides by, for an index (anything with a
+    ``quantizer``): the photon map's decode error bound (:attr:`Quantizer.decode_error`,
+    largest axis).  Photon positions are not known more closely, and the floor keeps ``Phi / (pi r^2)`` finite where the k
+    nearest photons coincide with the shading point (r = 0 would give 0 or inf)."""
+    return float(index.quantizer.decode_error.max())
+
+
+def min_r2(index) -> float:
+    """``min_radius(index) ** 2`` rounded to float32, as the shader receives it."""
+    return float(np.float32(min_radius(index) ** 2))

@@ -26,8 +26,8 @@ import itertools
 import numba
 import numpy as np
 
-from ..errors import InputError
-from ..validate import as_int
+from blockhash.errors import InputError
+from blockhash.validate import as_int
 
 #: Bits per axis used for the key: 3 * 21 = 63 bits fit an unsigned 64-bit key.
 #: 21 bits over the photon box is a 1/2,097,152 step (0.5 um over 1 m), far finer

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..validate import as_int, as_points
+from blockhash.validate import as_int, as_points
 
 #: Percentiles reported by :func:`summarize`.
 PERCENTILES = (50, 90, 99)

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .thresholds import LEAF, THRESHOLD_PAD
+from blockhash.index.thresholds import LEAF, THRESHOLD_PAD
 
 #: Words per node box: lo x, y, z, hi x, y, z (float32).
 BOX_WORDS = 6

@@ -39,10 +39,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .blocks import PHOTONS_PER_BLOCK
-from ..errors import CapacityError, InputError
-from .thresholds import ThresholdLayout
-from ..validate import as_int
+from blockhash.index.blocks import PHOTONS_PER_BLOCK
+from blockhash.errors import CapacityError, InputError
+from blockhash.index.thresholds import ThresholdLayout
+from blockhash.validate import as_int
 
 PRESETS = ("default", "paper")
 #: Upper limits that keep the tables addressable and the shader's arrays small.

@@ -43,8 +43,8 @@ from typing import Callable
 
 import numpy as np
 
-from ..validate import as_int
-from .datasets import LAYOUT_SEED, caustic_like, clustered, uniform
+from blockhash.validate import as_int
+from blockhash.index.datasets import LAYOUT_SEED, caustic_like, clustered, uniform
 
 Sampler = Callable[[int, np.random.Generator], np.ndarray]
 

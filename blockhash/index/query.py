@@ -34,7 +34,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .thresholds import PROBE_CUTS, adaptive_bucket_of, adaptive_descend, bucket_of
+from blockhash.index.thresholds import PROBE_CUTS, adaptive_bucket_of, adaptive_descend, bucket_of
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -67,7 +67,7 @@ def block_gap2(cbox, blk, lo, step, qx, qy, qz):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _take(ti, key, refs, starts, positions, qx, qy, qz, taken, ntaken, count, cap, k, bd, bs,
+def take_bucket(ti, key, refs, starts, positions, qx, qy, qz, taken, ntaken, count, cap, k, bd, bs,
           packed, mask, slot_bits, bits, bits_u, cbox, clo, cstep):
     """Take the blocks of bucket ``key`` of table ``ti`` not yet taken, while under the cap.
 
@@ -131,7 +131,7 @@ def _take(ti, key, refs, starts, positions, qx, qy, qz, taken, ntaken, count, ca
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def _unpack(packed, mask, taken, starts, positions, qx, qy, qz, k, bd, bs):
+def unpack_selection(packed, mask, taken, starts, positions, qx, qy, qz, k, bd, bs):
     """The packed selection's keys (distance bits | candidate number) back to float32
     distances and photon slots, nearest first, into bd and bs."""
     for i in range(k):
@@ -232,7 +232,7 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
         qz = qpos[qi, 2]
         for oi in range(L):
             t = order[oi]
-            ntaken, count = _take(t, keys[t], refs, starts, positions, qx, qy, qz, taken, ntaken,
+            ntaken, count = take_bucket(t, keys[t], refs, starts, positions, qx, qy, qz, taken, ntaken,
                                   count, cap, k, bd, bs, packed, mask, slot_bits, bits, bits_u,
                                   nocull, nolo, nolo)
         if probe and adaptive:
@@ -248,11 +248,11 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
                     pc[cut_axis[t, j]] = cut_code[t, j]
                     key = adaptive_bucket_of(thresholds[t], pc[0], pc[1], pc[2])
                     if key != keys[t]:
-                        ntaken, count = _take(t, key, refs, starts, positions, qx, qy, qz, taken,
+                        ntaken, count = take_bucket(t, key, refs, starts, positions, qx, qy, qz, taken,
                                               ntaken, count, cap, k, bd, bs, packed, mask,
                                               slot_bits, bits, bits_u, nocull, nolo, nolo)
         if slot_bits > 0:
-            _unpack(packed, mask, taken, starts, positions, qx, qy, qz, k, bd, bs)
+            unpack_selection(packed, mask, taken, starts, positions, qx, qy, qz, k, bd, bs)
         examined[qi] = count
         fetched[qi] = ntaken
     return d2, slots, examined, fetched

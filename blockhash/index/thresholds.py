@@ -46,7 +46,7 @@ from enum import IntEnum
 import numba
 import numpy as np
 
-from ..errors import InputError
+from blockhash.errors import InputError
 
 #: Padding for thresholds of empty slabs: codes never reach 2**32 - 1 (the box is
 #: padded, and query codes saturate at 2**32 - 256), so a padded slot never counts.

@@ -1,9 +1,8 @@
-"""The caustic renderer: scenes to images, with the index and the GL side below it.
+"""The frame: takes a scene, its photons and their index; gives the image and its layers.
 
-In the order a scene flows through it: the scene model and its TOML loader
-(:mod:`.scene`, :mod:`.scene_toml`, :mod:`.scene_values`, :mod:`.meshes`), ray
-casting (:mod:`.raycast`), photon emission and tracing (:mod:`.emission`,
-:mod:`.tracing`), the G-buffer and shading points (:mod:`.gbuffer`,
-:mod:`.shading`), the caustic pass (:mod:`.caustic`), the pipeline that runs them
-(:mod:`.pipeline`), and image files (:mod:`.images`, :mod:`.preview`).
+In the order a frame is made: the G-buffer and the camera's samples
+(:mod:`.gbuffer`, :mod:`.subpixel`), shading points and direct light
+(:mod:`.shading`), the photon radii and the density estimate (:mod:`.photon_radius`,
+:mod:`.estimate`), the caustic pass in the fragment shader (:mod:`.caustic`), the
+pipeline that runs them (:mod:`.pipeline`) and image files (:mod:`.images`).
 """

@@ -20,27 +20,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..index.codec import decode_directions, decode_powers, unpack_records
-from ..errors import InputError
-from .estimate import EstimateOptions, photon_weights
-from .photon_radius import exact_radii2, own_radii2
-from ..gl.context import bind_textures, check_gl, draw_timed, home_framebuffer, time_draws
-from ..gl.limits import check_lookup
-from ..gl.lookup import GLLookup, query_slot_bits
-from ..gl.shaderlib import Variant
-
-def min_radius(index) -> float:
-    """The smallest radius the density estimate divides by: the photon map's decode
-    error bound (:attr:`Quantizer.decode_error`, largest axis).  Photon positions are
-    not known more closely, and the floor keeps ``Phi / (pi r^2)`` finite where the k
-    nearest photons coincide with the shading point (r = 0 would give 0 or inf)."""
-    return float(index.quantizer.decode_error.max())
-
-
-def min_r2(index) -> float:
-    """``min_radius(index) ** 2`` rounded to float32, as the shader receives it."""
-    return float(np.float32(min_radius(index) ** 2))
-
+from blockhash.index.codec import decode_directions, decode_powers, unpack_records
+from blockhash.errors import InputError
+from blockhash.render.estimate import EstimateOptions, photon_weights
+from blockhash.scene.materials import material_arrays, phong_brdf
+from blockhash.index.fixedpoint import min_r2
+from blockhash.render.photon_radius import exact_radii2, own_radii2
+from blockhash.gl.context import bind_textures, check_gl, draw_timed, home_framebuffer, time_draws
+from blockhash.gl.limits import check_lookup
+from blockhash.gl.lookup import GLLookup, query_slot_bits
+from blockhash.gl.shaderlib import Variant
 
 #: Materials a caustic pass can hold (uniform arrays in caustic_pass.frag).
 MAX_MATERIALS = 16
@@ -68,13 +57,6 @@ class ShadingPoints:
         return self.material.shape
 
 
-def phong_brdf(wi, wo, n, kd, ks, e):
-    """Modified Phong f_r, vectorised: all (m, 3) except e (m,). Returns (m, 3)."""
-    r = 2.0 * np.sum(n * wi, axis=1, keepdims=True) * n - wi
-    c = np.maximum(np.sum(r * wo, axis=1), 0.0)
-    return kd / np.pi + ks * ((e + 2.0) / (2.0 * np.pi) * c ** e)[:, None]
-
-
 def estimate_cpu(index, points: ShadingPoints, materials, *, k=None, A=None,
                  variant: str = "default", options: EstimateOptions | None = None) -> np.ndarray:
     """The CPU reference of the caustic pass: (h, w, 3) float64 radiance.
@@ -98,12 +80,12 @@ def estimate_exact(index, points: ShadingPoints, materials, *, k=None, backend=N
     """The caustic with the exact k nearest photons: the kd-tree shader (``gpu``) or cKDTree."""
     k = index.params.k if k is None else k
     if gpu:
-        from ..gl.kdtree import GLKdTree
+        from blockhash.gl.kdtree import GLKdTree
 
         tree = GLKdTree(index.positions, backend=backend)
         return estimate_from_neighbours(index, points, materials, lambda q: tree.query(q, k), k,
                                         options=options, radii=exact_radii2)
-    from ..index.metrics import exact_knn
+    from blockhash.index.metrics import exact_knn
 
     return estimate_from_neighbours(index, points, materials,
                                     lambda q: exact_knn(index.positions, q, k), k, options=options,
@@ -197,14 +179,11 @@ class Neighbours:
 
 
 def _material_table(materials):
-    """[(kd, ks, exponent)] -> (kd (M,3), ks (M,3), e (M,)) float64."""
+    """[(kd, ks, exponent)] -> (kd (M,3), ks (M,3), e (M,)) float64, within the pass's uniforms."""
     if len(materials) > MAX_MATERIALS:
         raise InputError(f"{len(materials)} receiver materials > {MAX_MATERIALS} that the caustic "
                          "pass holds; merge materials")
-    kd = np.array([m[0] for m in materials], dtype=np.float64).reshape(-1, 3)
-    ks = np.array([m[1] for m in materials], dtype=np.float64).reshape(-1, 3)
-    e = np.array([m[2] for m in materials], dtype=np.float64).reshape(-1)
-    return kd, ks, e
+    return material_arrays(materials)
 
 
 #: Stages of the caustic pass that ``CausticPass.time_stages`` times, each a program of
@@ -266,8 +245,8 @@ class CausticPass:
 
     def _own_radii(self, k: int):
         """The texture of the photons' own squared radii for k neighbours, uploaded once."""
-        from ..gl.packing import upload
-        from .photon_radius import slot_radii2
+        from blockhash.gl.packing import upload
+        from blockhash.render.photon_radius import slot_radii2
 
         if k not in self._own:
             with self.ctx:
@@ -278,7 +257,7 @@ class CausticPass:
     @contextmanager
     def _pass(self, points: ShadingPoints, materials, k, A, variant, stage, options=None):
         """The program of ``stage`` with its inputs bound, and the output framebuffer."""
-        from ..gl.shaderlib import compile_program
+        from blockhash.gl.shaderlib import compile_program
 
         prm = self.index.params
         k = prm.k if k is None else k

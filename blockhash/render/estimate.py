@@ -51,7 +51,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from blockhash.errors import InputError
 
 #: Estimate forms, numbered as glsl/caustic_estimate.glsl's CAUSTIC_ESTIMATE.
 ESTIMATES = ("paper", "unbiased", "conserving")

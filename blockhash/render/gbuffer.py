@@ -12,8 +12,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import CapacityError
-from ..gl.context import check_gl, get_context, home_framebuffer
+from blockhash.errors import CapacityError
+from blockhash.gl.context import check_gl, get_context, home_framebuffer
 
 VERTEX = """#version 450 core
 uniform mat4 view_proj;

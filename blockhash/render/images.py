@@ -1,9 +1,8 @@
-"""Image files: multi-layer EXR and tone-mapped PNG (OpenImageIO), and pixel comparison.
+"""Image files: multi-layer EXR and tone-mapped PNG (OpenImageIO).
 
 EXR channels are named ``layer.R``, ``layer.G``, ``layer.B`` (layers ``direct``,
-``caustic``, ``combined``).  Comparison (RMS, relative RMS,
-max error, FLIP per layer, with limits and masks) lives in
-:mod:`blockhash.render.imagediff`; :func:`compare_images` is its short form.
+``caustic``, ``combined``).  Comparison (RMS, relative RMS, max error, FLIP per layer,
+with limits and masks) lives in :mod:`blockhash.evaluate.imagediff`.
 """
 
 from __future__ import annotations
@@ -13,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from ..errors import InputError
+from blockhash.errors import InputError
 
 CHANNELS = ("R", "G", "B")
 
@@ -106,17 +105,3 @@ def read_layers(path) -> dict[str, np.ndarray]:
     for layer, idx in alphas.items():
         layers.setdefault(layer, idx)
     return {layer: pixels[..., idx] for layer, idx in layers.items()}
-
-
-def compare_images(path_a, path_b, *, diff_path=None) -> dict[str, dict]:
-    """Per layer: rms, relative rms (to B), max and mean error, mean FLIP; optional |A-B| EXR.
-
-    The images must have the same layers and size; :mod:`blockhash.render.imagediff`
-    has the limits, masks and error maps.
-    """
-    from .imagediff import compare_layers
-
-    result = compare_layers(path_a, path_b)
-    if diff_path:
-        write_exr(diff_path, {name: np.abs(result.a[name] - result.b[name]) for name in result.a})
-    return result.metrics

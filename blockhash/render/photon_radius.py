@@ -2,7 +2,7 @@
 
 The ``conserving`` estimate (:mod:`.estimate`) spreads every photon over a disc of its
 own radius h_p, fixed before rendering: the distance from the photon to its j-th nearest
-other photon, floored at the photon map's position error (:func:`.caustic.min_radius`).
+other photon, floored at the photon map's position error (:func:`blockhash.index.fixedpoint.min_radius`).
 Because h_p belongs to the photon and not to the shading point, each photon's filter
 integrates to its power over its surface (Silverman's sample-point estimator, 1986,
 section 5.3.2), whatever the density beside it: the estimate puts no extra light beside
@@ -37,7 +37,8 @@ import weakref
 
 import numpy as np
 
-from ..errors import InputError
+from blockhash.errors import InputError
+from blockhash.index.fixedpoint import min_r2
 
 #: Photons queried at once for their radii (the answers of a chunk are (chunk, j + 1)).
 RADII_CHUNK = 1 << 18
@@ -87,7 +88,6 @@ def _radii2(index, j: int, jth, kind: str) -> np.ndarray:
     nearest other photon (its (rank + 1)-th nearest, itself first), floored at the map's
     position error; in float32 steps, as the shader reads them.  Cached per index, j and
     ``kind``."""
-    from .caustic import min_r2
 
     per_index = _CACHE.setdefault(index, {})
     if (kind, j) in per_index:
@@ -107,7 +107,7 @@ def slot_radii2(index, k: int, radii=None) -> np.ndarray:
     """(slots,) float32 squared radii (``radii(index, k)``, default :func:`own_radii2`) in
     block slot order (block b, photon i: slot 10 b + i), as the caustic pass reads them by
     the slot that its lookup returns; 0 in empty slots."""
-    from ..index.blocks import PHOTONS_PER_BLOCK
+    from blockhash.index.blocks import PHOTONS_PER_BLOCK
 
     r2 = (radii or own_radii2)(index, k)
     out = np.zeros(len(index.block_words) * PHOTONS_PER_BLOCK, dtype=np.float32)

@@ -16,15 +16,17 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .caustic import CausticPass, estimate_cpu, estimate_exact
-from .estimate import EstimateOptions
-from ..errors import InputError
-from ..gl.limits import MAX_K
-from .gbuffer import rasterize
-from ..index.block_hash_index import BlockHashIndex
-from .photon_radius import exact_radii2, own_radii2
-from .shading import SceneRays, direct_light, shading_points
-from .subpixel import DEFAULT_SPP, SPP_SEED, box_filter, raycast_gbuffer, spp_side
+from blockhash.render.caustic import CausticPass, estimate_cpu, estimate_exact
+from blockhash.render.estimate import EstimateOptions
+from blockhash.scene.materials import receiver_materials
+from blockhash.errors import InputError
+from blockhash.gl.limits import MAX_K
+from blockhash.render.gbuffer import rasterize
+from blockhash.index.block_hash_index import BlockHashIndex
+from blockhash.render.photon_radius import exact_radii2, own_radii2
+from blockhash.render.shading import SceneRays, direct_light, shading_points
+from blockhash.render.subpixel import box_filter, raycast_gbuffer
+from blockhash.scene.camera import DEFAULT_SPP, SPP_SEED, spp_side
 
 METHODS = ("bh", "kdtree", "cpu")
 
@@ -57,23 +59,11 @@ class RenderResult:
         return {"direct": self.direct, "caustic": self.caustic, "combined": self.combined}
 
 
-def _receiver_materials(scene):
-    """Material table of the caustic pass: (kd, ks, exponent) per object, zeros for mirrors."""
-    table = []
-    for obj in scene.objects:
-        m = obj.material
-        if hasattr(m, "kd"):
-            table.append((tuple(m.kd), tuple(m.ks), float(m.n)))
-        else:
-            table.append(((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0))
-    return table
-
-
 def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="default",
                  size=None, seed=None, backend=None, progress=False, photon_map=None,
                  estimate=None, filter=None, normal_cos=None, normal_test=True, disc=None,
                  options=None, spp=None) -> RenderResult:
-    """Render ``scene`` (see :mod:`blockhash.render.scene`).
+    """Render ``scene`` (see :mod:`blockhash.scene.model`).
 
     Parameters
     ----------
@@ -99,14 +89,14 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
         above change single fields of it (default: ``EstimateOptions()``).
     spp : int, optional
         Samples per pixel, a square number S * S (default: the scene's ``[camera] spp``,
-        else :data:`.subpixel.DEFAULT_SPP`).  1 shades the pixel centres the rasteriser
+        else :data:`blockhash.scene.camera.DEFAULT_SPP`).  1 shades the pixel centres the rasteriser
         gives; S * S > 1 casts one ray per cell of an S x S stratified, jittered grid in
-        each pixel (a fixed pattern, :data:`.subpixel.SPP_SEED`), and every sample gets
+        each pixel (a fixed pattern, :data:`blockhash.scene.camera.SPP_SEED`), and every sample gets
         its own hit, direct light and caustic estimate (one caustic pass over all of
         them) before the box filter averages them into pixels.
     """
-    from .scene import MirrorMaterial
-    from .tracing import trace_caustic_photons
+    from blockhash.scene.model import MirrorMaterial
+    from blockhash.photons.tracing import trace_caustic_photons
 
     if method not in METHODS:
         raise InputError(f"method={method!r} is not known; choose one of {', '.join(METHODS)}")
@@ -165,7 +155,7 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
         raise InputError(f"only {stored} caustic photons were stored, fewer than k={k}; "
                          "trace more photons (--photons) or lower --k")
     else:
-        materials = _receiver_materials(scene)
+        materials = receiver_materials(scene.objects)
         t = time.perf_counter()
         if method == "bh":
             caustic = CausticPass(index, backend=backend).render(points, materials, variant=variant,

@@ -1,7 +1,7 @@
 """Shading points and direct light (the non-caustic part of the image).
 
 Ray queries go through the photon tracer's embree scene
-(:class:`blockhash.render.raycast.EmbreeGeometry`, embreex called directly).  Perfect mirrors seen by the camera are resolved by
+(:class:`blockhash.scene.raycast.EmbreeGeometry`, embreex called directly).  Perfect mirrors seen by the camera are resolved by
 reflection: the pixel's shading point moves to what the mirror reflects, with the
 mirror's reflectance as path weight (up to ``MAX_MIRROR_BOUNCES``); glass reflects or
 refracts each shading point's ray by the Fresnel probabilities (up to
@@ -13,9 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .caustic import ShadingPoints, phong_brdf
-from .optics import choice_uniforms, scatter
-from .raycast import RAY_OFFSET, EmbreeGeometry, entering, surface_hits
+from blockhash.render.caustic import ShadingPoints
+from blockhash.scene.materials import phong_brdf
+from blockhash.scene.optics import choice_uniforms, scatter
+from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, surface_hits
 
 #: Mirror-to-mirror reflections followed for camera rays.
 MAX_MIRROR_BOUNCES = 4
@@ -69,14 +70,14 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> S
     """Per-pixel shading points; a pixel that sees a mirror or glass follows the ray.
 
     At a mirror the ray reflects and its path weight takes the reflectance.  At glass
-    (:class:`.scene.DielectricMaterial`) it reflects or refracts with the Fresnel
-    probabilities (:func:`.optics.scatter`, one branch per shading point, chosen by a fixed
+    (:class:`blockhash.scene.model.DielectricMaterial`) it reflects or refracts with the Fresnel
+    probabilities (:func:`blockhash.scene.optics.scatter`, one branch per shading point, chosen by a fixed
     stream of uniforms per point, :data:`CAMERA_CHOICE_SEED`), its weight unchanged in
     expectation; a refraction multiplies it by the glass's tint.  With several samples per
     pixel (:mod:`.subpixel`) the pixel mean averages the branches.  A ray still on a
     specular surface after the last event, or leaving the scene, shades nothing.
     """
-    from .scene import DielectricMaterial
+    from blockhash.scene.model import DielectricMaterial
 
     h, w = gbuffer.object.shape
     pos = gbuffer.position.reshape(-1, 3).astype(np.float64)

@@ -10,42 +10,19 @@ is off by more than its count of points suggests (``docs/radiance-estimate.md``)
 Stratified jitter removes that alignment: each pixel is cut into S x S equal cells and
 each cell gets one point, uniform inside it.  The box-filtered mean is then an unbiased
 estimate of the radiance's mean over the pixel's footprint, the quantity the light
-tracer's reference (:mod:`.lighttrace`) computes, whatever the caustic's shape; several
-seeds give its sampling error.  The film points are those of :class:`.lighttrace.Pinhole`,
+tracer's reference (:mod:`blockhash.reference.lighttrace`) computes, whatever the caustic's shape; several
+seeds give its sampling error.  The film points are those of :class:`blockhash.scene.camera.Pinhole`,
 so the estimate and the reference integrate over the same footprint by construction.
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from .gbuffer import GBuffer
-from ..errors import InputError
-from ..validate import as_int
-
-#: Samples per pixel of a render unless the call or the scene's ``[camera] spp`` says
-#: otherwise; chosen by measurement (BENCHMARKS.md, "Samples per pixel").
-DEFAULT_SPP = 9
-#: Most samples per pixel (a 32 x 32 grid).
-MAX_SPP = 1024
-#: The jitter pattern of every render: fixed, so that an image is the same in every run and
-#: on every backend (the points are cast on the CPU).
-SPP_SEED = 20020901
-
-
-def spp_side(spp, name: str = "spp") -> int:
-    """S for ``spp = S * S`` samples per pixel (stratified in S x S cells); InputError for
-    anything else."""
-    n = as_int(spp, name, minimum=1, maximum=MAX_SPP,
-               hint="give a square number of samples per pixel: 1, 4, 9, 16, ...")
-    side = math.isqrt(n)
-    if side * side != n:
-        raise InputError(f"{name}={n} is not a square number; samples are stratified in S x S "
-                         f"cells per pixel, so use {side * side} or {(side + 1) ** 2}")
-    return side
-
+from blockhash.render.gbuffer import GBuffer
+from blockhash.errors import InputError
+from blockhash.scene.camera import Pinhole
+from blockhash.validate import as_int
 
 def box_filter(image: np.ndarray, side: int) -> np.ndarray:
     """(h * S, w * S, ...) samples -> (h, w, ...) pixel means (the box filter), float32."""
@@ -102,7 +79,6 @@ def raycast_gbuffer(camera, rays, *, size=None, samples: int = 1, seed: int | No
 
     Normals face the camera as the rasteriser turns them; rays that miss get object -1.
     """
-    from .lighttrace import Pinhole
 
     pin = Pinhole.of(camera, size)
     x, y = subpixel_points(pin.width, pin.height, samples, seed, pixels=pixels)

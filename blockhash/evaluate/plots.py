@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from blockhash.errors import InputError
 
 #: Perceptually uniform and readable in grey: FLIP's own heat maps use magma too.
 CMAP = "magma"

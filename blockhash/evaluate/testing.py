@@ -3,8 +3,8 @@
 A reference-image test in five lines::
 
     from blockhash.render.pipeline import render_scene
-    from blockhash.render.scene_toml import load_scene
-    from blockhash.testing import assert_images_close
+    from blockhash.scene.loader import load_scene
+    from blockhash.evaluate.testing import assert_images_close
 
     def test_ring_matches_its_reference(tmp_path):
         result = render_scene(load_scene("scenes/ring.toml"), photons=20_000, size=(48, 48), seed=1)
@@ -22,7 +22,7 @@ import re
 import tempfile
 from pathlib import Path
 
-from .render.imagediff import Comparison, compare_layers, write_pictures
+from blockhash.evaluate.imagediff import Comparison, compare_layers, write_pictures
 
 
 def assert_images_close(actual, reference, *, max_rms=None, max_rel_rms=None, max_flip=None,
@@ -45,11 +45,11 @@ def assert_images_close(actual, reference, *, max_rms=None, max_rel_rms=None, ma
     error : {'flip', 'abs'}
         What the pictures show.
 
-    Returns the :class:`~blockhash.render.imagediff.Comparison` when the images are close.
+    Returns the :class:`~blockhash.evaluate.imagediff.Comparison` when the images are close.
     Bad input (missing file, different sizes or layers, unknown layer in a limit) raises
     :class:`~blockhash.errors.InputError`, not AssertionError.
     """
-    from .errors import InputError
+    from blockhash.errors import InputError
 
     if max_rms is None and max_rel_rms is None and max_flip is None:
         raise InputError("assert_images_close needs max_rms, max_rel_rms or max_flip; without a "

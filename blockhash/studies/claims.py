@@ -93,7 +93,7 @@ def report_markdown(study: dict, plots: list[str]) -> str:
              f"Python {m['python']}, numpy {m['numpy']}, scipy {m['scipy']}, moderngl "
              f"{m['moderngl']}, blockhash {m['blockhash']}.", "",
              "## Reference", "",
-             f"Light tracing (`blockhash.render.lighttrace`) with {ref['photons']:,} photons: the "
+             f"Light tracing (`blockhash.reference.lighttrace`) with {ref['photons']:,} photons: the "
              "caustic seen directly, without density estimation; compared on "
              f"{ref['pixels_compared']:,} pixels (receivers seen directly, not next to a mirror "
              f"or the background). Its own noise: relative standard error {ref['rel_noise']:.3f} "

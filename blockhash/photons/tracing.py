@@ -2,7 +2,7 @@
 
 Photons leave each light only toward the specular objects (mirrors and glass), bounce
 off perfect mirrors, reflect or refract at glass with the Fresnel probabilities
-(:mod:`.optics`), and are stored at the first non-specular (modified Phong) hit, so the
+(:mod:`blockhash.scene.optics`), and are stored at the first non-specular (modified Phong) hit, so the
 map holds the caustic paths L S+ D and nothing else.  ``max_bounces`` counts every
 specular event.  Direct light is the renderer's
 job (shadow rays), so photons whose first hit is diffuse are dropped.
@@ -47,11 +47,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .emission import Emitter, photon_uniforms
-from .optics import choice_uniforms, scatter
-from .raycast import RAY_OFFSET, EmbreeGeometry, entering, reflect, surface_hits
-from ..errors import InputError
-from ..validate import as_int
+from blockhash.photons.emission import Emitter, photon_uniforms
+from blockhash.scene.optics import choice_uniforms, scatter
+from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, reflect, surface_hits
+from blockhash.errors import InputError
+from blockhash.validate import as_int
 
 #: Default safety cap on emitted photons, as a multiple of the stored target
 #: (with at least DEFAULT_MIN_CAP).  The ring scene stores ~30% of the photons
@@ -169,9 +169,9 @@ def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int, 
     (vectorised).
 
     Shared by the photon map (:func:`trace_caustic_photons`) and the light tracer
-    (:mod:`.lighttrace`); ``weights`` are not yet divided by the photons emitted.  At a
+    (:mod:`blockhash.reference.lighttrace`); ``weights`` are not yet divided by the photons emitted.  At a
     dielectric a photon reflects or refracts with the Fresnel probabilities
-    (:func:`.optics.scatter`), drawing its choices from :func:`.optics.choice_uniforms` of
+    (:func:`blockhash.scene.optics.scatter`), drawing its choices from :func:`blockhash.scene.optics.choice_uniforms` of
     ``seed`` for photon ``start + i``, so a photon's path does not depend on the batch.
     """
     n = len(origins)
@@ -262,7 +262,7 @@ def trace_caustic_photons(scene, n_stored_target: int | None = None, *, seed: in
 
     Parameters
     ----------
-    scene : blockhash.render.scene.Scene
+    scene : blockhash.scene.model.Scene
         Lights (point: ``position``, ``power``; spot: also ``direction``, ``cone_deg``),
         objects (trimesh meshes; ``scene.specular_objects`` are perfect mirrors with
         ``material.reflectance``), ``photons`` (``count``, ``seed``, ``max_bounces``).

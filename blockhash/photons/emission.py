@@ -3,7 +3,7 @@
 Each light shoots photons only into bounding cones around the mirrors it can
 see; a photon's power is the light's power times the cone's share of the light's
 emission solid angle, over the photons shot into it, so the caustic estimate
-stays unbiased (see blockhash/render/tracing.py).  Random numbers are counter-based:
+stays unbiased (see blockhash/photons/tracing.py).  Random numbers are counter-based:
 photon i of a seed always gets the same ones, whatever the batch size.
 """
 

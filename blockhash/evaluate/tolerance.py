@@ -29,8 +29,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
-from .imagediff import compare_layers
+from blockhash.errors import InputError
+from blockhash.evaluate.imagediff import compare_layers
 
 #: Smallest proposed limits: float32 rounding and driver differences on a layer the seed does
 #: not change (shader vs CPU reference agree to 1e-4 relative RMS, tests/test_render.py), and
@@ -96,7 +96,7 @@ def seed_tolerances(scene, *, seeds: int = 4, first_seed: int = 0, photons=None,
     spp : int, optional
         Samples per pixel of every render (default: the scene's, else the renderer's).
     """
-    from .pipeline import render_scene
+    from blockhash.render.pipeline import render_scene
 
     if seeds < 2:
         raise InputError(f"--seeds {seeds}: need at least 2 seeds to measure seed-to-seed noise; "

@@ -22,8 +22,8 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import InputError
-from ..render.lighttrace import scene_digest
+from blockhash.errors import InputError
+from blockhash.reference.lighttrace import scene_digest
 
 ERROR_KEY = "rel_rms_reference_blur"
 #: The calibration study run when a scene has none: three photon counts, four A values.
@@ -111,7 +111,7 @@ def study_for(scene, *, cache_dir, study_path=None, backend=None, progress=print
     if cached.is_file():
         progress(f"using the cached trade study {cached}")
         return json.loads(cached.read_text())
-    from .sweep import SweepPlan, run_sweep
+    from blockhash.studies.sweep import SweepPlan, run_sweep
 
     progress("no trade study of this scene yet: running a short calibration study")
     study = run_sweep(scene, SweepPlan(**CALIBRATION), cache_dir=cache_dir, backend=backend,

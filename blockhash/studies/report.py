@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..render.images import write_exr
-from .claims import report_markdown
+from blockhash.render.images import write_exr
+from blockhash.studies.claims import report_markdown
 
 #: The error the report reads: relative RMS after a 2-pixel blur, against the reference
 #: (per-pixel noise of the estimate and of the reference removed, bias and blur kept).
@@ -89,12 +89,12 @@ def write_study(study: dict, out_dir) -> Path:
 
 def rewrite_report(out_dir) -> Path:
     """Redraw the plots and ``report.md`` of a study directory from its JSON and images."""
-    from ..render.images import read_layers
+    from blockhash.render.images import read_layers
 
     out = Path(out_dir)
     path = out / "tradeoff.json"
     if not path.is_file():
-        from ..errors import InputError
+        from blockhash.errors import InputError
         raise InputError(f"--replot {out}: no tradeoff.json there; give a directory written by "
                          "blockhash tradeoff")
     study = json.loads(path.read_text())

@@ -1,7 +1,7 @@
 """The scene model: camera, materials, lights, objects and photon settings.
 
 Frozen dataclasses that validate their own values (every error an
-:class:`~blockhash.errors.InputError` naming the key path); :mod:`.scene_toml`
+:class:`~blockhash.errors.InputError` naming the key path); :mod:`.loader`
 reads them from a TOML file and documents that format.  Units are metres and
 watts, y is up, the frame is right-handed.
 
@@ -20,11 +20,11 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from ..errors import InputError
-from .scene_values import (FieldError as _FieldError, fmt as _fmt, integer as _integer,
+from blockhash.errors import InputError
+from blockhash.scene.values import (FieldError as _FieldError, fmt as _fmt, integer as _integer,
                            number as _number, owned as _owned, readonly as _readonly, rgb as _rgb,
                            string as _string, vector as _vector)
-from .materials import (SPECULAR_MATERIALS, DielectricMaterial, MirrorMaterial,  # noqa: F401
+from blockhash.scene.materials import (SPECULAR_MATERIALS, DielectricMaterial, MirrorMaterial,  # noqa: F401
                         PhongMaterial)
 
 #: Largest image side: GL_MAX_TEXTURE_SIZE on llvmpipe (DESIGN.md), so a
@@ -45,7 +45,7 @@ class Camera:
     vertical field of view in degrees; ``width``, ``height`` the image size in
     pixels.  ``up`` need not be perpendicular to the view direction, only not
     parallel to it.  ``spp``: samples per pixel, a square number (None: the
-    renderer's default, :data:`.subpixel.DEFAULT_SPP`).
+    renderer's default, :data:`blockhash.scene.camera.DEFAULT_SPP`).
     """
 
     eye: np.ndarray
@@ -68,7 +68,7 @@ class Camera:
             set_(self, "width", _integer(self.width, "width", lo=1, hi=MAX_IMAGE_SIDE))
             set_(self, "height", _integer(self.height, "height", lo=1, hi=MAX_IMAGE_SIDE))
             if self.spp is not None:
-                from .subpixel import MAX_SPP, spp_side
+                from blockhash.scene.camera import MAX_SPP, spp_side
                 spp = _integer(self.spp, "spp", lo=1, hi=MAX_SPP,
                                hint="give a square number of samples per pixel: 1, 4, 9, 16, ...")
                 try:

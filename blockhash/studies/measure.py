@@ -1,7 +1,7 @@
 """Error measures of a caustic layer against exact kNN and against the light-traced reference.
 
 All are computed on the pixels where both images mean the same thing (see
-:mod:`blockhash.render.lighttrace`): against exact kNN on every pixel that shades a
+:mod:`blockhash.reference.lighttrace`): against exact kNN on every pixel that shades a
 receiver (both come from the same photon map and the same shading points, mirror
 pixels included); against the reference on its :meth:`comparison_mask` (the receivers
 seen directly, one pixel away from mirrors and the background).

@@ -1,6 +1,6 @@
 """Per-layer image comparison with pass/fail limits: RMS, relative RMS and NVIDIA FLIP.
 
-What ``blockhash compare``, :func:`blockhash.testing.assert_images_close` and
+What ``blockhash compare``, :func:`blockhash.evaluate.testing.assert_images_close` and
 ``blockhash tolerance`` share.  B is the reference throughout.
 
 1. Both images become ``{layer: (h, w, 3) float32}`` (an EXR's ``layer.R/G/B``
@@ -30,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from .images import read_layers, srgb, white_point
+from blockhash.errors import InputError
+from blockhash.render.images import read_layers, srgb, white_point, write_exr
 
 #: Metrics that take a limit, and the command-line option that sets each.
 LIMITED = {"rms": "--max-rms", "relative_rms": "--max-rel-rms", "flip": "--max-flip"}
@@ -251,7 +251,7 @@ def write_pictures(result: Comparison, *, heatmap=None, strip=None, error: str =
     vmax : float, optional
         Top of the colour bars; default 1 for FLIP, each layer's 99th percentile for 'abs'.
     """
-    from .plots import save_heatmap, save_strip
+    from blockhash.evaluate.plots import save_heatmap, save_strip
 
     if error not in ("flip", "abs"):
         raise InputError(f"error={error!r} is not known; choose 'flip' or 'abs'")
@@ -272,3 +272,15 @@ def write_pictures(result: Comparison, *, heatmap=None, strip=None, error: str =
         written.append(save_strip(strip, ldr_a, ldr_b, maps, label=label, vmax=vmax,
                                   names=result.names))
     return written
+
+
+def compare_images(path_a, path_b, *, diff_path=None) -> dict[str, dict]:
+    """Per layer: rms, relative rms (to B), max and mean error, mean FLIP; optional |A-B| EXR.
+
+    The images must have the same layers and size; :func:`compare_layers`
+    has the limits, masks and error maps.
+    """
+    result = compare_layers(path_a, path_b)
+    if diff_path:
+        write_exr(diff_path, {name: np.abs(result.a[name] - result.b[name]) for name in result.a})
+    return result.metrics

@@ -22,20 +22,20 @@ import time
 
 import numpy as np
 
-from ..gl.lookup import query_slot_bits
-from ..index.block_hash_index import BlockHashIndex
-from ..index.metrics import exact_knn
-from ..render.caustic import Neighbours, ShadingPoints
-from ..render.estimate import EstimateOptions
-from ..render.gbuffer import rasterize
-from ..render.lighttrace import cached_reference, lambertian
-from ..render.pipeline import _receiver_materials
-from ..render.scene import MirrorMaterial
-from ..render.shading import SceneRays, shading_points
-from ..render.subpixel import raycast_gbuffer
-from ..render.tracing import trace_caustic_photons
-from .measure import flux_ratio, masked_blur, rel_rms
-from .sweep import box_down
+from blockhash.gl.lookup import query_slot_bits
+from blockhash.index.block_hash_index import BlockHashIndex
+from blockhash.index.metrics import exact_knn
+from blockhash.render.caustic import Neighbours, ShadingPoints
+from blockhash.render.estimate import EstimateOptions
+from blockhash.render.gbuffer import rasterize
+from blockhash.reference.lighttrace import cached_reference, lambertian
+from blockhash.scene.materials import receiver_materials
+from blockhash.scene.model import MirrorMaterial
+from blockhash.render.shading import SceneRays, shading_points
+from blockhash.render.subpixel import raycast_gbuffer
+from blockhash.photons.tracing import trace_caustic_photons
+from blockhash.studies.measure import flux_ratio, masked_blur, rel_rms
+from blockhash.studies.sweep import box_down
 
 #: The caustic region: blurred reference above this fraction of its 99th percentile.
 REGION_FRACTION = 0.05
@@ -136,7 +136,7 @@ def study_scene(scene, *, photons=(100_000, 1_000_000), ks=(50,), options=None, 
     ss = int(supersample)
     points = scene_points(scene, size, ss, jitter)
     only = upsample(mask, ss)  # the measures read no other pixel
-    materials = _receiver_materials(scene)
+    materials = receiver_materials(scene.objects)
     rows = []
     for n in photons:
         pm = trace_caustic_photons(scene, n, seed=scene.photons.seed)

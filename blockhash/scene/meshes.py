@@ -42,7 +42,7 @@ import numpy as np
 import trimesh
 from scipy.interpolate import PchipInterpolator
 
-from ..errors import InputError
+from blockhash.errors import InputError
 
 #: The bust has this many triangles at least with the default resolution.
 MIN_BUST_TRIANGLES = 100_000

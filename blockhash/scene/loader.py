@@ -56,7 +56,7 @@ typo is never silently ignored)::
                                     #   normals, else smooth), "smooth" (averaged
                                     #   over shared vertices) or "flat" (per face)
     [objects.shape]                 # ... or a generated shape: exactly one of the two
-    kind = "rectangle"              # see blockhash.render.meshes; keys per kind:
+    kind = "rectangle"              # see blockhash.scene.meshes; keys per kind:
     #   rectangle: x = [min, max], z = [min, max] (required), y = 0.0; faces +y
     #   ring: inner_radius, outer_radius, height (required, > 0, inner < outer),
     #         segments = 256 (3 .. 65536), center = [0, 0, 0] (centre of the base),
@@ -98,11 +98,11 @@ from pathlib import Path
 
 import trimesh
 
-from . import meshes
-from ..errors import InputError
-from .scene import (Camera, DielectricMaterial, MirrorMaterial, PhongMaterial, PhotonSettings, PointLight, Scene,
+from blockhash.scene import meshes
+from blockhash.errors import InputError
+from blockhash.scene.model import (Camera, DielectricMaterial, MirrorMaterial, PhongMaterial, PhotonSettings, PointLight, Scene,
                     SceneObject, SpotLight, check_mesh)
-from .scene_values import (FieldError as _FieldError, boolean as _boolean, choice as _choice,
+from blockhash.scene.values import (FieldError as _FieldError, boolean as _boolean, choice as _choice,
                            got as _got, integer as _integer, number as _number, rgb as _rgb,
                            string as _string, under as _under, vector as _vector)
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .raycast import reflect
+from blockhash.scene.raycast import reflect
 
 #: Key offset of the uniforms that choose reflection or refraction: a stream of its own,
 #: independent of the emission stream under the same seed.

@@ -1,7 +1,7 @@
 """The scene's materials: modified Phong receivers, perfect mirrors and smooth dielectrics.
 
 Frozen dataclasses that validate their own fields (errors name the key, the expectation and
-the way out); :mod:`.scene` builds objects from them, :mod:`.scene_toml` reads them from
+the way out); :mod:`.model` builds objects from them, :mod:`.loader` reads them from
 ``[materials.NAME]`` tables.
 """
 
@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .scene_values import (FieldError as _FieldError, fmt as _fmt, number as _number, owned as _owned,
+from blockhash.scene.values import (FieldError as _FieldError, fmt as _fmt, number as _number, owned as _owned,
                            rgb as _rgb)
 
 
@@ -89,3 +89,33 @@ class DielectricMaterial:
 
 #: Materials that scatter light specularly: they cast caustics and are followed, not shaded.
 SPECULAR_MATERIALS = (MirrorMaterial, DielectricMaterial)
+
+
+# --------------------------------------------------------------------------- the receivers' table
+
+def phong_brdf(wi, wo, n, kd, ks, e):
+    """Modified Phong f_r, vectorised: all (m, 3) except e (m,). Returns (m, 3)."""
+    r = 2.0 * np.sum(n * wi, axis=1, keepdims=True) * n - wi
+    c = np.maximum(np.sum(r * wo, axis=1), 0.0)
+    return kd / np.pi + ks * ((e + 2.0) / (2.0 * np.pi) * c ** e)[:, None]
+
+
+def receiver_materials(objects) -> list[tuple]:
+    """The one material table of the receivers: ``(kd, ks, exponent)`` per object, in the
+    scene's object order, zeros (exponent 1) for specular objects, which receive nothing."""
+    table = []
+    for obj in objects:
+        m = obj.material
+        if isinstance(m, PhongMaterial):
+            table.append((tuple(float(x) for x in m.kd), tuple(float(x) for x in m.ks), float(m.n)))
+        else:
+            table.append(((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0))
+    return table
+
+
+def material_arrays(table) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A table of :func:`receiver_materials` as arrays: kd (M, 3), ks (M, 3), e (M,) float64."""
+    kd = np.array([m[0] for m in table], dtype=np.float64).reshape(-1, 3)
+    ks = np.array([m[1] for m in table], dtype=np.float64).reshape(-1, 3)
+    e = np.array([m[2] for m in table], dtype=np.float64).reshape(-1)
+    return kd, ks, e

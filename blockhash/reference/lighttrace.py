@@ -5,11 +5,11 @@ biases (paper section 6 only compares approximate with exact neighbours).  This
 module computes the same layer without any density estimate, so that both can be
 measured against it:
 
-1. Photons leave the lights exactly as the photon map's do (:mod:`.emission`, the
+1. Photons leave the lights exactly as the photon map's do (:mod:`blockhash.photons.emission`, the
    same cone sampling and counter-based Philox streams, photon ``i`` of a seed has
    the same numbers whatever the batch size) and bounce off perfect mirrors and through
    glass (the same Fresnel choices) to their first diffuse hit
-   (:func:`.tracing.trace_batch`); only paths L S+ D are kept.
+   (:func:`blockhash.photons.tracing.trace_batch`); only paths L S+ D are kept.
    Unlike the map, a fixed number ``M`` of photons is shot, so each carries
    ``Phi_i = w_i / M`` (``w_i`` the emission weight times the mirror reflectances).
 2. Every such hit ``x`` is connected to the pinhole at ``e``: the camera must lie on
@@ -20,7 +20,7 @@ measured against it:
 
        Phi_i  f_r(w_i, w_o)  cos(theta_x) / d^2  W_e(theta_c)
 
-   with ``f_r`` the modified Phong BRDF (:func:`.caustic.phong_brdf`, ``w_i`` toward
+   with ``f_r`` the modified Phong BRDF (:func:`blockhash.scene.materials.phong_brdf`, ``w_i`` toward
    where the photon came from, ``w_o`` toward the eye), ``theta_x`` the angle between
    the shading normal and ``w_o``, ``d = |x - e|`` and ``theta_c`` the angle between
    the view ray and the camera's forward axis.
@@ -38,7 +38,7 @@ Lambertian plane of radiance ``L`` gives ``I_j = (1/a) L a = L`` in every pixel.
 
 What the image holds, and what not.  It is the caustic radiance *seen directly*:
 pixels whose view ray meets a diffuse surface first.  The renderer's caustic layer
-also shows caustics *in mirrors* (:func:`.shading.shading_points` moves a mirror
+also shows caustics *in mirrors* (:func:`blockhash.render.shading.shading_points` moves a mirror
 pixel's shading point to what the mirror reflects); the light tracer would need a
 specular connection through the mirror for those and leaves them out.  So compare
 only on :attr:`LightTraceImage.visible` (:meth:`LightTraceImage.comparison_mask`
@@ -55,20 +55,26 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
+import os
+import tempfile
 import time
+import warnings
+import zipfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from .caustic import phong_brdf
-from .emission import Emitter, photon_uniforms
-from .raycast import EmbreeGeometry
-from .shading import SceneRays
-from .tracing import trace_batch
-from ..errors import InputError
-from ..validate import as_int
+from blockhash import __version__
+from blockhash.code_version import source_digest
+from blockhash.errors import InputError
+from blockhash.photons.emission import Emitter, photon_uniforms
+from blockhash.photons.tracing import trace_batch
+from blockhash.render.shading import SceneRays
+from blockhash.scene.camera import Pinhole
+from blockhash.scene.materials import material_arrays, phong_brdf, receiver_materials
+from blockhash.scene.raycast import EmbreeGeometry
+from blockhash.validate import as_int
 
 #: Default photons per batch (memory ~ 1 KB per photon in flight).
 BATCH = 1 << 18
@@ -77,6 +83,10 @@ BATCH = 1 << 18
 REFERENCE_SEED_OFFSET = 1 << 64
 #: Bump when the estimator changes, so that cached references are recomputed.
 CACHE_VERSION = 1
+#: The code a reference image depends on: a cached image is keyed by the source of these
+#: parts of the package (and the version), so an edit to the tracer or the scene model
+#: never reads an image the old code traced.
+CODE_PARTS = ("reference", "photons", "scene", "render/shading.py")
 
 
 @dataclass(frozen=True)
@@ -125,64 +135,6 @@ class LightTraceImage:
                 f"mean={self.radiance[self.visible].mean() if self.visible.any() else 0.0:.4g})")
 
 
-# --------------------------------------------------------------------------- camera
-
-@dataclass(frozen=True)
-class Pinhole:
-    """The scene camera at a given image size: projection and importance (see module docstring)."""
-
-    eye: np.ndarray
-    right: np.ndarray
-    up: np.ndarray
-    forward: np.ndarray
-    tan_x: float
-    tan_y: float
-    width: int
-    height: int
-
-    @classmethod
-    def of(cls, camera, size=None) -> "Pinhole":
-        width, height = size or (camera.width, camera.height)
-        cam = replace(camera, width=width, height=height)
-        right, up, forward = cam.basis()
-        tan_y = math.tan(math.radians(cam.fov_y_deg) / 2.0)
-        return cls(np.asarray(cam.eye, np.float64), right, up, forward, tan_y * cam.aspect, tan_y,
-                   int(width), int(height))
-
-    @property
-    def pixel_area(self) -> float:
-        """Area of one pixel on the image plane at distance 1 from the pinhole."""
-        return (2.0 * self.tan_x / self.width) * (2.0 * self.tan_y / self.height)
-
-    def project(self, points):
-        """(pixel index (m,) int64, -1 outside the image; cos(theta_c) (m,)) of world points."""
-        v = points - self.eye
-        z = v @ self.forward
-        with np.errstate(divide="ignore", invalid="ignore"):
-            sx = (v @ self.right) / (z * self.tan_x)
-            sy = (v @ self.up) / (z * self.tan_y)
-        col = np.floor((sx + 1.0) * 0.5 * self.width)
-        row = np.floor((1.0 - sy) * 0.5 * self.height)  # row 0 at the top, like the renderer
-        inside = (z > 0) & (col >= 0) & (col < self.width) & (row >= 0) & (row < self.height)
-        pix = np.where(inside, row * self.width + col, -1)
-        cos_c = np.where(inside, z / np.linalg.norm(v, axis=1), 0.0)
-        return np.nan_to_num(pix, nan=-1).astype(np.int64), cos_c
-
-    def film_rays(self, x, y) -> np.ndarray:
-        """(m, 3) unit view directions through film points (x, y) in pixels, x from the left
-        edge and y from the top (pixel (row, col) covers [col, col + 1) x [row, row + 1),
-        the footprint :meth:`project` assigns to it)."""
-        sx = (2.0 * np.ravel(x) / self.width - 1.0) * self.tan_x
-        sy = (1.0 - 2.0 * np.ravel(y) / self.height) * self.tan_y
-        d = self.forward + sx[:, None] * self.right + sy[:, None] * self.up
-        return d / np.linalg.norm(d, axis=1, keepdims=True)
-
-    def pixel_rays(self) -> np.ndarray:
-        """(h * w, 3) unit view directions through the pixel centres, row by row from the top."""
-        gx, gy = np.meshgrid(np.arange(self.width) + 0.5, np.arange(self.height) + 0.5)
-        return self.film_rays(gx, gy)
-
-
 def directly_visible(scene, pinhole: Pinhole, rays: SceneRays) -> np.ndarray:
     """(h, w) bool: the view ray through each pixel centre first meets a diffuse object."""
     d = pinhole.pixel_rays()
@@ -193,20 +145,13 @@ def directly_visible(scene, pinhole: Pinhole, rays: SceneRays) -> np.ndarray:
 
 # --------------------------------------------------------------------------- tracing
 
-def _materials(objects):
-    kd = np.array([getattr(o.material, "kd", np.zeros(3)) for o in objects], np.float64)
-    ks = np.array([getattr(o.material, "ks", np.zeros(3)) for o in objects], np.float64)
-    e = np.array([float(getattr(o.material, "n", 1.0)) for o in objects], np.float64)
-    return kd, ks, e
-
-
 def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
                 batch_size: int = BATCH, progress: bool = False) -> LightTraceImage:
     """Light-trace the caustic layer of ``scene`` with ``photons`` photons shot.
 
     Parameters
     ----------
-    scene : blockhash.render.scene.Scene
+    scene : blockhash.scene.model.Scene
     photons : int
         Photons shot toward the mirrors (M); the error falls as 1/sqrt(M).
     size : (width, height), optional
@@ -242,7 +187,7 @@ def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
         if not emitter.cones:
             raise InputError("light_trace: no light reaches a specular object; aim a spot light "
                              "at a mirror or widen its cone_deg")
-        kd, ks, e = _materials(scene.objects)
+        kd, ks, e = material_arrays(receiver_materials(scene.objects))
         max_bounces = scene.photons.max_bounces
         bar = None
         if progress:
@@ -297,7 +242,7 @@ def _connect(b, pin: Pinhole, rays: SceneRays, kd, ks, e, sum1, sum2, stats) -> 
 
 def lambertian(scene):
     """A copy of ``scene`` with every Phong material's ``ks`` set to 0 (Lambertian receivers)."""
-    from .scene import PhongMaterial
+    from blockhash.scene.model import PhongMaterial
 
     objects = []
     for o in scene.objects:
@@ -335,23 +280,39 @@ def scene_digest(scene) -> str:
 def cached_reference(scene, photons: int, *, size=None, seed: int | None = None,
                      cache_dir=None, progress: bool = False) -> tuple[LightTraceImage, Path | None]:
     """:func:`light_trace`, cached as ``.npz`` under ``cache_dir`` by content hash of the
-    scene (:func:`scene_digest`) and the settings.  Returns (image, cache file or None)."""
+    scene (:func:`scene_digest`), the settings and the code (:data:`CODE_PARTS`); written
+    atomically, so concurrent renders may share a cache.  Returns (image, cache file or None)."""
     if cache_dir is None:
         return light_trace(scene, photons, size=size, seed=seed, progress=progress), None
     pin = Pinhole.of(scene.camera, size)
     key = hashlib.sha256(json.dumps({"scene": scene_digest(scene), "photons": int(photons),
                                      "size": [pin.width, pin.height], "seed": seed,
-                                     "version": CACHE_VERSION}).encode()).hexdigest()[:24]
+                                     "version": CACHE_VERSION, "package": __version__,
+                                     "code": source_digest(parts=CODE_PARTS)}).encode()).hexdigest()[:24]
     path = Path(cache_dir) / f"lighttrace-{key}.npz"
     if path.is_file():
-        z = np.load(path, allow_pickle=False)
-        return LightTraceImage(z["radiance"], z["sum_squares"], z["visible"], int(z["emitted"]),
-                               json.loads(str(z["stats"]))), path
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                return LightTraceImage(z["radiance"], z["sum_squares"], z["visible"],
+                                       int(z["emitted"]), json.loads(str(z["stats"]))), path
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile) as e:
+            # Not an image this code wrote (a copy cut short by a full disk, say): trace
+            # again and replace it.
+            warnings.warn(f"the reference cache {path} is unreadable ({e}); tracing it again",
+                          stacklevel=2)
     img = light_trace(scene, photons, size=size, seed=seed, progress=progress)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp.npz")
-    np.savez_compressed(tmp, radiance=img.radiance, sum_squares=img.sum_squares,
-                        visible=img.visible, emitted=img.emitted,
-                        stats=json.dumps(img.stats, default=str))
-    tmp.replace(path)
+    # Written under a name of its own, then renamed over the cache file in one step: a
+    # reader sees the old file or the whole new one, and two renders filling the same
+    # entry at once each rename a complete file (the same image: tracing is deterministic).
+    fd, tmp = tempfile.mkstemp(prefix=path.stem + ".", suffix=".tmp.npz", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.savez_compressed(f, radiance=img.radiance, sum_squares=img.sum_squares,
+                                visible=img.visible, emitted=img.emitted,
+                                stats=json.dumps(img.stats, default=str))
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
     return img, path

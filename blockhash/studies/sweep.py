@@ -3,7 +3,7 @@
 For one scene and image size it
 
 1. light-traces the unbiased reference of the caustic layer once (cached by scene
-   content, :func:`blockhash.render.lighttrace.cached_reference`);
+   content, :func:`blockhash.reference.lighttrace.cached_reference`);
 2. rasterises the shading points once (the G-buffer does not depend on the photons);
 3. for each photon count N traces a photon map (timed), and for each k computes the
    exact-kNN caustic of that map with scipy's cKDTree (and, at the largest N, the
@@ -30,19 +30,19 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .. import __version__
-from ..errors import InputError
-from ..index.block_hash_index import BlockHashIndex
-from ..index.metrics import accuracy, exact_knn
-from ..index.params import PRESETS
-from ..render.caustic import CausticPass, estimate_cpu, estimate_exact
-from ..render.gbuffer import rasterize
-from ..render.lighttrace import cached_reference, scene_digest
-from ..render.pipeline import _receiver_materials
-from ..render.scene import MirrorMaterial
-from ..render.shading import SceneRays, shading_points
-from ..render.tracing import trace_caustic_photons
-from .measure import errors_against
+from blockhash import __version__
+from blockhash.errors import InputError
+from blockhash.index.block_hash_index import BlockHashIndex
+from blockhash.index.metrics import accuracy, exact_knn
+from blockhash.index.params import PRESETS
+from blockhash.render.caustic import CausticPass, estimate_cpu, estimate_exact
+from blockhash.render.gbuffer import rasterize
+from blockhash.reference.lighttrace import cached_reference, scene_digest
+from blockhash.scene.materials import receiver_materials
+from blockhash.scene.model import MirrorMaterial
+from blockhash.render.shading import SceneRays, shading_points
+from blockhash.photons.tracing import trace_caustic_photons
+from blockhash.studies.measure import errors_against
 
 
 #: How the caustic layer of a setting is computed: 'gl' the caustic pass shader (timed
@@ -173,9 +173,9 @@ def _timed_pass(cp: CausticPass, points, materials, variant):
 def run_sweep(scene, plan: SweepPlan = QUICK, *, seed=None, cache_dir=None, backend=None,
               progress=print) -> dict:
     """Run ``plan`` on ``scene`` and return the study as a dict (see the module docstring)."""
-    from ..gl.context import get_context
-    from ..gl.shaderlib import Variant
-    from ..gl.lookup import query_slot_bits
+    from blockhash.gl.context import get_context
+    from blockhash.gl.shaderlib import Variant
+    from blockhash.gl.lookup import query_slot_bits
 
     if not scene.specular_objects:
         raise InputError(f"scene {scene.path}: no specular (mirror) object, so no caustic to "
@@ -196,7 +196,7 @@ def run_sweep(scene, plan: SweepPlan = QUICK, *, seed=None, cache_dir=None, back
     fine_live = points.material >= 0
     live = box_down(fine_live, ss) == 1.0
     queries = points.position[fine_live].astype(np.float32)
-    materials = _receiver_materials(scene)
+    materials = receiver_materials(scene.objects)
     ctx = get_context(backend)
     rows, images = [], {"reference": ref.radiance, "mask": mask_ref}
     settings = plan.settings()

@@ -1,6 +1,6 @@
 """The done-when check of the caustic estimate: pixel means by stratified jitter, with errors.
 
-The light tracer's reference (:mod:`blockhash.render.lighttrace`) is the caustic radiance's
+The light tracer's reference (:mod:`blockhash.reference.lighttrace`) is the caustic radiance's
 mean over each pixel's footprint.  The estimate is a function of the shading point; its
 pixel mean must be integrated by sampling.  Where the caustic is much sharper than a pixel
 (the fold lines of the cardioid on venus's chest, far thinner than its 3 mm pixels at
@@ -31,18 +31,18 @@ import time
 
 import numpy as np
 
-from ..index.block_hash_index import BlockHashIndex
-from ..render.estimate import EstimateOptions
-from ..render.lighttrace import cached_reference, lambertian, light_trace
-from ..render.pipeline import _receiver_materials
-from ..render.scene import MirrorMaterial
-from ..render.shading import SceneRays, shading_points
-from ..render.subpixel import raycast_gbuffer
-from ..render.tracing import trace_caustic_photons
-from .estimates import (caustic_region, estimate_images, measure, scene_points, searches,
+from blockhash.index.block_hash_index import BlockHashIndex
+from blockhash.render.estimate import EstimateOptions
+from blockhash.reference.lighttrace import cached_reference, lambertian, light_trace
+from blockhash.scene.materials import receiver_materials
+from blockhash.scene.model import MirrorMaterial
+from blockhash.render.shading import SceneRays, shading_points
+from blockhash.render.subpixel import raycast_gbuffer
+from blockhash.photons.tracing import trace_caustic_photons
+from blockhash.studies.estimates import (caustic_region, estimate_images, measure, scene_points, searches,
                         upsample)
-from .measure import flux_ratio
-from .sweep import box_down
+from blockhash.studies.measure import flux_ratio
+from blockhash.studies.sweep import box_down
 
 #: Pixels estimated again, and their shading points per pixel along each axis.
 REFINE = 100
@@ -118,7 +118,7 @@ def done_when_study(scene, *, photons=1_000_000, ks=(50,), size=(128, 128), samp
     progress(f"{name}: reference {ref!r}; photons {pm!r}; splat/ref {info['splat']['flux']:.4f} "
              f"({time.perf_counter() - t0:.0f} s)")
     rays = SceneRays(scene.objects)
-    materials = _receiver_materials(scene)
+    materials = receiver_materials(scene.objects)
     opts = options() if estimate_options is None else list(estimate_options)
     rows = []
     for k in ks:

@@ -1,7 +1,7 @@
 """Checked scene values: numbers, vectors, colours and choices with key paths in errors.
 
 Every check raises ``FieldError`` naming the key path (``objects[1].material``),
-what was expected and what was received; :mod:`blockhash.render.scene` adds the file
+what was expected and what was received; :mod:`blockhash.scene.model` adds the file
 name.  Used by the scene dataclasses (built in code or from TOML) and the loader.
 """
 
@@ -12,7 +12,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from ..errors import InputError
+from blockhash.errors import InputError
 
 
 class FieldError(InputError):

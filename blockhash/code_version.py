@@ -1,0 +1,54 @@
+"""The code's own version: a digest of the package's source, for caches that must never
+outlive the code that filled them (numba's compiled functions here, the light tracer's
+reference images in :mod:`blockhash.reference.lighttrace`).
+
+numba keys a cached function by its own file's timestamp and size, not by the source of
+the functions it inlines from other modules (``inline="always"``), so an edit to an
+inlined helper, or an upgrade over an old ``__pycache__``, could load machine code built
+from the old helper.  :func:`configure` runs once, on ``import blockhash``, before any
+compiled function is defined: it points ``numba.config.CACHE_DIR`` at
+``<base>/blockhash-<version>-<digest>``, with ``<base>`` the user's ``NUMBA_CACHE_DIR``
+when set, else ``$XDG_CACHE_HOME/blockhash/numba`` (``~/.cache/blockhash/numba``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parent
+
+
+def source_digest(package: Path = PACKAGE, parts=(".",)) -> str:
+    """16 hex digits of SHA-256 over every module (path and text) under ``parts``, folders
+    or modules of the package (default: all of it)."""
+    h = hashlib.sha256()
+    paths = {p for part in parts for p in ([package / part] if part.endswith(".py")
+                                            else (package / part).rglob("*.py"))}
+    for path in sorted(paths):
+        if "__pycache__" in path.parts:
+            continue
+        h.update(path.resolve().relative_to(package.resolve()).as_posix().encode())
+        h.update(b"\0")
+        h.update(path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def cache_dir(version: str, package: Path = PACKAGE) -> Path:
+    """The cache folder for this version and source."""
+    base = os.environ.get("NUMBA_CACHE_DIR")
+    if not base:
+        xdg = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        base = os.path.join(xdg, "blockhash", "numba")
+    return Path(base) / f"blockhash-{version}-{source_digest(package)}"
+
+
+def configure(version: str) -> Path:
+    """Point numba's cache at :func:`cache_dir` (call before any ``cache=True`` function
+    is defined); returns the folder."""
+    import numba
+
+    folder = cache_dir(version)
+    numba.config.CACHE_DIR = str(folder)
+    return folder
