@@ -9,5 +9,16 @@ code_version.configure(__version__)  # before any compiled function is defined
 from blockhash.errors import BlockHashError, CapacityError, InputError, InputTypeError, ShaderCompileError
 from blockhash.index.block_hash_index import BlockHashIndex, IndexStats, OrphanWarning
 from blockhash.index.params import BlockHashParams
+from blockhash import render  # the frame package, callable: blockhash.render(scene, ...)
+from blockhash.render.estimate import EstimateOptions
+from blockhash.render.options import LookupOptions
 
-__all__ = ["BlockHashIndex", "BlockHashParams", "IndexStats", "OrphanWarning", "BlockHashError", "CapacityError", "InputError", "InputTypeError", "ShaderCompileError", "__version__"]
+
+def load_scene(path):
+    """The scene of a TOML file (the format: :mod:`blockhash.scene.loader`)."""
+    from blockhash.scene.loader import load_scene as load
+
+    return load(path)
+
+
+__all__ = ["load_scene", "render", "EstimateOptions", "LookupOptions", "BlockHashIndex", "BlockHashParams", "IndexStats", "OrphanWarning", "BlockHashError", "CapacityError", "InputError", "InputTypeError", "ShaderCompileError", "__version__"]

@@ -7,7 +7,8 @@ the functions it inlines from other modules (``inline="always"``), so an edit to
 inlined helper, or an upgrade over an old ``__pycache__``, could load machine code built
 from the old helper.  :func:`configure` runs once, on ``import blockhash``, before any
 compiled function is defined: it points ``numba.config.CACHE_DIR`` at
-``<base>/blockhash-<version>-<digest>``, with ``<base>`` the user's ``NUMBA_CACHE_DIR``
+``<base>/blockhash-<version>-<digest>`` (the digest of every module that imports numba),
+with ``<base>`` the user's ``NUMBA_CACHE_DIR``
 when set, else ``$XDG_CACHE_HOME/blockhash/numba`` (``~/.cache/blockhash/numba``).
 """
 
@@ -35,13 +36,21 @@ def source_digest(package: Path = PACKAGE, parts=(".",)) -> str:
     return h.hexdigest()[:16]
 
 
+def compiled_modules(package: Path = PACKAGE) -> tuple[str, ...]:
+    """The package's modules that numba compiles (those that import it), relative paths."""
+    return tuple(sorted(p.relative_to(package).as_posix() for p in package.rglob("*.py")
+                        if "__pycache__" not in p.parts and "import numba" in p.read_text()))
+
+
 def cache_dir(version: str, package: Path = PACKAGE) -> Path:
-    """The cache folder for this version and source."""
+    """The cache folder for this version and the source of every compiled module (an
+    inlined helper is always in one of them)."""
     base = os.environ.get("NUMBA_CACHE_DIR")
     if not base:
         xdg = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
         base = os.path.join(xdg, "blockhash", "numba")
-    return Path(base) / f"blockhash-{version}-{source_digest(package)}"
+    digest = source_digest(package, parts=compiled_modules(package))
+    return Path(base) / f"blockhash-{version}-{digest}"
 
 
 def configure(version: str) -> Path:

@@ -6,7 +6,7 @@
 // through BH_PK_GROUPS, so all indices are constants and the array lives in
 // registers: a min/max pair per slot and no branches.  A rolled loop or a
 // variable index would put the array in scratch memory, several times slower
-// under llvmpipe (DESIGN.md: 0.16 s against 4-8 s per 512x512 frame).
+// under llvmpipe (0.16 s against 4-8 s per 512x512 frame).
 // Defines: BH_K (<= 128), BH_SLOT_BITS.
 #ifndef BH_SELECT_PACKED_GLSL
 #define BH_SELECT_PACKED_GLSL

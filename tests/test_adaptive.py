@@ -115,7 +115,7 @@ def test_a_sparse_plane_above_a_floor_gets_its_own_buckets():
     exact = exact_knn(index.positions, q, 20)
     # The buckets themselves, through the hash query (no walk over the node boxes): each
     # query's own buckets and the probes across their nearest cuts.
-    found = index.query(q, best_first=False)
+    found = index.reference_query(q, best_first=False)
     _, avg = dilations(found[0], exact[0])
     assert avg.max() < 1.3, f"a query on the plane found neighbours {avg.max():.1f}x as far"
     assert false_negatives(found[1], exact[1], len(pts)).mean() / 20 < 0.01

@@ -60,7 +60,7 @@ def test_far_queries_find_their_exact_neighbours_where_hashing_did_not():
     index = BlockHashIndex(pts, k=20, A=32)
     _, ei = exact_knn(index.positions, q, 20)
     _, walked = index.query(q)
-    _, hashed = index.query(q, best_first=False)
+    _, hashed = index.reference_query(q, best_first=False)
     fn_walk = false_negatives(walked, ei, len(pts)).mean() / 20
     fn_hash = false_negatives(hashed, ei, len(pts)).mean() / 20
     assert fn_walk <= 0.005, f"the walk missed {fn_walk:.1%}"   # measured 0.1%
@@ -120,7 +120,7 @@ def test_best_first_on_a_grid_layout_is_refused_with_the_way_out():
     assert not index.params.best_first and index.node_boxes is None
     with pytest.raises(InputError, match=r"best_first=True needs the adaptive layout's node boxes; "
                                          r"this index has the marginal layout.*best_first=False"):
-        index.query(np.zeros((2, 3)), best_first=True)
+        index.reference_query(np.zeros((2, 3)), best_first=True)
 
 
 def test_stats_count_the_node_boxes():
@@ -178,13 +178,13 @@ def test_walk_trees_seeds_the_walk_with_that_many_tables():
     q = photon_set("clustered", 200, seed=4).astype(np.float32)
     pops = []
     for trees in (1, 3, prm.L, 99):
-        index.query(q, walk_trees=trees)
+        index.reference_query(q, walk_trees=trees)
         pops.append(index.counters["query.pops.mean"])
     assert pops[0] < pops[1] < pops[2] == pops[3]
     # The params' tables: one at or above the walk's floor, all L below it (k = 8 here).
-    np.testing.assert_array_equal(index.query(q, k=32)[1], index.query(q, k=32, walk_trees=1)[1])
-    np.testing.assert_array_equal(index.query(q)[1], index.query(q, walk_trees=prm.L)[1])
+    np.testing.assert_array_equal(index.query(q, k=32)[1], index.reference_query(q, k=32, walk_trees=1)[1])
+    np.testing.assert_array_equal(index.query(q)[1], index.reference_query(q, walk_trees=prm.L)[1])
     with pytest.raises(InputError, match=r"walk_trees=0 must be >= 1"):
         replace(prm, walk_trees=0)
     with pytest.raises(InputError, match=r"walk_trees"):
-        index.query(q, walk_trees=0)
+        index.reference_query(q, walk_trees=0)

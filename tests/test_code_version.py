@@ -11,7 +11,9 @@ from blockhash import code_version
 def test_the_cache_is_named_for_version_and_source():
     folder = code_version.cache_dir(blockhash.__version__)
     assert numba.config.CACHE_DIR == str(folder)
-    assert folder.name == f"blockhash-{blockhash.__version__}-{code_version.source_digest()}"
+    digest = code_version.source_digest(parts=code_version.compiled_modules())
+    assert folder.name == f"blockhash-{blockhash.__version__}-{digest}"
+    assert "index/cells.py" in code_version.compiled_modules()
     from blockhash.index.cells import cell_hash
     cell_hash(1, 2, 3)
     assert cell_hash.stats.cache_path.startswith(str(folder))

@@ -90,7 +90,7 @@ def test_caustic_photons_are_shuffled_not_grouped_by_component():
 
 
 def test_caustic_floor_photons_lie_inside_the_ring():
-    # DESIGN.md: "The caustic (nested cardioid arcs) falls on the floor inside the ring."
+    # The caustic (nested cardioid arcs) falls on the floor inside the ring.
     # Hot spots (centres within |x|, |z| <= 0.3, widths <= 3 cm) may leak a handful: allow 0.5%.
     p = caustic_like(20_000, np.random.default_rng(13))
     floor = p[p[:, 1] == 0]

@@ -33,7 +33,7 @@ def assert_same_as_cpu(lookup, index, q, k, A, variant="default"):
     v = Variant.parse(variant)
     bits = query_slot_bits(index.params, k, A) if v.packed_keys else 0
     d, i = lookup.query(q, k=k, A=A, variant=variant)
-    dc, ic = index.query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
+    dc, ic = index.reference_query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
     dc, ic = dc.reshape(len(q), k), ic.reshape(len(q), k)
     np.testing.assert_array_equal(i, ic)
     np.testing.assert_array_equal(d, dc)

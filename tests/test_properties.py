@@ -100,6 +100,6 @@ def test_shader_equals_the_cpu_reference(variant, args):
     v = Variant.parse(variant)
     bits = query_slot_bits(index.params, k, index.params.A) if v.select == "packed" else 0
     d, i = GLLookup(index, backend="egl").query(q, k=k, variant=variant)
-    dc, ic = index.query(q, k=[k] and k, slot_bits=bits)
+    dc, ic = index.reference_query(q, k=[k] and k, slot_bits=bits)
     np.testing.assert_array_equal(i, ic.reshape(len(q), k))
     np.testing.assert_array_equal(d, dc.reshape(len(q), k))

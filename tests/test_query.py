@@ -40,7 +40,7 @@ def test_the_walk_follows_its_transcription_over_any_number_of_tables(k, A, tree
     assert index.params.best_first and index.params.L == 5
     queries = photon_set("clustered", 40, seed=99)
     queries[::4] += 0.5  # some far from the photons: the walk prunes
-    d, i = index.query(queries, k=[k] and k, walk_trees=trees)
+    d, i = index.reference_query(queries, k=[k] and k, walk_trees=trees)
     slot_of = np.empty(len(index), dtype=np.int64)
     slot_of[index.order] = np.arange(len(index))
     for qi, q in enumerate(queries):
@@ -119,3 +119,23 @@ def test_the_hash_query_counts_its_dependent_fetch_rounds(preset, layout_rounds)
         expect = np.full(len(q), layout_rounds + 2)
     assert index.counters["query.rounds.mean"] == pytest.approx(expect.mean())
     assert index.counters["query.rounds.max"] == expect.max()
+
+
+def test_query_keeps_the_ckdtree_contract_and_the_oracle_switches_warn():
+    import warnings
+
+    from blockhash import BlockHashIndex
+
+    pts = np.random.default_rng(4).random((3000, 3))
+    index = BlockHashIndex(pts, k=8)
+    q = pts[:50] + 0.001
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        d, i = index.query(q, 8, A=4)
+    d2, i2 = index.reference_query(q, 8, A=4)
+    np.testing.assert_array_equal(i, i2)
+    with pytest.warns(DeprecationWarning, match="reference_query"):
+        _, old = index.query(q, 8, best_first=False)
+    np.testing.assert_array_equal(old, index.reference_query(q, 8, best_first=False)[1])
+    with pytest.raises(TypeError, match="unexpected keyword"):
+        index.query(q, 8, eps=0.1)

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The whole shader benchmark in one go, for a GPU machine (or rehearsed on llvmpipe).
 #
-# On a bare NVIDIA machine (../shared/gpu/README.md): run ../shared/gpu/prepare.sh on a machine
-# with the package registries, carry the checkout with .gl/ and .whl/, then in its root
+# On a bare NVIDIA machine: prepare the wheels and Mesa-free GL libraries (.whl/, .gl/) on a
+# machine with the package registries, carry the checkout with them, then in its root
 #     OUT=/some/dir bash tools/gpu_bench.sh
 # Everywhere else it runs the checkout's package with the local GL (Mesa's llvmpipe here):
 #     SMALL=1 bash tools/gpu_bench.sh        # the rehearsal: small sizes, a few minutes

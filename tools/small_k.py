@@ -53,7 +53,7 @@ def main(argv=None) -> int:
                     ix = indexes[k]
                     ix.params = replace(ix.params, walk_floor=floor)
                     trees = tables if k < floor else None
-                    _, idx = ix.query(q, k=k, walk_trees=trees)
+                    _, idx = ix.reference_query(q, k=k, walk_trees=trees)
                     fn = false_negatives(np.asarray(idx).reshape(len(q), -1), exact[k][1],
                                          len(pts)).mean() / k
                     cells.append(f"{100 * fn:>6.2f}%")

@@ -7,7 +7,7 @@ Two limits bound what ``GLLookup.query`` and the caustic pass accept:
     the k best keys in registers through a table of unrolled compare-exchange
     groups (``BH_PK_GROUPS``) written out up to 128 slots; above it the shader
     stops at ``#error``.  The other selections keep ``uvec2 bh_best[k]`` in a
-    local array whose compile time grows fast with its size (DESIGN.md), and the
+    local array whose compile time grows fast with its size on llvmpipe, and the
     caustic pass reads ``bh_best`` too, so one limit holds for every variant.
     The CPU reference (:meth:`BlockHashIndex.query`) has no such limit.
 

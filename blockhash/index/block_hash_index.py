@@ -7,6 +7,11 @@
 >>> d, i = index.query(pts[:5])            # like scipy.spatial.cKDTree.query
 >>> d.shape, i.shape
 ((5, 8), (5, 8))
+
+Why this module is long: the index object's build and its two query entry points (the
+cKDTree-shaped ``query`` and the oracle's ``reference_query``, which dispatches to each
+lookup's CPU reference) share their parameter checks and counters; split, each half would
+import the other's private state.
 """
 
 from __future__ import annotations
@@ -128,6 +133,10 @@ class IndexStats:
             lines.insert(0, f"WARNING: {self.orphans:,} orphaned blocks: {self.orphan_photons:,} "
                             "photons can never be found")
         return "\n".join(lines)
+
+
+#: :meth:`BlockHashIndex.reference_query`'s switches, beyond the cKDTree-shaped query.
+ORACLE_SWITCHES = ("by_priority", "slot_bits", "probe", "best_first", "walk_trees")
 
 
 class BlockHashIndex:
@@ -273,10 +282,29 @@ class BlockHashIndex:
         self.timings["cells"] = time.perf_counter() - t
         self.stats = replace(self.stats, cell_bytes=self._cells.nbytes)
 
-    def query(self, points, k=None, *, A=None, by_priority: bool = True, slot_bits: int = 0,
-              probe: bool | None = None, best_first: bool | None = None,
-              walk_trees: int | None = None, lookup: str | None = None):
+    def query(self, points, k=None, *, A=None, lookup: str | None = None, **oracle):
         """Approximate k nearest photons, like ``scipy.spatial.cKDTree.query``.
+
+        ``points``, ``k``, ``A`` and ``lookup`` are as in :meth:`reference_query`, which
+        returns the same ``(distances, indices)``.  The oracle switches (``by_priority``,
+        ``slot_bits``, ``probe``, ``best_first``, ``walk_trees``) still work here and warn
+        (DeprecationWarning): they belong to :meth:`reference_query`.
+        """
+        unknown = sorted(set(oracle) - set(ORACLE_SWITCHES))
+        if unknown:
+            raise TypeError(f"query() got unexpected keyword arguments {unknown}")
+        if oracle:
+            warnings.warn(f"BlockHashIndex.query({', '.join(f'{n}=' for n in oracle)}) is "
+                          "deprecated: the oracle switches belong to "
+                          "BlockHashIndex.reference_query", DeprecationWarning, stacklevel=2)
+        return self.reference_query(points, k, A=A, lookup=lookup, **oracle)
+
+    def reference_query(self, points, k=None, *, A=None, by_priority: bool = True,
+                        slot_bits: int = 0, probe: bool | None = None,
+                        best_first: bool | None = None, walk_trees: int | None = None,
+                        lookup: str | None = None):
+        """The CPU reference of every lookup and shader variant, the oracle the GL side is
+        tested against: :meth:`query` with the switches that reproduce each variant.
 
         Parameters
         ----------

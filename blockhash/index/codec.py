@@ -22,7 +22,7 @@ map.  The data-derived scale is the power of two with ``max|power| / scale`` in
 [1, 2): dividing and multiplying by it are exact, so the only error is the
 float16 rounding: relative <= 2**-11 for channels within 2**14 of the largest
 (normal half floats), absolute <= 2**-25 * scale below that (half the subnormal
-spacing).  Raw float16 watts would lose 19 % at 1e-7 W (DESIGN.md).
+spacing).  Raw float16 watts would lose 19 % at 1e-7 W.
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
 """Render a scene: caustic photons, Block Hashing index, G-buffer, direct light, caustic pass.
 
-``render_scene`` returns the three layers (direct, caustic, combined) and a
+``render`` (``blockhash.render``) and ``render_scene`` (every setting a keyword) return
+the three layers (direct, caustic, combined) and a
 summary of every phase; ``blockhash render`` writes them to a multi-layer EXR
 and a tone-mapped PNG.  ``method='kdtree'`` replaces the Block Hashing lookup
 by the exact k nearest photons from the kd-tree shader (the estimate itself in
@@ -18,6 +19,7 @@ import numpy as np
 
 from blockhash.render.caustic import CausticPass, estimate_cpu, estimate_exact
 from blockhash.render.estimate import EstimateOptions
+from blockhash.render.options import METHODS, LookupOptions
 from blockhash.scene.materials import receiver_materials
 from blockhash.errors import InputError
 from blockhash.gl.limits import MAX_K
@@ -28,7 +30,6 @@ from blockhash.render.shading import SceneRays, direct_light, shading_points
 from blockhash.render.subpixel import box_filter, raycast_gbuffer
 from blockhash.scene.camera import DEFAULT_SPP, SPP_SEED, spp_side
 
-METHODS = ("bh", "kdtree", "cpu")
 
 
 class NoCausticWarning(UserWarning):
@@ -59,10 +60,80 @@ class RenderResult:
         return {"direct": self.direct, "caustic": self.caustic, "combined": self.combined}
 
 
+def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions(),
+           lookup=LookupOptions(), backend=None, progress=False) -> RenderResult:
+    """Render ``scene`` (:func:`blockhash.load_scene`): its direct and caustic layers.
+
+    Parameters
+    ----------
+    photons : int or CausticPhotons, optional
+        Photons to trace (default: the scene's ``[photons] count``), or photons already
+        traced (``blockhash.photons.tracing.trace_caustic_photons``), to compare lookups
+        on one photon map.
+    spp : int, optional
+        Samples per pixel, a square number (default: the scene's ``[camera] spp``, else
+        :data:`blockhash.scene.camera.DEFAULT_SPP`).
+    seed : int, optional
+        The photons' seed (default: the scene's ``[photons] seed``).
+    estimate : EstimateOptions
+        The density estimate (:mod:`blockhash.render.estimate`).
+    lookup : LookupOptions
+        The photon search: method, k, A, shader variant.
+    backend : {'auto', 'egl', 'osmesa'}, optional
+    progress : bool
+        Print the photon tracing's progress.
+
+    Returns
+    -------
+    RenderResult
+        ``direct``, ``caustic``, ``combined`` and ``layers()``, ``timings`` per stage,
+        ``info``, the ``index``, and ``spp``.  The image size is the camera's
+        (``Scene.with_size`` for another).
+    """
+    if not isinstance(estimate, EstimateOptions):
+        raise InputError(f"estimate must be an EstimateOptions; got {type(estimate).__name__} "
+                         "(e.g. estimate=EstimateOptions(estimate='unbiased'))")
+    if not isinstance(lookup, LookupOptions):
+        raise InputError(f"lookup must be a LookupOptions; got {type(lookup).__name__} "
+                         "(e.g. lookup=LookupOptions(method='kdtree', k=50))")
+    traced = None if photons is None or isinstance(photons, (int, np.integer)) else photons
+    return _render(scene, photons=None if traced is not None else photons, photon_map=traced,
+                   k=lookup.k, A=lookup.A, method=lookup.method, variant=lookup.variant,
+                   size=None, seed=seed, backend=backend, progress=progress, options=estimate,
+                   spp=spp)
+
+
+#: render_scene's keywords that repeat fields of EstimateOptions.
+_ESTIMATE_KEYWORDS = ("estimate", "filter", "normal_cos", "normal_test", "disc")
+
+
 def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="default",
                  size=None, seed=None, backend=None, progress=False, photon_map=None,
-                 estimate=None, filter=None, normal_cos=None, normal_test=True, disc=None,
-                 options=None, spp=None) -> RenderResult:
+                 options=None, spp=None, **deprecated) -> RenderResult:
+    """Render ``scene`` with every setting a keyword: the form :func:`render` is made
+    from, which also takes an image ``size``.  The keywords ``estimate``, ``filter``,
+    ``normal_cos``, ``normal_test`` and ``disc`` still work and warn
+    (DeprecationWarning): give ``options=EstimateOptions(...)``, or call
+    ``blockhash.render(scene, estimate=EstimateOptions(...))``.
+    """
+    unknown = sorted(set(deprecated) - set(_ESTIMATE_KEYWORDS))
+    if unknown:
+        raise TypeError(f"render_scene() got unexpected keyword arguments {unknown}")
+    if deprecated:
+        warnings.warn(f"render_scene({', '.join(f'{n}=' for n in deprecated)}) is deprecated: "
+                      "give options=EstimateOptions(...), or call blockhash.render(scene, "
+                      "estimate=EstimateOptions(...))", DeprecationWarning, stacklevel=2)
+        normal_test = deprecated.pop("normal_test", True)
+        options = EstimateOptions.of(options, **deprecated)
+        if not normal_test:
+            options = replace(options, normal_cos=None)
+    return _render(scene, photons=photons, k=k, A=A, method=method, variant=variant, size=size,
+                   seed=seed, backend=backend, progress=progress, photon_map=photon_map,
+                   options=options, spp=spp)
+
+
+def _render(scene, *, photons, k, A, method, variant, size, seed, backend, progress, photon_map,
+            options, spp) -> RenderResult:
     """Render ``scene`` (see :mod:`blockhash.scene.model`).
 
     Parameters
@@ -76,17 +147,9 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
         Override the camera's image size.
     photon_map : CausticPhotons, optional
         Reuse traced photons (for comparing methods on the same map).
-    estimate : {'conserving', 'unbiased', 'paper'}, optional
-    filter : {'none', 'cone', 'epanechnikov', 'silverman'}, optional
-    normal_cos : float in [-1, 1], optional
-        Threshold of the photon normal test, ``dot(n_photon, n) >= normal_cos``.
-    normal_test : bool
-        False turns the photon normal test off.
-    disc : float >= 0, optional
-        Flattened neighbourhood: photons within ``disc * r`` of the tangent plane.
     options : EstimateOptions, optional
-        The density estimate's options (:mod:`blockhash.render.estimate`); the keywords
-        above change single fields of it (default: ``EstimateOptions()``).
+        The density estimate's options (:mod:`blockhash.render.estimate`; default:
+        ``EstimateOptions()``).
     spp : int, optional
         Samples per pixel, a square number S * S (default: the scene's ``[camera] spp``,
         else :data:`blockhash.scene.camera.DEFAULT_SPP`).  1 shades the pixel centres the rasteriser
@@ -106,10 +169,7 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
     if method == "bh" and k > MAX_K:  # refused before hours of tracing, not after
         raise InputError(f"k={k} is above the lookup shader's limit MAX_K={MAX_K}; use k <= "
                          f"{MAX_K}, or method='cpu' or 'kdtree'")
-    options = EstimateOptions.of(options, estimate=estimate, filter=filter, normal_cos=normal_cos,
-                                 disc=disc)
-    if not normal_test:
-        options = replace(options, normal_cos=None)
+    options = EstimateOptions.of(options)
     side = spp_side((scene.camera.spp or DEFAULT_SPP) if spp is None else spp)
     timings, info = {}, {}
     info["estimate"] = options.label

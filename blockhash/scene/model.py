@@ -27,7 +27,7 @@ from blockhash.scene.values import (FieldError as _FieldError, fmt as _fmt, inte
 from blockhash.scene.materials import (SPECULAR_MATERIALS, DielectricMaterial, MirrorMaterial,  # noqa: F401
                         PhongMaterial)
 
-#: Largest image side: GL_MAX_TEXTURE_SIZE on llvmpipe (DESIGN.md), so a
+#: Largest image side: GL_MAX_TEXTURE_SIZE on llvmpipe (16,384), so a
 #: G-buffer of the camera's size can be allocated.
 MAX_IMAGE_SIDE = 16384
 #: up and the view direction count as parallel when the sine of their angle is
@@ -308,6 +308,10 @@ class Scene:
         """(2, 3) float64: the box around every object's mesh, [min, max]."""
         boxes = np.array([o.mesh.bounds for o in self.objects])
         return np.stack([boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)])
+
+    def with_size(self, width: int, height: int) -> "Scene":
+        """The same scene with the camera's image ``width`` x ``height`` (Camera checks them)."""
+        return replace(self, camera=replace(self.camera, width=width, height=height))
 
     def summary(self) -> str:
         """A few lines describing the scene, for the command line."""

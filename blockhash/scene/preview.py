@@ -2,7 +2,7 @@
 
 pyrender makes its own EGL context current on every render, and deleting an
 ``OffscreenRenderer`` calls eglTerminate, which breaks every moderngl context in
-the process (DESIGN.md).  So the preview renders in a separate, spawned process
+the process.  So the preview renders in a separate, spawned process
 and sends back colour and depth arrays.
 """
 

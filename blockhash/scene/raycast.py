@@ -2,7 +2,7 @@
 
 Photon tracing (:mod:`blockhash.photons.tracing`) and shading (:mod:`blockhash.render.shading`) both cast rays
 against the same meshes; this module holds what they share.  ``EmbreeScene.run``
-is called directly (DESIGN.md: trimesh's wrappers are 2-3x slower, and trimesh
+is called directly (trimesh's wrappers are 2-3x slower, and trimesh
 silently falls back to a pure-numpy caster when embreex is missing).
 """
 

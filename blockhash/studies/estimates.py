@@ -114,7 +114,7 @@ def upsample(mask, s: int) -> np.ndarray:
 def searches(index, k: int, A: int) -> dict:
     """``{'bh': the CPU reference of the default shader variant, 'exact': cKDTree}``."""
     bits = query_slot_bits(index.params, k, A)
-    return {"bh": lambda q: index.query(q, k=k, A=A, slot_bits=bits),
+    return {"bh": lambda q: index.reference_query(q, k=k, A=A, slot_bits=bits),
             "exact": lambda q: exact_knn(index.positions, q, k)}
 
 

@@ -231,7 +231,7 @@ def run_sweep(scene, plan: SweepPlan = QUICK, *, seed=None, cache_dir=None, back
             sec = {"caustic_pass": time.perf_counter() - t, "gl_draw": None, "gl_timer": None}
         img = box_down(img, ss)
         v = Variant.parse(variant)
-        approx = index.query(queries, k=k, A=A, by_priority=v.priority == "on",
+        approx = index.reference_query(queries, k=k, A=A, by_priority=v.priority == "on",
                              slot_bits=query_slot_bits(index.params, k, A)
                              if v.select == "packed" else 0)
         acc = accuracy(approx, knn[(n, k)], len(index))

@@ -1,0 +1,54 @@
+"""The docs quote what the project measured: README's figures match the JSON the tools
+wrote, and no doc or source points outside the repository."""
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+README = (ROOT / "README.md").read_text()
+
+
+def rows(name):
+    return json.loads((ROOT / "docs" / name).read_text())["rows"]
+
+
+def quoted(pattern):
+    """The numbers README gives where ``pattern`` (a regex with groups) matches."""
+    m = re.search(pattern, re.sub(r"\s+", " ", README))
+    assert m, f"README no longer says {pattern!r}; update this test with the text"
+    return [float(g) for g in m.groups()]
+
+
+def pct(x):
+    return round(100 * x, 2)
+
+
+def test_the_default_walks_worst_map_figures_match_the_accuracy_knob_json():
+    a8, a64 = quoted(r"every evaluation map misses at most ([\d.]+)% at A = 8 and ([\d.]+)% at A = 64")
+    default = [r for r in rows("accuracy-knob.json") if r["preset"] == "default" and not r["config"]]
+    assert pct(max(r["fn_mean"] for r in default if r["A"] == 8)) == a8
+    assert pct(max(r["fn_mean"] for r in default if r["A"] == 64)) == a64
+
+
+def test_the_far_query_figures_match_the_accuracy_knob_json():
+    a8, a64 = quoted(r"the walk misses ([\d.]+)% of them at A = 8 and ([\d.]+)% at A = 64")
+    default = [r for r in rows("accuracy-knob.json") if r["preset"] == "default" and not r["config"]]
+    far8 = max(r["fn_far"] for r in default if r["A"] == 8)
+    far64 = max(r["fn_far"] for r in default if r["A"] == 64)
+    assert round(100 * far8, 1) == a8 and round(100 * far64, 2) == a64
+
+
+TEXT = ("*.md", "*.py", "*.toml", "*.sh", "*.glsl", "*.frag")
+
+
+@pytest.mark.parametrize("pattern", [r"\.\./shared", r"\bDESIGN\.md\b", r"/work/"])
+def test_nothing_points_outside_the_repository(pattern):
+    here = Path(__file__).resolve()
+    hits = [f"{p.relative_to(ROOT)}:{i + 1}" for glob in TEXT for p in ROOT.rglob(glob)
+            if ".git" not in p.parts and p.resolve() != here and "build" not in p.parts
+            for i, line in enumerate(p.read_text(errors="replace").splitlines())
+            if re.search(pattern, line)]
+    assert not hits, f"references outside the repository ({pattern}): {hits[:10]}"
