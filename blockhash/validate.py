@@ -58,3 +58,17 @@ def as_int(value, name: str, *, minimum: int | None = None, maximum: int | None 
         raise InputError(f"{name}={value:,} is out of range; allowed {lo} <= {name} <= {hi}"
                          + (f"; {hint}" if hint else ""))
     return value
+
+
+def old_keywords(call: str, given: dict, known: tuple, instead: str) -> None:
+    """Keywords a call still takes for one release: TypeError for any not in ``known``,
+    else a DeprecationWarning naming ``instead``, the form to use (warned at the caller's
+    caller)."""
+    import warnings
+
+    unknown = sorted(set(given) - set(known))
+    if unknown:
+        raise TypeError(f"{call}() got unexpected keyword arguments {unknown}")
+    if given:
+        warnings.warn(f"{call}({', '.join(f'{n}=' for n in given)}) is deprecated: {instead}",
+                      DeprecationWarning, stacklevel=3)

@@ -1,5 +1,6 @@
 """The shader preprocessor and variant registry, without a GL context."""
 
+import math
 import re
 
 import pytest
@@ -7,8 +8,6 @@ import pytest
 from blockhash.errors import InputError
 from blockhash.gl.shaderlib import (CHOICES, NAMED, Source, Variant, define_block, glsl_dir,
                                     preprocess, variants)
-
-pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 
 def write(tmp_path, files):
@@ -121,3 +120,18 @@ def test_merge_networks_sort_and_the_generated_file_is_current():
     bitonic = [[0] * i + [1] * (n - i - j) + [0] * j for i in range(n + 1) for j in range(n - i + 1)]
     assert gen.sorts(gen.bitonic_merge(n), n, bitonic)
     assert not gen.sorts(gen.bitonic_merge(n)[:-1], n, bitonic)  # the check can fail
+
+
+def test_variants_say_which_choices_the_default_index_ignores():
+    from blockhash.gl.shaderlib import CHOICES, IGNORED_BY_DEFAULT_INDEX, NAMED, Variant, variants
+
+    every = variants()
+    meaningful = variants(for_default_index=True)
+    assert set(meaningful) <= set(every)
+    assert set(IGNORED_BY_DEFAULT_INDEX) <= set(CHOICES)
+    kept = [name for name in CHOICES if name not in IGNORED_BY_DEFAULT_INDEX]
+    assert len(meaningful) - len(NAMED) == math.prod(len(CHOICES[n][1]) for n in kept)
+    default = NAMED["default"]
+    for name in meaningful[len(NAMED):]:
+        v = Variant.parse(name)
+        assert all(getattr(v, n) == getattr(default, n) for n in IGNORED_BY_DEFAULT_INDEX)

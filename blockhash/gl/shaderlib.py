@@ -186,9 +186,27 @@ NAMED = {
 }
 
 
-def variants() -> list[str]:
-    """Every variant name: the named ones, then each combination of choices."""
-    combos = ["-".join(c) for c in itertools.product(*(list(v[1]) for v in CHOICES.values()))]
+#: The stages whose choice the default preset's index does not see, and why: its lookup is
+#: the nearest-box-first walk over the adaptive trees (blockhash/index/best_first.py).
+IGNORED_BY_DEFAULT_INDEX = {
+    "search": "the adaptive layout descends its trees; only grid layouts search thresholds",
+    "priority": "the walk visits buckets nearest box first, never by priority",
+    "cull": "the walk culls by box whatever this choice",
+}
+
+
+def variants(*, for_default_index: bool = False) -> list[str]:
+    """Every variant name: the named ones, then each combination of choices.
+
+    ``for_default_index=True`` gives only the combinations that differ on the default
+    preset's index: the stages of :data:`IGNORED_BY_DEFAULT_INDEX` held at the default
+    variant's choice (the others give the same shader results there).
+    """
+    stages = {name: list(v[1]) for name, v in CHOICES.items()}
+    if for_default_index:
+        base = NAMED["default"]
+        stages.update({name: [getattr(base, name)] for name in IGNORED_BY_DEFAULT_INDEX})
+    combos = ["-".join(c) for c in itertools.product(*stages.values())]
     return [*NAMED, *combos]
 
 

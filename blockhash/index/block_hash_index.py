@@ -36,7 +36,7 @@ from blockhash.index.params import BlockHashParams, candidate_cap, resolve_param
 from blockhash.index.query import bh_query
 from blockhash.index.thresholds import ThresholdLayout, build_thresholds, descent_rounds
 from blockhash.errors import InputError
-from blockhash.validate import as_int, as_points
+from blockhash.validate import as_int, as_points, old_keywords
 
 #: Bytes per 32-bit word.
 WORD = 4
@@ -290,13 +290,8 @@ class BlockHashIndex:
         ``slot_bits``, ``probe``, ``best_first``, ``walk_trees``) still work here and warn
         (DeprecationWarning): they belong to :meth:`reference_query`.
         """
-        unknown = sorted(set(oracle) - set(ORACLE_SWITCHES))
-        if unknown:
-            raise TypeError(f"query() got unexpected keyword arguments {unknown}")
-        if oracle:
-            warnings.warn(f"BlockHashIndex.query({', '.join(f'{n}=' for n in oracle)}) is "
-                          "deprecated: the oracle switches belong to "
-                          "BlockHashIndex.reference_query", DeprecationWarning, stacklevel=2)
+        old_keywords("BlockHashIndex.query", oracle, ORACLE_SWITCHES,
+                     "the oracle switches belong to BlockHashIndex.reference_query")
         return self.reference_query(points, k, A=A, lookup=lookup, **oracle)
 
     def reference_query(self, points, k=None, *, A=None, by_priority: bool = True,

@@ -29,6 +29,7 @@ from blockhash.render.photon_radius import exact_radii2, own_radii2
 from blockhash.render.shading import SceneRays, direct_light, shading_points
 from blockhash.render.subpixel import box_filter, raycast_gbuffer
 from blockhash.scene.camera import DEFAULT_SPP, SPP_SEED, spp_side
+from blockhash.validate import old_keywords
 
 
 
@@ -116,13 +117,10 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
     (DeprecationWarning): give ``options=EstimateOptions(...)``, or call
     ``blockhash.render(scene, estimate=EstimateOptions(...))``.
     """
-    unknown = sorted(set(deprecated) - set(_ESTIMATE_KEYWORDS))
-    if unknown:
-        raise TypeError(f"render_scene() got unexpected keyword arguments {unknown}")
+    old_keywords("render_scene", deprecated, _ESTIMATE_KEYWORDS,
+                 "give options=EstimateOptions(...), or call "
+                 "blockhash.render(scene, estimate=EstimateOptions(...))")
     if deprecated:
-        warnings.warn(f"render_scene({', '.join(f'{n}=' for n in deprecated)}) is deprecated: "
-                      "give options=EstimateOptions(...), or call blockhash.render(scene, "
-                      "estimate=EstimateOptions(...))", DeprecationWarning, stacklevel=2)
         normal_test = deprecated.pop("normal_test", True)
         options = EstimateOptions.of(options, **deprecated)
         if not normal_test:
