@@ -51,3 +51,117 @@ def gl_error_checked():
         with ctx:
             err = ctx.error
         assert err == "GL_NO_ERROR", f"the {name} context was left with {err}"
+
+
+# --------------------------------------------------------------------------- shared cases
+# Photon sets and scenes more than one test module uses.
+
+def two_patches_and_far_points(n=30_000, m=400):
+    """Photons on two small patches, at opposite corners of the unit square and on the planes
+    z = 0 and z = 1; shading points anywhere on the plane z = 0.5 between them, most of them
+    far from every photon (the code path of such a point leads to buckets far from it)."""
+    rng = np.random.default_rng(3)
+    pts = np.zeros((n, 3))
+    pts[:, :2] = rng.random((n, 2)) * 0.1
+    pts[n // 2:] += (0.9, 0.9, 1.0)
+    q = np.full((m, 3), 0.5, dtype=np.float32)
+    q[:, :2] = rng.random((m, 2))
+    return pts, q
+
+
+#: Lambertian receivers and known photon sets of the density estimate's tests.
+KD = 0.5
+LAMBERT = [((KD,) * 3, (0, 0, 0), 1.0)]
+DOWN = (0.0, -0.6, -0.8)  # photons travel down and toward -z: they face a floor and a +z wall
+
+
+def floor_points(h=24, w=24, *, z=(0.2, 0.8), y=0.0, view=(0, 1, 0)):
+    gx, gz = np.meshgrid(np.linspace(0.05 if w > 32 else 0.2, 0.95 if w > 32 else 0.8, w),
+                         np.linspace(*z, h))
+    from blockhash.render.caustic import ShadingPoints
+
+    return ShadingPoints(
+        position=np.stack([gx, np.full_like(gx, y), gz], axis=2).astype(np.float32),
+        normal=np.tile(np.float32([0, 1, 0]), (h, w, 1)), view=np.tile(np.float32(view), (h, w, 1)),
+        material=np.zeros((h, w), np.int32), weight=np.ones((h, w, 3), np.float32))
+
+
+def surfaces(parts, k, seed=0):
+    """An index over uniform photons on axis-aligned unit squares: [(n, axis fixed, value,
+    normal)], 1 W in total per square."""
+    from blockhash import BlockHashIndex
+
+    rng = np.random.default_rng(seed)
+    pos, nrm, pw = [], [], []
+    for n, axis, value, normal in parts:
+        p = rng.random((n, 3))
+        p[:, axis] = value
+        pos.append(p)
+        nrm.append(np.tile(normal, (n, 1)))
+        pw.append(np.full((n, 3), 1.0 / n))
+    pos = np.concatenate(pos)
+    return BlockHashIndex(pos, k=k, A=8, directions=np.tile(DOWN, (len(pos), 1)) / np.linalg.norm(DOWN),
+                          normals=np.concatenate(nrm).astype(float), powers=np.concatenate(pw))
+
+
+FLOOR = (0.0, 1.0, 0.0)
+
+
+RING_TEMPLATE = """
+[camera]
+eye = {eye}
+target = {target}
+fov_y_deg = 38.0
+width = 16
+height = 16
+
+[materials.floor]
+kind = "phong"
+kd = 0.55
+ks = 0.25
+n = 20.0
+
+[materials.mirror]
+kind = "mirror"
+reflectance = [0.95, 0.78, 0.45]
+
+[[lights]]
+kind = "point"
+position = {light}
+power = 100.0
+
+[[objects]]
+name = "floor"
+material = "floor"
+[objects.shape]
+kind = "rectangle"
+x = [-1.5, 1.5]
+z = [-1.5, 1.5]
+
+{ring}
+[photons]
+count = 3000
+k = 8
+A = 4
+seed = 1
+"""
+
+RING_OBJECT = """
+[[objects]]
+name = "ring"
+material = "mirror"
+[objects.shape]
+kind = "ring"
+inner_radius = 0.50
+outer_radius = 0.53
+height = 0.30
+segments = 64
+"""
+
+
+def small_ring_scene(*, eye="[0.0, 1.9, 1.6]", target="[0.0, 0.0, 0.05]", light="[-2.0, 1.0, 0.0]",
+                     ring=RING_OBJECT):
+    """The ring scene at 16 x 16 with 3,000 photons (k = 8, A = 4), its placement given."""
+    from blockhash.scene.loader import parse_scene
+
+    return parse_scene(RING_TEMPLATE.format(eye=eye, target=target, light=light, ring=ring))

@@ -144,3 +144,14 @@ def test_no_private_names_cross_modules(path):
                 private += [f"line {node.lineno}: {node.module}.{a.name}" for a in node.names
                             if a.name.startswith("_") and not a.name.startswith("__")]
     assert not private, f"{path.name} imports private names: {private}"
+
+
+def test_tests_are_laid_out_by_package():
+    """tests/ROOM/ holds the tests of blockhash/ROOM/; tests/ itself the CLI, packaging and
+    cross-cutting checks."""
+    tests = ROOT / "tests"
+    rooms = {p.name for p in tests.iterdir() if p.is_dir() and p.name not in ("data", "__pycache__")}
+    assert rooms, "no test rooms"
+    assert rooms <= {p.name for p in PACKAGE.iterdir() if (p / "__init__.py").is_file()}, rooms
+    for room in rooms:
+        assert any((tests / room).glob("test_*.py")), f"tests/{room}/ holds no tests"

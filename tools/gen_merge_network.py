@@ -1,7 +1,7 @@
 """Write glsl/bh_merge_net.glsl: the fixed compare-exchange networks of select=merge.
 
 The networks are constants of the algorithm, so they are generated once and committed
-(rerun this script after changing it; tests/test_shaderlib.py checks the file is current
+(rerun this script after changing it; tests/gl/test_shaderlib.py checks the file is current
 and that every network sorts):
 
 - ``bh_sort_batch()``: sorts a block's (at most) 10 keys, ascending, in place.  It is

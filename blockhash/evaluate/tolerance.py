@@ -33,7 +33,7 @@ from blockhash.errors import InputError
 from blockhash.evaluate.imagediff import compare_layers
 
 #: Smallest proposed limits: float32 rounding and driver differences on a layer the seed does
-#: not change (shader vs CPU reference agree to 1e-4 relative RMS, tests/test_render.py), and
+#: not change (shader vs CPU reference agree to 1e-4 relative RMS, tests/render/test_render.py), and
 #: a FLIP far below the visible (0.01 is about the least a viewer notices when flipping).
 FLOORS = {"relative_rms": 1e-4, "flip": 1e-3}
 #: Metrics that get a proposed limit.

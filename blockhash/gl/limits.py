@@ -26,7 +26,7 @@ Two limits bound what ``GLLookup.query`` and the caustic pass accept:
     of dedup=branch, which the default uses beyond 128 taken blocks, dominate; with
     no L * B block cap the walk's list holds up to ceil(A k / 10) + 1 blocks); the
     largest allowed A is tested to equal the CPU reference
-    (tests/test_extremes_gl.py).  Other drivers (an NVIDIA GPU through
+    (tests/gl/test_extremes_gl.py).  Other drivers (an NVIDIA GPU through
     EGL) have no such limit.
 """
 

@@ -46,7 +46,7 @@ from blockhash.studies.measure import errors_against
 
 
 #: How the caustic layer of a setting is computed: 'gl' the caustic pass shader (timed
-#: draws), 'cpu' its CPU reference (the same neighbours, tests/test_caustic.py; no shader
+#: draws), 'cpu' its CPU reference (the same neighbours, tests/render/test_caustic.py; no shader
 #: compiles, so small studies and tests run in seconds, but times are CPU times).
 ENGINES = ("gl", "cpu")
 

@@ -8,67 +8,9 @@ import pytest
 from blockhash import CapacityError, InputError
 from blockhash.render.gbuffer import rasterize
 from blockhash.render.pipeline import NoCausticWarning, render_scene
-from blockhash.scene.loader import parse_scene
-from conftest import context_or_skip
+from conftest import context_or_skip, small_ring_scene as scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
-
-RING = """
-[camera]
-eye = {eye}
-target = {target}
-fov_y_deg = 38.0
-width = 16
-height = 16
-
-[materials.floor]
-kind = "phong"
-kd = 0.55
-ks = 0.25
-n = 20.0
-
-[materials.mirror]
-kind = "mirror"
-reflectance = [0.95, 0.78, 0.45]
-
-[[lights]]
-kind = "point"
-position = {light}
-power = 100.0
-
-[[objects]]
-name = "floor"
-material = "floor"
-[objects.shape]
-kind = "rectangle"
-x = [-1.5, 1.5]
-z = [-1.5, 1.5]
-
-{ring}
-[photons]
-count = 3000
-k = 8
-A = 4
-seed = 1
-"""
-
-RING_OBJECT = """
-[[objects]]
-name = "ring"
-material = "mirror"
-[objects.shape]
-kind = "ring"
-inner_radius = 0.50
-outer_radius = 0.53
-height = 0.30
-segments = 64
-"""
-
-
-def scene(*, eye="[0.0, 1.9, 1.6]", target="[0.0, 0.0, 0.05]", light="[-2.0, 1.0, 0.0]",
-          ring=RING_OBJECT):
-    return parse_scene(RING.format(eye=eye, target=target, light=light, ring=ring))
-
 
 def assert_sane(result, *, caustic=True):
     for name, layer in result.layers().items():

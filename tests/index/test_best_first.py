@@ -10,7 +10,7 @@ from blockhash.index.best_first import QUEUE_CAPACITY, bf_query, walk_cull
 from blockhash.index.metrics import exact_knn, false_negatives
 from blockhash.index.params import DEFAULT_WALK_FLOOR, candidate_cap
 from blockhash.index.thresholds import LEAF, THRESHOLD_PAD
-from conftest import photon_set
+from conftest import photon_set, two_patches_and_far_points
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -40,19 +40,6 @@ def test_node_boxes_are_tight_around_their_photons():
                 c = int(meta >> 3)
                 np.testing.assert_array_equal(boxes[t, i, :3], boxes[t, c:c + 2, :3].min(axis=0))
                 np.testing.assert_array_equal(boxes[t, i, 3:], boxes[t, c:c + 2, 3:].max(axis=0))
-
-
-def two_patches_and_far_points(n=30_000, m=400):
-    """Photons on two small patches, at opposite corners of the unit square and on the planes
-    z = 0 and z = 1; shading points anywhere on the plane z = 0.5 between them, most of them
-    far from every photon (the code path of such a point leads to buckets far from it)."""
-    rng = np.random.default_rng(3)
-    pts = np.zeros((n, 3))
-    pts[:, :2] = rng.random((n, 2)) * 0.1
-    pts[n // 2:] += (0.9, 0.9, 1.0)
-    q = np.full((m, 3), 0.5, dtype=np.float32)
-    q[:, :2] = rng.random((m, 2))
-    return pts, q
 
 
 def test_far_queries_find_their_exact_neighbours_where_hashing_did_not():

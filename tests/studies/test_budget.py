@@ -60,7 +60,7 @@ def test_an_explicit_study_file_is_read_and_a_missing_one_named(tmp_path):
 def test_a_scene_without_mirrors_skips_the_photon_stages(tmp_path, capsys):
     from pathlib import Path
 
-    ring = Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"
+    ring = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
     text = ring.read_text().replace('material = "mirror"', 'material = "floor"')
     scene = tmp_path / "plain.toml"
     scene.write_text(text)

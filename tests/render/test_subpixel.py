@@ -13,7 +13,7 @@ from blockhash.render.subpixel import raycast_gbuffer, subpixel_points
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
-SCENES = Path(__file__).resolve().parents[1] / "scenes"
+SCENES = Path(__file__).resolve().parents[2] / "scenes"
 
 
 @pytest.mark.parametrize("seed", [None, 3])
@@ -101,7 +101,7 @@ def test_cell_centres_by_ray_casting_see_what_the_rasteriser_sees():
 
 
 def test_estimate_images_in_chunks_equal_one_search_and_only_fill_what_was_asked():
-    from test_estimate import FLOOR, LAMBERT, floor_points, surfaces
+    from conftest import FLOOR, LAMBERT, floor_points, surfaces
 
     from blockhash.render.caustic import Neighbours
     from blockhash.render.estimate import EstimateOptions
@@ -186,7 +186,7 @@ def test_the_study_tool_prints_the_done_when_tables_again_from_its_json(small_st
 
     path = tmp_path / "study.json"
     path.write_text(json.dumps([small_study]))
-    tool = Path(__file__).resolve().parents[1] / "tools" / "estimate_study.py"
+    tool = Path(__file__).resolve().parents[2] / "tools" / "estimate_study.py"
     if not tool.is_file():
         pytest.skip("tools/ is not beside the package (installed wheel)")
     out = subprocess.run([sys.executable, str(tool), "--done-when", "--from-json", str(path)],
@@ -197,7 +197,7 @@ def test_the_study_tool_prints_the_done_when_tables_again_from_its_json(small_st
 def test_the_k_nearest_estimate_adds_flux_at_a_fold_and_less_with_more_photons():
     import importlib.util
 
-    tool = Path(__file__).resolve().parents[1] / "tools" / "fold_bias.py"
+    tool = Path(__file__).resolve().parents[2] / "tools" / "fold_bias.py"
     if not tool.is_file():
         pytest.skip("tools/ is not beside the package (installed wheel)")
     spec = importlib.util.spec_from_file_location("fold_bias", tool)

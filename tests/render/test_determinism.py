@@ -8,7 +8,7 @@ from blockhash import BlockHashIndex
 from blockhash.render.pipeline import render_scene
 from blockhash.photons.tracing import trace_caustic_photons
 from conftest import context_or_skip
-from test_extremes_render import scene
+from conftest import small_ring_scene as scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

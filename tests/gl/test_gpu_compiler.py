@@ -13,7 +13,7 @@ import pytest
 
 from conftest import context_or_skip
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
 import shader_stats  # noqa: E402
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
@@ -99,7 +99,7 @@ def test_the_check_catches_the_walks_scratch_queues(lookups):
 
 def test_the_cells_caustic_pass_fits_the_gpu_budget():
     context_or_skip("egl")
-    scene = Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"
+    scene = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
     shaders = shader_stats.caustic_shaders(str(scene), lookups=("cells",), backend="egl")
     assert len(shaders) == 3
     for name, text in shaders.items():

@@ -12,7 +12,7 @@ from blockhash.evaluate.tolerance import FLOORS, _round_up, seed_tolerances
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
-RING = Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"
+RING = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
 SETTINGS = dict(seeds=3, photons=4000, size=(32, 32), k=20)
 
 

@@ -13,7 +13,7 @@ from blockhash.scene.model import (Camera, MirrorMaterial, PhongMaterial, Photon
                                     PointLight, Scene, SceneObject, SpotLight)
 from blockhash.scene.loader import load_scene, parse_scene
 
-SCENES = Path(__file__).resolve().parents[1] / "scenes"
+SCENES = Path(__file__).resolve().parents[2] / "scenes"
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,7 @@ from blockhash.render.pipeline import render_scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
-RING = Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"
+RING = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
 
 
 @pytest.fixture(scope="module")

@@ -16,7 +16,7 @@ from blockhash.evaluate.testing import assert_images_close
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 REFERENCE = ROOT / "tests" / "data" / "ring-48x48.exr"
 #: The settings tools/regenerate_references.py renders the reference with.
 SETTINGS = dict(photons=20_000, size=(48, 48), seed=1)

@@ -20,7 +20,7 @@ from conftest import context_or_skip
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def normal_reflectance(n):

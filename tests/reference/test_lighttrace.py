@@ -201,7 +201,7 @@ def test_two_processes_fill_one_cache_entry_at_once(tmp_path):
     import sys
     from pathlib import Path
 
-    scene = Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"
+    scene = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
     cache = tmp_path / "cache"
     procs = [subprocess.Popen([sys.executable, "-c", FILL_CACHE, str(scene), str(cache),
                                str(tmp_path / f"out{i}.npy")], stdout=subprocess.PIPE, text=True)

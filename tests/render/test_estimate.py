@@ -6,46 +6,16 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from blockhash import BlockHashIndex
 from blockhash.cli import main
 from blockhash.errors import InputError
-from blockhash.render.caustic import CausticPass, ShadingPoints, estimate_cpu, estimate_from_neighbours
+from blockhash.render.caustic import CausticPass, estimate_cpu, estimate_from_neighbours
 from blockhash.render.estimate import FILTERS, EstimateOptions, kernel
 from blockhash.evaluate.testing import assert_images_close
 
+from conftest import DOWN, FLOOR, KD, LAMBERT, floor_points, surfaces  # noqa: F401
+
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
-KD = 0.5
-LAMBERT = [((KD,) * 3, (0, 0, 0), 1.0)]
-DOWN = (0.0, -0.6, -0.8)  # photons travel down and toward -z: they face a floor and a +z wall
-
-
-def floor_points(h=24, w=24, *, z=(0.2, 0.8), y=0.0, view=(0, 1, 0)):
-    gx, gz = np.meshgrid(np.linspace(0.05 if w > 32 else 0.2, 0.95 if w > 32 else 0.8, w),
-                         np.linspace(*z, h))
-    return ShadingPoints(
-        position=np.stack([gx, np.full_like(gx, y), gz], axis=2).astype(np.float32),
-        normal=np.tile(np.float32([0, 1, 0]), (h, w, 1)), view=np.tile(np.float32(view), (h, w, 1)),
-        material=np.zeros((h, w), np.int32), weight=np.ones((h, w, 3), np.float32))
-
-
-def surfaces(parts, k, seed=0):
-    """An index over uniform photons on axis-aligned unit squares: [(n, axis fixed, value,
-    normal)], 1 W in total per square."""
-    rng = np.random.default_rng(seed)
-    pos, nrm, pw = [], [], []
-    for n, axis, value, normal in parts:
-        p = rng.random((n, 3))
-        p[:, axis] = value
-        pos.append(p)
-        nrm.append(np.tile(normal, (n, 1)))
-        pw.append(np.full((n, 3), 1.0 / n))
-    pos = np.concatenate(pos)
-    return BlockHashIndex(pos, k=k, A=8, directions=np.tile(DOWN, (len(pos), 1)) / np.linalg.norm(DOWN),
-                          normals=np.concatenate(nrm).astype(float), powers=np.concatenate(pw))
-
-
-FLOOR = (0.0, 1.0, 0.0)
 #: Radiance of a unit square lit by 1 W, Lambertian kd: L = kd E / pi.
 PLANE_L = KD / np.pi
 
@@ -70,7 +40,7 @@ OPTIONS = [EstimateOptions(estimate="paper", normal_cos=None),
 @pytest.mark.parametrize("options", OPTIONS, ids=lambda o: o.label)
 def test_shader_estimate_equals_the_cpu_estimate_for_every_option(corner, options, tmp_path):
     # The CPU estimate takes its neighbours from the GL lookup itself, so that this pins down
-    # the estimate alone (the lookup's own agreement is tests/test_gl_lookup.py's).
+    # the estimate alone (the lookup's own agreement is tests/gl/test_gl_lookup.py's).
     pts = floor_points(16, 16, z=(0.45, 0.75), view=(0.6, 0.8, 0.0))
     mats = [((KD, 0.4, 0.3), (0.25, 0.25, 0.25), 20.0)]
     cp = CausticPass(corner, backend="egl")
@@ -158,7 +128,7 @@ def test_bad_options_are_named(kwargs, match):
 def test_render_command_takes_the_estimate_flags(tmp_path, capsys):
     from pathlib import Path
 
-    ring = Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"
+    ring = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
     out = tmp_path / "ring.exr"
     assert main(["render", str(ring), "-o", str(out), "--photons", "5000", "--size", "24x24",
                  "--method", "cpu", "--estimate", "paper", "--filter", "cone",
@@ -175,7 +145,7 @@ def test_estimate_study_measures_every_option_on_the_same_neighbours(tmp_path):
     from blockhash.scene.loader import load_scene
     from blockhash.studies.estimates import default_options, markdown_table, study_scene, summary_table
 
-    corner = load_scene(Path(__file__).resolve().parents[1] / "scenes" / "corner.toml")
+    corner = load_scene(Path(__file__).resolve().parents[2] / "scenes" / "corner.toml")
     study = study_scene(corner, photons=(3_000,), ks=(20,), size=(24, 24), supersample=1,
                         reference_photons=200_000, cache_dir=tmp_path, progress=lambda s: None)
     rows = study["rows"]

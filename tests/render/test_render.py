@@ -20,7 +20,7 @@ from blockhash.evaluate.testing import assert_images_close
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
-RING = Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"
+RING = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
 SIZE = (96, 96)
 
 

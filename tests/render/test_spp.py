@@ -16,7 +16,7 @@ from conftest import context_or_skip
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 #: A floor seen from straight above whose edge x = EDGE_X runs through the image at a slant
 #: (rotated 20 degrees about y), lit by a point light above; nothing else, so no caustic.
