@@ -52,3 +52,17 @@ def test_nothing_points_outside_the_repository(pattern):
             for i, line in enumerate(p.read_text(errors="replace").splitlines())
             if re.search(pattern, line)]
     assert not hits, f"references outside the repository ({pattern}): {hits[:10]}"
+
+
+def test_the_speed_figures_match_the_bench_json():
+    walk, kd, ckd, cells, hashed = quoted(
+        r"the default lookup \(the walk\) takes ([\d.]+) s, against ([\d.]+) s for the exact "
+        r"kd-tree shader and ([\d.]+) s for cKDTree on two cores; the Hilbert cells lookup "
+        r"takes ([\d.]+) s and the hash without the walk ([\d.]+) s")
+    bench = {r["method"]: r["wall_median"]
+             for r in json.loads((ROOT / "docs" / "bench-cells.json").read_text())}
+    assert round(bench["BH default"], 2) == walk
+    assert round(bench["kd-tree shader (exact)"], 2) == kd
+    assert round(bench["cKDTree (CPU, all workers)"], 2) == ckd
+    assert round(bench["BH default (Hilbert cells)"], 2) == cells
+    assert round(bench["BH default (tables hashed, walk off)"], 2) == hashed
