@@ -20,6 +20,8 @@ from blockhash.bench import QUERY_SETS
 from blockhash.cli_images import add_parsers as add_image_parsers, size as _size
 from blockhash.cli_estimate import add_arguments as add_estimate_arguments, options_from
 from blockhash.index.datasets import DISTRIBUTIONS
+from blockhash.gl.context import BACKENDS
+from blockhash.render.options import METHODS
 from blockhash.errors import BlockHashError, InputError
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.index.metrics import accuracy, exact_knn
@@ -276,7 +278,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_index)
     p = sub.add_parser("info", help="OpenGL renderer, version, backend and limits",
                        description="Create the offscreen OpenGL context and print what it offers.")
-    p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None,
+    p.add_argument("--backend", choices=BACKENDS, default=None,
                    help="GL backend (default: $BLOCKHASH_GL or auto: EGL, then OSMesa)")
     p.set_defaults(func=cmd_info)
     p = sub.add_parser("bench", help="time shader variants against exact kNN",
@@ -292,7 +294,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="query points (0: skip the lookup benchmark, e.g. with --caustic)")
     p.add_argument("--k", type=int, default=50)
     p.add_argument("--A", default="1,2,4,8,16", help="comma-separated multipliers")
-    p.add_argument("--variants", default="default",
+    p.add_argument("--variants", "--variant", dest="variants", default="default",
                    help="comma-separated shader variants (see blockhash.gl.shaderlib.variants())")
     p.add_argument("--data", choices=sorted(DISTRIBUTIONS), default="caustic")
     p.add_argument("--repeat", type=int, default=10, help="timed draws per program (default 10)")
@@ -313,7 +315,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--caustic-estimates", default="", metavar="LIST",
                    help="also time the whole --caustic pass with each of these estimate forms "
                         "(e.g. unbiased,conserving), side by side in the same run")
-    p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
+    p.add_argument("--backend", choices=BACKENDS, default=None)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-kdtree", action="store_true", help="skip the exact kd-tree shader")
     p.add_argument("--query-set", choices=QUERY_SETS, default="image",
@@ -330,7 +332,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--photons", type=int, help="caustic photons to store (default: the scene's)")
     p.add_argument("--k", type=int, help="photons per estimate (default: the scene's)")
     p.add_argument("--A", type=int, help="accuracy multiplier (default: the scene's)")
-    p.add_argument("--method", choices=("bh", "kdtree", "cpu"), default="bh",
+    p.add_argument("--method", choices=METHODS, default="bh",
                    help="bh: Block Hashing shader; kdtree: exact kNN (kd-tree shader); cpu: BH CPU reference")
     p.add_argument("--variant", default="default", help="BH shader variant")
     p.add_argument("--size", type=_size, help="image size WIDTHxHEIGHT (default: the camera's)")
@@ -338,7 +340,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "jitter, box filter; default: the scene's [camera] spp, else "
                    f"{DEFAULT_SPP})")
     p.add_argument("--seed", type=int, help="photon seed (default: the scene's)")
-    p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
+    p.add_argument("--backend", choices=BACKENDS, default=None)
     p.add_argument("--time-budget", type=float, metavar="SECONDS",
                    help="choose photons, k and A from the scene's trade study: least error that fits")
     p.add_argument("--target-error", type=float, metavar="E",
@@ -358,7 +360,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true", help="a small sweep (about a minute here)")
     p.add_argument("--photons", type=_int_list, help="photon counts, e.g. 10000,100000,1000000")
     p.add_argument("--A", type=_int_list, help="A values of the grid, e.g. 1,2,4,8,16,32,64")
-    p.add_argument("--ks", type=_int_list, help="k values, e.g. 16,50,100")
+    p.add_argument("--k", "--ks", dest="ks", type=_int_list,
+                   help="k values, e.g. 16,50,100 (--ks is the older name)")
     p.add_argument("--size", type=_size, help="image size WIDTHxHEIGHT (default 128x128; quick 48x48)")
     p.add_argument("--engine", choices=("gl", "cpu"), help="gl: the caustic pass shader (default); "
                    "cpu: its CPU reference (no shader compiles; CPU times)")
@@ -367,7 +370,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--replot", action="store_true",
                    help="only redraw the plots and report.md of DIR from its tradeoff.json")
     p.add_argument("--cache", help="cache directory of references (default ~/.cache/blockhash)")
-    p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
+    p.add_argument("--backend", choices=BACKENDS, default=None)
     p.set_defaults(func=cmd_tradeoff)
     add_image_parsers(sub)
     p = sub.add_parser("preview", help="a quick pyrender view of a scene (camera, objects, lights)",

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from blockhash.gl.context import BACKENDS
+from blockhash.render.options import METHODS
 from blockhash.errors import InputError
 
 
@@ -162,12 +164,12 @@ def add_parsers(sub) -> None:
     p.add_argument("--size", type=size, default=(64, 64), help="image size (default 64x64)")
     p.add_argument("--k", type=int, help="photons per estimate (default: the scene's)")
     p.add_argument("--A", type=int, help="accuracy multiplier (default: the scene's)")
-    p.add_argument("--method", choices=("bh", "kdtree", "cpu"), default="bh")
+    p.add_argument("--method", choices=METHODS, default="bh")
     p.add_argument("--spp", type=int, help="samples per pixel (default: the scene's, else the "
                    "renderer's)")
     p.add_argument("--margin", type=float, default=1.5,
                    help="proposed limit = largest seed-pair value x MARGIN (default 1.5)")
     p.add_argument("--json", metavar="PATH", help="write the report as JSON to PATH ('-': stdout)")
     p.add_argument("--heatmap", metavar="PNG", help="write the per-pixel spread maps")
-    p.add_argument("--backend", choices=("auto", "egl", "osmesa"), default=None)
+    p.add_argument("--backend", choices=BACKENDS, default=None)
     p.set_defaults(func=cmd_tolerance)

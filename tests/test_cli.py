@@ -104,3 +104,22 @@ def test_bench_names_an_unknown_estimate_before_tracing(capsys):
 def test_bench_rejects_no_timed_draws(capsys):
     assert main(["bench", "--repeat", "0"]) == 2
     assert "--repeat 0" in capsys.readouterr().err
+
+
+def test_flags_are_named_one_way_with_choices_from_one_list():
+    from blockhash.cli import build_parser
+    from blockhash.gl.context import BACKENDS
+    from blockhash.render.options import METHODS
+
+    parser = build_parser()
+    trade = parser.parse_args(["tradeoff", "scenes/ring.toml", "-o", "out", "--k", "16,50"])
+    assert tuple(trade.ks) == (16, 50)
+    assert parser.parse_args(["tradeoff", "scenes/ring.toml", "-o", "o", "--ks", "8"]).ks == (8,)
+    assert parser.parse_args(["bench", "--variant", "paper"]).variants == "paper"
+    sub = next(a for a in parser._actions if isinstance(a, type(parser._subparsers._group_actions[0])))
+    for name, command in sub.choices.items():
+        for action in command._actions:
+            if "--backend" in action.option_strings:
+                assert tuple(action.choices) == BACKENDS, name
+            if "--method" in action.option_strings:
+                assert tuple(action.choices) == METHODS, name
