@@ -80,6 +80,7 @@ def test_bench_command_prints_the_table_and_writes_json(tmp_path, capsys):
     assert rows[0]["renderer"] in out
 
 
+@pytest.mark.slow
 def test_bench_times_the_caustic_pass_per_stage(tmp_path, capsys):
     out_json = tmp_path / "bench.json"
     assert main(["bench", "--queries", "0", "--caustic", str(SCENES / "ring.toml"),

@@ -68,6 +68,7 @@ def test_mask_compares_only_where_the_layer_is_non_zero(tmp_path, capsys):
     assert "mask: 128 of 256 pixels" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_heatmap_and_strip_are_written(pair, tmp_path, capsys):
     heat, strip = tmp_path / "heat.png", tmp_path / "strip.png"
     assert main(["compare", *pair, "--heatmap", str(heat), "--strip", str(strip),

@@ -146,6 +146,7 @@ def _toml_value(v):
     return str(v)
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(key=st.sampled_from(KEYS), value=VALUES, drop=st.booleans())
 def test_fuzzed_scene_files_load_or_name_the_file(key, value, drop):

@@ -133,6 +133,7 @@ def test_no_import_circles():
     assert not circles, f"import circles: {sorted(set(circles))[:5]}"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("path", _modules(), ids=lambda p: p.relative_to(ROOT).as_posix())
 def test_no_private_names_cross_modules(path):
     """``from blockhash.x import _name`` is not allowed: what another module uses is public."""

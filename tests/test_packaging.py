@@ -59,6 +59,7 @@ def wheel_names(wheel_path) -> set[str]:
     return set(zipfile.ZipFile(wheel_path).namelist())
 
 
+@pytest.mark.slow
 def test_wheel_holds_every_module_and_shader_file(wheel_names):
     missing = sorted(_tree_files() - wheel_names)
     assert not missing, f"the wheel lacks {missing}; fix pyproject.toml's packages or package-data"

@@ -35,6 +35,7 @@ def test_heatmap_shows_the_hot_spot_in_the_top_colour_and_masked_pixels_grey(tmp
     assert top(img) > 2 * top(cool)
 
 
+@pytest.mark.slow
 def test_one_panel_per_layer_and_a_row_per_layer_in_the_strip(tmp_path):
     maps = {name: np.random.default_rng(0).random((16, 16)) for name in ("direct", "caustic")}
     one = oiio.ImageInput.open(str(save_heatmap(tmp_path / "1.png", {"direct": maps["direct"]},

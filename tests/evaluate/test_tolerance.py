@@ -21,6 +21,7 @@ def report():
     return seed_tolerances(load_scene(RING), **SETTINGS)
 
 
+@pytest.mark.slow
 def test_the_caustic_changes_with_the_seed_and_the_direct_light_does_not(report):
     assert len(report.pairs["caustic"]["rms"]) == 3          # 3 seeds -> 3 pairs
     assert min(report.pairs["caustic"]["relative_rms"]) > 0.05
@@ -51,6 +52,7 @@ def test_too_few_seeds_or_a_margin_below_1_are_refused():
         seed_tolerances(ring, margin=0.5)
 
 
+@pytest.mark.slow
 def test_tolerance_command_prints_the_proposal_and_json(tmp_path, capsys):
     assert main(["tolerance", str(RING), "--seeds", "2", "--photons", "3000", "--size", "24x24",
                  "--k", "20", "--json", str(tmp_path / "t.json"),

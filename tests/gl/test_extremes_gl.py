@@ -108,6 +108,7 @@ def test_A_beyond_the_loop_limit_is_refused_on_llvmpipe_with_the_largest_A(no_co
         lookup.query(np.zeros((2, 3)))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n", [1, 10, 11])
 def test_k_equal_to_n_and_tiny_maps_equal_the_cpu_reference(n):
     context_or_skip("egl")

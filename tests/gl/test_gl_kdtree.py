@@ -96,6 +96,7 @@ def assert_kdtree_invariants(points, tree):
         child[live] = parent
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n", [1, 2, 3, 7, 8, 100, N])
 def test_build_kdtree_is_a_complete_heap_with_median_splits(distribution, n):
     points = photon_set(distribution, n)
@@ -150,6 +151,7 @@ def trees():
         tree.release()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("k", [1, 8, 50])
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_gl_kdtree_equals_float32_brute_force_and_ckdtree(trees, backend, distribution, k):

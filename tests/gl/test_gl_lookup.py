@@ -52,6 +52,7 @@ TESTED_VARIANTS = [v for v in variants() if not v.endswith("-box")] + [
     for s in ("insertion", "network", "packed", "merge")] + ["linear-set-off-packed-box"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", TESTED_VARIANTS)
 def test_every_variant_equals_the_cpu_reference(caustic_index, variant):
     context_or_skip("egl")
@@ -68,6 +69,7 @@ def test_both_backends_equal_the_cpu_reference(caustic_index, backend, variant):
     assert gl_info(lookup.ctx)["backend"] == backend
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::blockhash.OrphanWarning")
 @pytest.mark.parametrize("preset", ["default", "paper"])
 @pytest.mark.parametrize("k", [1, 8, 50])
@@ -80,6 +82,7 @@ def test_distributions_k_and_A_equal_the_cpu_reference(distribution, preset, k):
         assert_same_as_cpu(lookup, index, q, k, A)
 
 
+@pytest.mark.slow
 def test_queries_are_split_into_passes_without_changing_results(caustic_index, monkeypatch):
     context_or_skip("egl")
     import blockhash.gl.lookup as lookup_module
@@ -159,6 +162,7 @@ def test_timed_draws_report_wall_and_gpu_time_per_draw(caustic_index):
     ("binary-set-on-merge", 50, 16), ("binary-set-off-packed", 50, 16), ("linear-zero-on-merge", 50, 16),
     ("binary-branch-on-merge", 50, 8), ("binary-set-on-merge", 100, 2), ("binary-set-on-merge", 1, 16),
     ("binary-set-on-merge-box", 100, 2)])
+@pytest.mark.slow
 def test_register_variants_equal_the_cpu_reference_up_to_the_largest_state(variant, k, A):
     """The taken-block set at its bound (A * k = 800 candidates: 81 blocks) and the merge
     network at k = 100 (128 slots) still equal the CPU reference."""
@@ -189,6 +193,7 @@ def test_taken_bound_covers_the_most_blocks_a_query_takes():
         assert fetched.max() >= taken_bound(prm.L, prm.B, cap) - 1  # the bound is tight
 
 
+@pytest.mark.slow
 def test_query_width_changes_the_tile_shape_not_the_results(caustic_index):
     context_or_skip("egl")
     lookup = GLLookup(caustic_index, backend="egl")
@@ -205,6 +210,7 @@ def test_query_width_changes_the_tile_shape_not_the_results(caustic_index):
         lookup.query(np.zeros((limit + 1, 3), np.float32), width=1)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", ["default", "binary-branch-on-network-box"])
 def test_culling_skips_blocks_and_keeps_the_neighbours(variant):
     """Culled blocks (not fetched, not offered) leave every neighbour as the CPU reference
@@ -245,6 +251,7 @@ def test_block_boxes_bound_every_photon_code():
         assert (codes.min(axis=0) >> 16 == lo >> 16).all()  # tight to 16 bits
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("offset", [0.0, 1000.0])
 def test_culling_is_exact_far_from_the_origin(offset):
     """The culling bound's margin scales with the box's magnitude: a map far from the
@@ -259,6 +266,7 @@ def test_culling_is_exact_far_from_the_origin(offset):
     assert lookup.counters["query.blocks_culled.mean"] > 0.0
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::blockhash.OrphanWarning")
 def test_a_candidate_cap_beyond_the_register_set_is_refused_with_the_way_out():
     """An explicit dedup=set variant is refused beyond its register set; the default falls
@@ -296,6 +304,7 @@ def far_index():
 
 @pytest.mark.parametrize("variant", ["default", "binary-branch-on-insertion", "binary-zero-off-network-box",
                                      "binary-set-on-merge", "binary-branch-on-packed"])
+@pytest.mark.slow
 def test_the_nearest_box_first_walk_equals_the_cpu_reference_on_far_queries(far_index, variant):
     context_or_skip("egl")
     assert far_index.params.best_first
@@ -303,6 +312,7 @@ def test_the_nearest_box_first_walk_equals_the_cpu_reference_on_far_queries(far_
     assert_same_as_cpu(lookup, far_index, two_patches_and_far_points()[1], 16, 8, variant=variant)
 
 
+@pytest.mark.slow
 def test_a_full_walk_queue_drops_the_same_entries_on_both_sides(far_index, monkeypatch):
     """A queue of 32 entries overflows on these queries; the shader drops exactly the entries
     that the CPU reference drops (the largest (distance, node id))."""
@@ -343,6 +353,7 @@ def test_the_walk_over_more_tables_equals_the_cpu_reference(far_index, trees, va
                        variant=variant)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("trees", [1, 5])
 @pytest.mark.parametrize("variant", ["default", "binary-branch-on-packed", "binary-zero-off-network"])
 def test_the_walk_takes_more_than_L_B_blocks_the_same_on_both_sides(caustic_index, trees, variant):
@@ -364,6 +375,7 @@ def test_the_walk_takes_more_than_L_B_blocks_the_same_on_both_sides(caustic_inde
 
 @pytest.mark.parametrize("name,k,A", [("caustic", 20, 8), ("clustered", 8, 4), ("uniform", 1, 8),
                                       ("room", 50, 2)])
+@pytest.mark.slow
 def test_cell_shader_returns_what_the_cpu_cells_return(name, k, A):
     from dataclasses import replace as _replace
 

@@ -52,6 +52,7 @@ void main() { c = texelFetch(t, ivec2(gl_FragCoord.xy), 0) * 2.0; }
 """
 
 
+@pytest.mark.slow
 def test_a_local_array_indexed_by_a_variable_breaks_the_budget():
     stats = shader_stats.compile_stats(INDEXED_ARRAY, "navi21")
     assert stats["scratch_lane"] >= 384 and stats["wave"] == 64
@@ -64,6 +65,7 @@ def test_many_live_values_break_the_register_budget():
     assert [b for b in shader_stats.over_budget(stats) if "VGPRs demanded" in b]
 
 
+@pytest.mark.slow
 def test_a_small_shader_fits_on_every_family():
     for family in shader_stats.FAMILIES:
         stats = shader_stats.compile_stats(SMALL, family)
@@ -83,6 +85,7 @@ def lookups():
                                        backend="egl")
 
 
+@pytest.mark.slow
 def test_the_cells_lookup_fits_the_gpu_budget(lookups):
     """k = 50, A = 8, RDNA2 wave64: the lookup and its fetch-only floor."""
     for name in ("lookup cells", "lookup cells fetch-only"):
@@ -90,6 +93,7 @@ def test_the_cells_lookup_fits_the_gpu_budget(lookups):
         assert shader_stats.over_budget(stats) == [], (name, stats)
 
 
+@pytest.mark.slow
 def test_the_check_catches_the_walks_scratch_queues(lookups):
     """The walk's 192-entry queues are local arrays indexed by variables."""
     stats = shader_stats.compile_stats(lookups["lookup walk"], "navi21")
@@ -97,6 +101,7 @@ def test_the_check_catches_the_walks_scratch_queues(lookups):
     assert shader_stats.over_budget(stats)
 
 
+@pytest.mark.slow
 def test_the_cells_caustic_pass_fits_the_gpu_budget():
     context_or_skip("egl")
     scene = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"

@@ -34,6 +34,7 @@ def measured(request):
     return request.param, knob(request.param)
 
 
+@pytest.mark.slow
 def test_false_negatives_never_rise_as_A_rises(measured):
     name, (fn, _) = measured
     assert np.all(np.diff(fn) <= 0), f"{name}: mean false negatives per A {np.round(fn, 4)}"

@@ -28,6 +28,7 @@ def descend(row, code):
         i = (meta >> 3) + int(int(code[meta & 3]) >= int(row[2 * i]))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["uniform", "plane", "room", "sphere"])
 def test_keys_are_the_documented_descent(name):
     codes, q = encoded(name, 4000)
@@ -39,6 +40,7 @@ def test_keys_are_the_documented_descent(name):
     assert keys.min() >= 0 and keys.max() < buckets
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["uniform", "plane", "caustic", "room", "tilted", "sphere"])
 def test_buckets_hold_about_S_photons_on_every_surface(name):
     n = 60_000
@@ -94,12 +96,14 @@ def test_default_preset_uses_it_and_reports_its_buckets():
     assert index.stats.orphans == 0
 
 
+@pytest.mark.slow
 def test_grid_overrides_switch_to_the_nested_layout():
     pts = MAPS["uniform"].photons(5_000, np.random.default_rng(1))
     index = BlockHashIndex(pts, k=8, A=4, P=4)
     assert index.params.layout == ThresholdLayout.NESTED and index.params.P == (4, 4, 4)
 
 
+@pytest.mark.slow
 def test_a_sparse_plane_above_a_floor_gets_its_own_buckets():
     """The tilted map's plane (10% of the photons, 0.05-0.65 m above a dense floor): a query on
     it finds the plane's photons, not the floor's below it. Cut only by the widest spread, the

@@ -194,6 +194,7 @@ def assert_same_build(codes, scale, L, S):
     assert fast[0].dtype == np.uint32 and fast[1].dtype == np.int64
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(MAPS))
 @pytest.mark.parametrize("n, S", [(50_000, 25.0), (120_000, 7.0)])
 def test_tables_equal_the_reference_build(name, n, S):

@@ -15,6 +15,7 @@ from conftest import photon_set, two_patches_and_far_points
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 
+@pytest.mark.slow
 def test_node_boxes_are_tight_around_their_photons():
     index = BlockHashIndex(photon_set("clustered", 20_000), k=8, A=8)
     boxes, rows = index.node_boxes, index.thresholds
@@ -110,6 +111,7 @@ def test_best_first_on_a_grid_layout_is_refused_with_the_way_out():
         index.reference_query(np.zeros((2, 3)), best_first=True)
 
 
+@pytest.mark.slow
 def test_stats_count_the_node_boxes():
     index = BlockHashIndex(photon_set("uniform", 5000), k=8, A=4)
     assert index.stats.cell_bytes == 0  # the cells are built on first use only

@@ -80,6 +80,7 @@ def test_unknown_builder_is_rejected_with_the_valid_names():
         make_blocks(np.arange(20, dtype=np.uint64), builder="octree")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("builder", BUILDERS)
 @pytest.mark.parametrize("scenario", ["caustic", "uniform", "duplicates"])
 @pytest.mark.parametrize("n", [1, 10, 11, 2345])

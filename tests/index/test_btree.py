@@ -53,6 +53,7 @@ def _check_invariants(keys: np.ndarray, cap: int, fan: int) -> None:
     np.testing.assert_array_equal(t.leaf_keys, np.sort(keys))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scenario", SCENARIOS)
 @pytest.mark.parametrize("n,cap,fan", SHAPES)
 def test_uncompacted_tree_keeps_bplus_tree_invariants(scenario, n, cap, fan):

@@ -57,6 +57,7 @@ def test_shell_order_visits_the_own_cell_then_faces_edges_corners():
     assert SHELL_ORDER[0] == 13 and shell == sorted(shell) and sorted(SHELL_ORDER) == list(range(27))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["uniform", "plane", "tilted", "sphere"])
 def test_cells_find_near_neighbours_and_tighten_with_A(name):
     index, q = _index(name, k=20)

@@ -153,6 +153,7 @@ def skilling_keys(codes, bits):
     return keys
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("b", range(1, KEY_BITS_PER_AXIS + 1))
 def test_table_driven_keys_equal_skillings_loop(b):
     rng = np.random.default_rng(b)

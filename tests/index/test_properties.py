@@ -85,6 +85,7 @@ def test_query_invariants(args):
         assert np.all(dr[found] >= exact[row][found] * (1 - 1e-6) - 1e-7 * (1 + np.abs(q[row]).max()))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", ["default", "paper"])
 @settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(problem)

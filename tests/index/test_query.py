@@ -12,6 +12,7 @@ from transcription import transcribed_query, walked_query
 from conftest import photon_set
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::blockhash.OrphanWarning")  # the paper preset orphans blocks
 @pytest.mark.parametrize("k,A", [(1, 1), (8, 1), (8, 8), (50, 8), (50, 16)])
 @pytest.mark.parametrize("preset", ["default", "paper"])
@@ -32,6 +33,7 @@ def test_reference_query_follows_section_4_4(distribution, k, A, preset):
         assert np.isinf(d[qi][~found]).all()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("k,A", [(8, 8), (50, 16)])
 @pytest.mark.parametrize("trees", [1, 2, 5])
 def test_the_walk_follows_its_transcription_over_any_number_of_tables(k, A, trees):

@@ -38,6 +38,7 @@ def test_offsets_differ_per_table_and_axis_and_stay_in_range():
     assert len(np.unique(np.round(o, 9), axis=0)) == 16
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("layout", LAYOUTS)
 @pytest.mark.parametrize("P", [(4, 3, 5), (6, 1, 4), (1, 1, 1), (2, 2, 1)])
 def test_build_keys_equal_the_documented_hash(layout, P):

@@ -137,6 +137,7 @@ def trace_down(objects, m, cone_deg, *, height=3.0, max_bounces=16, seed=3):
     return trace_batch(geom, origins, dirs, weights, max_bounces, seed=seed, start=0), weights
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("tint", [1.0, 0.8])
 def test_a_glass_slab_at_normal_incidence_transmits_the_multiple_reflection_sum(tint):
     """A slab between light and floor: the floor receives (1 - R)^2 t^2 / (1 - R^2) of the
@@ -243,6 +244,7 @@ def test_the_canonical_glass_scene_has_the_normative_values():
     assert list(light.position) == [0.0, 1.2, -1.5] and np.all(light.power == 100.0)
 
 
+@pytest.mark.slow
 def test_the_glass_ball_renders_with_its_caustic_in_its_shadow():
     context_or_skip("egl")
     from blockhash.render.pipeline import render_scene
@@ -258,6 +260,7 @@ def test_the_glass_ball_renders_with_its_caustic_in_its_shadow():
     assert r.direct[20:28, 28:36].mean() > 0
 
 
+@pytest.mark.slow
 def test_every_method_renders_glass_and_the_exact_one_agrees_with_the_cpu(tmp_path):
     context_or_skip("egl")
     from blockhash.render.pipeline import render_scene
@@ -274,6 +277,7 @@ def test_every_method_renders_glass_and_the_exact_one_agrees_with_the_cpu(tmp_pa
     assert flux_ratio(bh.caustic, exact.caustic, everywhere) == pytest.approx(1.0, abs=0.05)
 
 
+@pytest.mark.slow
 def test_the_light_tracer_sees_a_point_light_through_a_glass_slab():
     """The light tracer through glass, against the analytic floor radiance under a slab:
     a spot light straight down through a slab of thickness t and index n onto a Lambertian

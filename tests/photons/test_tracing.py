@@ -133,6 +133,7 @@ def test_point_light_flux_matches_mirror_solid_angle():
     ((0.3, -1.0, 0.1), 20.0),   # partial overlap, spot cone the smaller: spot sampled
     ((0.7, -1.0, 0.0), 30.0),   # partial overlap, mirror cone the smaller: clipped by the spot
 ])
+@pytest.mark.slow
 def test_spot_light_flux_matches_integral_over_mirror(axis, cone_deg):
     power = np.array([40.0, 40.0, 40.0])
     axis = np.asarray(axis) / np.linalg.norm(axis)

@@ -87,6 +87,7 @@ def test_total_flux_matches_within_the_summed_noise(traced):
     assert img.radiance.sum() / exact.sum() == pytest.approx(1.0, abs=0.02)
 
 
+@pytest.mark.slow
 def test_error_falls_as_one_over_sqrt_photons():
     scene = mirror_scene()
     exact = analytic(scene)
@@ -125,6 +126,7 @@ def test_photon_count_must_be_positive():
         light_trace(mirror_scene(), 0)
 
 
+@pytest.mark.slow
 def test_exact_knn_photon_map_agrees_with_the_light_tracer(traced):
     """The renderer's pixels (G-buffer rows, camera) line up with the light tracer's."""
     from conftest import context_or_skip
@@ -194,6 +196,7 @@ print(path)
 """
 
 
+@pytest.mark.slow
 def test_two_processes_fill_one_cache_entry_at_once(tmp_path):
     """Two renders that trace the same reference at the same time both get the whole
     image, and the cache holds one complete file and nothing half-written."""

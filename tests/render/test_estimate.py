@@ -88,6 +88,7 @@ def test_each_filter_is_normalised_over_the_disc(plane, name):
     assert L == pytest.approx(PLANE_L, rel=0.015)
 
 
+@pytest.mark.slow
 def test_photons_of_a_wall_do_not_brighten_the_floor_beside_it():
     # Floor points less than a search radius (r ~ 1.3 cm) in front of the wall; without
     # the normal test the wall's photons fall in their spheres and count.  The mean is

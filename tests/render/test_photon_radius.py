@@ -80,6 +80,7 @@ def test_small_maps_use_the_farthest_photon_and_one_photon_adds_nothing():
     assert np.all(L == 0)
 
 
+@pytest.mark.slow
 def test_the_conserving_estimate_keeps_the_power_beside_a_fold_line():
     # Photons across a caustic's fold line (x = u^2: density 1 / (2 sqrt x) on (0, 1), none
     # at x < 0), 1 W on the unit square.  The estimate integrated over a window from

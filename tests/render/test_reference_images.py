@@ -32,6 +32,7 @@ def render(seed):
     return render_scene(load_scene(ROOT / "scenes" / "ring.toml"), **{**SETTINGS, "seed": seed})
 
 
+@pytest.mark.slow
 def test_ring_matches_its_reference(tmp_path):
     assert_images_close(render(SETTINGS["seed"]).layers(), REFERENCE, **LIMITS, out_dir=tmp_path)
 
@@ -59,6 +60,7 @@ def _direct_one_percent_brighter(ref):
 
 @pytest.mark.parametrize("change", [_brighter_caustic, _caustic_one_pixel_down, _no_caustic,
                                     _direct_one_percent_brighter], ids=lambda f: f.__name__[1:])
+@pytest.mark.slow
 def test_the_limits_catch_errors_larger_than_the_noise(change, tmp_path):
     ref = read_layers(REFERENCE)
     wrong = change(ref)

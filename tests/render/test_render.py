@@ -52,6 +52,7 @@ def ring_renders(ring, ring_photons):
 SAME_ESTIMATE = 1e-4
 
 
+@pytest.mark.slow
 def test_shader_caustic_equals_the_cpu_reference_estimate(ring, ring_renders, ring_points, tmp_path):
     r = ring_renders[8]
     cpu = estimate_cpu(r.index, ring_points, receiver_materials(ring.objects), A=8)
@@ -59,6 +60,7 @@ def test_shader_caustic_equals_the_cpu_reference_estimate(ring, ring_renders, ri
     assert_images_close(r.caustic, cpu, max_rel_rms=SAME_ESTIMATE, out_dir=tmp_path)
 
 
+@pytest.mark.slow
 def test_kdtree_shader_caustic_equals_the_ckdtree_estimate(ring, ring_renders, ring_points, tmp_path):
     index = ring_renders[8].index
     mats = receiver_materials(ring.objects)
@@ -104,6 +106,7 @@ def test_scene_without_mirrors_renders_direct_light_only_and_says_so(ring):
     assert np.all(r.caustic == 0) and r.direct.max() > 0
 
 
+@pytest.mark.slow
 def test_gbuffer_depth_agrees_with_pyrender(ring):
     size = (64, 64)
     _, depth = preview(ring, size=size)

@@ -126,6 +126,7 @@ def test_spp_16_antialiases_the_step_edge(tmp_path):
     assert abs(np.mean(shares - cover[rows, cols])) < 0.03
 
 
+@pytest.mark.slow
 def test_spp_images_are_the_same_in_every_run(tmp_path):
     context_or_skip("egl")
     scene = load_scene(ROOT / "scenes" / "ring.toml")
@@ -150,6 +151,7 @@ def test_render_command_records_spp_in_the_exr(tmp_path, capsys):
     assert "spp=3 is not a square number" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_spp_1_is_the_pixel_centre_render_of_the_rasteriser():
     """spp = 1 takes the renderer's single-sample path unchanged: the rasterised G-buffer's
     shading points, their direct light and one caustic pass, with no filter."""

@@ -179,6 +179,7 @@ def test_refinement_replaces_only_the_most_uneven_pixels_with_fresh_points():
     assert refine_seed(4) == refine_seed(4) != refine_seed(5) and refine_seed(4) != 4
 
 
+@pytest.mark.slow
 def test_the_study_tool_prints_the_done_when_tables_again_from_its_json(small_study, tmp_path):
     import json
     import subprocess
@@ -194,6 +195,7 @@ def test_the_study_tool_prints_the_done_when_tables_again_from_its_json(small_st
     assert "| corner | 20 | bh | **default** |" in out and "What the rows rest on" in out
 
 
+@pytest.mark.slow
 def test_the_k_nearest_estimate_adds_flux_at_a_fold_and_less_with_more_photons():
     import importlib.util
 

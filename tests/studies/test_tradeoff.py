@@ -43,6 +43,7 @@ def _grid(study):
     return sorted(rows, key=lambda r: r["A"])
 
 
+@pytest.mark.slow
 def test_every_row_has_the_required_keys_and_the_machine_is_recorded(study):
     s, _ = study
     for row in s["rows"]:
@@ -118,6 +119,7 @@ def test_a_scene_without_mirrors_is_refused(tmp_path):
         run_sweep(load_scene(path), TINY, progress=lambda _: None)
 
 
+@pytest.mark.slow
 def test_replot_redraws_a_study_and_names_a_missing_one(study, tmp_path, capsys):
     from blockhash.cli import main
 
