@@ -1,0 +1,59 @@
+"""Modules that moved when the package was laid out in data-flow order: importing an old
+name still works for one release, with a DeprecationWarning naming the new module."""
+
+from __future__ import annotations
+
+import importlib
+import importlib.abc
+import importlib.util
+import sys
+import warnings
+
+#: Old module name -> new module name.
+MOVED = {
+    "blockhash.render.scene": "blockhash.scene.model",
+    "blockhash.render.scene_toml": "blockhash.scene.loader",
+    "blockhash.render.scene_values": "blockhash.scene.values",
+    "blockhash.render.meshes": "blockhash.scene.meshes",
+    "blockhash.render.materials": "blockhash.scene.materials",
+    "blockhash.render.optics": "blockhash.scene.optics",
+    "blockhash.render.raycast": "blockhash.scene.raycast",
+    "blockhash.render.preview": "blockhash.scene.preview",
+    "blockhash.render.emission": "blockhash.photons.emission",
+    "blockhash.render.tracing": "blockhash.photons.tracing",
+    "blockhash.render.lighttrace": "blockhash.reference.lighttrace",
+    "blockhash.render.imagediff": "blockhash.evaluate.imagediff",
+    "blockhash.render.plots": "blockhash.evaluate.plots",
+    "blockhash.render.tolerance": "blockhash.evaluate.tolerance",
+    "blockhash.testing": "blockhash.evaluate.testing",
+    "blockhash.tradeoff": "blockhash.studies",
+    **{f"blockhash.tradeoff.{m}": f"blockhash.studies.{m}"
+       for m in ("sweep", "budget", "claims", "estimates", "measure", "report", "sampling")},
+}
+
+
+class _Moved(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """Finds an old name of :data:`MOVED` and gives it the new module."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name in MOVED:
+            return importlib.util.spec_from_loader(name, self)
+        return None
+
+    def create_module(self, spec):
+        return None  # a placeholder, replaced below
+
+    def exec_module(self, module):
+        # The import system returns whatever sys.modules holds under the old name once this
+        # returns: the new module itself, whose own spec and attributes stay as they are.
+        new = MOVED[module.__name__]
+        warnings.warn(f"{module.__name__} is now {new}; import it from there",
+                      DeprecationWarning, stacklevel=2)
+        sys.modules[module.__name__] = importlib.import_module(new)
+
+
+def install() -> None:
+    """Put the finder on ``sys.meta_path`` once."""
+    if not any(isinstance(f, _Moved) for f in sys.meta_path):
+        sys.meta_path.insert(0, _Moved())  # before the path finder: a stale folder of an
+        # old name (a __pycache__ left by an upgrade) would import as an empty namespace
