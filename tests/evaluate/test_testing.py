@@ -22,6 +22,7 @@ def test_close_images_pass_and_return_the_comparison(tmp_path):
     assert list(tmp_path.iterdir()) == []        # nothing written when the test passes
 
 
+@pytest.mark.slow
 def test_failure_names_the_layer_the_metric_and_the_pictures_it_wrote(tmp_path):
     ref = {"direct": image(1), "caustic": image(2)}
     actual = {"direct": ref["direct"], "caustic": ref["caustic"] * 1.5}

@@ -200,6 +200,7 @@ def test_exact_ties_are_ordered_by_index():
     np.testing.assert_array_equal(d, db)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("budget", [1, 40])
 def test_searches_cut_by_the_step_budget_resume_to_the_same_result(budget):
     context_or_skip("egl")

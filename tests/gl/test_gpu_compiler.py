@@ -59,6 +59,7 @@ def test_a_local_array_indexed_by_a_variable_breaks_the_budget():
     assert any("scratch" in b for b in shader_stats.over_budget(stats))
 
 
+@pytest.mark.slow
 def test_many_live_values_break_the_register_budget():
     stats = shader_stats.compile_stats(LIVE_VALUES, "navi21")
     assert stats["scratch_lane"] == 0 and stats["preVGPRs"] > 64

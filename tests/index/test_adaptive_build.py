@@ -230,6 +230,7 @@ def test_ties_planes_and_duplicates():
     assert_same_build(np.full((3000, 3), 9, dtype=np.uint32), np.ones(3), L=2, S=25.0)
 
 
+@pytest.mark.slow
 def test_tables_cut_into_many_parts(monkeypatch):
     """Every node above 100 photons cut on its own (quickselected ones and buckets too), the
     rest grown as subtrees, in whatever order the threads take them."""

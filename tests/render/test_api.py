@@ -21,6 +21,7 @@ def ring():
     return blockhash.load_scene(RING).with_size(24, 24)
 
 
+@pytest.mark.slow
 def test_render_gives_the_layers_of_render_scene(ring):
     est = EstimateOptions(filter="none")
     new = blockhash.render(ring, photons=20_000, spp=1, seed=3, estimate=est,
@@ -48,6 +49,7 @@ def test_render_takes_at_most_eight_arguments():
     assert len(inspect.signature(blockhash.render.pipeline.render).parameters) <= 8
 
 
+@pytest.mark.slow
 def test_render_scene_old_keywords_warn_and_still_work(ring):
     with pytest.warns(DeprecationWarning, match=r"options=EstimateOptions"):
         old = render_scene(ring, photons=20_000, spp=1, k=20, filter="none", normal_test=False)

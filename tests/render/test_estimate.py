@@ -37,6 +37,7 @@ OPTIONS = [EstimateOptions(estimate="paper", normal_cos=None),
            EstimateOptions(estimate="paper", filter="cone", normal_cos=-1.0, disc=0.05)]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("options", OPTIONS, ids=lambda o: o.label)
 def test_shader_estimate_equals_the_cpu_estimate_for_every_option(corner, options, tmp_path):
     # The CPU estimate takes its neighbours from the GL lookup itself, so that this pins down
@@ -80,6 +81,7 @@ def test_unbiased_estimate_has_no_k_over_k_minus_1_bias_and_the_paper_form_has(p
     assert paper / unbiased == pytest.approx(50 / 49, rel=0.002)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", FILTERS)
 def test_each_filter_is_normalised_over_the_disc(plane, name):
     t = np.sqrt(np.linspace(0, 1, 200_001))  # t^2 uniform = points uniform over the disc
