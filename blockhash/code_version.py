@@ -21,25 +21,35 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parent
 
 
-def source_digest(package: Path = PACKAGE, parts=(".",)) -> str:
-    """16 hex digits of SHA-256 over every module (path and text) under ``parts``, folders
-    or modules of the package (default: all of it)."""
-    h = hashlib.sha256()
+#: What a compiled module's text holds.
+COMPILED = b"import numba"
+
+
+def _modules(package: Path, parts) -> list[tuple[str, bytes]]:
+    """(path relative to the package, text) of every module under ``parts``, folders or
+    modules of the package, sorted by path; each file read once."""
     paths = {p for part in parts for p in ([package / part] if part.endswith(".py")
                                             else (package / part).rglob("*.py"))}
-    for path in sorted(paths):
-        if "__pycache__" in path.parts:
-            continue
-        h.update(path.resolve().relative_to(package.resolve()).as_posix().encode())
-        h.update(b"\0")
-        h.update(path.read_bytes())
+    root = package.resolve()
+    return sorted((p.resolve().relative_to(root).as_posix(), p.read_bytes())
+                  for p in paths if "__pycache__" not in p.parts)
+
+
+def source_digest(package: Path = PACKAGE, parts=(".",), containing: bytes | None = None) -> str:
+    """16 hex digits of SHA-256 over every module (path and text) under ``parts`` (default:
+    the whole package), or only those whose text holds ``containing``."""
+    h = hashlib.sha256()
+    for rel, text in _modules(package, parts):
+        if containing is None or containing in text:
+            h.update(rel.encode())
+            h.update(b"\0")
+            h.update(text)
     return h.hexdigest()[:16]
 
 
 def compiled_modules(package: Path = PACKAGE) -> tuple[str, ...]:
     """The package's modules that numba compiles (those that import it), relative paths."""
-    return tuple(sorted(p.relative_to(package).as_posix() for p in package.rglob("*.py")
-                        if "__pycache__" not in p.parts and "import numba" in p.read_text()))
+    return tuple(rel for rel, text in _modules(package, (".",)) if COMPILED in text)
 
 
 def cache_dir(version: str, package: Path = PACKAGE) -> Path:
@@ -49,7 +59,7 @@ def cache_dir(version: str, package: Path = PACKAGE) -> Path:
     if not base:
         xdg = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
         base = os.path.join(xdg, "blockhash", "numba")
-    digest = source_digest(package, parts=compiled_modules(package))
+    digest = source_digest(package, containing=COMPILED)
     return Path(base) / f"blockhash-{version}-{digest}"
 
 

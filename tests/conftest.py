@@ -1,6 +1,7 @@
 """Shared fixtures: seeded generators, small photon sets, GL contexts."""
 
 import os
+import sys
 
 import numpy as np
 import pytest
@@ -42,8 +43,6 @@ def gl_error_checked():
     """After every test, each GL context it used reports no error: moderngl records GL
     errors in ``ctx.error`` instead of raising, so a test could pass over one."""
     yield
-    import sys
-
     context = sys.modules.get("blockhash.gl.context")
     if context is None:
         return
@@ -76,10 +75,10 @@ DOWN = (0.0, -0.6, -0.8)  # photons travel down and toward -z: they face a floor
 
 
 def floor_points(h=24, w=24, *, z=(0.2, 0.8), y=0.0, view=(0, 1, 0)):
-    gx, gz = np.meshgrid(np.linspace(0.05 if w > 32 else 0.2, 0.95 if w > 32 else 0.8, w),
-                         np.linspace(*z, h))
     from blockhash.render.caustic import ShadingPoints
 
+    gx, gz = np.meshgrid(np.linspace(0.05 if w > 32 else 0.2, 0.95 if w > 32 else 0.8, w),
+                         np.linspace(*z, h))
     return ShadingPoints(
         position=np.stack([gx, np.full_like(gx, y), gz], axis=2).astype(np.float32),
         normal=np.tile(np.float32([0, 1, 0]), (h, w, 1)), view=np.tile(np.float32(view), (h, w, 1)),

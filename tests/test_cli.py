@@ -1,5 +1,6 @@
 """The command line, end to end (blockhash.cli.main)."""
 
+import argparse
 from pathlib import Path
 
 import numpy as np
@@ -117,7 +118,7 @@ def test_flags_are_named_one_way_with_choices_from_one_list():
     assert tuple(trade.ks) == (16, 50)
     assert parser.parse_args(["tradeoff", "scenes/ring.toml", "-o", "o", "--ks", "8"]).ks == (8,)
     assert parser.parse_args(["bench", "--variant", "paper"]).variants == "paper"
-    sub = next(a for a in parser._actions if isinstance(a, type(parser._subparsers._group_actions[0])))
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     for name, command in sub.choices.items():
         for action in command._actions:
             if "--backend" in action.option_strings:

@@ -58,11 +58,10 @@ def _imports(path: Path):
                 target = node.module.split(".")
             else:
                 continue
-            if len(target) == 1:  # "from blockhash import x": x may be a module
-                for alias in node.names:
-                    yield node.lineno, target + [alias.name]
-            else:
-                yield node.lineno, target
+            # "from blockhash.pkg import x": x may be a module; callers that want the
+            # module strip the names that are not (_module_graph).
+            for alias in node.names:
+                yield node.lineno, target + [alias.name]
 
 
 @pytest.mark.parametrize("path", _modules(), ids=lambda p: p.relative_to(ROOT).as_posix())
@@ -156,3 +155,19 @@ def test_tests_are_laid_out_by_package():
     assert rooms <= {p.name for p in PACKAGE.iterdir() if (p / "__init__.py").is_file()}, rooms
     for room in rooms:
         assert any((tests / room).glob("test_*.py")), f"tests/{room}/ holds no tests"
+
+
+def test_the_circle_and_private_name_checks_can_fail():
+    """Two probe modules that import each other (one lazily) make a circle, and one takes
+    the other's private name: both checks see it."""
+    a, b = PACKAGE / "index" / "_probe_a.py", PACKAGE / "index" / "_probe_b.py"
+    try:
+        a.write_text("from blockhash.index._probe_b import _hidden\n")
+        b.write_text("def _hidden():\n    from blockhash.index import _probe_a\n")
+        with pytest.raises(AssertionError, match="import circles: .*_probe_a -> blockhash.index._probe_b"):
+            test_no_import_circles()
+        with pytest.raises(AssertionError, match="imports private names"):
+            test_no_private_names_cross_modules(a)
+    finally:
+        a.unlink(missing_ok=True)
+        b.unlink(missing_ok=True)

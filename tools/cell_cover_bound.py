@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +29,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
-from blockhash import BlockHashIndex, OrphanWarning  # noqa: E402
+from blockhash.index.fixedpoint import Quantizer  # noqa: E402
 from blockhash.index.cells import CODE_SHIFT, LEVEL_MIN, LEVEL_TOP  # noqa: E402
 from blockhash.index.metrics import exact_knn, far_queries  # noqa: E402
 from blockhash.index.photon_maps import queries  # noqa: E402
@@ -73,15 +72,15 @@ def study(name: str, n: int, m: int, k: int, As, cells) -> list[dict]:
     pm = photon_map(name)
     pts = pm.photons(n, np.random.default_rng(0))
     q = queries(pm, m, np.random.default_rng(1)).astype(np.float32)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", OrphanWarning)
-        index = BlockHashIndex(pts, k=k)
-    d, _ = exact_knn(index.positions, q, k)
+    # The index's fixed point (its cells are octree cells of these codes) and the positions
+    # it decodes; no tables are needed.
+    quantizer = Quantizer.for_points(pts)
+    codes = quantizer.encode(pts)
+    d, _ = exact_knn(quantizer.decode(codes), q, k)
     far = far_queries(d)
-    step = float(index.quantizer.step[0])
-    q_codes = (q.astype(np.float64) - index.quantizer.lo.astype(np.float64)) / step
+    step = float(quantizer.step[0])
+    q_codes = (q.astype(np.float64) - quantizer.lo.astype(np.float64)) / step
     r_codes = d[:, -1] / step
-    codes = index.records.records[:, :3]
     tables = {lv: level_counts(codes, lv) for lv in range(LEVEL_MIN, LEVEL_TOP + 1)}
     rows = []
     for c in cells:

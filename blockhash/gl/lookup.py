@@ -205,7 +205,7 @@ class GLLookup:
         with self.ctx:
             for first in range(0, m, per_pass):
                 chunk = q[first:first + per_pass]
-                self._run(chunk, v, k, self._cap(k, A, lookup), pairs[first:first + len(chunk)],
+                self._run(chunk, v, k, self.cap(k, A, lookup), pairs[first:first + len(chunk)],
                           counts[first:first + len(chunk)], culled[first:first + len(chunk)],
                           fetch_only, width, lookup)
         if resolve_lookup(index.params, lookup) == "cells":
@@ -255,7 +255,7 @@ class GLLookup:
         with self.ctx:
             for first in range(0, len(q), self._per_pass(k)):
                 chunk = q[first:first + self._per_pass(k)]
-                with _Pass(self, chunk, v, k, self._cap(k, A, lookup), fetch_only, width,
+                with _Pass(self, chunk, v, k, self.cap(k, A, lookup), fetch_only, width,
                            lookup) as p:
                     w, g = time_draws(self.ctx, p.prog, p.fbo, p.size, repeat=repeat, warmup=warmup)
                     check_gl(self.ctx, "the timed lookup draws")
@@ -263,7 +263,7 @@ class GLLookup:
                 gpu += g
         return {"wall": wall.tolist(), "gpu": gpu.tolist()}
 
-    def _cap(self, k: int, A: int, lookup: str | None) -> int:
+    def cap(self, k: int, A: int, lookup: str | None = None) -> int:
         """The candidate cap of this index's ``lookup`` (:func:`..index.params.candidate_cap`)."""
         return candidate_cap(self.index.params, k, A, resolve_lookup(self.index.params, lookup))
 

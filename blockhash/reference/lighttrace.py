@@ -81,8 +81,6 @@ BATCH = 1 << 18
 #: The reference's default Philox key is the scene's seed plus this offset, so its
 #: photons are independent of any photon map traced with the scene's own seed.
 REFERENCE_SEED_OFFSET = 1 << 64
-#: Bump when the estimator changes, so that cached references are recomputed.
-CACHE_VERSION = 1
 #: The code a reference image depends on: a cached image is keyed by the source of these
 #: parts of the package (and the version), so an edit to the tracer or the scene model
 #: never reads an image the old code traced.
@@ -287,7 +285,7 @@ def cached_reference(scene, photons: int, *, size=None, seed: int | None = None,
     pin = Pinhole.of(scene.camera, size)
     key = hashlib.sha256(json.dumps({"scene": scene_digest(scene), "photons": int(photons),
                                      "size": [pin.width, pin.height], "seed": seed,
-                                     "version": CACHE_VERSION, "package": __version__,
+                                     "package": __version__,
                                      "code": source_digest(parts=CODE_PARTS)}).encode()).hexdigest()[:24]
     path = Path(cache_dir) / f"lighttrace-{key}.npz"
     if path.is_file():

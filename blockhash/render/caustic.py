@@ -267,7 +267,7 @@ class CausticPass:
         ctx = self.ctx
         check_lookup(ctx, prm, Variant.parse(variant), k, A)
         options = EstimateOptions() if options is None else options
-        defines = {**self.lookup.defines(Variant.parse(variant), k, self.lookup._cap(k, A, None),
+        defines = {**self.lookup.defines(Variant.parse(variant), k, self.lookup.cap(k, A),
                                          fetch_only=stage == STAGES[0]),
                    "CP_LOOKUP_ONLY": int(stage != STAGES[-1]), **options.defines()}
         own = {}

@@ -19,7 +19,7 @@ import numpy as np
 
 from blockhash.render.caustic import CausticPass, estimate_cpu, estimate_exact
 from blockhash.render.estimate import EstimateOptions
-from blockhash.render.options import METHODS, LookupOptions
+from blockhash.render.options import LookupOptions
 from blockhash.scene.materials import receiver_materials
 from blockhash.errors import InputError
 from blockhash.gl.limits import MAX_K
@@ -30,7 +30,6 @@ from blockhash.render.shading import SceneRays, direct_light, shading_points
 from blockhash.render.subpixel import box_filter, raycast_gbuffer
 from blockhash.scene.camera import DEFAULT_SPP, SPP_SEED, spp_side
 from blockhash.validate import old_keywords
-
 
 
 class NoCausticWarning(UserWarning):
@@ -97,11 +96,11 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
     if not isinstance(lookup, LookupOptions):
         raise InputError(f"lookup must be a LookupOptions; got {type(lookup).__name__} "
                          "(e.g. lookup=LookupOptions(method='kdtree', k=50))")
-    traced = None if photons is None or isinstance(photons, (int, np.integer)) else photons
-    return _render(scene, photons=None if traced is not None else photons, photon_map=traced,
-                   k=lookup.k, A=lookup.A, method=lookup.method, variant=lookup.variant,
-                   size=None, seed=seed, backend=backend, progress=progress, options=estimate,
-                   spp=spp)
+    count, traced = ((photons, None) if photons is None or isinstance(photons, (int, np.integer))
+                     else (None, photons))
+    return render_scene(scene, photons=count, photon_map=traced, k=lookup.k, A=lookup.A,
+                        method=lookup.method, variant=lookup.variant, seed=seed, backend=backend,
+                        progress=progress, options=estimate, spp=spp)
 
 
 #: render_scene's keywords that repeat fields of EstimateOptions.
@@ -116,23 +115,6 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
     ``normal_cos``, ``normal_test`` and ``disc`` still work and warn
     (DeprecationWarning): give ``options=EstimateOptions(...)``, or call
     ``blockhash.render(scene, estimate=EstimateOptions(...))``.
-    """
-    old_keywords("render_scene", deprecated, _ESTIMATE_KEYWORDS,
-                 "give options=EstimateOptions(...), or call "
-                 "blockhash.render(scene, estimate=EstimateOptions(...))")
-    if deprecated:
-        normal_test = deprecated.pop("normal_test", True)
-        options = EstimateOptions.of(options, **deprecated)
-        if not normal_test:
-            options = replace(options, normal_cos=None)
-    return _render(scene, photons=photons, k=k, A=A, method=method, variant=variant, size=size,
-                   seed=seed, backend=backend, progress=progress, photon_map=photon_map,
-                   options=options, spp=spp)
-
-
-def _render(scene, *, photons, k, A, method, variant, size, seed, backend, progress, photon_map,
-            options, spp) -> RenderResult:
-    """Render ``scene`` (see :mod:`blockhash.scene.model`).
 
     Parameters
     ----------
@@ -156,11 +138,18 @@ def _render(scene, *, photons, k, A, method, variant, size, seed, backend, progr
         its own hit, direct light and caustic estimate (one caustic pass over all of
         them) before the box filter averages them into pixels.
     """
+    old_keywords("render_scene", deprecated, _ESTIMATE_KEYWORDS,
+                 "give options=EstimateOptions(...), or call "
+                 "blockhash.render(scene, estimate=EstimateOptions(...))")
+    if deprecated:
+        normal_test = deprecated.pop("normal_test", True)
+        options = EstimateOptions.of(options, **deprecated)
+        if not normal_test:
+            options = replace(options, normal_cos=None)
+    LookupOptions(method=method, k=k, A=A, variant=variant)  # checks them, as render's
     from blockhash.scene.model import MirrorMaterial
     from blockhash.photons.tracing import trace_caustic_photons
 
-    if method not in METHODS:
-        raise InputError(f"method={method!r} is not known; choose one of {', '.join(METHODS)}")
     settings = scene.photons
     k = settings.k if k is None else k
     A = settings.A if A is None else A

@@ -392,3 +392,23 @@ def test_cell_shader_returns_what_the_cpu_cells_return(name, k, A):
         d, i = d[:, None], i[:, None]
     gd, gi = GLLookup(index).query(q)
     assert np.array_equal(gi, i) and np.array_equal(gd, d)
+
+
+@pytest.mark.slow
+def test_the_stages_the_default_index_ignores_change_nothing_there(caustic_index):
+    """shaderlib.IGNORED_BY_DEFAULT_INDEX: on the default preset's index, a variant that
+    differs from the default only in those stages returns exactly the default's neighbours."""
+    from blockhash.gl.shaderlib import CHOICES, IGNORED_BY_DEFAULT_INDEX, NAMED, Variant
+
+    context_or_skip("egl")
+    assert caustic_index.params.preset == "default"
+    lookup = GLLookup(caustic_index, backend="egl")
+    q = queries_for("caustic")
+    d0, i0 = lookup.query(q, 8, A=4, variant="default")
+    default = NAMED["default"]
+    for stage in IGNORED_BY_DEFAULT_INDEX:
+        other = next(c for c in CHOICES[stage][1] if c != getattr(default, stage))
+        v = Variant(**{**{f: getattr(default, f) for f in CHOICES}, stage: other})
+        d, i = lookup.query(q, 8, A=4, variant=v.name)
+        np.testing.assert_array_equal(i, i0, err_msg=f"{stage}={other} changed the neighbours")
+        np.testing.assert_array_equal(d, d0)
