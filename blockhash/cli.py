@@ -211,6 +211,24 @@ def cmd_preview(args) -> int:
     return 0
 
 
+#: The methods the trade study sweeps as Block Hashing (``kdtree``'s exact kNN is measured beside
+#: either), from the one list of methods, and the engine each runs the sweep on.
+SWEPT_METHODS = tuple(m for m in METHODS if m != "kdtree")
+METHOD_ENGINE = {"bh": "gl", "cpu": "cpu"}
+ENGINE_METHOD = {engine: method for method, engine in METHOD_ENGINE.items()}
+
+
+class _OldEngine(argparse.Action):
+    """``tradeoff --engine {gl,cpu}``, the older spelling of ``--method {bh,cpu}``: still
+    taken, with a note naming the new form."""
+
+    def __call__(self, parser, namespace, value, option_string=None):
+        method = ENGINE_METHOD[value]
+        print(f"blockhash: --engine {value} is now --method {method}; --engine goes in the next "
+              "release", file=sys.stderr)
+        setattr(namespace, self.dest, method)
+
+
 def _int_list(text: str) -> tuple[int, ...]:
     try:
         return tuple(int(float(v)) for v in text.split(","))
@@ -235,7 +253,8 @@ def cmd_tradeoff(args) -> int:
     if args.lambertian:
         scene = lambertian(scene)
     plan = with_plan(QUICK if args.quick else SweepPlan(), photons=args.photons, size=args.size,
-                     grid_A=args.A, ks=args.ks, engine=args.engine,
+                     grid_A=args.A, ks=args.ks,
+                     engine=METHOD_ENGINE[args.method] if args.method else None,
                      reference_photons=args.reference_photons)
     cache = Path(args.cache) if args.cache else Path.home() / ".cache" / "blockhash"
     with warnings.catch_warnings():
@@ -363,8 +382,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--k", "--ks", dest="ks", type=_int_list,
                    help="k values, e.g. 16,50,100 (--ks is the older name)")
     p.add_argument("--size", type=_size, help="image size WIDTHxHEIGHT (default 128x128; quick 48x48)")
-    p.add_argument("--engine", choices=("gl", "cpu"), help="gl: the caustic pass shader (default); "
-                   "cpu: its CPU reference (no shader compiles; CPU times)")
+    p.add_argument("--method", choices=SWEPT_METHODS, default=None,
+                   help="bh: the caustic pass shader (default); cpu: its CPU reference (no shader "
+                   "compiles; CPU times); exact kNN is measured beside either")
+    p.add_argument("--engine", choices=tuple(ENGINE_METHOD), action=_OldEngine, dest="method",
+                   help=argparse.SUPPRESS)
     p.add_argument("--reference-photons", type=int, help="photons of the light-traced reference")
     p.add_argument("--lambertian", action="store_true", help="set every Phong material's ks to 0")
     p.add_argument("--replot", action="store_true",

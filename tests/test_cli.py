@@ -124,4 +124,39 @@ def test_flags_are_named_one_way_with_choices_from_one_list():
             if "--backend" in action.option_strings:
                 assert tuple(action.choices) == BACKENDS, name
             if "--method" in action.option_strings:
-                assert tuple(action.choices) == METHODS, name
+                assert set(action.choices) <= set(METHODS), name
+                if name != "tradeoff":  # the sweep measures exact kNN ('kdtree') itself
+                    assert tuple(action.choices) == METHODS, name
+
+
+def test_tradeoff_takes_the_method_and_its_older_engine_spelling(capsys):
+    from blockhash.cli import METHOD_ENGINE, build_parser
+
+    parser = build_parser()
+    args = ["tradeoff", "scenes/ring.toml", "-o", "o"]
+    assert parser.parse_args(args).method is None
+    assert parser.parse_args(args + ["--method", "cpu"]).method == "cpu"
+    assert capsys.readouterr().err == ""
+    assert parser.parse_args(args + ["--engine", "gl"]).method == "bh"
+    assert "--engine gl is now --method bh" in capsys.readouterr().err
+    assert parser.parse_args(args + ["--engine", "cpu"]).method == "cpu"
+    assert METHOD_ENGINE == {"bh": "gl", "cpu": "cpu"}
+    with pytest.raises(SystemExit):
+        parser.parse_args(args + ["--method", "kdtree"])
+
+
+@pytest.mark.parametrize("flags, engine", [([], "gl"), (["--method", "cpu"], "cpu"),
+                                           (["--engine", "cpu"], "cpu"), (["--method", "bh"], "gl")])
+def test_tradeoff_runs_its_sweep_on_the_engine_of_the_method(monkeypatch, tmp_path, flags, engine):
+    import blockhash.studies.sweep as sweep
+    from blockhash.errors import InputError
+
+    seen = []
+
+    def stop(scene, plan, **kw):
+        seen.append(plan.engine)
+        raise InputError("stopped before sweeping")
+
+    monkeypatch.setattr(sweep, "run_sweep", stop)
+    assert main(["tradeoff", str(SCENES / "ring.toml"), "-o", str(tmp_path), "--quick"] + flags) == 2
+    assert seen == [engine]
