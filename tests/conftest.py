@@ -38,18 +38,27 @@ def context_or_skip(backend):
         pytest.skip(f"{backend} unavailable: {exc}")
 
 
+def pending_gl_errors() -> dict[str, str]:
+    """The GL error each open context holds, by backend (reading it clears it)."""
+    context = sys.modules.get("blockhash.gl.context")
+    if context is None:
+        return {}
+    errors = {}
+    for name, ctx in context.open_contexts().items():
+        with ctx:
+            err = ctx.error
+        if err != "GL_NO_ERROR":
+            errors[name] = err
+    return errors
+
+
 @pytest.fixture(autouse=True)
 def gl_error_checked():
     """After every test, each GL context it used reports no error: moderngl records GL
     errors in ``ctx.error`` instead of raising, so a test could pass over one."""
     yield
-    context = sys.modules.get("blockhash.gl.context")
-    if context is None:
-        return
-    for name, ctx in context.open_contexts().items():
-        with ctx:
-            err = ctx.error
-        assert err == "GL_NO_ERROR", f"the {name} context was left with {err}"
+    errors = pending_gl_errors()
+    assert not errors, f"GL contexts were left with errors: {errors}"
 
 
 # --------------------------------------------------------------------------- shared cases
