@@ -78,11 +78,11 @@ def loop_iterations(params, variant, k: int, cap: int) -> int:
     against one fewer at most (the cap ends the walk once that many are taken).
     """
     L, B = params.L, params.B
-    probes = PROBE_CUTS if getattr(params, "probe", False) else 0
+    probes = PROBE_CUTS if params.probe else 0
     refs = L * B * (1 + probes)
     taken = min(L * B, math.ceil(cap / 10) + 1)
     scanned = taken  # the taken blocks a reference is scanned against at most
-    walk = getattr(params, "best_first", False)
+    walk = params.best_first
     if walk:
         refs = MAX_LEAVES * B
         # A reference is scanned while ntaken < its bound (bh_take stops at the cap, which
@@ -91,11 +91,11 @@ def loop_iterations(params, variant, k: int, cap: int) -> int:
         scanned = taken - 1
     if params.layout == ThresholdLayout.ADAPTIVE:
         hash_steps = MAX_DEPTH * (1 + probes)  # the kd-tree descent: a constant loop, too long to unroll
-    elif getattr(variant, "search", "binary") == "linear":
+    elif variant.search == "linear":
         hash_steps = int(sum(params.P))
     else:
         hash_steps = 3 * _SEARCH_STEPS
-    dedup = getattr(variant, "dedup", "set")
+    dedup = variant.dedup
     set_fits = dedup == "set" and taken <= MAX_TAKEN_SET
     is_default = variant == NAMED["default"]
     scan = 0 if set_fits else math.ceil(scanned / SCAN_CHUNK)
@@ -106,14 +106,14 @@ def loop_iterations(params, variant, k: int, cap: int) -> int:
         chunks = QUEUE_CAPACITY // 32
         hashing = params.walk_tables(k) * (1 + chunks) + MAX_POPS * (1 + 3 * chunks)
     total = hashing + refs * (1 + scan) + cap + 10 + k
-    if getattr(variant, "select", "packed") == "insertion":
+    if variant.select == "insertion":
         total += (cap + 10) * k
     return int(total)
 
 
 def largest_A(params, variant, k: int) -> int:
     """The largest A whose lookup keeps within ``LOOP_LIMIT`` (0 if none does)."""
-    lookup = "walk" if getattr(params, "best_first", False) else "hash"
+    lookup = "walk" if params.best_first else "hash"
     lo, hi = 0, 1
     while (loop_iterations(params, variant, k, candidate_cap(params, k, hi, lookup)) <= LOOP_LIMIT
            and hi < 1 << 20):
@@ -171,7 +171,7 @@ def check_lookup(ctx, params, variant, k: int, A: int, lookup=None) -> None:
             way = (f"use A <= {best}" if best >= 1 else "use a smaller k, L or B")
             raise CapacityError(
                 f"the lookup with k={k}, A={A} (A*k={A * k:,} candidates), L={params.L}, "
-                f"B={params.B}, variant {getattr(variant, 'name', variant)} may run up to "
+                f"B={params.B}, variant {variant.name} may run up to "
                 f"{need:,} shader loop iterations, above llvmpipe's {LOOP_LIMIT:,} (beyond it "
                 f"llvmpipe silently stops the loops and neighbours go missing); {way}, or the "
                 "CPU query BlockHashIndex.query, or a GPU driver")

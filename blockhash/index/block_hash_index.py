@@ -54,7 +54,7 @@ def resolve_lookup(params, lookup=None, best_first=None) -> str:
         return lookup
     if best_first is not None:
         return "walk" if best_first else "hash"
-    if getattr(params, "cells", False):
+    if params.cells:
         return "cells"
     return "walk" if params.best_first else "hash"
 

@@ -184,7 +184,7 @@ class BlockHashParams:
 def candidate_cap(params, k: int, A: int, lookup: str = "walk") -> int:
     """The candidates a query examines at most: ``A * k``, and for the walk of an index with
     a ``walk_floor``, ``A * max(k, walk_floor)``."""
-    if lookup == "walk" and k < getattr(params, "walk_floor", 0):
+    if lookup == "walk" and k < params.walk_floor:
         return int(A) * int(params.walk_floor)
     return int(A) * int(k)
 
