@@ -24,8 +24,9 @@ only; the REPORT maps were never used to choose anything.
 
 ``--ppb``, ``--L``, ``--slack`` and ``--walk-trees`` sweep the default preset's constants
 (photons per bucket as a multiple of k at A = 8, tables, block slack, tables the walk is
-seeded with) over their product; ``--tune`` restricts
-the maps to the TUNE set.
+seeded with) over their product; ``--layouts adaptive,nested,marginal`` builds the default
+preset on each threshold layout (a grid layout takes the preset's P for the photons, the
+same buckets per table); ``--tune`` restricts the maps to the TUNE set.
 """
 
 from __future__ import annotations
@@ -121,10 +122,12 @@ def evaluate(name: str, n: int, m: int, k: int, As, presets, configs=({},), look
     shipped = bp.adaptive_params
     for preset, A, config in [(p, A, c) for p in presets for c in (configs if p == "default" else ({},))
                               for A in As]:
-            bp.adaptive_params = lambda positions, k, A, c=config: shipped(positions, k=k, A=A, **c)
+            tuned = {key: v for key, v in config.items() if key != "layout"}
+            chosen = {key: v for key, v in config.items() if key == "layout"}
+            bp.adaptive_params = lambda positions, k, A, c=tuned: shipped(positions, k=k, A=A, **c)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore", OrphanWarning)
-                t_build, index = timed(lambda: BlockHashIndex(pts, k=k, A=A, preset=preset))
+                t_build, index = timed(lambda: BlockHashIndex(pts, k=k, A=A, preset=preset, **chosen))
             bp.adaptive_params = shipped
             if exact is None:
                 # The float32 query the index sees (10^4 m from the origin, float32 rounds
@@ -224,6 +227,8 @@ def main(argv=None) -> int:
     ap.add_argument("--L", help="sweep: tables")
     ap.add_argument("--slack", help="sweep: block slack")
     ap.add_argument("--walk-trees", help="sweep: tables the nearest-box-first walk is seeded with")
+    ap.add_argument("--layouts", help="sweep: threshold layouts of the default preset "
+                    "(adaptive, nested, marginal)")
     ap.add_argument("--tune", action="store_true", help="only the TUNE maps")
     ap.add_argument("--lookup", choices=("cells", "walk", "hash"),
                     help="the query (default: the preset's); rounds of dependent fetches per "
@@ -243,6 +248,8 @@ def main(argv=None) -> int:
               for key, text in (("photons_per_bucket", args.ppb), ("L", args.L),
                                 ("block_slack", args.slack),
                                 ("walk_trees", args.walk_trees)) if text]
+    if args.layouts:
+        sweeps.append([("layout", v) for v in args.layouts.split(",")])
     configs = [dict(c) for c in __import__("itertools").product(*sweeps)] or [{}]
     if args.tune:
         args.maps = ",".join(TUNE)
