@@ -30,10 +30,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from blockhash.index.datasets import DISTRIBUTIONS
 from blockhash.index.block_hash_index import BlockHashIndex
+from blockhash.index.datasets import DISTRIBUTIONS
 from blockhash.index.metrics import exact_knn, false_negatives
-
 
 QUERY_SETS = ("image", "random")
 CLOCKS = ("auto", "gpu", "wall")
@@ -194,14 +193,14 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
     scene's own pixels, then the whole pass once more with each of ``estimates`` (forms of
     :class:`~blockhash.render.estimate.EstimateOptions`, the other fields the default's);
     returns result rows like :func:`run_benchmark`."""
-    from blockhash.render.estimate import EstimateOptions
-    from blockhash.render.caustic import STAGES, CausticPass
-    from blockhash.render.gbuffer import rasterize
-    from blockhash.scene.materials import receiver_materials
-    from blockhash.scene.loader import load_scene
-    from blockhash.render.shading import SceneRays, shading_points
-    from blockhash.scene.model import MirrorMaterial
     from blockhash.photons.tracing import trace_caustic_photons
+    from blockhash.render.caustic import STAGES, CausticPass
+    from blockhash.render.estimate import EstimateOptions
+    from blockhash.render.gbuffer import rasterize
+    from blockhash.render.shading import SceneRays, shading_points
+    from blockhash.scene.loader import load_scene
+    from blockhash.scene.materials import receiver_materials
+    from blockhash.scene.model import MirrorMaterial
 
     forms = [EstimateOptions(estimate=form) for form in estimates]  # unknown names fail first
     scene = load_scene(scene_path)

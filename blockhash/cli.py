@@ -17,15 +17,17 @@ import numpy as np
 
 from blockhash import __version__
 from blockhash.bench import QUERY_SETS
-from blockhash.cli_images import add_parsers as add_image_parsers, size as _size
-from blockhash.cli_estimate import add_arguments as add_estimate_arguments, options_from
-from blockhash.index.datasets import DISTRIBUTIONS
-from blockhash.gl.context import BACKENDS
-from blockhash.render.options import METHODS
+from blockhash.cli_estimate import add_arguments as add_estimate_arguments
+from blockhash.cli_estimate import options_from
+from blockhash.cli_images import add_parsers as add_image_parsers
+from blockhash.cli_images import size as _size
 from blockhash.errors import BlockHashError, InputError
+from blockhash.gl.context import BACKENDS
 from blockhash.index.block_hash_index import BlockHashIndex
+from blockhash.index.datasets import DISTRIBUTIONS
 from blockhash.index.metrics import accuracy, exact_knn
 from blockhash.index.params import PRESETS
+from blockhash.render.options import METHODS
 from blockhash.scene.camera import DEFAULT_SPP
 
 
@@ -199,8 +201,8 @@ def _choose_settings(args, scene) -> None:
 
 def cmd_preview(args) -> int:
     from blockhash.render.images import write_rgb8
-    from blockhash.scene.preview import preview
     from blockhash.scene.loader import load_scene
+    from blockhash.scene.preview import preview
 
     out = _writable(Path(args.output or Path(args.scene).with_suffix(".preview.png").name), "--output")
     scene = load_scene(args.scene)

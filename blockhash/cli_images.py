@@ -11,9 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+from blockhash.errors import InputError
 from blockhash.gl.context import BACKENDS
 from blockhash.render.options import METHODS
-from blockhash.errors import InputError
 
 
 def size(text: str) -> tuple[int, int]:
@@ -97,8 +97,8 @@ def cmd_compare(args) -> int:
 
 
 def cmd_tolerance(args) -> int:
-    from blockhash.scene.loader import load_scene
     from blockhash.evaluate.tolerance import seed_tolerances
+    from blockhash.scene.loader import load_scene
 
     scene = load_scene(args.scene)
     report = seed_tolerances(scene, seeds=args.seeds, first_seed=args.first_seed,

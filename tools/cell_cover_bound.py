@@ -29,11 +29,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tools"))
 
-from blockhash.index.fixedpoint import Quantizer  # noqa: E402
+from eval_accuracy import REPORT, TUNE, photon_map  # noqa: E402
+
 from blockhash.index.cells import CODE_SHIFT, LEVEL_MIN, LEVEL_TOP  # noqa: E402
+from blockhash.index.fixedpoint import Quantizer  # noqa: E402
 from blockhash.index.metrics import exact_knn, far_queries  # noqa: E402
 from blockhash.index.photon_maps import queries  # noqa: E402
-from eval_accuracy import REPORT, TUNE, photon_map  # noqa: E402
 
 
 def level_counts(codes: np.ndarray, level: int):

@@ -56,8 +56,7 @@ def _done_when(args, studies):
 
 def main() -> int:
     from blockhash.scene import loader as scene_toml
-    from blockhash.studies.estimates import (markdown_table, option_table, study_scene,
-                                              summary_table)
+    from blockhash.studies.estimates import markdown_table, option_table, study_scene, summary_table
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scenes", default=None, help="names under scenes/ (default ring,venus,corner)")

@@ -64,8 +64,8 @@ def scene_map(name: str) -> PhotonMap:
     caustic, and a shading point metres from every photon has no caustic to estimate (its k
     nearest photons are found at about their distance, with dilation near 1, but rarely the
     same ones)."""
-    from blockhash.scene.loader import load_scene
     from blockhash.photons.tracing import trace_caustic_photons
+    from blockhash.scene.loader import load_scene
 
     scene = load_scene(ROOT / "scenes" / f"{name}.toml")
     diffuse = [o.mesh for o in scene.objects if not o.is_specular]

@@ -24,15 +24,15 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from blockhash import BlockHashIndex  # noqa: E402
-from blockhash.render.caustic import CausticPass  # noqa: E402
-from blockhash.reference.lighttrace import cached_reference, lambertian  # noqa: E402
-from blockhash.render.photon_radius import exact_radii2, own_radii2  # noqa: E402
-from blockhash.scene.materials import receiver_materials  # noqa: E402
-from blockhash.scene.loader import load_scene  # noqa: E402
-from blockhash.render.subpixel import SPP_SEED, box_filter, raycast_gbuffer, spp_side  # noqa: E402
-from blockhash.render.shading import SceneRays, shading_points  # noqa: E402
-from blockhash.scene.model import MirrorMaterial  # noqa: E402
 from blockhash.photons.tracing import trace_caustic_photons  # noqa: E402
+from blockhash.reference.lighttrace import cached_reference, lambertian  # noqa: E402
+from blockhash.render.caustic import CausticPass  # noqa: E402
+from blockhash.render.photon_radius import exact_radii2, own_radii2  # noqa: E402
+from blockhash.render.shading import SceneRays, shading_points  # noqa: E402
+from blockhash.render.subpixel import SPP_SEED, box_filter, raycast_gbuffer, spp_side  # noqa: E402
+from blockhash.scene.loader import load_scene  # noqa: E402
+from blockhash.scene.materials import receiver_materials  # noqa: E402
+from blockhash.scene.model import MirrorMaterial  # noqa: E402
 from blockhash.studies.estimates import caustic_region, measure  # noqa: E402
 from blockhash.studies.measure import rel_rms  # noqa: E402
 

@@ -13,11 +13,10 @@ from __future__ import annotations
 import argparse
 import warnings
 
-
 from blockhash import BlockHashIndex
 from blockhash.index.metrics import accuracy, exact_knn
-from blockhash.scene.loader import load_scene
 from blockhash.photons.tracing import trace_caustic_photons
+from blockhash.scene.loader import load_scene
 
 
 def main() -> None:

@@ -18,6 +18,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # render with the checkout this script belongs to
 
 from blockhash.cli import main  # noqa: E402
+
 #: reference file -> blockhash render arguments (the test's SETTINGS).
 REFERENCES = {
     "tests/data/ring-48x48.exr": ["scenes/ring.toml", "--size", "48x48", "--photons", "20000",

@@ -11,16 +11,17 @@ radii are larger, so BH images are darker, paper section 6).
 from __future__ import annotations
 
 import argparse
+
 import numpy as np
 
+from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.render.caustic import estimate_exact
 from blockhash.render.gbuffer import rasterize
 from blockhash.render.pipeline import render_scene
+from blockhash.render.shading import SceneRays, shading_points
+from blockhash.scene.loader import load_scene
 from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial
-from blockhash.scene.loader import load_scene
-from blockhash.render.shading import SceneRays, shading_points
-from blockhash.photons.tracing import trace_caustic_photons
 
 
 def main() -> None:

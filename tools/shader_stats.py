@@ -225,13 +225,13 @@ def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_00
     pixels at 16 x 16, for each of ``lookups`` ('walk', 'cells')."""
     from blockhash import BlockHashIndex
     from blockhash.gl.shaderlib import recording
+    from blockhash.photons.tracing import trace_caustic_photons
     from blockhash.render.caustic import STAGES, CausticPass
     from blockhash.render.gbuffer import rasterize
+    from blockhash.render.shading import SceneRays, shading_points
+    from blockhash.scene.loader import load_scene
     from blockhash.scene.materials import receiver_materials
     from blockhash.scene.model import MirrorMaterial
-    from blockhash.scene.loader import load_scene
-    from blockhash.render.shading import SceneRays, shading_points
-    from blockhash.photons.tracing import trace_caustic_photons
 
     sc = load_scene(scene)
     pm = trace_caustic_photons(sc, photons, seed=sc.photons.seed)

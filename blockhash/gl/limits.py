@@ -35,10 +35,10 @@ from __future__ import annotations
 import math
 
 from blockhash.errors import CapacityError, InputError
+from blockhash.gl.shaderlib import NAMED
 from blockhash.index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY, walk_taken_bound
 from blockhash.index.params import candidate_cap
 from blockhash.index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
-from blockhash.gl.shaderlib import NAMED
 
 #: Largest k the lookup shader keeps (the packed selection's unrolled table ends at 128).
 MAX_K = 128

@@ -10,23 +10,29 @@ storage buffer; queries are processed in passes that fit the buffer limit.
 
 from __future__ import annotations
 
-
 from dataclasses import replace
 
 import numpy as np
 
 from blockhash.errors import CapacityError, InputError
-from blockhash.index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY, walk_taken_bound
-from blockhash.index.block_hash_index import resolve_lookup
-from blockhash.index.params import candidate_cap
-from blockhash.index.cell_query import GROUP_CELLS
-from blockhash.index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
-from blockhash.validate import as_int, as_points
-from blockhash.gl.context import bind_textures, check_gl, draw_fullscreen, get_context, home_framebuffer, time_draws
-from blockhash.index.blocks import PHOTONS_PER_BLOCK
+from blockhash.gl.context import (
+    bind_textures,
+    check_gl,
+    draw_fullscreen,
+    get_context,
+    home_framebuffer,
+    time_draws,
+)
 from blockhash.gl.limits import MAX_TAKEN_SET, check_lookup
 from blockhash.gl.packing import pack_index
 from blockhash.gl.shaderlib import NAMED, Variant, compile_program
+from blockhash.index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY, walk_taken_bound
+from blockhash.index.block_hash_index import resolve_lookup
+from blockhash.index.blocks import PHOTONS_PER_BLOCK
+from blockhash.index.cell_query import GROUP_CELLS
+from blockhash.index.params import candidate_cap
+from blockhash.index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
+from blockhash.validate import as_int, as_points
 
 #: Queries per pass are capped so one draw stays short (llvmpipe runs a draw to completion).
 MAX_QUERIES_PER_PASS = 1 << 18

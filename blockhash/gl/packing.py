@@ -32,9 +32,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from blockhash.errors import CapacityError
-from blockhash.index.blocks import COUNT_WORD, block_boxes  # noqa: F401 (block_boxes: re-exported)
 from blockhash.gl.context import check_gl
-
+from blockhash.index.blocks import COUNT_WORD, block_boxes  # noqa: F401 (block_boxes: re-exported)
 
 
 def texture_shape(elements: int, max_size: int) -> tuple[int, int, int]:

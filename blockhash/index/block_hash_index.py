@@ -23,19 +23,19 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from blockhash.errors import InputError
 from blockhash.index.adaptive import build_adaptive
+from blockhash.index.best_first import bf_query, walk_cull
 from blockhash.index.blocks import BLOCK_WORDS, make_blocks, pack_blocks
+from blockhash.index.cell_query import CELL_ROUNDS, cells_query
+from blockhash.index.cells import build_cells
 from blockhash.index.codec import WORDS_PER_PHOTON, PhotonRecords
 from blockhash.index.hashtables import insert_blocks
 from blockhash.index.hilbert import hilbert_keys
-from blockhash.index.best_first import bf_query, walk_cull
-from blockhash.index.cell_query import CELL_ROUNDS, cells_query
-from blockhash.index.cells import build_cells
 from blockhash.index.node_boxes import node_boxes
 from blockhash.index.params import BlockHashParams, candidate_cap, resolve_params
 from blockhash.index.query import bh_query
 from blockhash.index.thresholds import ThresholdLayout, build_thresholds, descent_rounds
-from blockhash.errors import InputError
 from blockhash.validate import as_int, as_points, old_keywords
 
 #: Bytes per 32-bit word.

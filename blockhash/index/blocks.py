@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from blockhash.errors import InputError
 from blockhash.index.btree import LeafBlocks, btree_blocks, bulk_blocks
 from blockhash.index.codec import WORDS_PER_PHOTON
-from blockhash.errors import InputError
 
 #: Words per block: a 64-word burst (section 3.2).
 BLOCK_WORDS = 64

@@ -35,8 +35,8 @@ import numba
 import numpy as np
 
 from blockhash.errors import InputError, InputTypeError
-from blockhash.validate import as_int
 from blockhash.index.radixsort import stable_argsort
+from blockhash.validate import as_int
 
 _MAX_HEIGHT = 64  # a tree of n >= 1 photons with fanout >= 3 is at most log2(n) + 1 tall
 _KEY_MAX = np.uint64(2**64 - 1)

@@ -39,8 +39,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from blockhash.index.blocks import PHOTONS_PER_BLOCK
 from blockhash.errors import CapacityError, InputError
+from blockhash.index.blocks import PHOTONS_PER_BLOCK
 from blockhash.index.thresholds import ThresholdLayout
 from blockhash.validate import as_int
 

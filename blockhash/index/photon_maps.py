@@ -43,8 +43,8 @@ from typing import Callable
 
 import numpy as np
 
-from blockhash.validate import as_int
 from blockhash.index.datasets import LAYOUT_SEED, caustic_like, clustered, uniform
+from blockhash.validate import as_int
 
 Sampler = Callable[[int, np.random.Generator], np.ndarray]
 

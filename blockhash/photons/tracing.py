@@ -47,10 +47,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from blockhash.errors import InputError
 from blockhash.photons.emission import Emitter, photon_uniforms
 from blockhash.scene.optics import choice_uniforms, scatter
 from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, reflect, surface_hits
-from blockhash.errors import InputError
 from blockhash.validate import as_int
 
 #: Default safety cap on emitted photons, as a multiple of the stored target

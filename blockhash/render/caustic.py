@@ -20,16 +20,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from blockhash.index.codec import decode_directions, decode_powers, unpack_records
 from blockhash.errors import InputError
-from blockhash.render.estimate import EstimateOptions, photon_weights
-from blockhash.scene.materials import material_arrays, phong_brdf
-from blockhash.index.fixedpoint import min_r2
-from blockhash.render.photon_radius import exact_radii2, own_radii2
 from blockhash.gl.context import bind_textures, check_gl, draw_timed, home_framebuffer, time_draws
 from blockhash.gl.limits import check_lookup
 from blockhash.gl.lookup import GLLookup, query_slot_bits
 from blockhash.gl.shaderlib import Variant
+from blockhash.index.codec import decode_directions, decode_powers, unpack_records
+from blockhash.index.fixedpoint import min_r2
+from blockhash.render.estimate import EstimateOptions, photon_weights
+from blockhash.render.photon_radius import exact_radii2, own_radii2
+from blockhash.scene.materials import material_arrays, phong_brdf
 
 #: Materials a caustic pass can hold (uniform arrays in caustic_pass.frag).
 MAX_MATERIALS = 16

@@ -17,18 +17,18 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from blockhash.render.caustic import CausticPass, estimate_cpu, estimate_exact
-from blockhash.render.estimate import EstimateOptions
-from blockhash.render.options import LookupOptions
-from blockhash.scene.materials import receiver_materials
 from blockhash.errors import InputError
 from blockhash.gl.limits import MAX_K
-from blockhash.render.gbuffer import rasterize
 from blockhash.index.block_hash_index import BlockHashIndex
+from blockhash.render.caustic import CausticPass, estimate_cpu, estimate_exact
+from blockhash.render.estimate import EstimateOptions
+from blockhash.render.gbuffer import rasterize
+from blockhash.render.options import LookupOptions
 from blockhash.render.photon_radius import exact_radii2, own_radii2
 from blockhash.render.shading import SceneRays, direct_light, shading_points
 from blockhash.render.subpixel import box_filter, raycast_gbuffer
 from blockhash.scene.camera import DEFAULT_SPP, SPP_SEED, spp_side
+from blockhash.scene.materials import receiver_materials
 from blockhash.validate import old_keywords
 
 
@@ -147,8 +147,8 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
         if not normal_test:
             options = replace(options, normal_cos=None)
     LookupOptions(method=method, k=k, A=A, variant=variant)  # checks them, as render's
-    from blockhash.scene.model import MirrorMaterial
     from blockhash.photons.tracing import trace_caustic_photons
+    from blockhash.scene.model import MirrorMaterial
 
     settings = scene.photons
     k = settings.k if k is None else k

@@ -19,10 +19,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from blockhash.render.gbuffer import GBuffer
 from blockhash.errors import InputError
+from blockhash.render.gbuffer import GBuffer
 from blockhash.scene.camera import Pinhole
 from blockhash.validate import as_int
+
 
 def box_filter(image: np.ndarray, side: int) -> np.ndarray:
     """(h * S, w * S, ...) samples -> (h, w, ...) pixel means (the box filter), float32."""

@@ -98,13 +98,30 @@ from pathlib import Path
 
 import trimesh
 
-from blockhash.scene import meshes
 from blockhash.errors import InputError
-from blockhash.scene.model import (Camera, DielectricMaterial, MirrorMaterial, PhongMaterial, PhotonSettings, PointLight, Scene,
-                    SceneObject, SpotLight, check_mesh)
-from blockhash.scene.values import (FieldError as _FieldError, boolean as _boolean, choice as _choice,
-                           got as _got, integer as _integer, number as _number, rgb as _rgb,
-                           string as _string, under as _under, vector as _vector)
+from blockhash.scene import meshes
+from blockhash.scene.model import (
+    Camera,
+    DielectricMaterial,
+    MirrorMaterial,
+    PhongMaterial,
+    PhotonSettings,
+    PointLight,
+    Scene,
+    SceneObject,
+    SpotLight,
+    check_mesh,
+)
+from blockhash.scene.values import FieldError as _FieldError
+from blockhash.scene.values import boolean as _boolean
+from blockhash.scene.values import choice as _choice
+from blockhash.scene.values import got as _got
+from blockhash.scene.values import integer as _integer
+from blockhash.scene.values import number as _number
+from blockhash.scene.values import rgb as _rgb
+from blockhash.scene.values import string as _string
+from blockhash.scene.values import under as _under
+from blockhash.scene.values import vector as _vector
 
 
 def _load_mesh_file(value, key: str, base: Path, normals: str) -> trimesh.Trimesh:

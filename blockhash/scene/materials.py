@@ -11,8 +11,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from blockhash.scene.values import (FieldError as _FieldError, fmt as _fmt, number as _number, owned as _owned,
-                           rgb as _rgb)
+from blockhash.scene.values import FieldError as _FieldError
+from blockhash.scene.values import fmt as _fmt
+from blockhash.scene.values import number as _number
+from blockhash.scene.values import owned as _owned
+from blockhash.scene.values import rgb as _rgb
 
 
 @dataclass(frozen=True, eq=False)

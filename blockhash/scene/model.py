@@ -21,11 +21,16 @@ import numpy as np
 import trimesh
 
 from blockhash.errors import InputError
-from blockhash.scene.values import (FieldError as _FieldError, fmt as _fmt, integer as _integer,
-                           number as _number, owned as _owned, readonly as _readonly, rgb as _rgb,
-                           string as _string, vector as _vector)
-from blockhash.scene.materials import (SPECULAR_MATERIALS, DielectricMaterial, MirrorMaterial,  # noqa: F401
-                        PhongMaterial)
+from blockhash.scene.materials import SPECULAR_MATERIALS, DielectricMaterial, MirrorMaterial, PhongMaterial  # noqa: F401
+from blockhash.scene.values import FieldError as _FieldError
+from blockhash.scene.values import fmt as _fmt
+from blockhash.scene.values import integer as _integer
+from blockhash.scene.values import number as _number
+from blockhash.scene.values import owned as _owned
+from blockhash.scene.values import readonly as _readonly
+from blockhash.scene.values import rgb as _rgb
+from blockhash.scene.values import string as _string
+from blockhash.scene.values import vector as _vector
 
 #: Largest image side: GL_MAX_TEXTURE_SIZE on llvmpipe (16,384), so a
 #: G-buffer of the camera's size can be allocated.

@@ -14,7 +14,6 @@ import os
 import numpy as np
 
 
-
 def _render(meshes, colours, lights, camera, size):
     os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
     import pyrender

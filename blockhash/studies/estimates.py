@@ -25,15 +25,15 @@ import numpy as np
 from blockhash.gl.lookup import query_slot_bits
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.index.metrics import exact_knn
+from blockhash.photons.tracing import trace_caustic_photons
+from blockhash.reference.lighttrace import cached_reference, lambertian
 from blockhash.render.caustic import Neighbours, ShadingPoints
 from blockhash.render.estimate import EstimateOptions
 from blockhash.render.gbuffer import rasterize
-from blockhash.reference.lighttrace import cached_reference, lambertian
-from blockhash.scene.materials import receiver_materials
-from blockhash.scene.model import MirrorMaterial
 from blockhash.render.shading import SceneRays, shading_points
 from blockhash.render.subpixel import raycast_gbuffer
-from blockhash.photons.tracing import trace_caustic_photons
+from blockhash.scene.materials import receiver_materials
+from blockhash.scene.model import MirrorMaterial
 from blockhash.studies.measure import flux_ratio, masked_blur, rel_rms
 from blockhash.studies.sweep import box_down
 

@@ -32,15 +32,21 @@ import time
 import numpy as np
 
 from blockhash.index.block_hash_index import BlockHashIndex
-from blockhash.render.estimate import EstimateOptions
+from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.reference.lighttrace import cached_reference, lambertian, light_trace
-from blockhash.scene.materials import receiver_materials
-from blockhash.scene.model import MirrorMaterial
+from blockhash.render.estimate import EstimateOptions
 from blockhash.render.shading import SceneRays, shading_points
 from blockhash.render.subpixel import raycast_gbuffer
-from blockhash.photons.tracing import trace_caustic_photons
-from blockhash.studies.estimates import (caustic_region, estimate_images, measure, scene_points, searches,
-                        upsample)
+from blockhash.scene.materials import receiver_materials
+from blockhash.scene.model import MirrorMaterial
+from blockhash.studies.estimates import (
+    caustic_region,
+    estimate_images,
+    measure,
+    scene_points,
+    searches,
+    upsample,
+)
 from blockhash.studies.measure import flux_ratio
 from blockhash.studies.sweep import box_down
 

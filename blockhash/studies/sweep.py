@@ -35,15 +35,14 @@ from blockhash.errors import InputError
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.index.metrics import accuracy, exact_knn
 from blockhash.index.params import PRESETS
+from blockhash.photons.tracing import trace_caustic_photons
+from blockhash.reference.lighttrace import cached_reference, scene_digest
 from blockhash.render.caustic import CausticPass, estimate_cpu, estimate_exact
 from blockhash.render.gbuffer import rasterize
-from blockhash.reference.lighttrace import cached_reference, scene_digest
+from blockhash.render.shading import SceneRays, shading_points
 from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial
-from blockhash.render.shading import SceneRays, shading_points
-from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.studies.measure import errors_against
-
 
 #: How the caustic layer of a setting is computed: 'gl' the caustic pass shader (timed
 #: draws), 'cpu' its CPU reference (the same neighbours, tests/render/test_caustic.py; no shader
@@ -174,8 +173,8 @@ def run_sweep(scene, plan: SweepPlan = QUICK, *, seed=None, cache_dir=None, back
               progress=print) -> dict:
     """Run ``plan`` on ``scene`` and return the study as a dict (see the module docstring)."""
     from blockhash.gl.context import get_context
-    from blockhash.gl.shaderlib import Variant
     from blockhash.gl.lookup import query_slot_bits
+    from blockhash.gl.shaderlib import Variant
 
     if not scene.specular_objects:
         raise InputError(f"scene {scene.path}: no specular (mirror) object, so no caustic to "

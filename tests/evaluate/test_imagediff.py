@@ -5,8 +5,7 @@ import OpenImageIO as oiio
 import pytest
 
 from blockhash.errors import InputError
-from blockhash.evaluate.imagediff import compare_layers, flip_map
-from blockhash.evaluate.imagediff import compare_images
+from blockhash.evaluate.imagediff import compare_images, compare_layers, flip_map
 from blockhash.render.images import read_layers, write_exr, write_rgb8
 
 

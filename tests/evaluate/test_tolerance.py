@@ -7,8 +7,8 @@ import pytest
 
 from blockhash.cli import main
 from blockhash.errors import InputError
-from blockhash.scene.loader import load_scene
 from blockhash.evaluate.tolerance import FLOORS, _round_up, seed_tolerances
+from blockhash.scene.loader import load_scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

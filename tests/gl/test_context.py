@@ -2,10 +2,10 @@
 pending, and ``check_gl`` turns it into an error naming the step."""
 
 import pytest
+from conftest import context_or_skip, pending_gl_errors
 
 from blockhash.errors import BlockHashError
 from blockhash.gl.context import backend_of, check_gl
-from conftest import context_or_skip, pending_gl_errors
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

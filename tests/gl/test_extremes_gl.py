@@ -4,6 +4,7 @@ llvmpipe, so the GL cases are few and tiny; most limits are checked without draw
 
 import numpy as np
 import pytest
+from conftest import context_or_skip
 
 from blockhash import BlockHashIndex, CapacityError, InputError
 from blockhash.errors import ShaderCompileError
@@ -13,10 +14,9 @@ from blockhash.gl.limits import LOOP_LIMIT, MAX_K, check_lookup, largest_A, loop
 from blockhash.gl.lookup import GLLookup, query_slot_bits
 from blockhash.gl.packing import pack_index, texture_shape, upload
 from blockhash.gl.shaderlib import Variant, compile_program
-from blockhash.render.estimate import EstimateOptions
 from blockhash.index.fixedpoint import min_radius
 from blockhash.render.caustic import CausticPass, ShadingPoints, estimate_cpu
-from conftest import context_or_skip
+from blockhash.render.estimate import EstimateOptions
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

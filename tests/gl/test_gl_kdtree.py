@@ -3,14 +3,13 @@ searched in a fragment shader, equal to the float32 brute force and to scipy's c
 
 import numpy as np
 import pytest
+from conftest import context_or_skip, photon_set
 from scipy.spatial import cKDTree
 
 from blockhash.errors import CapacityError, InputError
 from blockhash.gl.context import home_framebuffer
-from blockhash.gl.kdtree import (LOOP_LIMIT, MAX_K, GLKdTree, build_kdtree,
-                                 query_order)
+from blockhash.gl.kdtree import LOOP_LIMIT, MAX_K, GLKdTree, build_kdtree, query_order
 from blockhash.gl.shaderlib import FULLSCREEN_VS, define_block, preprocess
-from conftest import context_or_skip, photon_set
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

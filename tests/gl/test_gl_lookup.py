@@ -5,15 +5,15 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import context_or_skip, photon_set
 
 from blockhash import BlockHashIndex, CapacityError, InputError
 from blockhash.errors import GLUnavailableError
-from blockhash.index.params import candidate_cap
 from blockhash.gl.context import check_gl, get_context, gl_info
 from blockhash.gl.lookup import GLLookup, query_slot_bits
 from blockhash.gl.packing import texture_shape
 from blockhash.gl.shaderlib import Variant, variants
-from conftest import context_or_skip, photon_set
+from blockhash.index.params import candidate_cap
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

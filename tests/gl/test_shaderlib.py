@@ -6,8 +6,16 @@ import re
 import pytest
 
 from blockhash.errors import InputError
-from blockhash.gl.shaderlib import (CHOICES, NAMED, Source, Variant, define_block, glsl_dir,
-                                    preprocess, variants)
+from blockhash.gl.shaderlib import (
+    CHOICES,
+    NAMED,
+    Source,
+    Variant,
+    define_block,
+    glsl_dir,
+    preprocess,
+    variants,
+)
 
 
 def write(tmp_path, files):

@@ -15,8 +15,7 @@ import numba
 import numpy as np
 import pytest
 
-from blockhash.index.adaptive import (PROBE_SLOTS, SELECT_SAMPLE, _gap_axis, _spreads, _widest,
-                                      build_adaptive)
+from blockhash.index.adaptive import PROBE_SLOTS, SELECT_SAMPLE, _gap_axis, _spreads, _widest, build_adaptive
 from blockhash.index.fixedpoint import Quantizer
 from blockhash.index.photon_maps import MAPS
 from blockhash.index.thresholds import LEAF, MAX_DEPTH, THRESHOLD_PAD, table_offsets

@@ -4,13 +4,13 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import photon_set, two_patches_and_far_points
 
 from blockhash import BlockHashIndex, InputError
 from blockhash.index.best_first import QUEUE_CAPACITY, bf_query, walk_cull
 from blockhash.index.metrics import exact_knn, false_negatives
 from blockhash.index.params import DEFAULT_WALK_FLOOR, candidate_cap
 from blockhash.index.thresholds import LEAF, THRESHOLD_PAD
-from conftest import photon_set, two_patches_and_far_points
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

@@ -6,8 +6,15 @@ import numpy as np
 import pytest
 
 from blockhash import BlockHashError, InputError
-from blockhash.index.blocks import (BLOCK_WORDS, BUILDERS, COUNT_WORD, PHOTONS_PER_BLOCK, make_blocks,
-                              pack_blocks, unpack_blocks)
+from blockhash.index.blocks import (
+    BLOCK_WORDS,
+    BUILDERS,
+    COUNT_WORD,
+    PHOTONS_PER_BLOCK,
+    make_blocks,
+    pack_blocks,
+    unpack_blocks,
+)
 from blockhash.index.btree import btree_blocks
 from blockhash.index.codec import WORDS_PER_PHOTON
 from blockhash.index.datasets import caustic_like, uniform

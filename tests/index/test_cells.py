@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from blockhash import BlockHashIndex
-from blockhash.index.cells import LEVEL_MIN, LEVEL_TOP, build_cells, cell_lookup, cell_runs
 from blockhash.index.cell_query import CELL_ROUNDS, SHELL_ORDER
+from blockhash.index.cells import LEVEL_MIN, LEVEL_TOP, build_cells, cell_lookup, cell_runs
 from blockhash.index.fixedpoint import Quantizer
 from blockhash.index.metrics import exact_knn, false_negatives
 from blockhash.index.photon_maps import MAPS, queries

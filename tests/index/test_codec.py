@@ -8,8 +8,16 @@ import numpy as np
 import pytest
 
 from blockhash import InputError, InputTypeError
-from blockhash.index.codec import (WORDS_PER_PHOTON, PhotonRecords, decode_directions, decode_powers,
-                             encode_directions, encode_powers, pack_records, unpack_records)
+from blockhash.index.codec import (
+    WORDS_PER_PHOTON,
+    PhotonRecords,
+    decode_directions,
+    decode_powers,
+    encode_directions,
+    encode_powers,
+    pack_records,
+    unpack_records,
+)
 from blockhash.index.fixedpoint import Quantizer
 
 

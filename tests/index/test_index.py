@@ -2,10 +2,10 @@ import math
 
 import numpy as np
 import pytest
+from conftest import photon_set
 
 from blockhash import BlockHashIndex, CapacityError, InputError, InputTypeError, OrphanWarning
 from blockhash.index.metrics import accuracy, exact_knn
-from conftest import photon_set
 
 
 @pytest.fixture(scope="module")

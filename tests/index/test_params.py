@@ -1,12 +1,17 @@
 import math
 
 import pytest
-
-from blockhash.index.params import (ADAPTIVE_REFERENCE_A, DEFAULT_PHOTONS_PER_BUCKET,
-                                    DEFAULT_REFS_PER_PHOTON, adaptive_params,
-                                    paper_params, resolve_params)
-from blockhash.index.thresholds import ThresholdLayout
 from conftest import photon_set
+
+from blockhash.index.params import (
+    ADAPTIVE_REFERENCE_A,
+    DEFAULT_PHOTONS_PER_BUCKET,
+    DEFAULT_REFS_PER_PHOTON,
+    adaptive_params,
+    paper_params,
+    resolve_params,
+)
+from blockhash.index.thresholds import ThresholdLayout
 
 
 @pytest.mark.parametrize("n,k,A", [(200_000, 50, 8), (2_000_000, 50, 16), (1000, 10, 1)])

@@ -9,9 +9,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.spatial import cKDTree
+from transcription import examined_blocks
 
 from blockhash import BlockHashIndex, OrphanWarning
-from transcription import examined_blocks
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -91,6 +91,7 @@ def test_query_invariants(args):
 @given(problem)
 def test_shader_equals_the_cpu_reference(variant, args):
     from conftest import context_or_skip
+
     from blockhash.gl.lookup import GLLookup, query_slot_bits
     from blockhash.gl.shaderlib import Variant
 

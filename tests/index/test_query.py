@@ -4,12 +4,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import photon_set
 from scipy.spatial import cKDTree
+from transcription import transcribed_query, walked_query
 
 from blockhash import BlockHashIndex
 from blockhash.index.thresholds import ThresholdLayout, hash_codes
-from transcription import transcribed_query, walked_query
-from conftest import photon_set
 
 
 @pytest.mark.slow

@@ -1,10 +1,17 @@
 import numpy as np
 import pytest
+from conftest import photon_set
 
 from blockhash.index.fixedpoint import Quantizer
-from blockhash.index.thresholds import (THRESHOLD_PAD, ThresholdLayout, build_thresholds, count_le,
-                                  hash_codes, row_starts, table_offsets)
-from conftest import photon_set
+from blockhash.index.thresholds import (
+    THRESHOLD_PAD,
+    ThresholdLayout,
+    build_thresholds,
+    count_le,
+    hash_codes,
+    row_starts,
+    table_offsets,
+)
 
 LAYOUTS = [ThresholdLayout.MARGINAL, ThresholdLayout.NESTED]  # the grids; adaptive: test_adaptive.py
 

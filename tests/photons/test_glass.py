@@ -7,16 +7,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from conftest import context_or_skip
 
 from blockhash.errors import InputError
+from blockhash.photons.tracing import ABSORBED, ESCAPED, MAX_BOUNCES, STORED, trace_batch
 from blockhash.scene import meshes
+from blockhash.scene.loader import load_scene, parse_scene
+from blockhash.scene.model import Camera, DielectricMaterial, PhongMaterial, Scene, SceneObject, SpotLight
 from blockhash.scene.optics import fresnel, refract, scatter
 from blockhash.scene.raycast import EmbreeGeometry
-from blockhash.scene.model import (Camera, DielectricMaterial, PhongMaterial, Scene, SceneObject,
-                                    SpotLight)
-from blockhash.scene.loader import load_scene, parse_scene
-from blockhash.photons.tracing import ABSORBED, ESCAPED, MAX_BOUNCES, STORED, trace_batch
-from conftest import context_or_skip
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -263,8 +262,8 @@ def test_the_glass_ball_renders_with_its_caustic_in_its_shadow():
 @pytest.mark.slow
 def test_every_method_renders_glass_and_the_exact_one_agrees_with_the_cpu(tmp_path):
     context_or_skip("egl")
-    from blockhash.render.pipeline import render_scene
     from blockhash.evaluate.testing import assert_images_close
+    from blockhash.render.pipeline import render_scene
     from blockhash.studies.measure import flux_ratio
 
     scene = load_scene(ROOT / "scenes" / "glass.toml")

@@ -11,9 +11,17 @@ import pytest
 import trimesh
 
 from blockhash.errors import InputError
-from blockhash.scene.model import (Camera, MirrorMaterial, PhongMaterial, PhotonSettings,
-                                    PointLight, Scene, SceneObject, SpotLight)
 from blockhash.photons.tracing import RAY_OFFSET, CausticPhotons, TracingWarning, trace_caustic_photons
+from blockhash.scene.model import (
+    Camera,
+    MirrorMaterial,
+    PhongMaterial,
+    PhotonSettings,
+    PointLight,
+    Scene,
+    SceneObject,
+    SpotLight,
+)
 
 GREY = PhongMaterial(kd=np.array([0.5, 0.5, 0.5]), ks=np.array([0.2, 0.2, 0.2]), n=20.0)
 REFL = np.array([0.9, 0.6, 0.3])

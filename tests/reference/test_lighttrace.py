@@ -16,8 +16,15 @@ from blockhash.errors import InputError
 from blockhash.reference.lighttrace import cached_reference, lambertian, light_trace, scene_digest
 from blockhash.scene.camera import Pinhole
 from blockhash.scene.loader import load_scene
-from blockhash.scene.model import (Camera, MirrorMaterial, PhongMaterial, PhotonSettings,
-                                    PointLight, Scene, SceneObject)
+from blockhash.scene.model import (
+    Camera,
+    MirrorMaterial,
+    PhongMaterial,
+    PhotonSettings,
+    PointLight,
+    Scene,
+    SceneObject,
+)
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -133,11 +140,11 @@ def test_exact_knn_photon_map_agrees_with_the_light_tracer(traced):
 
     context_or_skip("egl")
     from blockhash import BlockHashIndex
+    from blockhash.photons.tracing import trace_caustic_photons
     from blockhash.render.caustic import estimate_exact
     from blockhash.render.gbuffer import rasterize
-    from blockhash.scene.materials import receiver_materials
     from blockhash.render.shading import SceneRays, shading_points
-    from blockhash.photons.tracing import trace_caustic_photons
+    from blockhash.scene.materials import receiver_materials
 
     scene, img = traced
     photons = trace_caustic_photons(scene, 200_000, seed=4)

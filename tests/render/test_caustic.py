@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from blockhash import BlockHashIndex
+from blockhash.evaluate.testing import assert_images_close
 from blockhash.render.caustic import CausticPass, ShadingPoints, estimate_cpu
 from blockhash.scene.materials import phong_brdf
-from blockhash.evaluate.testing import assert_images_close
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

@@ -5,14 +5,13 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import DOWN, FLOOR, KD, LAMBERT, floor_points, surfaces  # noqa: F401
 
 from blockhash.cli import main
 from blockhash.errors import InputError
+from blockhash.evaluate.testing import assert_images_close
 from blockhash.render.caustic import CausticPass, estimate_cpu, estimate_from_neighbours
 from blockhash.render.estimate import FILTERS, EstimateOptions, kernel
-from blockhash.evaluate.testing import assert_images_close
-
-from conftest import DOWN, FLOOR, KD, LAMBERT, floor_points, surfaces  # noqa: F401
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

@@ -4,11 +4,12 @@ few photons, every case either a finite non-negative image or a clear error."""
 
 import numpy as np
 import pytest
+from conftest import context_or_skip
+from conftest import small_ring_scene as scene
 
 from blockhash import CapacityError, InputError
 from blockhash.render.gbuffer import rasterize
 from blockhash.render.pipeline import NoCausticWarning, render_scene
-from conftest import context_or_skip, small_ring_scene as scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

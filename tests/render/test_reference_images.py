@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from blockhash.evaluate.testing import assert_images_close
 from blockhash.render.images import read_layers
 from blockhash.render.pipeline import render_scene
 from blockhash.scene.loader import load_scene
-from blockhash.evaluate.testing import assert_images_close
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

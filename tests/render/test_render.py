@@ -5,18 +5,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from blockhash.render.caustic import estimate_cpu, estimate_exact
 from blockhash.cli import main
-from blockhash.render.gbuffer import rasterize
-from blockhash.scene.preview import gbuffer_depth, preview
-from blockhash.render.pipeline import NoCausticWarning, render_scene
-from blockhash.scene.materials import receiver_materials
-from blockhash.scene.model import MirrorMaterial
-from blockhash.scene.loader import load_scene
-from blockhash.render.shading import SceneRays, shading_points
-from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.evaluate.imagediff import compare_layers
 from blockhash.evaluate.testing import assert_images_close
+from blockhash.photons.tracing import trace_caustic_photons
+from blockhash.render.caustic import estimate_cpu, estimate_exact
+from blockhash.render.gbuffer import rasterize
+from blockhash.render.pipeline import NoCausticWarning, render_scene
+from blockhash.render.shading import SceneRays, shading_points
+from blockhash.scene.loader import load_scene
+from blockhash.scene.materials import receiver_materials
+from blockhash.scene.model import MirrorMaterial
+from blockhash.scene.preview import gbuffer_depth, preview
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

@@ -5,14 +5,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import context_or_skip
 
 from blockhash.errors import InputError
-from blockhash.scene.camera import Pinhole
 from blockhash.render.pipeline import NoCausticWarning, render_scene
-from blockhash.scene.loader import load_scene
 from blockhash.render.subpixel import box_filter
-from blockhash.scene.camera import spp_side
-from conftest import context_or_skip
+from blockhash.scene.camera import Pinhole, spp_side
+from blockhash.scene.loader import load_scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -157,12 +156,12 @@ def test_spp_1_is_the_pixel_centre_render_of_the_rasteriser():
     shading points, their direct light and one caustic pass, with no filter."""
     context_or_skip("egl")
     from blockhash import BlockHashIndex
+    from blockhash.photons.tracing import trace_caustic_photons
     from blockhash.render.caustic import CausticPass
     from blockhash.render.gbuffer import rasterize
+    from blockhash.render.shading import SceneRays, direct_light, shading_points
     from blockhash.scene.materials import receiver_materials
     from blockhash.scene.model import MirrorMaterial
-    from blockhash.render.shading import SceneRays, direct_light, shading_points
-    from blockhash.photons.tracing import trace_caustic_photons
 
     scene = load_scene(ROOT / "scenes" / "ring.toml")
     pm = trace_caustic_photons(scene, 5000, seed=1)

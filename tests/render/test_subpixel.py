@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from blockhash.errors import InputError
+from blockhash.render.subpixel import raycast_gbuffer, subpixel_points
 from blockhash.scene.camera import Pinhole
 from blockhash.scene.loader import load_scene
-from blockhash.render.subpixel import raycast_gbuffer, subpixel_points
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -156,10 +156,10 @@ def test_done_when_study_rows_summary_and_tables(small_study):
 
 def test_refinement_replaces_only_the_most_uneven_pixels_with_fresh_points():
     from blockhash.index.block_hash_index import BlockHashIndex
-    from blockhash.reference.lighttrace import lambertian
-    from blockhash.scene.materials import receiver_materials
-    from blockhash.render.shading import SceneRays
     from blockhash.photons.tracing import trace_caustic_photons
+    from blockhash.reference.lighttrace import lambertian
+    from blockhash.render.shading import SceneRays
+    from blockhash.scene.materials import receiver_materials
     from blockhash.studies.sampling import options, pixel_means, refine_seed
 
     scene = lambertian(load_scene(SCENES / "ring.toml"))

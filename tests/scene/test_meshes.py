@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from blockhash.scene import meshes
 from blockhash.errors import InputError
+from blockhash.scene import meshes
 
 
 def _radial(vertices):

@@ -7,11 +7,19 @@ import numpy as np
 import pytest
 import trimesh
 
-from blockhash.scene import meshes
 from blockhash.errors import InputError
-from blockhash.scene.model import (Camera, MirrorMaterial, PhongMaterial, PhotonSettings,
-                                    PointLight, Scene, SceneObject, SpotLight)
+from blockhash.scene import meshes
 from blockhash.scene.loader import load_scene, parse_scene
+from blockhash.scene.model import (
+    Camera,
+    MirrorMaterial,
+    PhongMaterial,
+    PhotonSettings,
+    PointLight,
+    Scene,
+    SceneObject,
+    SpotLight,
+)
 
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
 
