@@ -2,8 +2,8 @@
 // Takes: the query's float32 position.  Returns: its uint32 fixed-point codes
 // (bh_quantize) and its bucket in table t (bh_bucket_of).
 // Defines: BH_THRESHOLD_SEARCH (linear | binary), BH_PX/BH_PY/BH_PZ buckets per
-// axis, BH_NESTED (0 marginal, 1 nested threshold layout), BH_ADAPTIVE (1: the
-// adaptive layout's kd-tree rows, which replace the grid), BH_T words per table
+// axis (the marginal grid), BH_ADAPTIVE (1: the adaptive layout's kd-tree rows,
+// which replace the grid), BH_T words per table
 // row, BH_THR_W threshold texture width (log2), BH_MAX_DEPTH (adaptive descent bound),
 // BH_PROBE_CUTS (adaptive: the nearest cuts bh_descend records for multi-probing).
 // Exactly blockhash/index/fixedpoint.py quantize_query and
@@ -112,18 +112,8 @@ uint bh_bucket_of(uint t, uvec3 c) {
 uint bh_bucket_of(uint t, uvec3 c) {
     uint row = t * uint(BH_T);
     uint hx = bh_count_le(row, uint(BH_PX - 1), c.x);
-    uint ys = uint(BH_PX - 1);
-#if BH_NESTED
-    uint zs = ys + uint(BH_PX * (BH_PY - 1));
-    ys += hx * uint(BH_PY - 1);
-#else
-    uint zs = ys + uint(BH_PY - 1);
-#endif
-    uint hy = bh_count_le(row + ys, uint(BH_PY - 1), c.y);
-#if BH_NESTED
-    zs += (hx * uint(BH_PY) + hy) * uint(BH_PZ - 1);
-#endif
-    uint hz = bh_count_le(row + zs, uint(BH_PZ - 1), c.z);
+    uint hy = bh_count_le(row + uint(BH_PX - 1), uint(BH_PY - 1), c.y);
+    uint hz = bh_count_le(row + uint(BH_PX - 1 + BH_PY - 1), uint(BH_PZ - 1), c.z);
     return hx + uint(BH_PX) * (hy + uint(BH_PY) * hz);
 }
 #endif

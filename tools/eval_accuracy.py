@@ -24,7 +24,7 @@ only; the REPORT maps were never used to choose anything.
 
 ``--ppb``, ``--L``, ``--slack`` and ``--walk-trees`` sweep the default preset's constants
 (photons per bucket as a multiple of k at A = 8, tables, block slack, tables the walk is
-seeded with) over their product; ``--layouts adaptive,nested,marginal`` builds the default
+seeded with) over their product; ``--layouts adaptive,marginal`` builds the default
 preset on each threshold layout (a grid layout takes the preset's P for the photons, the
 same buckets per table); ``--tune`` restricts the maps to the TUNE set.
 """
@@ -228,7 +228,7 @@ def main(argv=None) -> int:
     ap.add_argument("--slack", help="sweep: block slack")
     ap.add_argument("--walk-trees", help="sweep: tables the nearest-box-first walk is seeded with")
     ap.add_argument("--layouts", help="sweep: threshold layouts of the default preset "
-                    "(adaptive, nested, marginal)")
+                    "(adaptive, marginal)")
     ap.add_argument("--tune", action="store_true", help="only the TUNE maps")
     ap.add_argument("--lookup", choices=("cells", "walk", "hash"),
                     help="the query (default: the preset's); rounds of dependent fetches per "

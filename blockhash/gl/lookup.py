@@ -137,7 +137,7 @@ class GLLookup:
         return {
             **variant.defines(),
             "BH_L": prm.L, "BH_B": prm.B, "BH_PX": prm.P[0], "BH_PY": prm.P[1], "BH_PZ": prm.P[2],
-            "BH_NESTED": int(prm.layout == ThresholdLayout.NESTED), "BH_T": self.index.thresholds.shape[1],
+            "BH_T": self.index.thresholds.shape[1],
             "BH_ADAPTIVE": int(prm.layout == ThresholdLayout.ADAPTIVE), "BH_MAX_DEPTH": MAX_DEPTH,
             "BH_PROBE": int(prm.probe), "BH_PROBE_CUTS": PROBE_CUTS,
             "BH_BUCKETS": prm.buckets, "BH_K": k, "BH_CAP": cap, **self.packed.widths,

@@ -3,9 +3,8 @@
 The paper's hash (section 3.1) counts the thresholds below a coordinate on each
 axis, with thresholds from that axis' marginal distribution, and a table is the
 product grid.  Photon maps lie on surfaces: a floor, walls, a curved receiver,
-several at once.  A product grid, or the nested grid of
-:class:`~blockhash.index.thresholds.ThresholdLayout` ``NESTED``, cuts every
-slab and column into the same number of buckets, so where one surface holds
+several at once.  A product grid cuts every slab and column into the same
+number of buckets, so where one surface holds
 most photons of a slab (a floor under a lit wall; the faces of a room, where
 every photon of a face shares one coordinate) its buckets overflow while the
 others hold few photons.

@@ -154,8 +154,9 @@ class BlockHashIndex:
         Parameter choice, see :mod:`blockhash.index.params`.
     L, P, B : int, optional
         Override the preset's tables, buckets per axis (one int or three), refs per bucket.
-    layout : {'nested', 'marginal'}, optional
-        Override the preset's threshold layout.
+    layout : {'adaptive', 'marginal'}, optional
+        Override the preset's threshold layout (``marginal``: the paper's grid, with the
+        preset's buckets per table unless P is given).
     builder : {'bulk', 'btree'}
         Block builder (section 4.1); both give the same blocks.
     directions, normals : (n, 3) float unit vectors, optional

@@ -41,7 +41,7 @@ import numpy as np
 
 from blockhash.errors import CapacityError, InputError
 from blockhash.index.blocks import PHOTONS_PER_BLOCK
-from blockhash.index.thresholds import ThresholdLayout
+from blockhash.index.thresholds import RETIRED_LAYOUTS, ThresholdLayout
 from blockhash.validate import as_int
 
 PRESETS = ("default", "paper")
@@ -110,7 +110,7 @@ class BlockHashParams:
     L : int           hash tables
     P : (int, int, int) buckets per axis (x, y, z); a table has Px * Py * Pz buckets
     B : int           block references per bucket
-    layout : ThresholdLayout  marginal (paper) or nested thresholds
+    layout : ThresholdLayout  marginal (the paper's grid) or adaptive (kd-tree rows)
     preset : str      where the values came from
     """
 
@@ -119,7 +119,7 @@ class BlockHashParams:
     L: int
     P: tuple[int, int, int]
     B: int
-    layout: ThresholdLayout = ThresholdLayout.NESTED
+    layout: ThresholdLayout = ThresholdLayout.MARGINAL
     preset: str = "custom"
     #: ADAPTIVE layout only: target photons per bucket, and the buckets per table that
     #: the build made (0 until then).
@@ -264,11 +264,13 @@ def resolve_params(positions: np.ndarray, *, k, A, preset: str = "default",
             raise InputError(f"P={P!r} must be one int or three (Px, Py, Pz)")
         changes["P"] = tuple(as_int(p, f"P[{i}]", minimum=1, maximum=MAX_P) for i, p in enumerate(P))
         if layout is None and params.layout == ThresholdLayout.ADAPTIVE:
-            changes["layout"] = ThresholdLayout.NESTED  # a grid of P buckets per axis was asked for
+            changes["layout"] = ThresholdLayout.MARGINAL  # a grid of P buckets per axis was asked for
     if B is not None:
         changes["B"] = as_int(B, "B", minimum=1, maximum=MAX_B)
     if layout is not None:
         names = [m.name.lower() for m in ThresholdLayout]
+        if str(layout).lower() in RETIRED_LAYOUTS:
+            raise InputError(f"layout={layout!r} was retired: {RETIRED_LAYOUTS[str(layout).lower()]}")
         if str(layout).lower() not in names:
             raise InputError(f"layout={layout!r} is not known; choose one of {', '.join(names)}")
         changes["layout"] = ThresholdLayout[str(layout).upper()]

@@ -148,7 +148,7 @@ def unpack_selection(packed, mask, taken, starts, positions, qx, qy, qz, k, bd, 
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positions, k, cap,
+def bh_query(qcodes, qpos, thresholds, P, layout, refs, priority, starts, positions, k, cap,
              by_priority=True, slot_bits=0, probe=False, step=None):
     """Approximate k nearest photons of each query.
 
@@ -158,7 +158,7 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
     qpos : (m, 3) float32       query positions
     thresholds : (L, T) uint32  see :mod:`blockhash.index.thresholds`
     P : (3,) int64              buckets per axis
-    nested : bool               threshold layout is NESTED
+    layout : int                the ThresholdLayout's id (0 marginal, 2 adaptive)
     refs : (L, buckets, B) int32
     priority : (L, buckets) int32
     starts : (nblocks + 1,) int64
@@ -190,7 +190,7 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
     mask = np.uint32((1 << slot_bits) - 1) if slot_bits > 0 else np.uint32(0)
     nocull = np.empty((0, 3), dtype=np.uint32)  # hashing culls no block
     nolo = np.zeros(3, dtype=np.float32)
-    adaptive = nested == 2
+    adaptive = layout == 2
     for qi in numba.prange(m):
         packed = np.full(k, np.uint32(0xFFFFFFFF), dtype=np.uint32)
         bits = np.empty(1, dtype=np.float32)
@@ -209,7 +209,7 @@ def bh_query(qcodes, qpos, thresholds, P, nested, refs, priority, starts, positi
                                        step, cut_axis[t], cut_code[t], cut_gap[t])
                 depth = cut_gap[t, 0]
             else:
-                key = bucket_of(thresholds[t], P[0], P[1], P[2], nested,
+                key = bucket_of(thresholds[t], P[0], P[1], P[2], layout,
                                 qcodes[qi, 0], qcodes[qi, 1], qcodes[qi, 2])
             keys[t] = key
             # Stable insertion by priority: alpha ascending, or (adaptive) the query's

@@ -14,29 +14,16 @@ recurrence of the 3D golden ratio (Roberts' R3 sequence).  Offsets differ per
 table and per axis, so the bucket boundaries of the L tables interleave and
 their buckets complement each other around a query (Figure 2).
 
-Two layouts (``ThresholdLayout``):
+Layouts (``ThresholdLayout``): ``marginal`` (the paper's), built here: one threshold list
+per axis, from that axis' marginal distribution; on clustered data the product of marginals
+makes a grid whose cells hold very different numbers of photons (a hot spot's cells overflow
+while most cells stay empty).  ``adaptive`` (the default preset's, :mod:`.adaptive`) is a
+kd-tree of count thresholds per table, which this module hashes too.
 
-``marginal`` (paper)
-    One threshold list per axis, from that axis' marginal distribution.  On
-    clustered data the product of marginals makes a grid whose cells hold very
-    different numbers of photons: a hot spot's cells overflow while most cells
-    stay empty.
-``nested``
-    x thresholds from the marginal of x; y thresholds separately for each x slab
-    from the photons in that slab; z thresholds for each (x, y) column from the
-    photons in it.  Every bucket then holds about N / buckets photons whatever
-    the clustering (an adaptive grid in the spirit of the grid files the paper
-    cites, section 4.1).  Hashing costs the same comparisons; only the row of
-    thresholds searched for y and z depends on the earlier axes.
-
-Storage (both layouts): one flat row of uint32 codes per table.  Axis x's list
-starts at 0 (length ``Px - 1``); axis y's list for slab ``hx`` starts at
-``(Px - 1) + hx * (Py - 1)`` (``hx`` taken as 0 in the marginal layout); axis z's
-list for column ``(hx, hy)`` starts at ``(Px - 1) + Px * (Py - 1) + (hx * Py + hy)
-* (Pz - 1)`` (column 0 in the marginal layout).  Thresholds are fixed-point
-codes, so hashing is integer comparison that the CPU reference and the shader
-agree on exactly.  Lists of empty slabs hold ``THRESHOLD_PAD``, which no code
-reaches, so everything there hashes to bucket 0.
+Storage of a marginal row: one flat row of uint32 codes per table, axis x's list at 0
+(length ``Px - 1``), y's at ``Px - 1``, z's at ``(Px - 1) + (Py - 1)``.  Thresholds are
+fixed-point codes, so hashing is integer comparison that the CPU reference and the shader
+agree on exactly.
 """
 
 from __future__ import annotations
@@ -56,11 +43,18 @@ _PHI3 = 1.2207440846057596
 
 
 class ThresholdLayout(IntEnum):
-    """How thresholds depend on the other axes; the value is the shader's define id."""
+    """How a table's thresholds are laid out; the value is the shader's define id (1 was
+    the nested grid, retired: BENCHMARKS.md, "Threshold layouts")."""
 
     MARGINAL = 0
-    NESTED = 1
     ADAPTIVE = 2
+
+
+#: Layouts that were retired, and what to use instead.
+RETIRED_LAYOUTS = {"nested": "it was never more accurate than the adaptive layout (the default "
+                             "preset's) and needs more rounds of dependent fetches than "
+                             "'marginal' (BENCHMARKS.md, \"Threshold layouts\"); use layout="
+                             "'adaptive' or, for the paper's grid, layout='marginal'"}
 
 
 def table_offsets(L: int) -> np.ndarray:
@@ -70,11 +64,9 @@ def table_offsets(L: int) -> np.ndarray:
     return np.mod(0.5 + t * alpha[None, :], 1.0) - 0.5
 
 
-def row_starts(P, layout: ThresholdLayout) -> tuple[int, int, int, int]:
-    """Start of the x, y and z lists and the row length, for slab/column 0."""
+def row_starts(P) -> tuple[int, int, int, int]:
+    """Start of the x, y and z lists of a marginal row, and the row's length."""
     px, py, pz = (int(p) for p in P)
-    if layout == ThresholdLayout.NESTED:
-        return 0, px - 1, (px - 1) + px * (py - 1), (px - 1) + px * (py - 1) + px * py * (pz - 1)
     return 0, px - 1, (px - 1) + (py - 1), (px - 1) + (py - 1) + (pz - 1)
 
 
@@ -124,13 +116,12 @@ def adaptive_bucket_of(row, cx, cy, cz):
 def descent_rounds(thresholds, layout, codes):
     """Per query, the longest chain of threshold fetches that each wait on the last, over
     the tables (they descend side by side): an ``ADAPTIVE`` row's depth to the query's
-    bucket; 1 for ``MARGINAL`` (every threshold of a row can be fetched at once); 3 for
-    ``NESTED`` (the y thresholds depend on x's cell, z's on both)."""
+    bucket; 1 for ``MARGINAL`` (every threshold of a row can be fetched at once)."""
     n = codes.shape[0]
     out = np.zeros(n, dtype=np.int64)
     for j in numba.prange(n):
         if layout != 2:
-            out[j] = 1 if layout == 0 else 3
+            out[j] = 1
             continue
         deepest = 0
         for t in range(thresholds.shape[0]):
@@ -184,31 +175,25 @@ def adaptive_descend(row, cx, cy, cz, step, cut_axis, cut_code, cut_gap):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def bucket_of(thresholds, px, py, pz, nested, cx, cy, cz):
+def bucket_of(thresholds, px, py, pz, layout, cx, cy, cz):
     """Bucket of one code triple in one table's row: ``hx + Px * (hy + Py * hz)`` for the
-    marginal and nested layouts; ``nested`` is the layout's id (0, 1, or 2 = ADAPTIVE)."""
-    if nested == 2:
+    marginal layout; ``layout`` is the layout's id (0 marginal, 2 adaptive)."""
+    if layout == 2:
         return adaptive_bucket_of(thresholds, cx, cy, cz)
     hx = count_le(thresholds, 0, px - 1, cx)
-    ys = px - 1
-    zs = ys + (px * (py - 1) if nested else py - 1)
-    if nested:
-        ys += hx * (py - 1)
-    hy = count_le(thresholds, ys, py - 1, cy)
-    if nested:
-        zs += (hx * py + hy) * (pz - 1)
-    hz = count_le(thresholds, zs, pz - 1, cz)
+    hy = count_le(thresholds, px - 1, py - 1, cy)
+    hz = count_le(thresholds, (px - 1) + (py - 1), pz - 1, cz)
     return hx + px * (hy + py * hz)
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _hash_all(codes, thresholds, px, py, pz, nested):
+def _hash_all(codes, thresholds, px, py, pz, layout):
     L = thresholds.shape[0]
     n = codes.shape[0]
     keys = np.empty((L, n), dtype=np.int64)
     for j in numba.prange(n):
         for t in range(L):
-            keys[t, j] = bucket_of(thresholds[t], px, py, pz, nested,
+            keys[t, j] = bucket_of(thresholds[t], px, py, pz, layout,
                                    codes[j, 0], codes[j, 1], codes[j, 2])
     return keys
 
@@ -225,59 +210,21 @@ def _fill_quantiles(values, first, m, fractions, row, start):
         row[start + i] = np.uint32(np.floor(x))
 
 
-@numba.njit(cache=True, nogil=True)
-def _fill_axis(by_axis, a, row, px, py, pz, nested, fractions, start):
-    """Thresholds of axis ``a`` (1 or 2) for every slab/column, from codes sorted on ``a``.
-
-    Photons are visited in ascending order of axis ``a``, grouped by the slab (y)
-    or column (z) they hash to with the thresholds already in ``row``, so a
-    stable counting sort leaves each group's values sorted.
-    """
-    n = by_axis.shape[0]
-    count = fractions.shape[0] + 1
-    ngroups = 1
-    if nested:
-        ngroups = px if a == 1 else px * py
-    groups = np.zeros(n, dtype=np.int64)
-    sizes = np.zeros(ngroups + 1, dtype=np.int64)
-    for j in range(n):
-        g = 0
-        if nested:
-            hx = count_le(row, 0, px - 1, by_axis[j, 0])
-            g = hx
-            if a == 2:
-                hy = count_le(row, px - 1 + hx * (py - 1), py - 1, by_axis[j, 1])
-                g = hx * py + hy
-        groups[j] = g
-        sizes[g + 1] += 1
-    for g in range(ngroups):
-        sizes[g + 1] += sizes[g]
-    fill = sizes[:-1].copy()
-    values = np.empty(n, dtype=np.uint32)
-    for j in range(n):
-        g = groups[j]
-        values[fill[g]] = by_axis[j, a]
-        fill[g] += 1
-    for g in range(ngroups):
-        m = sizes[g + 1] - sizes[g]
-        if m > 0:
-            _fill_quantiles(values, sizes[g], m, fractions, row, start + g * (count - 1))
-
-
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _build_rows(by_x, by_y, by_z, px, py, pz, nested, fx, fy, fz, sy, sz, out):
+def _build_rows(xs, ys, zs, fx, fy, fz, sy, sz, out):
+    """Each table's marginal thresholds, from each axis' sorted codes."""
     for t in numba.prange(out.shape[0]):
         row = out[t]
-        if px > 1:
-            _fill_quantiles(by_x[:, 0], 0, by_x.shape[0], fx[t], row, 0)
-        if py > 1:
-            _fill_axis(by_y, 1, row, px, py, pz, nested, fy[t], sy)
-        if pz > 1:
-            _fill_axis(by_z, 2, row, px, py, pz, nested, fz[t], sz)
+        if fx.shape[1] > 0:
+            _fill_quantiles(xs, 0, xs.shape[0], fx[t], row, 0)
+        if fy.shape[1] > 0:
+            _fill_quantiles(ys, 0, ys.shape[0], fy[t], row, sy)
+        if fz.shape[1] > 0:
+            _fill_quantiles(zs, 0, zs.shape[0], fz[t], row, sz)
 
 
 def build_thresholds(codes, P, L: int, layout: ThresholdLayout) -> tuple[np.ndarray, np.ndarray]:
-    """Thresholds of ``L`` tables with ``P = (Px, Py, Pz)`` buckets per axis.
+    """Marginal thresholds of ``L`` tables with ``P = (Px, Py, Pz)`` buckets per axis.
 
     Parameters
     ----------
@@ -288,6 +235,7 @@ def build_thresholds(codes, P, L: int, layout: ThresholdLayout) -> tuple[np.ndar
     L : int
         Number of tables.
     layout : ThresholdLayout
+        ``MARGINAL`` (the adaptive layout is built by :mod:`.adaptive`).
 
     Returns
     -------
@@ -295,20 +243,18 @@ def build_thresholds(codes, P, L: int, layout: ThresholdLayout) -> tuple[np.ndar
     keys : (L, n) int64, the bucket of every photon in every table (what
         :func:`hash_codes` returns, computed along the way).
     """
-    if layout == ThresholdLayout.ADAPTIVE:
-        raise InputError("build_thresholds builds the grid layouts (marginal, nested); the adaptive "
-                         "layout is built by blockhash.index.adaptive.build_adaptive")
-    px, py, pz = (int(p) for p in P)
-    _, sy, sz, T = row_starts(P, layout)
+    if layout != ThresholdLayout.MARGINAL:
+        raise InputError(f"build_thresholds builds the marginal layout, not {layout!r}; the "
+                         "adaptive layout is built by blockhash.index.adaptive.build_adaptive")
+    _, sy, sz, T = row_starts(P)
     codes = np.ascontiguousarray(codes, dtype=np.uint32)
     out = np.full((L, T), THRESHOLD_PAD, dtype=np.uint32)
     offsets = table_offsets(L)
-    # Codes sorted on each split axis, once; every table then groups them in linear time.
-    by_axis = [codes[np.argsort(codes[:, a], )] if p > 1 else codes[:1]
-               for a, p in enumerate((px, py, pz))]
-    fractions = [(np.arange(1, p)[None, :] + offsets[:, a:a + 1]) / p
-                 for a, p in enumerate((px, py, pz))]
-    _build_rows(*by_axis, px, py, pz, layout == ThresholdLayout.NESTED, *fractions, sy, sz, out)
+    # Each split axis' codes sorted once; every table reads its quantiles from them.
+    axes = [np.sort(codes[:, a]) if p > 1 else codes[:1, a] for a, p in enumerate(P)]
+    fractions = [(np.arange(1, int(p))[None, :] + offsets[:, a:a + 1]) / int(p)
+                 for a, p in enumerate(P)]
+    _build_rows(*axes, *fractions, sy, sz, out)
     return out, hash_codes(codes, out, P, layout)
 
 

@@ -97,10 +97,12 @@ def test_default_preset_uses_it_and_reports_its_buckets():
 
 
 @pytest.mark.slow
-def test_grid_overrides_switch_to_the_nested_layout():
+def test_grid_overrides_switch_to_the_marginal_layout():
     pts = MAPS["uniform"].photons(5_000, np.random.default_rng(1))
     index = BlockHashIndex(pts, k=8, A=4, P=4)
-    assert index.params.layout == ThresholdLayout.NESTED and index.params.P == (4, 4, 4)
+    assert index.params.layout == ThresholdLayout.MARGINAL and index.params.P == (4, 4, 4)
+    grid = BlockHashIndex(pts, k=8, A=4, layout="marginal")  # the preset's buckets, on a grid
+    assert grid.params.layout == ThresholdLayout.MARGINAL and np.prod(grid.params.P) > 1
 
 
 @pytest.mark.slow

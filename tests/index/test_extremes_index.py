@@ -223,7 +223,7 @@ def test_the_smallest_resolvable_box_builds():
 # --------------------------------------------------------------------------- queries
 
 def threshold_codes(index):
-    """Codes that are thresholds of the first table (nested grid, or the adaptive tree)."""
+    """Codes that are thresholds of the first table (marginal grid, or the adaptive tree)."""
     row = index.thresholds[0]
     if index.params.layout.name == "ADAPTIVE":  # pairs (threshold, meta); meta bit 2: a leaf
         inner = (row[1::2] & 4) == 0
@@ -232,11 +232,11 @@ def threshold_codes(index):
 
 
 @pytest.mark.filterwarnings("error::RuntimeWarning")
-@pytest.mark.parametrize("layout", ["nested", "adaptive"])
+@pytest.mark.parametrize("layout", ["marginal", "adaptive"])
 def test_queries_on_thresholds_outside_far_away_and_not_finite(layout):
     rng = np.random.default_rng(4)
     pts = rng.random((20_000, 3))
-    grid = {"P": (8, 8, 8), "layout": "nested"} if layout == "nested" else {}
+    grid = {"P": (8, 8, 8), "layout": "marginal"} if layout == "marginal" else {}
     index = BlockHashIndex(pts, k=8, A=8, **grid)
     assert index.params.layout.name == layout.upper()
     # Points whose hash codes equal threshold codes (the bucket borders), up to float32.
@@ -303,7 +303,7 @@ def test_L_P_B_beyond_their_limits_are_errors(kw, match):
 
 def test_largest_P_is_refused_by_the_reference_budget_before_allocating():
     with pytest.raises(CapacityError, match=r"needs [\d,]+ block references > 268,435,456; use smaller P, L or B"):
-        BlockHashIndex(np.random.default_rng(0).random((100, 3)), k=4, P=4096, layout="nested")
+        BlockHashIndex(np.random.default_rng(0).random((100, 3)), k=4, P=4096, layout="marginal")
 
 
 def test_tables_too_small_orphan_blocks_and_say_so():

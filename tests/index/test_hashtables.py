@@ -9,7 +9,7 @@ from blockhash.index.hilbert import hilbert_keys
 from blockhash.index.thresholds import ThresholdLayout, build_thresholds
 
 
-def table_inputs(name, n, P, L, layout=ThresholdLayout.NESTED):
+def table_inputs(name, n, P, L, layout=ThresholdLayout.MARGINAL):
     pts = photon_set(name, n)
     codes = Quantizer.for_points(pts).encode(pts)
     leaves = bulk_blocks(hilbert_keys(codes))

@@ -149,7 +149,9 @@ def test_bad_positions_are_rejected(positions, error, match):
     ({"B": 257}, r"B=257"),
     ({"preset": "fast"}, r"preset='fast' is not known; choose one of default, paper"),
     ({"builder": "tree"}, r"builder='tree' is not known"),
-    ({"layout": "grid"}, r"layout='grid' is not known; choose one of marginal, nested"),
+    ({"layout": "grid"}, r"layout='grid' is not known; choose one of marginal, adaptive"),
+    ({"layout": "nested"}, r"layout='nested' was retired: .* use layout='adaptive' or, for the "
+                           r"paper's grid, layout='marginal'"),
     ({"k": 2.5}, r"k must be an integer"),
 ])
 def test_bad_parameters_are_rejected(kwargs, match):

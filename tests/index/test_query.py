@@ -78,7 +78,7 @@ def test_examined_candidates_stop_after_A_k_plus_one_block():
     assert index.counters["query.candidates.mean"] <= 2 * 10 + 9
 
 
-@pytest.mark.parametrize("layout", ["nested", "marginal"])
+@pytest.mark.parametrize("layout", ["marginal"])
 def test_query_hashes_a_photon_to_the_buckets_that_hold_its_block(layout):
     pts = photon_set("clustered", 5000)
     index = BlockHashIndex(pts, k=10, A=8, layout=layout, B=64)

@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 from conftest import photon_set
 
+from blockhash.errors import InputError
 from blockhash.index.fixedpoint import Quantizer
 from blockhash.index.thresholds import (
     THRESHOLD_PAD,
@@ -13,25 +14,23 @@ from blockhash.index.thresholds import (
     table_offsets,
 )
 
-LAYOUTS = [ThresholdLayout.MARGINAL, ThresholdLayout.NESTED]  # the grids; adaptive: test_adaptive.py
+MARGINAL = ThresholdLayout.MARGINAL  # the grid; the adaptive layout: test_adaptive.py
 
 
 def codes_of(points):
     return Quantizer.for_points(points).encode(points)
 
 
-def brute_force_keys(codes, thresholds, P, layout):
-    """The layout of the module docstring, written out with linear counts."""
+def brute_force_keys(codes, thresholds, P):
+    """The marginal row of the module docstring, written out with linear counts."""
     px, py, pz = P
-    nested = layout == ThresholdLayout.NESTED
     keys = np.empty((len(thresholds), len(codes)), dtype=np.int64)
     for t, row in enumerate(thresholds):
         for j, (cx, cy, cz) in enumerate(codes):
             hx = int(np.sum(row[0:px - 1] <= cx))
-            ys = (px - 1) + (hx * (py - 1) if nested else 0)
+            ys = px - 1
             hy = int(np.sum(row[ys:ys + py - 1] <= cy))
-            zs = ((px - 1) + px * (py - 1) + (hx * py + hy) * (pz - 1) if nested
-                  else (px - 1) + (py - 1))
+            zs = (px - 1) + (py - 1)
             hz = int(np.sum(row[zs:zs + pz - 1] <= cz))
             keys[t, j] = hx + px * (hy + py * hz)
     return keys
@@ -46,27 +45,43 @@ def test_offsets_differ_per_table_and_axis_and_stay_in_range():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("layout", LAYOUTS)
 @pytest.mark.parametrize("P", [(4, 3, 5), (6, 1, 4), (1, 1, 1), (2, 2, 1)])
-def test_build_keys_equal_the_documented_hash(layout, P):
+def test_build_keys_equal_the_documented_hash(P):
     codes = codes_of(photon_set("clustered", 3000))
-    thr, keys = build_thresholds(codes, P, 3, layout)
-    assert thr.shape == (3, row_starts(P, layout)[3])
-    expected = brute_force_keys(codes, thr, P, layout)
+    thr, keys = build_thresholds(codes, P, 3, MARGINAL)
+    assert thr.shape == (3, row_starts(P)[3])
+    expected = brute_force_keys(codes, thr, P)
     np.testing.assert_array_equal(keys, expected)
-    np.testing.assert_array_equal(hash_codes(codes, thr, P, layout), expected)
+    np.testing.assert_array_equal(hash_codes(codes, thr, P, MARGINAL), expected)
 
 
-@pytest.mark.parametrize("layout", LAYOUTS)
-def test_every_threshold_list_is_sorted(layout):
+def test_thresholds_are_each_axis_quantiles_offset_per_table():
+    """Table t's thresholds on an axis are the inverse empirical CDF of that axis' codes at
+    (i + o[t, a]) / P_a, interpolated between order statistics and floored."""
+    codes = codes_of(photon_set("caustic", 5000))
+    P, L = (5, 4, 6), 3
+    thr, _ = build_thresholds(codes, P, L, MARGINAL)
+    starts = row_starts(P)
+    offsets = table_offsets(L)
+    for a in range(3):
+        values = np.sort(codes[:, a]).astype(np.float64)
+        m = len(values)
+        for t in range(L):
+            fractions = (np.arange(1, P[a]) + offsets[t, a]) / P[a]
+            pos = np.clip(fractions * m - 0.5, 0.0, m - 1.0)
+            lo = np.floor(pos).astype(int)
+            hi = np.minimum(lo + 1, m - 1)
+            w = pos - lo
+            want = np.floor(values[lo] * (1 - w) + values[hi] * w).astype(np.uint32)
+            np.testing.assert_array_equal(thr[t, starts[a]:starts[a] + P[a] - 1], want)
+
+
+def test_every_threshold_list_is_sorted():
     P = (5, 4, 6)
-    thr, _ = build_thresholds(codes_of(photon_set("caustic", 20000)), P, 4, layout)
-    ox, oy, oz, T = row_starts(P, layout)
-    lists = [(ox, P[0] - 1, 1), (oy, P[1] - 1, P[0] if layout else 1),
-             (oz, P[2] - 1, P[0] * P[1] if layout else 1)]
-    for start, count, groups in lists:
-        block = thr[:, start:start + count * groups].reshape(4, groups, count)
-        assert (np.diff(block.astype(np.int64), axis=2) >= 0).all()
+    thr, _ = build_thresholds(codes_of(photon_set("caustic", 20000)), P, 4, MARGINAL)
+    ox, oy, oz, T = row_starts(P)
+    for start, count in [(ox, P[0] - 1), (oy, P[1] - 1), (oz, P[2] - 1)]:
+        assert (np.diff(thr[:, start:start + count].astype(np.int64), axis=1) >= 0).all()
 
 
 def test_table_zero_marginal_buckets_hold_equal_shares():
@@ -83,17 +98,13 @@ def test_offset_tables_shift_their_bucket_borders():
     assert len({tuple(row[:7]) for row in thr}) == 4
 
 
-def test_nested_buckets_hold_equal_counts_where_marginal_ones_do_not():
+def test_marginal_buckets_overflow_on_hot_spots():
+    """The paper's grid on a caustic: the product of marginals puts many times the median
+    bucket's photons into the hot spot's buckets (what the adaptive layout avoids)."""
     codes = codes_of(photon_set("caustic", 100000))
-    P = (20, 1, 20)
-    spread = {}
-    for layout in LAYOUTS:
-        _, keys = build_thresholds(codes, P, 1, layout)
-        counts = np.bincount(keys[0], minlength=400)
-        spread[layout] = counts.max() / max(np.median(counts), 1)
-    # Nested: within a few photons of 250 per bucket; marginal: hot spots hold many times the median.
-    assert spread[ThresholdLayout.NESTED] < 1.1
-    assert spread[ThresholdLayout.MARGINAL] > 5
+    _, keys = build_thresholds(codes, (20, 1, 20), 1, MARGINAL)
+    counts = np.bincount(keys[0], minlength=400)
+    assert counts.max() / max(np.median(counts), 1) > 5
 
 
 def test_flat_axis_with_several_buckets_puts_every_photon_in_one_of_them():
@@ -103,16 +114,9 @@ def test_flat_axis_with_several_buckets_puts_every_photon_in_one_of_them():
     assert len(np.unique(hy)) == 1
 
 
-def test_empty_nested_slab_hashes_to_bucket_zero_through_padding():
-    pts = np.zeros((100, 3))
-    pts[:50, 0] = 0.0
-    pts[50:, 0] = 1.0
-    pts[:, 2] = np.linspace(0, 1, 100)
-    codes = codes_of(pts)
-    thr, _ = build_thresholds(codes, (3, 1, 2), 1, ThresholdLayout.NESTED)
-    # Three x slabs from two x values: one slab is empty, its z list is padding.
-    zs = row_starts((3, 1, 2), ThresholdLayout.NESTED)[2]
-    assert (thr[0, zs:zs + 3] == THRESHOLD_PAD).sum() >= 1
+def test_build_thresholds_builds_only_the_marginal_layout():
+    with pytest.raises(InputError, match="builds the marginal layout.*build_adaptive"):
+        build_thresholds(codes_of(photon_set("uniform", 100)), (2, 2, 2), 1, ThresholdLayout.ADAPTIVE)
 
 
 @pytest.mark.parametrize("count", [0, 1, 2, 7, 16])
