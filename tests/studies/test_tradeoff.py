@@ -129,3 +129,26 @@ def test_replot_redraws_a_study_and_names_a_missing_one(study, tmp_path, capsys)
     assert "The paper's claims" in (out / "report.md").read_text()
     assert main(["tradeoff", str(RING), "-o", str(tmp_path / "none"), "--replot"]) == 2
     assert "no tradeoff.json there" in capsys.readouterr().err
+
+
+def synthetic_study(candidates, seconds, k=50):
+    """A study of one N and k, the default preset: rows at A = 1, 2, 4, ... with these
+    candidates per query and pass seconds."""
+    rows = [{"method": "bh", "photons": 1000, "k": k, "preset": "default", "variant": "default",
+             "A": 2 ** i, "candidates": c, "seconds": {"caustic_pass": t},
+             "flux_ratio_exact": 1.0, "rel_rms_reference_blur": 0.05}
+            for i, (c, t) in enumerate(zip(candidates, seconds))]
+    return {"plan": {"photons": [1000], "k0": k}, "rows": rows}
+
+
+def test_time_against_A_is_read_where_the_cap_binds():
+    linear = synthetic_study([50, 100, 200, 400], [1.0, 2.0, 4.0, 8.0])
+    claim, measured, verdict = check_claims(linear)[2]
+    assert verdict == "agrees up to A = 8" and "up to A = 8: 1.00" in measured
+    # The walk: the cap binds at A = 1 and 2 only; above, the queries stop before it.
+    walk = synthetic_study([50, 98, 127, 141, 155], [0.6, 1.2, 1.0, 1.1, 1.1])
+    claim, measured, verdict = check_claims(walk)[2]
+    assert verdict.endswith("flat above") and "of the cap A k up to A = 2;" in measured
+    assert "above it the queries stop before the cap" in measured
+    never = synthetic_study([30, 40, 45], [1.0, 1.1, 1.2])
+    assert check_claims(never)[2][2].startswith("n/a")
