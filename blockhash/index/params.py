@@ -76,9 +76,10 @@ ADAPTIVE_REFERENCE_A = 8
 #: 0.46 / 0.39 / 0.51% on uniform, 26.0 / 25.4 / 25.3% on clustered, 0.73 / 0.72 / 0.74% on
 #: caustic, 6.3 / 6.4 / 6.3% on ring), and the build and the memory grow with L: 5.
 DEFAULT_L = 5
-#: Tables the default preset's nearest-box-first walk is seeded with: 1.  One table misses
-#: about as few neighbours as all five in 3-5x fewer pops (BENCHMARKS.md, "The walk over
-#: one tree, under the A k cap alone", N = 10^6, k = 50).
+#: Tables the default preset's nearest-box-first walk is seeded with: 1.  All five miss
+#: fewer neighbours, in 4-5x the pops and rounds of dependent fetches; one keeps every map
+#: within the A = 8 target with the shortest chain (BENCHMARKS.md, "The walk over one tree
+#: or all five", N = 10^6, k = 50).
 DEFAULT_WALK_TREES = 1
 #: The default preset's walk examines at least A * DEFAULT_WALK_FLOOR candidates, and walks
 #: all L tables, for k below it.  With the A k cap alone a query for k = 1 at A = 8 takes
