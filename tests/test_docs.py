@@ -67,3 +67,38 @@ def test_the_speed_figures_match_the_bench_json():
     assert round(bench["cKDTree (CPU, all workers)"], 2) == ckd
     assert round(bench["BH default (Hilbert cells)"], 2) == cells
     assert round(bench["BH default (tables hashed, walk off)"], 2) == hashed
+
+
+BENCHMARKS = (ROOT / "BENCHMARKS.md").read_text()
+
+
+def claim_rows():
+    """(claim, section, command, date) of BENCHMARKS.md's current-state table."""
+    table = BENCHMARKS.split("## Current state, claim by claim", 1)[1].split("\n## ", 1)[0]
+    rows = [line.strip("|").split(" | ") for line in table.splitlines()
+            if line.startswith("| ") and not line.startswith(("| claim ", "| ---"))]
+    assert len(rows) >= 10, "BENCHMARKS.md's current-state table has gone"
+    return [[cell.strip() for cell in row] for row in rows]
+
+
+def test_each_benchmark_claim_has_its_section_a_command_that_exists_and_a_date():
+    from blockhash.cli import build_parser
+
+    headings = re.findall(r"^## (.+)$", BENCHMARKS, flags=re.M)
+    sub = next(a for a in build_parser()._actions if a.__class__.__name__ == "_SubParsersAction")
+    for claim, section, command, date in claim_rows():
+        assert any(h.startswith(section) for h in headings), f"no section {section!r} for {claim!r}"
+        assert re.fullmatch(r"\d{4}-\d\d-\d\d|-", date), (claim, date)
+        for tool in re.findall(r"tools/[\w/]+\.(?:py|sh)", command):
+            assert (ROOT / tool).is_file(), f"{claim!r}: {tool} does not exist"
+        for sub_name in re.findall(r"`(?:/usr/bin/time -v )?blockhash (\w+)", command):
+            assert sub_name in sub.choices, f"{claim!r}: no command blockhash {sub_name}"
+        for out in re.findall(r"--json (docs/[\w./-]+)", command):
+            assert (ROOT / out).is_file(), f"{claim!r}: {out} is not in the repository"
+
+
+@pytest.mark.parametrize("phrase", ["previous default", "the default before", "before this change",
+                                    "a later run", "an earlier run", "was the default", "no longer"])
+def test_benchmarks_reads_as_the_current_state_outside_its_history(phrase):
+    body = BENCHMARKS.split("\n## History", 1)[0]
+    assert phrase not in body.lower(), f"BENCHMARKS.md says {phrase!r} outside its History section"
