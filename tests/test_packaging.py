@@ -65,6 +65,7 @@ def test_wheel_holds_every_module_and_shader_file(wheel_names):
     assert not missing, f"the wheel lacks {missing}; fix pyproject.toml's packages or package-data"
 
 
+@pytest.mark.slow
 def test_wheel_holds_the_shaders_each_program_needs(wheel_names):
     for name in ("bh_query.frag", "caustic_pass.frag", "kd_query.frag", "bh_lookup.glsl"):
         assert f"blockhash/glsl/{name}" in wheel_names

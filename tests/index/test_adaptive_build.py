@@ -201,6 +201,7 @@ def test_tables_equal_the_reference_build(name, n, S):
     assert_same_build(codes, q.step, L=5, S=S)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["uniform", "room", "caustic"])
 def test_unordered_codes_and_other_table_counts(name):
     """Codes in the caller's order (no Hilbert sort), L of 1, 2 and 7, large buckets."""

@@ -44,6 +44,7 @@ def test_indices_are_identical_across_builds_and_builders(ring):
     assert all(np.array_equal(u, v) for u, v in zip(a.query(q), b.query(q)))
 
 
+@pytest.mark.slow
 def test_images_are_identical_across_runs_and_backends(ring):
     context_or_skip("egl")
     context_or_skip("osmesa")

@@ -51,6 +51,7 @@ def test_shader_estimate_equals_the_cpu_estimate_for_every_option(corner, option
     assert_images_close(gl, cpu, max_rel_rms=1e-4, out_dir=tmp_path)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("variant", ["paper", "binary-branch-on-network"])
 def test_shader_estimate_equals_the_cpu_estimate_with_other_lookup_variants(corner, variant, tmp_path):
     # The estimate reads the found photons from bh_best, which every selection fills alike.

@@ -37,6 +37,7 @@ def test_ring_matches_its_reference(tmp_path):
     assert_images_close(render(SETTINGS["seed"]).layers(), REFERENCE, **LIMITS, out_dir=tmp_path)
 
 
+@pytest.mark.slow
 def test_a_photon_seed_outside_the_measured_ones_passes_too(tmp_path):
     # The limits tolerate the photon noise: a change of random stream is not a regression.
     assert_images_close(render(11).layers(), REFERENCE, **LIMITS, out_dir=tmp_path)

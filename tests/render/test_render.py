@@ -69,6 +69,7 @@ def test_kdtree_shader_caustic_equals_the_ckdtree_estimate(ring, ring_renders, r
     assert_images_close(gpu, cpu, max_rel_rms=SAME_ESTIMATE, out_dir=tmp_path)
 
 
+@pytest.mark.slow
 def test_bh_error_against_exact_falls_with_A_and_is_small_at_8(ring, ring_renders, ring_points,
                                                                tmp_path):
     exact = estimate_exact(ring_renders[8].index, ring_points, receiver_materials(ring.objects), gpu=False)
