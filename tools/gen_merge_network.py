@@ -16,6 +16,7 @@ and that every network sorts):
 
 from __future__ import annotations
 
+import argparse
 import itertools
 import sys
 from pathlib import Path
@@ -115,9 +116,12 @@ def check() -> None:
 
 
 if __name__ == "__main__":
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--check", action="store_true", help="exit 1 if the file is not current")
+    args = ap.parse_args()
     check()
     text = render()
-    if "--check" in sys.argv:
+    if args.check:
         sys.exit(0 if OUT.read_text() == text else 1)
     OUT.write_text(text)
     print(f"wrote {OUT}")

@@ -29,7 +29,8 @@ from blockhash.reference.lighttrace import cached_reference, lambertian  # noqa:
 from blockhash.render.caustic import CausticPass  # noqa: E402
 from blockhash.render.photon_radius import exact_radii2, own_radii2  # noqa: E402
 from blockhash.render.shading import SceneRays, shading_points  # noqa: E402
-from blockhash.render.subpixel import SPP_SEED, box_filter, raycast_gbuffer, spp_side  # noqa: E402
+from blockhash.render.subpixel import box_filter, raycast_gbuffer  # noqa: E402
+from blockhash.scene.camera import SPP_SEED, spp_side  # noqa: E402
 from blockhash.scene.loader import load_scene  # noqa: E402
 from blockhash.scene.materials import receiver_materials  # noqa: E402
 from blockhash.scene.model import MirrorMaterial  # noqa: E402

@@ -11,6 +11,7 @@ change, measure the photon noise again and update the test's limits::
 
 from __future__ import annotations
 
+import argparse
 import sys
 from pathlib import Path
 
@@ -26,6 +27,7 @@ REFERENCES = {
 }
 
 if __name__ == "__main__":
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
     for out, args in REFERENCES.items():
         main(["render", str(ROOT / args[0]), *args[1:], "-o", str(ROOT / out)])
         (ROOT / out).with_suffix(".png").unlink()
