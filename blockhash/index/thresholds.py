@@ -35,8 +35,9 @@ import numpy as np
 
 from blockhash.errors import InputError
 
-#: Padding for thresholds of empty slabs: codes never reach 2**32 - 1 (the box is
-#: padded, and query codes saturate at 2**32 - 256), so a padded slot never counts.
+#: Padding of a table's unused row slots (adaptive rows shorter than the longest): codes
+#: never reach 2**32 - 1 (the box is padded, and query codes saturate at 2**32 - 256), so a
+#: padded slot never counts.
 THRESHOLD_PAD = np.uint32(0xFFFFFFFF)
 #: The plastic number (real root of x^3 = x + 1): R3 offsets are frac(t / phi^(a+1)).
 _PHI3 = 1.2207440846057596

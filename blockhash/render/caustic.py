@@ -70,7 +70,7 @@ def estimate_cpu(index, points: ShadingPoints, materials, *, k=None, A=None,
     bits = query_slot_bits(prm, k, prm.A if A is None else A) if v.packed_keys else 0
 
     def search(q):
-        return index.reference_query(q, k=[k] and k, A=A, by_priority=v.priority == "on", slot_bits=bits)
+        return index.reference_query(q, k=k, A=A, by_priority=v.priority == "on", slot_bits=bits)
 
     return estimate_from_neighbours(index, points, materials, search, k, options=options)
 
