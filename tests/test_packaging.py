@@ -8,6 +8,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
+from project_tree import skipped_dir
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -35,10 +36,11 @@ def test_pyproject_lists_every_package_in_the_tree():
 
 
 def _build_wheel(out: Path) -> Path:
-    """Build from a copy of the tree: setuptools reuses a checkout's stale build/ folder."""
+    """Build from a copy of the tree: setuptools reuses a checkout's stale build/ folder. The
+    copy leaves out what is no part of the project (a virtual environment, caches, builds)."""
     src = out / "src"
-    shutil.copytree(ROOT, src, ignore=shutil.ignore_patterns(
-        ".git", "build", "dist", "*.egg-info", "__pycache__", ".pytest_cache", ".gl", ".whl"))
+    shutil.copytree(ROOT, src, ignore=lambda d, names: [
+        n for n in names if (Path(d) / n).is_dir() and skipped_dir(Path(d) / n)])
     base = [sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", str(out), str(src)]
     run = subprocess.run(base + ["--no-build-isolation"], capture_output=True, text=True)
     if run.returncode != 0:  # setuptools or wheel missing here: let pip fetch them
