@@ -290,8 +290,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--photons", type=int, help="caustic photons to store (default: the scene's)")
     p.add_argument("--k", type=int, help="photons per estimate (default: the scene's)")
     p.add_argument("--A", type=int, help="accuracy multiplier (default: the scene's)")
-    p.add_argument("--method", choices=METHODS, default="bh",
-                   help="bh: Block Hashing shader; kdtree: exact kNN (kd-tree shader); cpu: BH CPU reference")
+    p.add_argument("--method", choices=METHODS, default="auto",
+                   help="auto (default): cover for the conserving estimate, else bh; cover: every "
+                        "photon whose own disc covers the point (shader); bh: the k nearest by "
+                        "Block Hashing (shader); kdtree: exact kNN (kd-tree shader); cpu: the CPU "
+                        "reference of what auto picks")
     p.add_argument("--variant", default="default", help="BH shader variant")
     p.add_argument("--size", type=_size, help="image size WIDTHxHEIGHT (default: the camera's)")
     p.add_argument("--spp", type=int, help="samples per pixel, a square number (stratified "

@@ -16,6 +16,7 @@
 #define BH_CELLS_GLSL
 #include "bh_fetch.glsl"
 #include "bh_box.glsl"
+#include "bh_cuckoo.glsl"
 
 uniform usampler2D bh_cells;  // cuckoo slots: (key hi, key lo, first slot, count)
 uniform sampler2D bh_points;  // decoded photon positions by slot (w: unused)
@@ -35,27 +36,14 @@ uniform int bh_group_cells;   // 27; a uniform bound keeps the cell loop rolled
 const int bh_shell[27] = int[27](13, 4, 10, 12, 14, 16, 22, 1, 3, 5, 7, 9, 11, 15, 17, 19, 21, 23,
                                  25, 0, 2, 6, 8, 18, 20, 24, 26);
 
-uint bh_fmix(uint x) {
-    x ^= x >> 16u;
-    x *= 0x85EBCA6Bu;
-    x ^= x >> 13u;
-    x *= 0xC2B2AE35u;
-    x ^= x >> 16u;
-    return x;
-}
-
 // (first slot, count) of cell c of level, (0, 0) outside the grid or not stored.
 uvec2 bh_cell(int level, ivec3 c) {
     int side = 1 << (BH_LEVEL_TOP - level);
     if (any(lessThan(c, ivec3(0))) || any(greaterThanEqual(c, ivec3(side)))) {
         return uvec2(0u);
     }
-    uvec3 u = uvec3(c);
-    uint lo = u.z | (u.y << 19u);
-    uint hi = (u.y >> 13u) | (u.x << 6u) | (uint(level) << 25u);
-    uvec4 a = bh_fetch4(bh_cells, BH_CELL_W, bh_fmix(lo ^ bh_fmix(hi ^ 0x9E3779B9u)) & uint(BH_CELL_MASK));
-    uvec4 b = bh_fetch4(bh_cells, BH_CELL_W, bh_fmix(lo ^ bh_fmix(hi ^ 0x7F4A7C15u)) & uint(BH_CELL_MASK));
-    return (a.x == hi && a.y == lo) ? a.zw : ((b.x == hi && b.y == lo) ? b.zw : uvec2(0u));
+    uvec2 key = bh_cell_key(uint(level), uvec3(c));
+    return bh_cuckoo(bh_cells, uint(BH_CELL_W), uint(BH_CELL_MASK), key.x, key.y);
 }
 
 ivec3 bh_group_offset(int j) {

@@ -16,12 +16,6 @@
 
 uniform usampler2D bh_thresholds;
 
-uvec3 bh_quantize(vec3 q) {
-    precise vec3 t = (q - bh_lo) * bh_inv_step;
-    t = min(max(t, vec3(0.0)), vec3(4294967040.0));  // largest float32 below 2^32
-    return uvec3(t);
-}
-
 // #{thresholds[base + i] <= code : i < count}; each list is sorted.
 uint bh_count_le(uint base, uint count, uint code) {
 #if BH_THRESHOLD_SEARCH == BH_SEARCH_LINEAR

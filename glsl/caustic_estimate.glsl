@@ -27,27 +27,10 @@
 #include "bh_select.glsl"
 #endif
 
-#define CAUSTIC_PI 3.14159265358979
-uniform float bh_power_scale;
-uniform float caustic_min_r2;
-uniform float caustic_normal_cos;
-uniform float caustic_disc;
+#include "caustic_common.glsl"
 #if CAUSTIC_ESTIMATE == 2
 uniform sampler2D caustic_own_r2;
 #endif
-
-// Jensen's polar code: theta byte | phi byte << 8, decoded at the cell centre, pole +y.
-vec3 caustic_polar(uint code) {
-    float theta = (float(code & 0xFFu) + 0.5) * (CAUSTIC_PI / 256.0);
-    float phi = (float(code >> 8u) + 0.5) * (2.0 * CAUSTIC_PI / 256.0);
-    return vec3(sin(theta) * cos(phi), cos(theta), sin(theta) * sin(phi));
-}
-
-vec3 caustic_phong(vec3 wi, vec3 wo, vec3 n, vec3 kd, vec3 ks, float e) {
-    vec3 r = 2.0 * dot(n, wi) * n - wi;
-    float c = max(dot(r, wo), 0.0);
-    return kd / CAUSTIC_PI + ks * ((e + 2.0) / (2.0 * CAUSTIC_PI)) * pow(c, e);
-}
 
 #if !BH_CELLS
 // Number of photons found: bh_best holds them first, nearest first, then empty keys.
@@ -68,22 +51,6 @@ int caustic_found() {
     return lo;
 }
 #endif
-
-// Filter weight from t^2 = (d / r)^2, normalised to mean 1 over the unit disc.
-float caustic_filter(float t2) {
-    t2 = clamp(t2, 0.0, 1.0);
-#if CAUSTIC_FILTER == 0
-    return 1.0;
-#elif CAUSTIC_FILTER == 1
-    return 3.0 * (1.0 - sqrt(t2));
-#elif CAUSTIC_FILTER == 2
-    return 2.0 * (1.0 - t2);
-#elif CAUSTIC_FILTER == 3
-    return 3.0 * (1.0 - t2) * (1.0 - t2);
-#else
-#error unknown CAUSTIC_FILTER
-#endif
-}
 
 // The contribution of the photon in slot `slot` at squared distance d2 from q, before the
 // division by pi r^2 (0 when a test rejects it).

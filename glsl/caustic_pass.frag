@@ -3,17 +3,22 @@
 // for none; a NaN or infinite position gets no caustic), cp_normal (RGBA32F: unit normal, scalar weight), cp_view (RGBA32F:
 // unit direction toward the viewer); a table of up to 16 modified Phong
 // materials.  Returns: caustic radiance times the path weight (RGBA32F).
-// Defines: everything bh_lookup.glsl takes (the lookup variant included), and
+// Defines: BH_COVER (1: the cover gather, caustic_cover.glsl, and what bh_cover.glsl takes),
+// BH_CELLS (1: the cells lookup), else everything bh_lookup.glsl takes (the variant), and
 // CP_LOOKUP_ONLY (1: run the lookup alone and write a value that depends on its result,
 // for timing the pass's stages; with BH_FETCH_ONLY, the lookup's fetches alone).
-#if BH_CELLS
+#if BH_COVER
+#include "caustic_cover.glsl"
+#elif BH_CELLS
 void caustic_visit(uint s, uint bits);  // caustic_estimate.glsl
 #define BH_CELLS_VISIT(s, bits) caustic_visit(s, bits)
 #include "bh_cells.glsl"
 #else
 #include "bh_lookup.glsl"
 #endif
+#if !BH_COVER
 #include "caustic_estimate.glsl"
+#endif
 
 uniform sampler2D cp_position;
 uniform sampler2D cp_normal;
@@ -34,7 +39,11 @@ void main() {
     vec4 nw = texelFetch(cp_normal, px, 0);
     vec3 wo = texelFetch(cp_view, px, 0).xyz;
     int m = int(pos.w);
-#if BH_CELLS && CP_LOOKUP_ONLY && BH_FETCH_ONLY
+#if BH_COVER && CP_LOOKUP_ONLY
+    uvec2 rc = bh_cover_gather(pos.xyz);  // the gather (the floor: its reads) alone
+    frag_color = vec4(float(rc.y), float(rc.x), float(bh_cover_sink & 1u), nw.w + wo.x);
+    return;
+#elif BH_CELLS && CP_LOOKUP_ONLY && BH_FETCH_ONLY
     bh_cells_choose(pos.xyz);  // the floor: the candidates read once
     bh_max_bits = 0u;
     bh_max_slot = 0u;
@@ -52,7 +61,7 @@ void main() {
                       float(bh_fetch_sink & 1u), nw.w + wo.x);
     return;
 #endif
-#if !BH_CELLS
+#if !BH_CELLS && !BH_COVER
     bh_lookup(pos.xyz);
 #endif
     vec3 l = caustic_radiance(pos.xyz, nw.xyz, wo, cp_kd[m], cp_ks[m], cp_exponent[m]);

@@ -137,18 +137,38 @@ def build_cells(sorted_codes: np.ndarray, *, min_split: int) -> CellTable:
         parent_starts, parent_counts = starts, cnt
     entries = np.stack([np.concatenate(keys_hi), np.concatenate(keys_lo),
                         np.concatenate(firsts), np.concatenate(counts)], axis=1)
+    slots, buckets = cuckoo_slots(entries, "cell table")
+    return CellTable(slots=slots, buckets=buckets, max_count=max_count, cells=len(entries),
+                     min_split=int(min_split))
+
+
+def cuckoo_slots(entries: np.ndarray, what: str) -> tuple[np.ndarray, int]:
+    """(slots, buckets): a cuckoo table of ``entries`` ((n, 4) uint32 rows (key hi, key lo,
+    value, value), keys distinct, key hi never :data:`EMPTY`) at a load of at most 0.4,
+    doubled until every entry sits in one of its two slots; :func:`cell_lookup` and the
+    shaders' ``bh_cuckoo`` (glsl/bh_cuckoo.glsl) read it."""
     buckets = 1 << max(0, int(np.ceil(np.log2(max(1, len(entries)) / (SLOTS * 0.4)))))
     while True:
         slots = np.full((buckets * SLOTS, 4), 0, dtype=np.uint32)
         slots[:, 0] = EMPTY
         if _cuckoo_insert(entries, slots, buckets):
-            break
+            return slots, buckets
         buckets *= 2
         if buckets * SLOTS > 1 << 28:
-            raise CapacityError(f"the cell table of {len(entries):,} cells does not fit 2^28 "
+            raise CapacityError(f"the {what} of {len(entries):,} cells does not fit 2^28 "
                                 "slots; this photon map is too large for one index")
-    return CellTable(slots=slots, buckets=buckets, max_count=max_count, cells=len(entries),
-                     min_split=int(min_split))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def cuckoo_get(slots, mask, hi, lo):
+    """(first, count) stored under key (hi, lo), or (0, 0) when it is not stored."""
+    for c in range(CHOICES):
+        b = cell_hash(hi, lo, SEEDS[c]) & mask
+        for s in range(SLOTS):
+            i = b * SLOTS + s
+            if slots[i, 0] == hi and slots[i, 1] == lo:
+                return np.int64(slots[i, 2]), np.int64(slots[i, 3])
+    return np.int64(0), np.int64(0)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -191,14 +211,8 @@ def _cuckoo_insert(entries, slots, buckets):
 def cell_lookup(slots, mask, level, cx, cy, cz):
     """(first, count) of a stored cell, or (0, 0) when the cell is not stored."""
     hi, lo = cell_key(level, cx, cy, cz)
-    for c in range(CHOICES):
-        b = cell_hash(hi, lo, SEEDS[c]) & mask
-        for s in range(SLOTS):
-            i = b * SLOTS + s
-            if slots[i, 0] == hi and slots[i, 1] == lo:
-                return np.int64(slots[i, 2]), np.int64(slots[i, 3])
-    return np.int64(0), np.int64(0)
+    return cuckoo_get(slots, mask, hi, lo)
 
 
-__all__ = ["CellTable", "build_cells", "cell_lookup", "cell_key", "cell_hash", "LEVEL_MIN",
+__all__ = ["CellTable", "build_cells", "cell_lookup", "cuckoo_slots", "cuckoo_get", "cell_key", "cell_hash", "LEVEL_MIN",
            "LEVEL_TOP", "CODE_SHIFT"]

@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.gl.context import bind_textures, check_gl, draw_timed, home_framebuffer, time_draws
+from blockhash.gl.context import (bind_textures, check_gl, draw_timed, get_context, home_framebuffer,
+                                  time_draws)
 from blockhash.gl.limits import check_lookup
 from blockhash.gl.lookup import GLLookup, query_slot_bits
 from blockhash.gl.shaderlib import Variant
@@ -33,6 +34,8 @@ from blockhash.scene.materials import material_arrays, phong_brdf
 
 #: Materials a caustic pass can hold (uniform arrays in caustic_pass.frag).
 MAX_MATERIALS = 16
+#: How a caustic pass finds photons: the k nearest (the index's lookup) or the cover gather.
+GATHERS = ("knn", "cover")
 
 
 @dataclass(frozen=True)
@@ -199,13 +202,21 @@ class CausticPass:
     GL timer-query time.
     """
 
-    def __init__(self, index, *, backend=None, radii=None):
+    def __init__(self, index, *, backend=None, radii=None, gather: str = "knn"):
         """``radii(index, k)``: the photons' own squared radii of the conserving estimate
-        (default :func:`.photon_radius.own_radii2`, from the index's own query)."""
+        (default :func:`.photon_radius.own_radii2`, from the index's own query).  ``gather``:
+        ``'knn'`` finds the k nearest photons with the index's lookup (every estimate);
+        ``'cover'`` every photon whose own disc covers the point (the conserving estimate,
+        :mod:`blockhash.index.cover`), and uploads no blocks."""
+        if gather not in GATHERS:
+            raise InputError(f"gather={gather!r} is not known; choose one of {', '.join(GATHERS)}")
         self.radii = radii
-        self.lookup = GLLookup(index, backend=backend)
+        self.gather = gather
+        self.backend = backend
+        self.lookup = GLLookup(index, backend=backend) if gather == "knn" else None
         self.index = index
-        self.ctx = self.lookup.ctx
+        self.ctx = get_context(backend)
+        self._covers: dict = {}  # k -> GLCover
         self.seconds = 0.0
         self.gpu_seconds = 0.0
         self._own: dict = {}  # k -> (texture of the photons' own squared radii, log2 width)
@@ -243,6 +254,15 @@ class CausticPass:
             out[stage] = {"wall": walls, "gpu": gpus}
         return out
 
+    def _cover(self, k: int):
+        """The cover gather for k neighbours' radii, uploaded once."""
+        from blockhash.gl.cover import GLCover
+        from blockhash.render.cover_estimate import cover_gather
+
+        if k not in self._covers:
+            self._covers[k] = GLCover(cover_gather(self.index, k, self.radii), backend=self.backend)
+        return self._covers[k]
+
     def _own_radii(self, k: int):
         """The texture of the photons' own squared radii for k neighbours, uploaded once."""
         from blockhash.gl.packing import upload
@@ -265,15 +285,24 @@ class CausticPass:
         h, w = points.shape
         kd, ks, e = _material_table(materials)
         ctx = self.ctx
-        check_lookup(ctx, prm, Variant.parse(variant), k, A)
         options = EstimateOptions() if options is None else options
-        defines = {**self.lookup.defines(Variant.parse(variant), k, self.lookup.cap(k, A),
-                                         fetch_only=stage == STAGES[0]),
-                   "CP_LOOKUP_ONLY": int(stage != STAGES[-1]), **options.defines()}
         own = {}
-        if options.estimate == "conserving":
-            own_tex, defines["CAUSTIC_OWN_W"] = self._own_radii(k)
-            own = {"caustic_own_r2": own_tex}
+        if self.gather == "cover":
+            from blockhash.render.cover_estimate import require_conserving
+
+            require_conserving(options)
+            source = self._cover(k)
+            source.check()
+            defines = source.defines(fetch_only=stage == STAGES[0])
+        else:
+            source = self.lookup
+            check_lookup(ctx, prm, Variant.parse(variant), k, A)
+            defines = self.lookup.defines(Variant.parse(variant), k, self.lookup.cap(k, A),
+                                          fetch_only=stage == STAGES[0])
+            if options.estimate == "conserving":
+                own_tex, defines["CAUSTIC_OWN_W"] = self._own_radii(k)
+                own = {"caustic_own_r2": own_tex}
+        defines = {**defines, "CP_LOOKUP_ONLY": int(stage != STAGES[-1]), **options.defines()}
         with ctx:
             prog = compile_program(ctx, "caustic_pass.frag", defines)
             # Textures are bottom-up in GL: flip rows on the way in and out.
@@ -286,7 +315,7 @@ class CausticPass:
             fbo = ctx.framebuffer(color_attachments=[out_tex])
             try:
                 check_gl(ctx, f"allocating the {w} x {h} caustic pass")
-                self.lookup.set_uniforms(prog)
+                source.set_uniforms(prog)
                 for name, value in (("caustic_min_r2", min_r2(self.index)),
                                     *options.uniforms().items()):
                     if name in prog:  # the lookup-only stages estimate nothing
@@ -297,7 +326,7 @@ class CausticPass:
                                     ("cp_exponent", [float(x) for x in np.concatenate([e, np.zeros(pad)])])):
                     if name in prog:  # the lookup-only stages use no material
                         prog[name].value = value
-                bind_textures(prog, {**self.lookup.textures(), "cp_position": texs[0],
+                bind_textures(prog, {**source.textures(), "cp_position": texs[0],
                                      "cp_normal": texs[1], "cp_view": texs[2], **own})
                 yield prog, fbo, out_tex
             finally:

@@ -3,10 +3,12 @@
 ``render`` (``blockhash.render``) and ``render_scene`` (every setting a keyword) return
 the three layers (direct, caustic, combined) and a
 summary of every phase; ``blockhash render`` writes them to a multi-layer EXR
-and a tone-mapped PNG.  ``method='kdtree'`` replaces the Block Hashing lookup
-by the exact k nearest photons from the kd-tree shader (the estimate itself in
-numpy) for comparison; ``method='cpu'`` computes the caustic with the CPU
-reference of the Block Hashing lookup.
+and a tone-mapped PNG.  The default ``method='auto'`` gathers, for the conserving estimate,
+every photon whose own disc covers the shading point (the cover gather, in the shader) and
+for the k-nearest estimates the Block Hashing walk; ``method='bh'`` the walk with every
+estimate; ``method='kdtree'`` the exact k nearest photons from the kd-tree shader (the
+estimate itself in numpy) for comparison; ``method='cpu'`` the CPU reference of what
+``auto`` picks.
 """
 
 from __future__ import annotations
@@ -21,9 +23,10 @@ from blockhash.errors import InputError
 from blockhash.gl.limits import MAX_K
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.render.caustic import CausticPass, estimate_cpu, estimate_exact
+from blockhash.render.cover_estimate import cover_gather, estimate_cover_cpu
 from blockhash.render.estimate import EstimateOptions
 from blockhash.render.gbuffer import rasterize
-from blockhash.render.options import LookupOptions
+from blockhash.render.options import LookupOptions, resolve_method
 from blockhash.render.photon_radius import exact_radii2, own_radii2
 from blockhash.render.shading import SceneRays, direct_light, shading_points
 from blockhash.render.subpixel import box_filter, raycast_gbuffer
@@ -107,7 +110,7 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
 _ESTIMATE_KEYWORDS = ("estimate", "filter", "normal_cos", "normal_test", "disc")
 
 
-def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="default",
+def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant="default",
                  size=None, seed=None, backend=None, progress=False, photon_map=None,
                  options=None, spp=None, **deprecated) -> RenderResult:
     """Render ``scene`` with every setting a keyword: the form :func:`render` is made
@@ -120,7 +123,9 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
     ----------
     photons, k, A, seed : optional
         Override the scene's ``[photons]`` settings.
-    method : {'bh', 'kdtree', 'cpu'}
+    method : {'auto', 'cover', 'bh', 'kdtree', 'cpu'}
+        :class:`~.options.LookupOptions`' method: 'auto' is the cover gather with the
+        conserving estimate, the Block Hashing walk with the others.
     variant : str
         Shader variant of the Block Hashing lookup (``blockhash.gl.shaderlib.variants()``).
     size : (width, height), optional
@@ -157,6 +162,7 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
         raise InputError(f"k={k} is above the lookup shader's limit MAX_K={MAX_K}; use k <= "
                          f"{MAX_K}, or method='cpu' or 'kdtree'")
     options = EstimateOptions.of(options)
+    method = resolve_method(method, options.estimate)
     side = spp_side((scene.camera.spp or DEFAULT_SPP) if spp is None else spp)
     timings, info = {}, {}
     info["estimate"] = options.label
@@ -182,6 +188,10 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
             t = time.perf_counter()
             (exact_radii2 if method == "kdtree" else own_radii2)(index, k)  # cached for the pass
             timings["photon radii"] = time.perf_counter() - t
+            if method in ("cover", "cpu"):
+                t = time.perf_counter()
+                cover_gather(index, k)  # cached for the pass
+                timings["cover gather"] = time.perf_counter() - t
     t = time.perf_counter()
     rays = SceneRays(scene.objects)
     if side == 1:
@@ -204,9 +214,12 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="bh", variant="d
     else:
         materials = receiver_materials(scene.objects)
         t = time.perf_counter()
-        if method == "bh":
-            caustic = CausticPass(index, backend=backend).render(points, materials, variant=variant,
-                                                                 options=options)
+        if method in ("bh", "cover"):
+            cp = CausticPass(index, backend=backend, gather="cover" if method == "cover" else "knn")
+            caustic = cp.render(points, materials, variant=variant, options=options)
+        elif method == "cpu" and options.estimate == "conserving":
+            caustic = estimate_cover_cpu(cover_gather(index, k), points, materials,
+                                         options).astype(np.float32)
         elif method == "cpu":
             caustic = estimate_cpu(index, points, materials, variant=variant,
                                    options=options).astype(np.float32)

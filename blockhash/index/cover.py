@@ -1,0 +1,290 @@
+"""The cover gather: every photon whose own disc covers a point (the default estimate's query).
+
+The ``conserving`` estimate (blockhash/render/photon_radius.py) spreads each photon over a disc
+of its own radius h_i; a shading point q sums exactly the photons with ``|p_i - q| < h_i``.
+That is a fixed-radius question once photons are grouped by radius (Bentley, Stanat and
+Williams 1977, the grid of GPU particle systems, here once per radius octave):
+
+* **Octaves.** Cell sides in fixed-point codes (:mod:`.fixedpoint`) grow by ``2^(1/steps)``
+  from ``2^MIN_SHIFT`` codes, ``side_l = floor(2^(MIN_SHIFT + l / steps))``, up to a top octave
+  of side 2^31 that holds the photons wider than a quarter of the box. A photon goes to the
+  first octave whose side is at least ``2 (h_i + margin)``, its radius and the bound on the
+  float32 position and query errors (:func:`cover_margin`) in codes.  Its cell there is
+  ``code // side_l`` per axis (below 2^19: :func:`.cells.cell_key`).
+* **Cells.** Records are sorted by (octave, cell): every cell is one run of records, stored
+  in a cuckoo hash (:func:`.cells.cuckoo_slots`) under ``cell_key(octave, cell)`` as (first,
+  count).  A query's cells are *computed*: at each non-empty octave, the cells that hold
+  ``qcode +- half_l`` on each axis (``half_l = side_l / 2``, saturating; the top octave's is
+  the whole box), at most 2 x 2 x 2.  Every photon of the octave within ``half_l >= h_i +
+  margin`` of the query is in them, so every covering photon is found, however the photons
+  are spread.
+* **Two dependent rounds** after the keys: the cells' cuckoo slots (2 fetches a cell, all
+  independent), then their records (independent of each other).  No list is held.
+* **Records**, 2 RGBA32UI texels each: the decoded float32 position and the float32 squared
+  radius, then record words 3-5 of Figure 4 (direction | normal, powers) and the photon's
+  index in the caller's order.
+
+The bound: a photon of octave l has ``h_i > side_(l-1) / 2 - margin``, so fewer than j other
+photons lie within that of it; a cell holds O(j) photons of its octave whatever N and the
+distribution (the candidates a query reads are measured by ``tools/cover_stats.py``).
+
+:func:`cover_query` is the integer-exact CPU reference of glsl/bh_cover.glsl (keys, cells and
+candidates bit for bit; the cover test ``d^2 < h^2`` in float32 as the shader evaluates it).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from blockhash.errors import InputError
+from blockhash.index.cells import cell_key, cuckoo_get, cuckoo_slots
+
+#: The finest cell side is 2^MIN_SHIFT codes: cell coordinates stay below 2^19 (cell_key).
+MIN_SHIFT = 13
+#: The top octave's side: its 2 x 2 cells per axis are the whole box.
+TOP_SHIFT = 31
+#: Octaves per doubling of the cell side (the octave factor is 2^(1 / steps)).  Tuned on the
+#: ring (2 x 10^5 photons, k = 50): 1 reads 10.9x the covering photons with 9 octaves, 2 reads
+#: 7.4x with 17, 3 reads 6.5x with 24 (BENCHMARKS.md, "The cover gather").
+OCTAVE_STEPS = 2
+#: Octaves a shader holds (uniform arrays of glsl/bh_cover.glsl): steps * 18 + 1 <= this.
+MAX_OCTAVES = 64
+#: Record words per photon: 2 texels.
+RECORD_WORDS = 8
+
+
+def octave_sides(steps: int = OCTAVE_STEPS) -> np.ndarray:
+    """(octaves,) int64 cell side of every octave, in codes: ``floor(2^(MIN_SHIFT + l / steps))``
+    below 2^31, then 2^31 (the top octave)."""
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or not 1 <= steps <= 3:
+        raise InputError(f"octave steps={steps!r} must be 1, 2 or 3 octaves per doubling of the "
+                         "cell side")
+    sides = [int(math.floor(2.0 ** (MIN_SHIFT + l / steps)))
+             for l in range((TOP_SHIFT - MIN_SHIFT) * int(steps))]
+    return np.array(sides + [1 << TOP_SHIFT], dtype=np.int64)
+
+
+def octave_halves(sides: np.ndarray) -> np.ndarray:
+    """(octaves,) uint32 reach of each octave's query: side / 2, the top octave the whole box."""
+    halves = (sides // 2).astype(np.uint32)
+    halves[-1] = np.uint32(0xFFFFFFFF)
+    return halves
+
+
+def cover_margin(quantizer) -> float:
+    """Codes added to every radius so that the integer cells hold each photon whose float32
+    distance test passes: twice the decode error bound (the photon's decoded position and the
+    query's truncated code), plus 2^12 codes for the query's float32 scaling."""
+    step = float(np.asarray(quantizer.step, dtype=np.float64).max())
+    return 2.0 * float(np.asarray(quantizer.decode_error).max()) / step + 4096.0
+
+
+@dataclass(frozen=True)
+class CoverGather:
+    """The cover gather of one photon map (module docstring).
+
+    records : (n, 8) uint32    per record: float32 bits of x, y, z, h^2; words 3-5; photon
+    photon : (n,) int64        each record's photon, in the caller's order
+    octave : (n,) int64        each record's octave
+    slots, buckets             the cuckoo table of cells (:func:`.cells.cuckoo_slots`)
+    sides, halves              every octave's side and reach (:func:`octave_sides`)
+    octaves : (m,) int64       the octaves that hold photons, finest first
+    max_count : (octaves,) int64  the most records one cell of each octave holds
+    cells : int                cells stored
+    left_out : int             photons with an infinite radius (a map of one photon): they
+                               cover nothing at a finite distance and add nothing
+    """
+
+    records: np.ndarray
+    photon: np.ndarray
+    octave: np.ndarray
+    slots: np.ndarray
+    buckets: int
+    sides: np.ndarray
+    halves: np.ndarray
+    octaves: np.ndarray
+    max_count: np.ndarray
+    cells: int
+    left_out: int
+    quantizer: object
+    power_scale: np.ndarray
+    steps: int
+
+    @classmethod
+    def build(cls, index, r2, *, steps: int = OCTAVE_STEPS) -> "CoverGather":
+        """The gather of ``index``'s photons (a :class:`.block_hash_index.BlockHashIndex`:
+        its records and quantizer) with squared radii ``r2`` ((n,) in the caller's order,
+        float32 steps as :func:`blockhash.render.photon_radius.own_radii2` gives them)."""
+        n = len(index)
+        r2 = np.asarray(r2, dtype=np.float64)
+        if r2.shape != (n,):
+            raise InputError(f"photon radii have shape {r2.shape}; expected ({n},), one per photon")
+        bad = np.flatnonzero(np.isnan(r2) | (r2 <= 0))
+        if len(bad):
+            raise InputError(f"photon radius^2 [{bad[0]}] = {r2[bad[0]]!r}: every photon needs a "
+                             "radius > 0 (or inf for none); compute them with own_radii2")
+        sides = octave_sides(steps)
+        if len(sides) > MAX_OCTAVES:
+            raise InputError(f"{len(sides)} octaves > {MAX_OCTAVES} that the cover shader holds")
+        q = index.quantizer
+        slot_r2 = r2[index.order]                         # in record (Hilbert) order
+        keep = np.isfinite(slot_r2)
+        rec = index.records.records[keep]
+        h_codes = np.sqrt(slot_r2[keep]) / float(np.asarray(q.step, np.float64).max())
+        need = 2.0 * (h_codes * (1.0 + 2.0**-20) + cover_margin(q))
+        octave = np.minimum(np.searchsorted(sides, need, side="left"), len(sides) - 1)
+        cell = (rec[:, :3].astype(np.int64) // sides[octave][:, None])
+        order = np.lexsort((cell[:, 2], cell[:, 1], cell[:, 0], octave))  # stable: Hilbert within
+        rec, octave, cell = rec[order], octave[order], cell[order]
+        photon = index.order[np.flatnonzero(keep)[order]]
+        m = len(rec)
+        records = np.zeros((m, RECORD_WORDS), dtype=np.uint32)
+        records[:, :3] = q.decode(rec[:, :3]).view(np.uint32)
+        records[:, 3] = slot_r2[keep][order].astype(np.float32).view(np.uint32)
+        records[:, 4:7] = rec[:, 3:6]
+        records[:, 7] = photon.astype(np.uint32)
+        change = np.ones(m, dtype=bool)
+        change[1:] = (octave[1:] != octave[:-1]) | (cell[1:] != cell[:-1]).any(axis=1)
+        starts = np.flatnonzero(change)
+        counts = np.diff(np.append(starts, m))
+        hi, lo = cell_key.py_func(octave[starts], cell[starts, 0], cell[starts, 1], cell[starts, 2])
+        entries = np.stack([np.asarray(hi, np.uint32), np.asarray(lo, np.uint32),
+                            starts.astype(np.uint32), counts.astype(np.uint32)], axis=1)
+        slots, buckets = cuckoo_slots(entries.reshape(-1, 4), "cover gather's cell table")
+        return cls(records=records, photon=photon.astype(np.int64), octave=octave, slots=slots,
+                   buckets=buckets, sides=sides, halves=octave_halves(sides),
+                   octaves=np.unique(octave), max_count=_max_per(octave[starts], counts, len(sides)),
+                   cells=len(starts), left_out=int(n - m), quantizer=q,
+                   power_scale=index.records.power_scale, steps=int(steps))
+
+    def __len__(self) -> int:
+        return len(self.records)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the records and the cell table."""
+        return int(self.records.nbytes + self.slots.nbytes)
+
+    @property
+    def table_bytes(self) -> int:
+        """Bytes beyond the records: the cuckoo table of cells."""
+        return int(self.slots.nbytes)
+
+    def loop_bound(self) -> int:
+        """An upper bound on one query's loop iterations in glsl/bh_cover.glsl: per non-empty
+        octave its 8 cells, each with at most the octave's fullest cell of records."""
+        return int(sum(8 * (1 + self.max_count[o]) + 1 for o in self.octaves))
+
+    def octave_uniforms(self) -> np.ndarray:
+        """(m, 4) int64 per non-empty octave, finest first: (octave, side, half, 0), each
+        below 2^32 (the shader's uvec4 uniforms)."""
+        o = self.octaves
+        return np.stack([o, self.sides[o], self.halves[o].astype(np.int64),
+                         np.zeros(len(o), np.int64)], axis=1)
+
+    def query(self, points) -> "Covering":
+        """Every record whose photon's disc covers each of ``points`` ((m, 3), float32)."""
+        qpos = np.ascontiguousarray(np.asarray(points, dtype=np.float32).reshape(-1, 3))
+        qcodes = self.quantizer.quantize_query(qpos)
+        oct_ = self.octave_uniforms()
+        recf = self.records.view(np.float32)
+        counts, cand = _cover_count(qpos, qcodes, self.slots, np.uint32(self.buckets - 1), oct_,
+                                    recf)
+        offsets = np.zeros(len(qpos) + 1, dtype=np.int64)
+        np.cumsum(counts, out=offsets[1:])
+        hits = np.empty(offsets[-1], dtype=np.int64)
+        d2 = np.empty(offsets[-1], dtype=np.float32)
+        _cover_fill(qpos, qcodes, self.slots, np.uint32(self.buckets - 1), oct_, recf,
+                    offsets, hits, d2)
+        return Covering(offsets=offsets, records=hits, d2=d2, candidates=cand)
+
+
+def _max_per(octave_of_cell, counts, octaves) -> np.ndarray:
+    out = np.zeros(octaves, dtype=np.int64)
+    np.maximum.at(out, octave_of_cell, counts)
+    return out
+
+
+@dataclass(frozen=True)
+class Covering:
+    """The answer of :meth:`CoverGather.query` for m points, as compressed rows:
+    point i's covering records are ``records[offsets[i]:offsets[i + 1]]`` (in the order the
+    shader visits them), at squared distances ``d2`` (float32); ``candidates`` (m,) the
+    records each point read."""
+
+    offsets: np.ndarray
+    records: np.ndarray
+    d2: np.ndarray
+    candidates: np.ndarray
+
+    @property
+    def counts(self) -> np.ndarray:
+        return np.diff(self.offsets)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _axis_cells(code, half, side):
+    """The first and last cell of one axis that hold ``code +- half``, saturated to the
+    codes [0, 2^32) (glsl/bh_cover.glsl's uint arithmetic)."""
+    lo = max(np.int64(code) - np.int64(half), np.int64(0))
+    hi = min(np.int64(code) + np.int64(half), np.int64(0xFFFFFFFF))
+    return lo // np.int64(side), hi // np.int64(side)
+
+
+@numba.njit(cache=True, nogil=True)
+def _visit(qpos, qcodes, slots, mask, octaves, recf, i, offsets, hits, d2s, fill):
+    """Covering records of point i (written from offsets[i] when ``fill``): (count, read).
+    ``recf`` is the records' float32 view: position and squared radius in words 0-3."""
+    qx, qy, qz = qpos[i, 0], qpos[i, 1], qpos[i, 2]
+    found = 0
+    read = 0
+    for o in range(octaves.shape[0]):
+        level, side, half = octaves[o, 0], octaves[o, 1], octaves[o, 2]
+        x0, x1 = _axis_cells(qcodes[i, 0], half, side)
+        y0, y1 = _axis_cells(qcodes[i, 1], half, side)
+        z0, z1 = _axis_cells(qcodes[i, 2], half, side)
+        for cx in range(x0, x1 + 1):
+            for cy in range(y0, y1 + 1):
+                for cz in range(z0, z1 + 1):
+                    hi, lo = cell_key(level, cx, cy, cz)
+                    first, count = cuckoo_get(slots, mask, hi, lo)
+                    read += count
+                    for r in range(first, first + count):
+                        dx = recf[r, 0] - qx
+                        dy = recf[r, 1] - qy
+                        dz = recf[r, 2] - qz
+                        dd = (dx * dx + dy * dy) + dz * dz
+                        if dd < recf[r, 3]:
+                            if fill:
+                                hits[offsets[i] + found] = r
+                                d2s[offsets[i] + found] = dd
+                            found += 1
+    return found, read
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _cover_count(qpos, qcodes, slots, mask, octaves, recf):
+    m = qpos.shape[0]
+    counts = np.zeros(m, dtype=np.int64)
+    cand = np.zeros(m, dtype=np.int64)
+    dummy_o = np.zeros(1, dtype=np.int64)
+    dummy_h = np.zeros(1, dtype=np.int64)
+    dummy_d = np.zeros(1, dtype=np.float32)
+    for i in numba.prange(m):
+        counts[i], cand[i] = _visit(qpos, qcodes, slots, mask, octaves, recf, i, dummy_o,
+                                    dummy_h, dummy_d, False)
+    return counts, cand
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _cover_fill(qpos, qcodes, slots, mask, octaves, recf, offsets, hits, d2s):
+    for i in numba.prange(qpos.shape[0]):
+        _visit(qpos, qcodes, slots, mask, octaves, recf, i, offsets, hits, d2s, True)
+
+
+__all__ = ["CoverGather", "Covering", "octave_sides", "cover_margin", "OCTAVE_STEPS",
+           "MAX_OCTAVES", "MIN_SHIFT"]
