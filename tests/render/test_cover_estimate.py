@@ -1,0 +1,99 @@
+"""The conserving estimate over the cover gather: the shader pass (glsl/caustic_cover.glsl)
+against its CPU reference per shading point, the analytic plane, and the default render."""
+
+import numpy as np
+import pytest
+from conftest import context_or_skip
+from test_caustic import FLUX, KD, grid_points
+
+from blockhash import BlockHashIndex
+from blockhash.errors import CapacityError, InputError
+from blockhash.render.caustic import CausticPass, estimate_from_neighbours
+from blockhash.render.cover_estimate import cover_gather, estimate_cover_cpu
+from blockhash.render.estimate import EstimateOptions
+from blockhash.render.options import LookupOptions, resolve_method
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
+
+N = 60_000
+MATS = [((KD, 0.4, 0.3), (0.25, 0.25, 0.25), 20.0)]
+
+
+@pytest.fixture(scope="module")
+def plane_index():
+    rng = np.random.default_rng(0)
+    pos = np.stack([rng.random(N), rng.normal(0, 1e-4, N), rng.random(N)], axis=1)
+    normals = np.tile([0, 1.0, 0], (N, 1))
+    normals[::7] = [1.0, 0, 0]  # some photons of a surface facing elsewhere
+    dirs = np.tile([0.3, -1.0, 0.1], (N, 1))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    dirs[::11] *= -1  # some from behind
+    return BlockHashIndex(pos, k=50, A=8, directions=dirs, normals=normals,
+                          powers=rng.uniform(0.5, 1.5, (N, 3)) * FLUX / N)
+
+
+def test_uniform_photons_on_a_plane_give_the_analytic_radiance():
+    rng = np.random.default_rng(0)
+    pos = np.stack([rng.random(N), np.zeros(N), rng.random(N)], axis=1)
+    index = BlockHashIndex(pos, k=50, directions=np.tile([0, -1.0, 0], (N, 1)),
+                           powers=np.full((N, 3), FLUX / N))
+    L = estimate_cover_cpu(cover_gather(index, 50), grid_points(), [((KD,) * 3, (0, 0, 0), 1.0)])
+    assert L.mean() == pytest.approx(KD * FLUX / np.pi, rel=0.02)
+
+
+@pytest.mark.parametrize("backend", ["egl", "osmesa"])
+@pytest.mark.parametrize("options", [
+    EstimateOptions(),
+    EstimateOptions(filter="none", normal_cos=None),
+    EstimateOptions(filter="silverman", disc=0.5),
+    EstimateOptions(filter="epanechnikov", normal_cos=0.9),
+], ids=lambda o: o.label)
+def test_shader_pass_equals_the_cpu_reference_per_point(plane_index, options, backend):
+    context_or_skip(backend)
+    pts = grid_points(48, 40, lo=-0.05, hi=1.05, view=(0.6, 0.8, 0.0))
+    cpu = estimate_cover_cpu(cover_gather(plane_index, 50), pts, MATS, options)
+    gl = CausticPass(plane_index, backend=backend, gather="cover").render(pts, MATS, options=options)
+    assert (cpu > 0).mean() > 0.8
+    # The same photons per point; float32 sums only.
+    np.testing.assert_allclose(gl, cpu, rtol=2e-5, atol=1e-6 * cpu.max())
+
+
+def test_the_cover_sum_holds_every_photon_the_k_nearest_sum_counts(plane_index):
+    """With the k nearest (exact), the conserving estimate sums the covering photons among
+    them: a subset, so never more, and here within a few percent."""
+    from blockhash.index.metrics import exact_knn
+    from blockhash.render.photon_radius import own_radii2
+
+    pts = grid_points(24, 24)
+    cover = estimate_cover_cpu(cover_gather(plane_index, 50), pts, MATS)
+    knn = estimate_from_neighbours(plane_index, pts, MATS,
+                                   lambda q: exact_knn(plane_index.positions, q, 50), 50,
+                                   radii=own_radii2)
+    assert (knn <= cover * (1 + 1e-5) + 1e-9).all()
+    assert knn.sum() / cover.sum() > 0.97
+
+
+def test_the_cover_gather_takes_the_conserving_estimate_only(plane_index):
+    with pytest.raises(InputError, match="method='bh'"):
+        resolve_method("cover", "unbiased")
+    assert resolve_method("auto", "conserving") == "cover"
+    assert resolve_method("auto", "paper") == "bh"
+    assert LookupOptions().method == "auto"
+    with pytest.raises(InputError, match="needs the k nearest"):
+        CausticPass(plane_index, gather="cover").render(
+            grid_points(4, 4), MATS, options=EstimateOptions(estimate="unbiased"))
+
+
+def test_a_pile_past_llvmpipes_loop_limit_is_refused_there():
+    """Photons piled at one point fill one cell; past llvmpipe's loop limit the pass refuses
+    (it would silently stop there), naming the limit and the way out."""
+    ctx = context_or_skip("egl")
+    from blockhash.gl.limits import is_llvmpipe
+
+    if not is_llvmpipe(ctx):
+        pytest.skip("the loop limit is llvmpipe's")
+    pos = np.vstack([np.zeros((70_000, 3)), np.random.default_rng(1).random((100, 3))])
+    with pytest.warns(UserWarning):  # the pile is also beyond the k-nearest index's buckets
+        index = BlockHashIndex(pos, k=8)
+    with pytest.raises(CapacityError, match=r"65,535.*method='cpu'"):
+        CausticPass(index, backend="egl", gather="cover").render(grid_points(2, 2), MATS)
