@@ -42,6 +42,9 @@ RADV_ICDS = ("/usr/share/vulkan/icd.d/radeon_icd.x86_64.json",
 FAMILIES = ("navi21", "gfx1100", "vega10")
 #: The budget of issue-level targets for the default lookup and caustic pass, RDNA2 wave64.
 VGPR_BUDGET = 64
+#: The default caustic pass's (the cover gather's) budget, RDNA2 wave64: no scratch, no
+#: spills and at most this many VGPRs.
+COVER_VGPR_BUDGET = 48
 
 GLSLANG = ("glslangValidator", "-V", "-R", "--amb", "--aml", "--target-env", "vulkan1.2")
 
@@ -220,9 +223,10 @@ def lookup_shaders(k: int = 50, A: int = 8, *, lookups=LOOKUPS, kdtree: bool = T
 
 
 def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_000,
-                    lookups=("walk", "cells"), backend: str | None = None) -> dict[str, str]:
+                    lookups=("cover", "walk", "cells"), backend: str | None = None) -> dict[str, str]:
     """The caustic pass's three stages (blockhash.render.caustic.STAGES) on the scene's own
-    pixels at 16 x 16, for each of ``lookups`` ('walk', 'cells')."""
+    pixels at 16 x 16, for each of ``lookups`` ('cover': the default render's cover gather,
+    'walk', 'cells')."""
     from blockhash import BlockHashIndex
     from blockhash.gl.shaderlib import recording
     from blockhash.photons.tracing import trace_caustic_photons
@@ -242,10 +246,10 @@ def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_00
     cells = copy.copy(index)
     cells.params = replace(index.params, cells=True)
     out = {}
-    for name, ix in (("walk", index), ("cells", cells)):
+    for name, ix in (("cover", index), ("walk", index), ("cells", cells)):
         if name not in lookups:
             continue
-        cp = CausticPass(ix, backend=backend)
+        cp = CausticPass(ix, backend=backend, gather="cover" if name == "cover" else "knn")
         for stage in STAGES:
             with recording() as got:
                 cp.time_stages(points, receiver_materials(sc.objects), k=k, A=A, repeat=1, warmup=0,

@@ -110,3 +110,28 @@ def test_the_cells_caustic_pass_fits_the_gpu_budget():
     for name, text in shaders.items():
         stats = shader_stats.compile_stats(text, "navi21")
         assert shader_stats.over_budget(stats) == [], (name, stats)
+
+
+@pytest.fixture(scope="module")
+def ring_caustic_passes():
+    context_or_skip("egl")
+    scene = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
+    return shader_stats.caustic_shaders(str(scene), lookups=("cover", "walk"), backend="egl")
+
+
+def test_the_default_caustic_pass_fits_its_gpu_budget(ring_caustic_passes):
+    """The cover gather's pass, every stage, RDNA2 wave64: no scratch memory, no spills, at
+    most COVER_VGPR_BUDGET (48) VGPRs."""
+    cover = {n: t for n, t in ring_caustic_passes.items() if n.startswith("caustic cover")}
+    assert len(cover) == 3
+    for name, text in cover.items():
+        stats = shader_stats.compile_stats(text, "navi21")
+        assert shader_stats.over_budget(stats, shader_stats.COVER_VGPR_BUDGET) == [], (name, stats)
+
+
+def test_the_default_passes_budget_fails_a_pass_that_breaks_it(ring_caustic_passes):
+    """The walk's caustic pass (its queues in scratch, 100+ VGPRs) fails the same check."""
+    stats = shader_stats.compile_stats(ring_caustic_passes["caustic walk: lookup + estimate"],
+                                       "navi21")
+    broken = shader_stats.over_budget(stats, shader_stats.COVER_VGPR_BUDGET)
+    assert any("scratch" in b for b in broken) and any("VGPRs demanded" in b for b in broken)
