@@ -187,22 +187,37 @@ def _kdtree_row(index, q, k, repeat, warmup, backend, clock, device) -> dict:
             "fn_percent": 0.0, "passes": kd.counters["query.passes"], **device}
 
 
+#: The caustic pass's peers that ``run_caustic_benchmark`` times side by side: the cover
+#: gather (the default), the k-nearest walk and cells lookups, the exact kd-tree shader and
+#: the CPU reference of the default.
+GATHERS = ("cover", "walk", "cells", "kdtree", "cpu")
+
+
 def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default", repeat=10,
-                          warmup=2, backend=None, clock="auto", estimates=(), progress=print):
-    """Time the stages of a scene's caustic pass (blockhash.render.caustic.STAGES) on the
-    scene's own pixels, then the whole pass once more with each of ``estimates`` (forms of
-    :class:`~blockhash.render.estimate.EstimateOptions`, the other fields the default's);
-    returns result rows like :func:`run_benchmark`."""
+                          warmup=2, backend=None, clock="auto", estimates=(), gathers=GATHERS,
+                          progress=print):
+    """Time a scene's caustic pass on its own pixels, one peer of ``gathers`` after another
+    (:data:`GATHERS`): the shader gathers per stage (blockhash.render.caustic.STAGES), the
+    kd-tree and CPU methods whole; then the walk's whole pass once more with each of
+    ``estimates`` (forms of :class:`~blockhash.render.estimate.EstimateOptions`, the other
+    fields the default's).  Each row names its ``gather`` and ``stage``, with ``seconds``."""
     from blockhash.photons.tracing import trace_caustic_photons
-    from blockhash.render.caustic import STAGES, CausticPass
+    from blockhash.render.caustic import STAGES, CausticPass, estimate_exact
+    from blockhash.render.cover_estimate import cover_gather, estimate_cover_cpu
     from blockhash.render.estimate import EstimateOptions
     from blockhash.render.gbuffer import rasterize
+    from blockhash.render.photon_radius import exact_radii2, own_radii2
     from blockhash.render.shading import SceneRays, shading_points
     from blockhash.scene.loader import load_scene
     from blockhash.scene.materials import receiver_materials
     from blockhash.scene.model import MirrorMaterial
 
     forms = [EstimateOptions(estimate=form) for form in estimates]  # unknown names fail first
+    unknown = [g for g in gathers if g not in GATHERS]
+    if unknown:
+        from blockhash.errors import InputError
+
+        raise InputError(f"gathers {unknown} are not known; choose from {', '.join(GATHERS)}")
     scene = load_scene(scene_path)
     settings = scene.photons
     pm = trace_caustic_photons(scene, photons or settings.count, seed=settings.seed)
@@ -211,24 +226,62 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
     gbuf = rasterize(scene.camera, scene.objects, backend=backend)
     points = shading_points(scene.camera, gbuf, scene.objects, SceneRays(scene.objects),
                             (MirrorMaterial,))
-    cp = CausticPass(index, backend=backend)
-    device = device_info(cp.ctx)
-    clk = resolve_clock(clock, device["renderer"])
+    materials = receiver_materials(scene.objects)
+    own_radii2(index, settings.k)  # computed once, outside the timing
     h, w = points.shape
     live = int((points.material >= 0).sum())
-    progress(f"caustic pass of {scene_path}: {len(index):,} photons stored, {w} x {h} pixels "
-             f"({live:,} shaded), k={settings.k}, A={A or settings.A}; {device['renderer']}")
-    stages = cp.time_stages(points, receiver_materials(scene.objects), A=A, variant=variant,
-                            repeat=repeat, warmup=warmup)
-    for opt in forms:
-        timed = cp.time_stages(points, receiver_materials(scene.objects), A=A, variant=variant,
-                               repeat=repeat, warmup=warmup, options=opt, stages=STAGES[-1:])
-        stages[f"{STAGES[-1]} ({opt.estimate})"] = timed[STAGES[-1]]
+    base = {"A": A or settings.A, "scene": str(scene_path), "photons": len(index), "pixels": w * h}
     rows = []
-    for stage, times in stages.items():
-        rows.append({"method": f"caustic pass: {stage}", "A": A or settings.A, "scene": str(scene_path),
-                     "photons": len(index), "pixels": w * h, **summarize(times, clk), **device})
-        progress(f"caustic pass {stage}: {rows[-1]['seconds']:.4f} s")
+
+    def add(gather, stage, times, device, clk):
+        rows.append({"method": f"caustic pass ({gather}): {stage}", "gather": gather,
+                     "stage": stage, **base, **summarize(times, clk), **device})
+        progress(f"caustic pass ({gather}) {stage}: {rows[-1]['seconds']:.4f} s")
+
+    device = clk = None
+    for gather in gathers:
+        if gather in ("cover", "walk", "cells"):
+            ix = index
+            if gather == "cells":
+                ix = copy.copy(index)
+                ix.params = replace(index.params, cells=True)
+            cp = CausticPass(ix, backend=backend, gather="cover" if gather == "cover" else "knn")
+            if device is None:
+                device = device_info(cp.ctx)
+                clk = resolve_clock(clock, device["renderer"])
+                progress(f"caustic pass of {scene_path}: {len(index):,} photons stored, {w} x {h} "
+                         f"pixels ({live:,} shaded), k={settings.k}, A={A or settings.A}; "
+                         f"{device['renderer']}")
+            stages = cp.time_stages(points, materials, A=A, variant=variant, repeat=repeat,
+                                    warmup=warmup)
+            if gather == "walk":
+                for opt in forms:
+                    timed = cp.time_stages(points, materials, A=A, variant=variant, repeat=repeat,
+                                           warmup=warmup, options=opt, stages=STAGES[-1:])
+                    stages[f"{STAGES[-1]} ({opt.estimate})"] = timed[STAGES[-1]]
+            for stage, times in stages.items():
+                add(gather, stage, times, device, clk)
+            continue
+        if gather == "kdtree":
+            exact_radii2(index, settings.k)
+
+            def run():
+                return estimate_exact(index, points, materials, backend=backend)
+        else:
+            gathered = cover_gather(index, settings.k)
+
+            def run():
+                return estimate_cover_cpu(gathered, points, materials)
+        walls = []
+        for i in range(warmup + repeat):
+            t = time.perf_counter()
+            run()
+            if i >= warmup:
+                walls.append(time.perf_counter() - t)
+        from blockhash.gl.context import get_context
+
+        dev = device or device_info(get_context(backend))
+        add(gather, STAGES[-1], {"wall": walls}, dev, "wall")
     return rows
 
 

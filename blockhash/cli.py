@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from blockhash import __version__
+from blockhash.bench import GATHERS as CAUSTIC_GATHERS
 from blockhash.bench import QUERY_SETS
 from blockhash.cli_estimate import add_arguments as add_estimate_arguments
 from blockhash.cli_estimate import options_from
@@ -118,6 +119,7 @@ def cmd_bench(args) -> int:
                                       variant=args.variants.split(",")[0], repeat=args.repeat,
                                       warmup=args.warmup, backend=args.backend, clock=args.clock,
                                       estimates=tuple(e for e in args.caustic_estimates.split(",") if e),
+                                      gathers=tuple(g for g in args.caustic_gathers.split(",") if g),
                                       progress=log)
     if rows:
         print(format_table(rows, args.queries))
@@ -273,6 +275,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--caustic-estimates", default="", metavar="LIST",
                    help="also time the whole --caustic pass with each of these estimate forms "
                         "(e.g. unbiased,conserving), side by side in the same run")
+    p.add_argument("--caustic-gathers", default=",".join(CAUSTIC_GATHERS), metavar="LIST",
+                   help="the --caustic pass's peers, timed side by side (default: all of "
+                        f"{','.join(CAUSTIC_GATHERS)}; cover is the default render's gather)")
     p.add_argument("--backend", choices=BACKENDS, default=None)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-kdtree", action="store_true", help="skip the exact kd-tree shader")

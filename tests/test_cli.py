@@ -90,11 +90,15 @@ def test_bench_times_the_caustic_pass_per_stage(tmp_path, capsys):
     import json
 
     rows = json.loads(out_json.read_text())
-    assert [r["method"] for r in rows] == ["caustic pass: fetch floor", "caustic pass: lookup",
-                                           "caustic pass: lookup + estimate",
-                                           "caustic pass: lookup + estimate (unbiased)"]
-    assert all(r["draws"] == 2 and r["gpu_median"] > 0 and r["pixels"] == 512 * 512 for r in rows)
-    assert "caustic pass: lookup + estimate" in capsys.readouterr().out
+    stages = ["fetch floor", "lookup", "lookup + estimate"]
+    assert [(r["gather"], r["stage"]) for r in rows] == (
+        [("cover", s) for s in stages] + [("walk", s) for s in stages]
+        + [("walk", "lookup + estimate (unbiased)")] + [("cells", s) for s in stages]
+        + [("kdtree", "lookup + estimate"), ("cpu", "lookup + estimate")])
+    shader = [r for r in rows if r["gather"] in ("cover", "walk", "cells")]
+    assert all(r["draws"] == 2 and r["gpu_median"] > 0 and r["pixels"] == 512 * 512 for r in shader)
+    assert all(r["draws"] == 2 and r["seconds"] > 0 for r in rows)
+    assert "caustic pass (cover): lookup + estimate" in capsys.readouterr().out
 
 
 def test_bench_names_an_unknown_estimate_before_tracing(capsys):
