@@ -16,8 +16,8 @@ from blockhash.render.options import METHODS
 
 #: The methods the trade study sweeps as Block Hashing (``kdtree``'s exact kNN is measured beside
 #: either), from the one list of methods, and the engine each runs the sweep on.
-SWEPT_METHODS = tuple(m for m in METHODS if m != "kdtree")
 METHOD_ENGINE = {"bh": "gl", "cpu": "cpu"}
+SWEPT_METHODS = tuple(m for m in METHODS if m in METHOD_ENGINE)
 ENGINE_METHOD = {engine: method for method, engine in METHOD_ENGINE.items()}
 
 

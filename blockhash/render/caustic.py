@@ -21,8 +21,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.gl.context import (bind_textures, check_gl, draw_timed, get_context, home_framebuffer,
-                                  time_draws)
+from blockhash.gl.context import (
+    bind_textures,
+    check_gl,
+    draw_timed,
+    get_context,
+    home_framebuffer,
+    time_draws,
+)
 from blockhash.gl.limits import check_lookup
 from blockhash.gl.lookup import GLLookup, query_slot_bits
 from blockhash.gl.shaderlib import Variant

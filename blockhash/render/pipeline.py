@@ -158,11 +158,12 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
     settings = scene.photons
     k = settings.k if k is None else k
     A = settings.A if A is None else A
+    method = resolve_method(method, EstimateOptions.of(options).estimate)
     if method == "bh" and k > MAX_K:  # refused before hours of tracing, not after
         raise InputError(f"k={k} is above the lookup shader's limit MAX_K={MAX_K}; use k <= "
-                         f"{MAX_K}, or method='cpu' or 'kdtree'")
+                         f"{MAX_K}, or method='cpu' or 'kdtree', or the conserving estimate's "
+                         "cover gather (method='auto'), which has no such limit")
     options = EstimateOptions.of(options)
-    method = resolve_method(method, options.estimate)
     side = spp_side((scene.camera.spp or DEFAULT_SPP) if spp is None else spp)
     timings, info = {}, {}
     info["estimate"] = options.label

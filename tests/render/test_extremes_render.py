@@ -66,7 +66,7 @@ def test_k_above_the_shader_limit_is_refused_before_tracing(monkeypatch):
     monkeypatch.setattr(tracing, "trace_caustic_photons", lambda *a, **k: pytest.fail("traced anyway"))
     with pytest.raises(InputError, match=r"k=129 is above the lookup shader's limit MAX_K=128; "
                                          r"use k <= 128, or method='cpu' or 'kdtree'"):
-        render_scene(scene(), k=129, size=(4, 4))
+        render_scene(scene(), k=129, size=(4, 4), method="bh")
 
 
 def test_fewer_photons_than_k_is_a_clear_error():

@@ -1,0 +1,111 @@
+"""The cover gather's reads per shading point, from its CPU reference (blockhash/index/cover.py).
+
+For each scene (its camera's shading points, one per pixel) and each synthetic map (bench's
+image raster of queries over the receiver): the photons covering each point (mean, max), the
+candidates read (mean, p99, max), their ratio, the cells probed, the octaves and the cell
+table's bytes per photon.  Radii are the render's own (``own_radii2``) unless --exact-radii.
+
+usage: python tools/cover_stats.py [--scenes scenes/ring.toml,...] [--maps caustic,...]
+                                   [--photons 200000] [--size 256] [--json PATH]
+"""
+
+import argparse
+import json
+import sys
+import time
+
+import numpy as np
+
+from blockhash.bench import make_queries
+from blockhash.index.block_hash_index import BlockHashIndex
+from blockhash.index.datasets import DISTRIBUTIONS
+from blockhash.render.cover_estimate import cover_gather
+from blockhash.render.photon_radius import exact_radii2, own_radii2
+
+
+def scene_points(path, photons, size, k):
+    """(index, (m, 3) float32 shading points) of a scene's camera at size x size."""
+    from blockhash.photons.tracing import trace_caustic_photons
+    from blockhash.render.gbuffer import rasterize
+    from blockhash.render.shading import SceneRays, shading_points
+    from blockhash.scene.loader import load_scene
+    from blockhash.scene.model import MirrorMaterial
+
+    scene = load_scene(path)
+    pm = trace_caustic_photons(scene, photons, seed=scene.photons.seed)
+    index = BlockHashIndex(pm.positions, k=k, directions=pm.directions, normals=pm.normals,
+                           powers=pm.powers)
+    gbuf = rasterize(scene.camera, scene.objects, size=(size, size))
+    pts = shading_points(scene.camera, gbuf, scene.objects, SceneRays(scene.objects), (MirrorMaterial,))
+    live = (pts.material >= 0).reshape(-1)
+    return index, pts.position.reshape(-1, 3)[live]
+
+
+def stats(name, index, q, k, exact):
+    r2 = (exact_radii2 if exact else own_radii2)(index, k)
+    t = time.perf_counter()
+    gather = cover_gather(index, k, exact_radii2 if exact else None)
+    build = time.perf_counter() - t
+    cov = gather.query(q)
+    counts, cand = cov.counts, cov.candidates
+    covered = counts > 0
+    octs = gather.octave_uniforms()
+    probes = 0
+    codes = gather.quantizer.quantize_query(q).astype(np.int64)
+    for _, side, half, _ in octs:  # cells probed: 1 or 2 per axis at each octave
+        lo = np.maximum(codes - half, 0) // side
+        hi = np.minimum(codes + half, 2**32 - 1) // side
+        probes = probes + np.prod(hi - lo + 1, axis=1)
+    row = {"map": name, "photons": len(index), "k": k, "queries": len(q),
+           "octaves": len(gather.octaves), "cells": gather.cells,
+           "table_bytes_per_photon": gather.table_bytes / len(index),
+           "record_bytes_per_photon": gather.records.nbytes / len(index),
+           "covered_share": float(covered.mean()),
+           "covering_mean": float(counts.mean()), "covering_max": int(counts.max(initial=0)),
+           "covering_mean_covered": float(counts[covered].mean()) if covered.any() else 0.0,
+           "candidates_mean": float(cand.mean()), "candidates_p99": float(np.quantile(cand, 0.99)),
+           "candidates_max": int(cand.max(initial=0)),
+           "ratio": float(cand.mean() / max(counts.mean(), 1e-12)),
+           "probes_mean": float(np.mean(probes)), "build_s": build,
+           "radii": "exact" if exact else "own", "r2_mean": float(np.mean(r2))}
+    print(f"{name:>10}: {row['octaves']} octaves, {row['cells']:,} cells "
+          f"({row['table_bytes_per_photon']:.1f} B/photon); covering mean {row['covering_mean']:.1f} "
+          f"max {row['covering_max']}; candidates mean {row['candidates_mean']:.0f} p99 "
+          f"{row['candidates_p99']:.0f} max {row['candidates_max']}; ratio {row['ratio']:.1f}x; "
+          f"cells probed {row['probes_mean']:.0f}", flush=True)
+    return row
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--scenes", default="scenes/ring.toml,scenes/venus.toml,scenes/glass.toml,"
+                                       "scenes/corner.toml")
+    p.add_argument("--maps", default=",".join(sorted(DISTRIBUTIONS)),
+                   help="synthetic maps (blockhash.index.datasets), queried on bench's raster")
+    p.add_argument("--photons", type=float, default=2e5)
+    p.add_argument("--queries", type=int, default=65536, help="raster queries per synthetic map")
+    p.add_argument("--size", type=int, default=256, help="scene image side (one point per pixel)")
+    p.add_argument("--k", type=int, default=50)
+    p.add_argument("--exact-radii", action="store_true", help="cKDTree radii instead of the render's")
+    p.add_argument("--json", help="write the rows here")
+    args = p.parse_args(argv)
+    n = int(args.photons)
+    rows = []
+    for path in [s for s in args.scenes.split(",") if s]:
+        index, q = scene_points(path, n, args.size, args.k)
+        rows.append(stats(path.rsplit("/", 1)[-1].removesuffix(".toml"), index, q, args.k,
+                          args.exact_radii))
+    for name in [m for m in args.maps.split(",") if m]:
+        pts = DISTRIBUTIONS[name](n, np.random.default_rng(7))
+        index = BlockHashIndex(pts, k=args.k)
+        q = make_queries(pts, args.queries, "image", 0, name)
+        rows.append(stats(name, index, q, args.k, args.exact_radii))
+    if args.json:
+        with open(args.json, "w") as fh:
+            json.dump({"command": "python tools/cover_stats.py " + " ".join(argv or sys.argv[1:]),
+                       "rows": rows}, fh, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
