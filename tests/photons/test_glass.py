@@ -270,7 +270,7 @@ def test_every_method_renders_glass_and_the_exact_one_agrees_with_the_cpu(tmp_pa
     from blockhash.photons.tracing import trace_caustic_photons
     pm = trace_caustic_photons(scene, 8000, seed=1)
     bh, exact, cpu = (render_scene(scene, photon_map=pm, size=(24, 24), spp=4, method=m)
-                      for m in ("bh", "kdtree", "cpu"))
+                      for m in ("auto", "kdtree", "cpu"))  # the default and its CPU reference
     assert_images_close(bh.caustic, cpu.caustic, max_rel_rms=1e-4, out_dir=tmp_path)
     everywhere = np.ones((24, 24), bool)
     assert flux_ratio(bh.caustic, exact.caustic, everywhere) == pytest.approx(1.0, abs=0.05)

@@ -9,7 +9,7 @@ from blockhash.cli import main
 from blockhash.evaluate.imagediff import compare_layers
 from blockhash.evaluate.testing import assert_images_close
 from blockhash.photons.tracing import trace_caustic_photons
-from blockhash.render.caustic import estimate_cpu, estimate_exact
+from blockhash.render.caustic import estimate_exact
 from blockhash.render.gbuffer import rasterize
 from blockhash.render.pipeline import NoCausticWarning, render_scene
 from blockhash.render.shading import SceneRays, shading_points
@@ -54,8 +54,12 @@ SAME_ESTIMATE = 1e-4
 
 @pytest.mark.slow
 def test_shader_caustic_equals_the_cpu_reference_estimate(ring, ring_renders, ring_points, tmp_path):
+    """The default render's caustic (the cover gather's pass) against its CPU reference."""
+    from blockhash.render.cover_estimate import cover_gather, estimate_cover_cpu
+
     r = ring_renders[8]
-    cpu = estimate_cpu(r.index, ring_points, receiver_materials(ring.objects), A=8)
+    cpu = estimate_cover_cpu(cover_gather(r.index, r.index.params.k), ring_points,
+                             receiver_materials(ring.objects))
     assert r.caustic.max() > 0
     assert_images_close(r.caustic, cpu, max_rel_rms=SAME_ESTIMATE, out_dir=tmp_path)
 
