@@ -15,11 +15,22 @@
 #include "bh_cuckoo.glsl"
 
 uniform usampler2D bh_cover_cells;    // cuckoo slots: (key hi, key lo, first record, count)
-uniform usampler2D bh_cover_records;  // 2 texels a record: (x, y, z, h^2 float bits), payload
+uniform usampler2D bh_cover_records;  // 2 texels a record: (x, y, z, h^2 float bits),
+                                      // (octahedral wi, octahedral normal, c1 | c2, c3 | c4)
 uniform int bh_cover_octaves;         // octaves that hold photons
 uniform uvec4 bh_cover_octave[BH_COVER_MAX_OCTAVES];  // (octave, side, half, 0), finest first
 
 uint bh_cover_sink;
+
+// An octahedral unit vector from two snorm16 (blockhash/index/cover.py octahedral_decode).
+vec3 bh_octahedral(uint w) {
+    vec2 f = unpackSnorm2x16(w);
+    vec3 v = vec3(f, 1.0 - abs(f.x) - abs(f.y));
+    float t = max(-v.z, 0.0);
+    v.x += v.x >= 0.0 ? -t : t;
+    v.y += v.y >= 0.0 ? -t : t;
+    return normalize(v);
+}
 
 // The first and last cell of one axis holding code +- half, saturated to [0, 2^32).
 uvec2 bh_cover_axis(uint code, uint half_, uint side) {

@@ -23,18 +23,18 @@ float cc_e;
 
 void caustic_cover_visit(uint r, vec3 d, float d2, float h2) {
     uvec4 w = bh_fetch4(bh_cover_records, uint(BH_COVER_REC_W), 2u * r + 1u);
-    vec3 wi = -caustic_polar(w.x & 0xFFFFu);
+    vec3 wi = bh_octahedral(w.x);
     if (dot(wi, cc_n) <= 0.0) {
         return;
     }
-    if (caustic_normal_cos > -1.5 && dot(caustic_polar(w.x >> 16u), cc_n) < caustic_normal_cos) {
+    if (caustic_normal_cos > -1.5 && dot(bh_octahedral(w.y), cc_n) < caustic_normal_cos) {
         return;  // the photon landed on a surface facing elsewhere
     }
     if (caustic_disc > -1.5 && abs(dot(d, cc_n)) > caustic_disc * sqrt(h2)) {
         return;  // outside the flattened neighbourhood
     }
-    vec2 c12 = unpackHalf2x16(w.y);
-    vec2 c34 = unpackHalf2x16(w.z);
+    vec2 c12 = unpackHalf2x16(w.z);
+    vec2 c34 = unpackHalf2x16(w.w);
     vec3 power = vec3(c12, c34.x) * bh_power_scale;
     cc_sum += caustic_filter(d2 / h2) * caustic_phong(wi, cc_wo, cc_n, cc_kd, cc_ks, cc_e) * power
               * (1.0 / h2);

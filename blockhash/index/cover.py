@@ -21,8 +21,10 @@ Williams 1977, the grid of GPU particle systems, here once per radius octave):
 * **Two dependent rounds** after the keys: the cells' cuckoo slots (2 fetches a cell, all
   independent), then their records (independent of each other).  No list is held.
 * **Records**, 2 RGBA32UI texels each: the decoded float32 position and the float32 squared
-  radius, then record words 3-5 of Figure 4 (direction | normal, powers) and the photon's
-  index in the caller's order.
+  radius; then the direction toward where the photon came from and its surface normal, each
+  as an octahedral unit vector in two snorm16 (:func:`octahedral_encode`: the shader decodes
+  it with no trigonometry, where Figure 4's polar codes need four sines and cosines), and the
+  power words of Figure 4 (c1 | c2, c3 | c4).
 
 The bound: a photon of octave l has ``h_i > side_(l-1) / 2 - margin``, so fewer than j other
 photons lie within that of it; a cell holds O(j) photons of its octave whatever N and the
@@ -42,6 +44,7 @@ import numpy as np
 
 from blockhash.errors import InputError
 from blockhash.index.cells import cell_key, cuckoo_get, cuckoo_slots
+from blockhash.index.codec import decode_directions, unpack_records
 
 #: The finest cell side is 2^MIN_SHIFT codes: cell coordinates stay below 2^19 (cell_key).
 MIN_SHIFT = 13
@@ -55,6 +58,32 @@ OCTAVE_STEPS = 2
 MAX_OCTAVES = 64
 #: Record words per photon: 2 texels.
 RECORD_WORDS = 8
+
+
+def octahedral_encode(v: np.ndarray) -> np.ndarray:
+    """(n, 3) unit vectors -> (n,) uint32: the octahedral map's two coordinates as snorm16,
+    x in the low half (GLSL ``unpackSnorm2x16``)."""
+    v = np.asarray(v, dtype=np.float64)
+    p = v[:, :2] / np.maximum(np.abs(v).sum(axis=1, keepdims=True), 1e-300)
+    sign = np.where(p >= 0, 1.0, -1.0)
+    p = np.where(v[:, 2:3] < 0, (1.0 - np.abs(p[:, ::-1])) * sign, p)
+    q = np.round(np.clip(p, -1.0, 1.0) * 32767.0).astype(np.int16).view(np.uint16).astype(np.uint32)
+    return q[:, 0] | (q[:, 1] << np.uint32(16))
+
+
+def octahedral_decode(words) -> np.ndarray:
+    """(n,) uint32 -> (n, 3) float32 unit vectors, in float32 as glsl/bh_cover.glsl's
+    bh_octahedral evaluates them (up to its inversesqrt)."""
+    w = np.asarray(words, dtype=np.uint32)
+    f = np.stack([(w & np.uint32(0xFFFF)).astype(np.uint16).view(np.int16),
+                  (w >> np.uint32(16)).astype(np.uint16).view(np.int16)], axis=1)
+    f = np.clip(f.astype(np.float32) / np.float32(32767.0), np.float32(-1), np.float32(1))
+    z = np.float32(1.0) - np.abs(f[:, 0]) - np.abs(f[:, 1])
+    t = np.maximum(-z, np.float32(0.0))
+    x = f[:, 0] + np.where(f[:, 0] >= 0, -t, t)
+    y = f[:, 1] + np.where(f[:, 1] >= 0, -t, t)
+    v = np.stack([x, y, z], axis=1).astype(np.float32)
+    return (v / np.sqrt((v * v).sum(axis=1, keepdims=True))).astype(np.float32)
 
 
 def octave_sides(steps: int = OCTAVE_STEPS) -> np.ndarray:
@@ -87,7 +116,8 @@ def cover_margin(quantizer) -> float:
 class CoverGather:
     """The cover gather of one photon map (module docstring).
 
-    records : (n, 8) uint32    per record: float32 bits of x, y, z, h^2; words 3-5; photon
+    records : (n, 8) uint32    per record: float32 bits of x, y, z, h^2; octahedral wi and
+                               normal; the power words
     photon : (n,) int64        each record's photon, in the caller's order
     octave : (n,) int64        each record's octave
     slots, buckets             the cuckoo table of cells (:func:`.cells.cuckoo_slots`)
@@ -145,8 +175,10 @@ class CoverGather:
         records = np.zeros((m, RECORD_WORDS), dtype=np.uint32)
         records[:, :3] = q.decode(rec[:, :3]).view(np.uint32)
         records[:, 3] = slot_r2[keep][order].astype(np.float32).view(np.uint32)
-        records[:, 4:7] = rec[:, 3:6]
-        records[:, 7] = photon.astype(np.uint32)
+        _, dcodes, ncodes, _ = unpack_records(rec)
+        records[:, 4] = octahedral_encode(-decode_directions(dcodes).astype(np.float64))
+        records[:, 5] = octahedral_encode(decode_directions(ncodes).astype(np.float64))
+        records[:, 6:8] = rec[:, 4:6]
         change = np.ones(m, dtype=bool)
         change[1:] = (octave[1:] != octave[:-1]) | (cell[1:] != cell[:-1]).any(axis=1)
         starts = np.flatnonzero(change)

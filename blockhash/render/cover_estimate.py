@@ -17,8 +17,8 @@ import weakref
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.index.codec import decode_directions, decode_powers, unpack_records
-from blockhash.index.cover import OCTAVE_STEPS, CoverGather
+from blockhash.index.codec import decode_powers, unpack_records
+from blockhash.index.cover import OCTAVE_STEPS, CoverGather, octahedral_decode
 from blockhash.render.estimate import EstimateOptions, kernel
 from blockhash.render.photon_radius import own_radii2
 from blockhash.scene.materials import material_arrays, phong_brdf
@@ -70,10 +70,10 @@ def _radiance(gather, points, rows, table, options):
     which = np.repeat(np.arange(len(rows)), cov.counts)
     rec = gather.records[cov.records]
     words = np.zeros((len(rec), 6), dtype=np.uint32)
-    words[:, 3:6] = rec[:, 4:7]
-    _, dcodes, ncodes, pbits = unpack_records(words)
-    wi = -decode_directions(dcodes).astype(np.float64)
-    n_photon = decode_directions(ncodes).astype(np.float64)
+    words[:, 4:6] = rec[:, 6:8]
+    pbits = unpack_records(words)[3]
+    wi = octahedral_decode(rec[:, 4]).astype(np.float64)
+    n_photon = octahedral_decode(rec[:, 5]).astype(np.float64)
     power = decode_powers(pbits, gather.power_scale)[:, :3].astype(np.float64)
     h2 = rec[:, 3].view(np.float32).astype(np.float64)
     offset = rec[:, :3].view(np.float32).astype(np.float64) - q[which].astype(np.float64)

@@ -130,3 +130,16 @@ def test_octave_steps_are_checked():
     with pytest.raises(InputError, match="octave steps"):
         octave_sides(4)
     assert (np.diff(octave_sides(2)) > 0).all() and octave_sides(1)[-1] == 1 << 31
+
+
+def test_octahedral_directions_round_trip_within_a_ten_thousandth_of_a_radian():
+    from blockhash.index.cover import octahedral_decode, octahedral_encode
+
+    rng = np.random.default_rng(5)
+    v = rng.normal(size=(20_000, 3))
+    v = np.vstack([v, np.eye(3), -np.eye(3)])
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    back = octahedral_decode(octahedral_encode(v)).astype(np.float64)
+    angle = np.linalg.norm(back - v, axis=1)  # the chord: the angle, for small angles
+    assert angle.max() < 1e-4
+    assert np.allclose(np.linalg.norm(back, axis=1), 1, atol=1e-6)
