@@ -17,14 +17,18 @@ void caustic_cover_visit(uint r, vec3 d, float d2, float h2);
 vec3 cc_sum;
 vec3 cc_n;
 vec3 cc_wo;
-vec3 cc_kd;
-vec3 cc_ks;
+vec3 cc_diffuse;   // kd / pi
+vec3 cc_specular;  // ks (e + 2) / (2 pi)
 float cc_e;
+float cc_nwo;      // dot(n, wo)
 
+// One covering photon's term: the tests, then w(d / h) f_r Phi / h^2 (caustic_phong with its
+// per-point parts hoisted: cos alpha = dot(reflect(wi about n), wo) = 2 (wi.n)(n.wo) - wi.wo).
 void caustic_cover_visit(uint r, vec3 d, float d2, float h2) {
     uvec4 w = bh_fetch4(bh_cover_records, uint(BH_COVER_REC_W), 2u * r + 1u);
     vec3 wi = bh_octahedral(w.x);
-    if (dot(wi, cc_n) <= 0.0) {
+    float win = dot(wi, cc_n);
+    if (win <= 0.0) {
         return;
     }
     if (caustic_normal_cos > -1.5 && dot(bh_octahedral(w.y), cc_n) < caustic_normal_cos) {
@@ -36,17 +40,20 @@ void caustic_cover_visit(uint r, vec3 d, float d2, float h2) {
     vec2 c12 = unpackHalf2x16(w.z);
     vec2 c34 = unpackHalf2x16(w.w);
     vec3 power = vec3(c12, c34.x) * bh_power_scale;
-    cc_sum += caustic_filter(d2 / h2) * caustic_phong(wi, cc_wo, cc_n, cc_kd, cc_ks, cc_e) * power
-              * (1.0 / h2);
+    float c = max(2.0 * win * cc_nwo - dot(wi, cc_wo), 0.0);
+    vec3 f = cc_diffuse + cc_specular * pow(c, cc_e);
+    float inv = 1.0 / h2;
+    cc_sum += (caustic_filter(d2 * inv) * inv) * f * power;
 }
 
 vec3 caustic_radiance(vec3 q, vec3 n, vec3 wo, vec3 kd, vec3 ks, float e) {
     cc_sum = vec3(0.0);
     cc_n = n;
     cc_wo = wo;
-    cc_kd = kd;
-    cc_ks = ks;
+    cc_diffuse = kd / CAUSTIC_PI;
+    cc_specular = ks * ((e + 2.0) / (2.0 * CAUSTIC_PI));
     cc_e = e;
+    cc_nwo = dot(n, wo);
     bh_cover_gather(q);
     return cc_sum / CAUSTIC_PI;
 }
