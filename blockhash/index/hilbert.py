@@ -101,28 +101,38 @@ def _transitions():
 _SINGLE, _PAIR, _START = _transitions()
 
 
+def transition_tables():
+    """The tables that :func:`hilbert_key` reads: (single, pair, start)."""
+    return _SINGLE, _PAIR, _START
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def hilbert_key(x0, x1, x2, bits, single, pair, start):
+    """The Hilbert key of one point of ``bits``-bit coordinates (x0, x1, x2), from the tables
+    of :func:`transition_tables` (numba code can call it; :func:`hilbert_keys` for arrays)."""
+    s = np.int64(start)
+    key = np.int64(0)
+    k = bits - 1  # the level read next
+    if bits & 1:
+        e = np.int64(single[8 * s + (((x0 >> k) & 1) << 2 | ((x1 >> k) & 1) << 1 | ((x2 >> k) & 1))])
+        key = e & 7
+        s = e >> 3
+        k -= 1
+    while k > 0:
+        e = np.int64(pair[64 * s + (((x0 >> (k - 1)) & 3) << 4 | ((x1 >> (k - 1)) & 3) << 2
+                                    | ((x2 >> (k - 1)) & 3))])
+        key = key << 6 | (e & 63)
+        s = e >> 6
+        k -= 2
+    return np.uint64(key)
+
+
 @numba.njit(cache=True, nogil=True)
 def _hilbert_keys(codes, bits, single, pair, start):
     n = codes.shape[0]
     keys = np.empty(n, dtype=np.uint64)
     shift = np.uint32(32 - bits)
     for j in range(n):
-        x0 = np.int64(codes[j, 0] >> shift)
-        x1 = np.int64(codes[j, 1] >> shift)
-        x2 = np.int64(codes[j, 2] >> shift)
-        s = np.int64(start)
-        key = np.int64(0)
-        k = bits - 1  # the level read next
-        if bits & 1:
-            e = np.int64(single[8 * s + (((x0 >> k) & 1) << 2 | ((x1 >> k) & 1) << 1 | ((x2 >> k) & 1))])
-            key = e & 7
-            s = e >> 3
-            k -= 1
-        while k > 0:
-            e = np.int64(pair[64 * s + (((x0 >> (k - 1)) & 3) << 4 | ((x1 >> (k - 1)) & 3) << 2
-                                        | ((x2 >> (k - 1)) & 3))])
-            key = key << 6 | (e & 63)
-            s = e >> 6
-            k -= 2
-        keys[j] = np.uint64(key)
+        keys[j] = hilbert_key(np.int64(codes[j, 0] >> shift), np.int64(codes[j, 1] >> shift),
+                              np.int64(codes[j, 2] >> shift), bits, single, pair, start)
     return keys

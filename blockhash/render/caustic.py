@@ -107,7 +107,7 @@ def estimate_from_neighbours(index, points: ShadingPoints, materials, search, k,
 
     ``search`` maps (m, 3) float32 points to cKDTree-style ``(distances, indices)``;
     ``radii(index, k)`` the photons' own squared radii of the conserving estimate
-    (default :func:`.photon_radius.own_radii2`, from the index's own query; the exact
+    (default :func:`.photon_radius.own_radii2`, the octree search; the exact
     estimate passes :func:`.photon_radius.exact_radii2`).
     """
     options = EstimateOptions() if options is None else options
@@ -210,7 +210,7 @@ class CausticPass:
 
     def __init__(self, index, *, backend=None, radii=None, gather: str = "knn"):
         """``radii(index, k)``: the photons' own squared radii of the conserving estimate
-        (default :func:`.photon_radius.own_radii2`, from the index's own query).  ``gather``:
+        (default :func:`.photon_radius.own_radii2`, the octree search).  ``gather``:
         ``'knn'`` finds the k nearest photons with the index's lookup (every estimate);
         ``'cover'`` every photon whose own disc covers the point (the conserving estimate,
         :mod:`blockhash.index.cover`), and uploads no blocks."""

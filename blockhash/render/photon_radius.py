@@ -22,12 +22,11 @@ not fall to 0 at the disc's edge).  A map with fewer than j + 1 photons uses eac
 photon's farthest other photon; a map of one photon has no radius (infinite: the photon
 adds nothing).
 
-The j-th nearest other photon comes from the photon map's own index: the CPU reference of
-its default lookup (:meth:`BlockHashIndex.query`) with every photon as a query, at the
-index's A.  It is approximate like every other search of the renderer, and never nearer
-than the exact one (a missed neighbour only moves the j-th outward), so a radius is at
-least the exact radius; :func:`exact_radii2` (scipy's cKDTree) is the oracle the tests
-and ``tools/photon_radii.py`` compare with.
+The j-th nearest other photon comes from an exact search over the octree of the index's
+Hilbert order (:mod:`blockhash.index.octree_knn`: the 3 x 3 x 3 cubes around each photon,
+read up the levels until the j-th lies within a cube's side), in about the index build's time
+(BENCHMARKS.md, "Photon radii"); :func:`exact_radii2` (scipy's cKDTree) is the oracle it is
+tested against, value for value.
 """
 
 from __future__ import annotations
@@ -40,8 +39,6 @@ import numpy as np
 from blockhash.errors import InputError
 from blockhash.index.fixedpoint import min_r2
 
-#: Photons queried at once for their radii (the answers of a chunk are (chunk, j + 1)).
-RADII_CHUNK = 1 << 18
 #: j = k - MARGIN_SIGMAS sqrt(k): the standard deviations of the count left as margin.
 MARGIN_SIGMAS = 2.0
 
@@ -58,17 +55,14 @@ def neighbours_for(k: int) -> int:
 
 def own_radii2(index, k: int) -> np.ndarray:
     """(n,) float64 squared radius of every photon (input order), for an estimate with k
-    neighbours (module docstring).  Computed once per index and k, by the index's own query."""
+    neighbours (module docstring).  Computed once per index and k, by the octree search."""
     def jth(pos, rank):
-        # Queried in slot (Hilbert) order, so that neighbouring queries read neighbouring
-        # blocks (1.3x faster than input order at 10^6 photons), and in chunks, so that the
-        # (m, k) answers of one chunk are all that is held at once.
-        order = np.argsort(index.slot_of, kind="stable")
+        from blockhash.index.octree_knn import jth_distances
+
+        codes = index.records.records[:, :3]  # in Hilbert order
         out = np.empty(len(pos))
-        for start in range(0, len(pos), RADII_CHUNK):
-            rows = order[start:start + RADII_CHUNK]
-            d, _ = index.query(pos[rows], k=rank + 1)
-            out[rows] = np.asarray(d, dtype=np.float64).reshape(len(rows), -1)[:, rank]
+        out[index.order] = jth_distances(codes, index.quantizer.decode(codes), rank,
+                                         index.quantizer)
         return out
     return _radii2(index, neighbours_for(k), jth, "own")
 

@@ -1,0 +1,44 @@
+"""The exact j-th nearest other photon over the octree of the Hilbert order
+(blockhash/index/octree_knn.py), against scipy's cKDTree on the same decoded positions."""
+
+import numpy as np
+import pytest
+from conftest import photon_set
+from scipy.spatial import cKDTree
+
+from blockhash.errors import InputError
+from blockhash.index.block_hash_index import BlockHashIndex
+from blockhash.index.octree_knn import jth_distances
+
+
+def jth_both(positions, j, k=50):
+    index = BlockHashIndex(positions, k=k)
+    codes = index.records.records[:, :3]
+    pos = index.quantizer.decode(codes)
+    got = jth_distances(codes, pos, j, index.quantizer)
+    want = cKDTree(pos.astype(np.float64)).query(pos.astype(np.float64), k=[j + 1])[0][:, 0]
+    return got, want
+
+
+@pytest.mark.parametrize("j", [1, 8, 36])
+def test_equals_ckdtree_on_every_map(distribution, j):
+    got, want = jth_both(photon_set(distribution, 20_000), j)
+    np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.filterwarnings("ignore::blockhash.index.block_hash_index.OrphanWarning")
+def test_piles_far_photons_and_the_largest_rank():
+    """Photons piled at one point (distance 0), one photon far from the rest (its search
+    climbs to the top cube) and j = n - 1 (every other photon)."""
+    rng = np.random.default_rng(2)
+    pos = np.vstack([rng.random((500, 3)), np.zeros((60, 3)), [[40.0, 40.0, 40.0]]])
+    for j in (5, 59, 80, len(pos) - 1):
+        got, want = jth_both(pos, j, k=8)
+        np.testing.assert_array_equal(got, want)
+
+
+def test_a_rank_outside_the_map_is_refused():
+    index = BlockHashIndex(np.random.default_rng(0).random((20, 3)), k=4)
+    codes = index.records.records[:, :3]
+    with pytest.raises(InputError, match=r"j=20 must lie in \[1, 19\]"):
+        jth_distances(codes, index.quantizer.decode(codes), 20, index.quantizer)
