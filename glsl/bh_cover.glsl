@@ -22,16 +22,6 @@ uniform uvec4 bh_cover_octave[BH_COVER_MAX_OCTAVES];  // (octave, side, half, 0)
 
 uint bh_cover_sink;
 
-// An octahedral unit vector from two snorm16 (blockhash/index/cover.py octahedral_decode).
-vec3 bh_octahedral(uint w) {
-    vec2 f = unpackSnorm2x16(w);
-    vec3 v = vec3(f, 1.0 - abs(f.x) - abs(f.y));
-    float t = max(-v.z, 0.0);
-    v.x += v.x >= 0.0 ? -t : t;
-    v.y += v.y >= 0.0 ? -t : t;
-    return normalize(v);
-}
-
 // The first and last cell of one axis holding code +- half, saturated to [0, 2^32).
 uvec2 bh_cover_axis(uint code, uint half_, uint side) {
     uint lo = code > half_ ? code - half_ : 0u;

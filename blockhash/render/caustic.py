@@ -176,7 +176,7 @@ class Neighbours:
         wo = pts.view.reshape(-1, 3)[self.live].astype(np.float64)
         weight = photon_weights(options, self.d2, self.r2, self.found, self.wi, self.normal, n,
                                 self.offset, self.own_r2)
-        table = _material_table(materials)
+        table = material_table(materials)
         mid = np.repeat(pts.material.reshape(-1)[self.live], k)
         f = phong_brdf(self.wi.reshape(-1, 3), np.repeat(wo, k, axis=0), np.repeat(n, k, axis=0),
                        table[0][mid], table[1][mid], table[2][mid])
@@ -187,7 +187,7 @@ class Neighbours:
         return out.reshape(h, w, 3)
 
 
-def _material_table(materials):
+def material_table(materials):
     """[(kd, ks, exponent)] -> (kd (M,3), ks (M,3), e (M,)) float64, within the pass's uniforms."""
     if len(materials) > MAX_MATERIALS:
         raise InputError(f"{len(materials)} receiver materials > {MAX_MATERIALS} that the caustic "
@@ -289,7 +289,7 @@ class CausticPass:
         k = prm.k if k is None else k
         A = prm.A if A is None else A
         h, w = points.shape
-        kd, ks, e = _material_table(materials)
+        kd, ks, e = material_table(materials)
         ctx = self.ctx
         options = EstimateOptions() if options is None else options
         own = {}

@@ -1,6 +1,8 @@
 """The conserving estimate over the cover gather: the shader pass (glsl/caustic_cover.glsl)
 against its CPU reference per shading point, the analytic plane, and the default render."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from conftest import context_or_skip
@@ -97,3 +99,42 @@ def test_a_pile_past_llvmpipes_loop_limit_is_refused_there():
         index = BlockHashIndex(pos, k=8)
     with pytest.raises(CapacityError, match=r"65,535.*method='cpu'"):
         CausticPass(index, backend="egl", gather="cover").render(grid_points(2, 2), MATS)
+
+
+@pytest.fixture(scope="module")
+def ring_scene_points():
+    """The ring's camera points at 40 x 40 (one per pixel) and 40,000 of its photons."""
+    from blockhash.photons.tracing import trace_caustic_photons
+    from blockhash.render.gbuffer import rasterize
+    from blockhash.render.shading import SceneRays, shading_points
+    from blockhash.scene.loader import load_scene
+    from blockhash.scene.materials import receiver_materials
+    from blockhash.scene.model import MirrorMaterial
+
+    context_or_skip("egl")
+    scene = load_scene(Path(__file__).resolve().parents[2] / "scenes" / "ring.toml")
+    scene = scene.with_size(40, 40)
+    pm = trace_caustic_photons(scene, 40_000, seed=1)
+    index = BlockHashIndex(pm.positions, k=50, directions=pm.directions, normals=pm.normals,
+                           powers=pm.powers)
+    g = rasterize(scene.camera, scene.objects, backend="egl")
+    pts = shading_points(scene.camera, g, scene.objects, SceneRays(scene.objects), (MirrorMaterial,))
+    return scene, index, pts, receiver_materials(scene.objects)
+
+
+def test_splatting_equals_the_gather_where_the_camera_sees_the_receiver(ring_scene_points):
+    """The same estimate scattered: equal to the cover gather's per pixel that sees a receiver
+    directly; where the pixel sees the floor in the mirror ring, only the photons that project
+    near it (by the ring's foot, where the floor and its image meet) reach it."""
+    from blockhash.render.splat import SplatPass
+
+    scene, index, pts, mats = ring_scene_points
+    gather = cover_gather(index, 50)
+    splat, walls = SplatPass(gather, backend="egl").render(pts, mats, scene.camera, repeat=2)
+    cover = CausticPass(index, backend="egl", gather="cover").render(pts, mats)
+    direct = (pts.material >= 0) & (pts.weight == 1).all(axis=2)
+    assert len(walls) == 2 and (cover[direct] > 0).mean() > 0.3
+    np.testing.assert_allclose(splat[direct], cover[direct], rtol=2e-5, atol=1e-6 * cover.max())
+    seen_in_mirror = (pts.material >= 0) & ~direct
+    assert seen_in_mirror.any() and cover[seen_in_mirror].sum() > 0
+    assert splat[seen_in_mirror].sum() < 0.3 * cover[seen_in_mirror].sum()
