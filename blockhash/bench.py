@@ -188,9 +188,9 @@ def _kdtree_row(index, q, k, repeat, warmup, backend, clock, device) -> dict:
 
 
 #: The caustic pass's peers that ``run_caustic_benchmark`` times side by side: the cover
-#: gather (the default), the k-nearest walk and cells lookups, the exact kd-tree shader and
-#: the CPU reference of the default.
-GATHERS = ("cover", "walk", "cells", "kdtree", "cpu")
+#: gather (the default), the k-nearest walk and cells lookups, the exact kd-tree shader, the
+#: CPU reference of the default, and photon splatting (the default's estimate scattered).
+GATHERS = ("cover", "walk", "cells", "kdtree", "cpu", "splat")
 
 
 def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default", repeat=10,
@@ -198,9 +198,12 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
                           progress=print):
     """Time a scene's caustic pass on its own pixels, one peer of ``gathers`` after another
     (:data:`GATHERS`): the shader gathers per stage (blockhash.render.caustic.STAGES), the
-    kd-tree and CPU methods whole; then the walk's whole pass once more with each of
-    ``estimates`` (forms of :class:`~blockhash.render.estimate.EstimateOptions`, the other
-    fields the default's).  Each row names its ``gather`` and ``stage``, with ``seconds``."""
+    kd-tree, CPU and splatting methods whole; then the walk's whole pass once more with each
+    of ``estimates`` (forms of :class:`~blockhash.render.estimate.EstimateOptions`, the other
+    fields the default's).  Each row names its ``gather`` and ``stage``, with ``seconds``; the
+    splatting row also its ``reach``, the share of the cover gather's caustic (summed over the
+    pixels) that it reaches: splatting misses what the camera sees in mirrors and glass."""
+    from blockhash.gl.context import get_context
     from blockhash.photons.tracing import trace_caustic_photons
     from blockhash.render.caustic import STAGES, CausticPass, estimate_exact
     from blockhash.render.cover_estimate import cover_gather, estimate_cover_cpu
@@ -262,6 +265,18 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
             for stage, times in stages.items():
                 add(gather, stage, times, device, clk)
             continue
+        if gather == "splat":
+            from blockhash.render.splat import SplatPass
+
+            gathered = cover_gather(index, settings.k)
+            image, walls = SplatPass(gathered, backend=backend).render(
+                points, materials, scene.camera, repeat=warmup + repeat)
+            cover = CausticPass(index, backend=backend, gather="cover").render(points, materials)
+            add(gather, STAGES[-1], {"wall": walls[warmup:]}, device or device_info(get_context(backend)),
+                "wall")
+            rows[-1]["reach"] = float(image.sum() / max(float(cover.sum()), 1e-300))
+            progress(f"splatting reaches {rows[-1]['reach']:.1%} of the gathered caustic")
+            continue
         if gather == "kdtree":
             exact_radii2(index, settings.k)
 
@@ -278,8 +293,6 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
             run()
             if i >= warmup:
                 walls.append(time.perf_counter() - t)
-        from blockhash.gl.context import get_context
-
         dev = device or device_info(get_context(backend))
         add(gather, STAGES[-1], {"wall": walls}, dev, "wall")
     return rows

@@ -94,7 +94,9 @@ def test_bench_times_the_caustic_pass_per_stage(tmp_path, capsys):
     assert [(r["gather"], r["stage"]) for r in rows] == (
         [("cover", s) for s in stages] + [("walk", s) for s in stages]
         + [("walk", "lookup + estimate (unbiased)")] + [("cells", s) for s in stages]
-        + [("kdtree", "lookup + estimate"), ("cpu", "lookup + estimate")])
+        + [("kdtree", "lookup + estimate"), ("cpu", "lookup + estimate"),
+           ("splat", "lookup + estimate")])
+    assert 0.2 < rows[-1]["reach"] < 1.0  # the ring's mirror images are out of its reach
     shader = [r for r in rows if r["gather"] in ("cover", "walk", "cells")]
     assert all(r["draws"] == 2 and r["gpu_median"] > 0 and r["pixels"] == 512 * 512 for r in shader)
     assert all(r["draws"] == 2 and r["seconds"] > 0 for r in rows)
