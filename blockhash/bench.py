@@ -168,7 +168,36 @@ def run_benchmark(*, photons=1_000_000, queries=512 * 512, k=50, A_values=(1, 2,
     if kdtree:
         rows.append(_kdtree_row(index, q, k, repeat, warmup, backend, clk, device))
         progress(f"kd-tree shader: {rows[-1]['seconds']:.4f} s")
+    rows.append(_cover_row(index, q, k, repeat, warmup, backend, clk, device))
+    progress(f"cover gather: {rows[-1]['seconds']:.4f} s")
     return rows
+
+
+def _cover_row(index, q, k, repeat, warmup, backend, clock, device) -> dict:
+    """The cover gather alone (the caustic pass's lookup stage: every photon whose own disc
+    covers each point, counted, no estimate) on the same queries, as one image of shading
+    points facing +y; its radii (for k) are computed outside the timing."""
+    from blockhash.render.caustic import STAGES, CausticPass, ShadingPoints
+    from blockhash.render.cover_estimate import cover_gather
+
+    m = len(q)
+    side = int(np.ceil(np.sqrt(m)))
+    rows_ = -(-m // side)
+    pos = np.zeros((rows_ * side, 3), np.float32)
+    pos[:m] = q
+    mat = np.full(rows_ * side, -1, np.int32)
+    mat[:m] = 0
+    up = np.tile(np.float32([0, 1, 0]), (rows_, side, 1))
+    points = ShadingPoints(position=pos.reshape(rows_, side, 3), normal=up, view=up,
+                           material=mat.reshape(rows_, side), weight=np.ones_like(up))
+    gather = cover_gather(index, k)
+    cov = gather.query(q)
+    times = CausticPass(index, backend=backend, gather="cover").time_stages(
+        points, [((0.5,) * 3, (0.0,) * 3, 1.0)], k=k, repeat=repeat, warmup=warmup,
+        stages=(STAGES[1],))[STAGES[1]]
+    return {"method": "cover gather (alone)", "A": None, **summarize(times, clock),
+            "covering_mean": float(cov.counts.mean()), "candidates": float(cov.candidates.mean()),
+            **device}
 
 
 def _kdtree_row(index, q, k, repeat, warmup, backend, clock, device) -> dict:

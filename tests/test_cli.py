@@ -70,8 +70,10 @@ def test_bench_command_prints_the_table_and_writes_json(tmp_path, capsys):
     lookups = ("BH default", "BH default (Hilbert cells)", "BH default (tables hashed, walk off)")
     floors = ("BH fetch-only floor", "BH fetch-only floor (Hilbert cells)",
               "BH fetch-only floor (tables hashed, walk off)")
-    assert {r["method"] for r in rows} == {"cKDTree (CPU, all workers)", *lookups, *floors}
+    assert {r["method"] for r in rows} == {"cKDTree (CPU, all workers)", *lookups, *floors,
+                                           "cover gather (alone)"}
     by = {r["method"]: r for r in rows}
+    assert by["cover gather (alone)"]["candidates"] >= by["cover gather (alone)"]["covering_mean"] > 0
     for name in lookups:  # each measured on its own
         assert 0 <= by[name]["fn_percent"] < 100 and by[name]["candidates"] > 0
     assert all(r["seconds"] > 0 for r in rows)
