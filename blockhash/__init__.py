@@ -13,7 +13,7 @@ moved.install()  # old module names, for one release
 from blockhash import render  # the frame package, callable: blockhash.render(scene, ...)
 from blockhash.errors import BlockHashError, CapacityError, InputError, InputTypeError, ShaderCompileError
 from blockhash.index.block_hash_index import BlockHashIndex, IndexStats, OrphanWarning
-from blockhash.index.params import BlockHashParams
+from blockhash.index.tables.params import BlockHashParams
 from blockhash.render.estimate import EstimateOptions
 from blockhash.render.options import LookupOptions
 

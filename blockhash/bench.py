@@ -30,9 +30,9 @@ from dataclasses import replace
 
 import numpy as np
 
+from blockhash.evaluate.datasets import DISTRIBUTIONS
+from blockhash.evaluate.metrics import exact_knn, false_negatives
 from blockhash.index.block_hash_index import BlockHashIndex
-from blockhash.index.datasets import DISTRIBUTIONS
-from blockhash.index.metrics import exact_knn, false_negatives
 
 QUERY_SETS = ("image", "random")
 CLOCKS = ("auto", "gpu", "wall")

@@ -24,11 +24,11 @@ from blockhash.cli_images import add_parsers as add_image_parsers
 from blockhash.cli_images import size as _size
 from blockhash.cli_tradeoff import add_parser as add_tradeoff_parser
 from blockhash.errors import BlockHashError, InputError
+from blockhash.evaluate.datasets import DISTRIBUTIONS
+from blockhash.evaluate.metrics import accuracy, exact_knn
 from blockhash.gl.context import BACKENDS
 from blockhash.index.block_hash_index import BlockHashIndex
-from blockhash.index.datasets import DISTRIBUTIONS
-from blockhash.index.metrics import accuracy, exact_knn
-from blockhash.index.params import PRESETS
+from blockhash.index.tables.params import PRESETS
 from blockhash.render.options import METHODS
 from blockhash.scene.camera import DEFAULT_SPP
 

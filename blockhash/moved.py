@@ -29,6 +29,28 @@ MOVED = {
     "blockhash.tradeoff": "blockhash.studies",
     **{f"blockhash.tradeoff.{m}": f"blockhash.studies.{m}"
        for m in ("sweep", "budget", "claims", "estimates", "measure", "report", "sampling")},
+    # index/ laid out in its parts: records, tables, lookups; its evaluation data in evaluate/
+    "blockhash.index.fixedpoint": "blockhash.index.records.fixedpoint",
+    "blockhash.index.codec": "blockhash.index.records.codec",
+    "blockhash.index.hilbert": "blockhash.index.records.hilbert",
+    "blockhash.index.radixsort": "blockhash.index.records.radixsort",
+    "blockhash.index.btree": "blockhash.index.records.btree",
+    "blockhash.index.blocks": "blockhash.index.records.blocks",
+    "blockhash.index.thresholds": "blockhash.index.tables.thresholds",
+    "blockhash.index.adaptive": "blockhash.index.tables.adaptive",
+    "blockhash.index.probe": "blockhash.index.tables.probe",
+    "blockhash.index.partition": "blockhash.index.tables.partition",
+    "blockhash.index.taskpool": "blockhash.index.tables.taskpool",
+    "blockhash.index.hashtables": "blockhash.index.tables.hashtables",
+    "blockhash.index.params": "blockhash.index.tables.params",
+    "blockhash.index.node_boxes": "blockhash.index.tables.node_boxes",
+    "blockhash.index.query": "blockhash.index.lookups.hash",
+    "blockhash.index.best_first": "blockhash.index.lookups.walk",
+    "blockhash.index.cells": "blockhash.index.lookups.cells",
+    "blockhash.index.cell_query": "blockhash.index.lookups.cells_query",
+    "blockhash.index.datasets": "blockhash.evaluate.datasets",
+    "blockhash.index.photon_maps": "blockhash.evaluate.photon_maps",
+    "blockhash.index.metrics": "blockhash.evaluate.metrics",
 }
 
 

@@ -30,7 +30,7 @@ uvec4 bh_block_head(uint b) {
 // lowered by 2^-18 of the box's magnitude per axis (far more than the rounding of
 // decoding a photon, of float(u) and of this computation) and by 2^-16 relative
 // (more than the five roundings of a squared distance).  Every operation rounded on its
-// own (precise: nothing fused), as blockhash/index/query.py block_gap2 computes it: the
+// own (precise: nothing fused), as blockhash/index/lookups/hash.py block_gap2 computes it: the
 // walk's culling decides which blocks are examined, so both sides must agree bit for bit.
 float bh_block_gap2(uvec4 h, vec3 q) {
     precise vec3 lo = bh_lo + vec3(h.yzw << 16u) * bh_step;

@@ -7,7 +7,7 @@
 // Defines: BH_PRIORITY (on: smallest alpha first, ties in table order | off:
 // table order), BH_L, BH_B, BH_BUCKETS, BH_HDR_W, BH_REF_W.  With BH_ADAPTIVE the
 // priority is bh_depth_key[t] instead of alpha: the query's distance to the nearest cut
-// of its path in table t, largest first (blockhash/index/query.py step 2).
+// of its path in table t, largest first (blockhash/index/lookups/hash.py step 2).
 
 #ifndef BH_BUCKETS_GLSL
 #define BH_BUCKETS_GLSL

@@ -1,5 +1,5 @@
-// bh_cells.glsl: the cell lookup (lookup='cells'), Hilbert cells in a cuckoo hash (blockhash/index/cells.py,
-// the CPU oracle blockhash/index/cell_query.py).  Three rounds of fetches, each independent
+// bh_cells.glsl: the cell lookup (lookup='cells'), Hilbert cells in a cuckoo hash (blockhash/index/lookups/cells.py,
+// the CPU oracle blockhash/index/lookups/cells_query.py).  Three rounds of fetches, each independent
 // within itself: the query's own cell at every level above BH_CELL_FIRST (2 fetches a
 // cell), the 3 x 3 x 3 groups at three levels (162 fetches), the chosen group's photons
 // (one RGBA32F texel each).  Then the k nearest candidates are found by counting: passes

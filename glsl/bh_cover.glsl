@@ -1,5 +1,5 @@
 // bh_cover.glsl: the cover gather, every photon whose own disc covers the query
-// (blockhash/index/cover.py, its integer-exact CPU reference).  The query's codes give, at
+// (blockhash/index/lookups/cover.py, its integer-exact CPU reference).  The query's codes give, at
 // each octave that holds photons, the cells that hold code +- half on each axis (at most
 // 2 x 2 x 2), computed, not searched.  Two dependent rounds: the cells' cuckoo slots
 // (bh_cuckoo.glsl, 2 fetches a cell), then their records; nothing is kept but a sum.

@@ -1,4 +1,4 @@
-// bh_cuckoo.glsl: the cuckoo hash of cell keys (blockhash/index/cells.py cell_hash,
+// bh_cuckoo.glsl: the cuckoo hash of cell keys (blockhash/index/lookups/cells.py cell_hash,
 // cuckoo_get): a key sits in one of the two slots its two hash functions name, so a
 // lookup is 2 independent texel fetches and no probe sequence.
 // Takes: the table's texture, its width (log2), slots - 1, and the key's two words.

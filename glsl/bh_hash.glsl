@@ -6,9 +6,9 @@
 // which replace the grid), BH_T words per table
 // row, BH_THR_W threshold texture width (log2), BH_MAX_DEPTH (adaptive descent bound),
 // BH_PROBE_CUTS (adaptive: the nearest cuts bh_descend records for multi-probing).
-// Exactly blockhash/index/fixedpoint.py quantize_query and
-// blockhash/index/thresholds.py bucket_of (adaptive_bucket_of; layout in
-// blockhash/index/adaptive.py).
+// Exactly blockhash/index/records/fixedpoint.py quantize_query and
+// blockhash/index/tables/thresholds.py bucket_of (adaptive_bucket_of; layout in
+// blockhash/index/tables/adaptive.py).
 #ifndef BH_HASH_GLSL
 #define BH_HASH_GLSL
 #include "bh_fetch.glsl"
@@ -44,7 +44,7 @@ uint bh_count_le(uint base, uint count, uint code) {
 #if BH_ADAPTIVE
 // The PROBE_CUTS = 3 cuts of the last bh_descend nearest to the query: gap (float32 metres
 // |code - t| * step, ascending, +inf where unused), axis, and the code across the cut
-// (blockhash/index/thresholds.py adaptive_descend).
+// (blockhash/index/tables/thresholds.py adaptive_descend).
 #if BH_PROBE_CUTS != 3
 #error bh_descend keeps exactly 3 cuts
 #endif

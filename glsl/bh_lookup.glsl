@@ -12,7 +12,7 @@
 // memory floor the benchmark compares with; bh_fetch_sink receives their sum),
 // BH_BEST_FIRST (1: the default preset's nearest-box-first walk, bh_walk.glsl, replaces
 // hashing, bucket order and probes).
-// The CPU oracle is blockhash/index/query.py bh_query (BH_BEST_FIRST: best_first.py
+// The CPU oracle is blockhash/index/lookups/hash.py bh_query (BH_BEST_FIRST: best_first.py
 // bf_query); both give identical results.
 #ifndef BH_LOOKUP_GLSL
 #define BH_LOOKUP_GLSL
@@ -67,7 +67,7 @@ uint bh_packed_key(uint b, uint j, vec3 q, uint cand) {
 // as examined and the block as taken, so the result is the same as without culling.
 // The walk (BH_BEST_FIRST) always culls, whatever BH_CULL, and otherwise: a far block is
 // not taken and its photons are not examined, so they do not count toward BH_CAP
-// (blockhash/index/best_first.py, the same bound and comparison on the CPU).
+// (blockhash/index/lookups/walk.py, the same bound and comparison on the CPU).
 #if BH_BEST_FIRST && !BH_FETCH_ONLY
 #define BH_WALK_CULL 1
 #else
@@ -246,7 +246,7 @@ uint bh_lookup(vec3 q) {
         bh_take(t, key, nref, q, ntaken, count);
     }
 #if BH_PROBE && BH_ADAPTIVE
-    // Multi-probe (blockhash/index/query.py step 4): across each table's nearest cut, in
+    // Multi-probe (blockhash/index/lookups/hash.py step 4): across each table's nearest cut, in
     // the same table order, then the second nearest, then the third.
     for (int j = 0; j < BH_PROBE_CUTS; ++j) {
         for (int oi = 0; oi < BH_L; ++oi) {

@@ -1,4 +1,4 @@
-// bh_octahedral.glsl: an octahedral unit vector from two snorm16 (blockhash/index/cover.py
+// bh_octahedral.glsl: an octahedral unit vector from two snorm16 (blockhash/index/lookups/cover.py
 // octahedral_encode and octahedral_decode, its CPU reference): no trigonometry.
 #ifndef BH_OCTAHEDRAL_GLSL
 #define BH_OCTAHEDRAL_GLSL

@@ -2,7 +2,7 @@
 // Takes: a float32 query position, and the blocks taken and candidates examined so far.
 // Returns: the candidates of every bucket the walk reaches, offered to the selection by
 // bh_take (bh_lookup.glsl), which must be defined before this file is included.
-// Exactly blockhash/index/best_first.py bf_query: a queue of (squared distance to the
+// Exactly blockhash/index/lookups/walk.py bf_query: a queue of (squared distance to the
 // node's box as float32 bits, node id = t * BH_NODES + i) seeded with the roots of the
 // first BH_WALK_TREES tables; repeat at most BH_MAX_POPS times: stop at the cap (the
 // walk has no block cap) or with an empty queue; pop the smallest (distance, id); stop

@@ -4,7 +4,7 @@
 // the screen rectangle of the photon's cube [p - h, p + h]^3, widened by half a pixel, holds
 // the pixel centre of every surface point within h of the photon seen directly by the camera.
 // A cube with a corner behind the camera covers the whole screen.
-// Takes: per instance the cover gather's record (blockhash/index/cover.py: position and h^2,
+// Takes: per instance the cover gather's record (blockhash/index/lookups/cover.py: position and h^2,
 // then its second texel); view_proj, splat_half_pixel (half a pixel in NDC).
 uniform mat4 view_proj;
 uniform vec2 splat_half_pixel;

@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 
-from blockhash.index.datasets import DISTRIBUTIONS
+from blockhash.evaluate.datasets import DISTRIBUTIONS
 
 
 @pytest.fixture

@@ -14,7 +14,7 @@ def test_the_cache_is_named_for_version_and_source():
     digest = code_version.source_digest(parts=code_version.compiled_modules())
     assert folder.name == f"blockhash-{blockhash.__version__}-{digest}"
     assert "index/cells.py" in code_version.compiled_modules()
-    from blockhash.index.cells import cell_hash
+    from blockhash.index.lookups.cells import cell_hash
     cell_hash(1, 2, 3)
     assert cell_hash.stats.cache_path.startswith(str(folder))
 

@@ -1,9 +1,9 @@
-"""Plain-Python transcriptions of the reference query (blockhash/index/query.py), the
+"""Plain-Python transcriptions of the reference query (blockhash/index/lookups/hash.py), the
 oracles that the tests hold the numba reference and the shader to."""
 
 import numpy as np
 
-from blockhash.index.thresholds import PROBE_CUTS, ThresholdLayout, hash_codes
+from blockhash.index.tables.thresholds import PROBE_CUTS, ThresholdLayout, hash_codes
 
 
 def descend(row, code, step):
@@ -24,7 +24,7 @@ def descend(row, code, step):
 def visited_buckets(index, q):
     """(table, bucket) in the order section 4.4 visits them, for one query, in plain Python:
     by priority alpha; for the adaptive layout, tables deepest first and then the probes
-    across each table's nearest cuts (blockhash/index/query.py steps 2 and 4)."""
+    across each table's nearest cuts (blockhash/index/lookups/hash.py steps 2 and 4)."""
     prm = index.params
     qf = np.asarray(q, dtype=np.float32)[None, :]
     code = index.quantizer.quantize_query(qf)[0]
@@ -79,7 +79,7 @@ def box_distance(box, q):
 
 def block_gap2(words, q, lo, step):
     """The walk's block culling bound (glsl/bh_blocks.glsl bh_block_gap2) in plain Python:
-    ``words`` a block's three box words (blockhash/index/blocks.py block_boxes), one
+    ``words`` a block's three box words (blockhash/index/records/blocks.py block_boxes), one
     float32 rounding per operation."""
     f = np.float32
     g = []
@@ -94,7 +94,7 @@ def block_gap2(words, q, lo, step):
 
 
 def walked_query(index, q, k, A, trees=None):
-    """The nearest-box-first walk (blockhash/index/best_first.py) in plain Python, with an
+    """The nearest-box-first walk (blockhash/index/lookups/walk.py) in plain Python, with an
     unbounded sorted queue (the real one's capacity never binds on small maps), seeded with
     the first ``trees`` tables (default: the params' for k: all L below its walk_floor), the
     cap of A * max(k, walk_floor) candidates alone ending it (no block cap): the k nearest (slots, squared distances) of the photons of
@@ -113,8 +113,8 @@ def walk(index, q, k, A, trees=None):
     qf = np.asarray(q, dtype=np.float32)
     boxes, rows = index.node_boxes, index.thresholds
     nn = boxes.shape[1]
-    from blockhash.index.best_first import MAX_LEAVES, MAX_POPS
-    from blockhash.index.blocks import block_boxes
+    from blockhash.index.lookups.walk import MAX_LEAVES, MAX_POPS
+    from blockhash.index.records.blocks import block_boxes
 
     cboxes = block_boxes(index.block_words)
     lo = index.quantizer.lo.astype(np.float32)

@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from blockhash import BlockHashIndex  # noqa: E402
-from blockhash.index.photon_maps import MAPS  # noqa: E402
+from blockhash.evaluate.photon_maps import MAPS  # noqa: E402
 
 
 def main(argv=None) -> int:

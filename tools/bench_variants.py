@@ -20,8 +20,8 @@ import numpy as np
 
 from blockhash import BlockHashIndex
 from blockhash.bench import device_info, make_queries
+from blockhash.evaluate.datasets import DISTRIBUTIONS
 from blockhash.gl.lookup import GLLookup
-from blockhash.index.datasets import DISTRIBUTIONS
 
 
 def main() -> None:

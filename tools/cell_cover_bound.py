@@ -1,6 +1,6 @@
 """How many photons a lookup that reads whole cells of one level must read to be exact.
 
-A bounded cell lookup (``lookup='cells'``, :mod:`blockhash.index.cell_query`) reads
+A bounded cell lookup (``lookup='cells'``, :mod:`blockhash.index.lookups.cells_query`) reads
 whole octree cells of one level around the query, a fixed number of them, and so
 reads every photon of every cell it needs.  This script measures the least it could
 read and still return the exact k nearest: for each query, the exact k-th distance
@@ -31,10 +31,10 @@ sys.path.insert(0, str(ROOT / "tools"))
 
 from eval_accuracy import REPORT, TUNE, photon_map  # noqa: E402
 
-from blockhash.index.cells import CODE_SHIFT, LEVEL_MIN, LEVEL_TOP  # noqa: E402
-from blockhash.index.fixedpoint import Quantizer  # noqa: E402
-from blockhash.index.metrics import exact_knn, far_queries  # noqa: E402
-from blockhash.index.photon_maps import queries  # noqa: E402
+from blockhash.evaluate.metrics import exact_knn, far_queries  # noqa: E402
+from blockhash.evaluate.photon_maps import queries  # noqa: E402
+from blockhash.index.lookups.cells import CODE_SHIFT, LEVEL_MIN, LEVEL_TOP  # noqa: E402
+from blockhash.index.records.fixedpoint import Quantizer  # noqa: E402
 
 
 def level_counts(codes: np.ndarray, level: int):

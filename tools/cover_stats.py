@@ -1,4 +1,4 @@
-"""The cover gather's reads per shading point, from its CPU reference (blockhash/index/cover.py).
+"""The cover gather's reads per shading point, from its CPU reference (blockhash/index/lookups/cover.py).
 
 For each scene (its camera's shading points, one per pixel) and each synthetic map (bench's
 image raster of queries over the receiver): the photons covering each point (mean, max), the
@@ -17,8 +17,8 @@ import time
 import numpy as np
 
 from blockhash.bench import make_queries
+from blockhash.evaluate.datasets import DISTRIBUTIONS
 from blockhash.index.block_hash_index import BlockHashIndex
-from blockhash.index.datasets import DISTRIBUTIONS
 from blockhash.render.cover_estimate import cover_gather
 from blockhash.render.photon_radius import exact_radii2, own_radii2
 
@@ -81,7 +81,7 @@ def main(argv=None):
     p.add_argument("--scenes", default="scenes/ring.toml,scenes/venus.toml,scenes/glass.toml,"
                                        "scenes/corner.toml")
     p.add_argument("--maps", default=",".join(sorted(DISTRIBUTIONS)),
-                   help="synthetic maps (blockhash.index.datasets), queried on bench's raster")
+                   help="synthetic maps (blockhash.evaluate.datasets), queried on bench's raster")
     p.add_argument("--photons", type=float, default=2e5)
     p.add_argument("--queries", type=int, default=65536, help="raster queries per synthetic map")
     p.add_argument("--size", type=int, default=256, help="scene image side (one point per pixel)")

@@ -3,7 +3,7 @@
 For each photon map this script draws N photons (seed 0) and a query set placed
 where a renderer places shading points (seed 1): half from the photons'
 distribution, half uniform over the map's diffuse surfaces, lit or not
-(``blockhash.index.photon_maps.queries``).  For each preset and A it builds an
+(``blockhash.evaluate.photon_maps.queries``).  For each preset and A it builds an
 index (the default preset's buckets follow A, the paper's B does), queries it on
 the CPU reference, and compares with exact kNN (cKDTree on the index's decoded
 positions, from the float32 queries the index sees): false negatives (mean and 90th percentile, as a share of k), maximum
@@ -45,10 +45,10 @@ from scipy.spatial import cKDTree
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import blockhash.index.params as bp  # noqa: E402
+import blockhash.index.tables.params as bp  # noqa: E402
 from blockhash import BlockHashIndex, OrphanWarning  # noqa: E402
-from blockhash.index.metrics import accuracy, exact_knn, false_negatives, far_queries  # noqa: E402
-from blockhash.index.photon_maps import MAPS, PhotonMap, moved, queries, scaled  # noqa: E402
+from blockhash.evaluate.metrics import accuracy, exact_knn, false_negatives, far_queries  # noqa: E402
+from blockhash.evaluate.photon_maps import MAPS, PhotonMap, moved, queries, scaled  # noqa: E402
 
 #: Maps the default preset's constants were chosen on.
 TUNE = ("uniform", "clustered", "caustic", "ring")

@@ -14,7 +14,7 @@ import argparse
 import warnings
 
 from blockhash import BlockHashIndex
-from blockhash.index.metrics import accuracy, exact_knn
+from blockhash.evaluate.metrics import accuracy, exact_knn
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.scene.loader import load_scene
 

@@ -24,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import eval_accuracy as ea  # noqa: E402
 
 from blockhash import BlockHashIndex  # noqa: E402
-from blockhash.index.metrics import exact_knn, false_negatives  # noqa: E402
+from blockhash.evaluate.metrics import exact_knn, false_negatives  # noqa: E402
 
 
 def main(argv=None) -> int:

@@ -1,4 +1,4 @@
-"""The cover gather (blockhash/index/cover.py) uploaded to a GL context, for glsl/bh_cover.glsl.
+"""The cover gather (blockhash/index/lookups/cover.py) uploaded to a GL context, for glsl/bh_cover.glsl.
 
 Textures (wrapped rows, blockhash/gl/packing.py):
 
@@ -19,11 +19,11 @@ from blockhash.errors import CapacityError
 from blockhash.gl.context import get_context
 from blockhash.gl.limits import LOOP_LIMIT, is_llvmpipe
 from blockhash.gl.packing import upload
-from blockhash.index.cover import MAX_OCTAVES
+from blockhash.index.lookups.cover import MAX_OCTAVES
 
 
 class GLCover:
-    """A :class:`~blockhash.index.cover.CoverGather` in one GL context."""
+    """A :class:`~blockhash.index.lookups.cover.CoverGather` in one GL context."""
 
     def __init__(self, gather, *, backend: str | None = None):
         self.gather = gather

@@ -59,7 +59,7 @@ from blockhash.gl.context import check_gl, draw_timed, get_context, home_framebu
 from blockhash.gl.kdtree_build import build_kdtree
 from blockhash.gl.packing import upload
 from blockhash.gl.shaderlib import compile_program
-from blockhash.index.hilbert import hilbert_keys
+from blockhash.index.records.hilbert import hilbert_keys
 from blockhash.validate import as_int, as_points
 
 #: Queries per pass are capped so one draw stays short (llvmpipe runs a draw to completion).

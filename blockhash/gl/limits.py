@@ -36,9 +36,9 @@ import math
 
 from blockhash.errors import CapacityError, InputError
 from blockhash.gl.shaderlib import NAMED
-from blockhash.index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY, walk_taken_bound
-from blockhash.index.params import candidate_cap
-from blockhash.index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
+from blockhash.index.lookups.walk import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY, walk_taken_bound
+from blockhash.index.tables.params import candidate_cap
+from blockhash.index.tables.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
 
 #: Largest k the lookup shader keeps (the packed selection's unrolled table ends at 128).
 MAX_K = 128
@@ -74,7 +74,7 @@ def loop_iterations(params, variant, k: int, cap: int) -> int:
     two pushes onto it (each scan at most ``QUEUE_CAPACITY / 32`` chunks), and at most
     ``MAX_LEAVES`` buckets of at most ``B`` references each; with no L * B block cap its
     taken list holds up to ``min(MAX_LEAVES B, ceil(cap / 10) + 1)`` blocks
-    (:func:`blockhash.index.best_first.walk_taken_bound`), a reference being scanned
+    (:func:`blockhash.index.lookups.walk.walk_taken_bound`), a reference being scanned
     against one fewer at most (the cap ends the walk once that many are taken).
     """
     L, B = params.L, params.B

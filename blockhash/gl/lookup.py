@@ -26,12 +26,12 @@ from blockhash.gl.context import (
 from blockhash.gl.limits import MAX_TAKEN_SET, check_lookup
 from blockhash.gl.packing import pack_index
 from blockhash.gl.shaderlib import NAMED, Variant, compile_program
-from blockhash.index.best_first import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY, walk_taken_bound
 from blockhash.index.block_hash_index import resolve_lookup
-from blockhash.index.blocks import PHOTONS_PER_BLOCK
-from blockhash.index.cell_query import GROUP_CELLS
-from blockhash.index.params import candidate_cap
-from blockhash.index.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
+from blockhash.index.lookups.cells_query import GROUP_CELLS
+from blockhash.index.lookups.walk import MAX_LEAVES, MAX_POPS, QUEUE_CAPACITY, walk_taken_bound
+from blockhash.index.records.blocks import PHOTONS_PER_BLOCK
+from blockhash.index.tables.params import candidate_cap
+from blockhash.index.tables.thresholds import MAX_DEPTH, PROBE_CUTS, ThresholdLayout
 from blockhash.validate import as_int, as_points
 
 #: Queries per pass are capped so one draw stays short (llvmpipe runs a draw to completion).
@@ -55,7 +55,7 @@ def taken_bound(L: int, B: int, cap: int) -> int:
 def lookup_taken_bound(params, cap: int) -> int:
     """Most blocks one query of this index takes: :func:`taken_bound` for hashing; for the
     nearest-box-first walk (``params.best_first``), which has no L * B block cap,
-    :func:`blockhash.index.best_first.walk_taken_bound` (``ceil(cap / 10) + 1`` with
+    :func:`blockhash.index.lookups.walk.walk_taken_bound` (``ceil(cap / 10) + 1`` with
     compact blocks: at most ``cap + 9`` photons examined)."""
     if getattr(params, "best_first", False):
         return walk_taken_bound(params.B, cap)

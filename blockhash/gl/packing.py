@@ -12,13 +12,13 @@ blocks        RGBA32UI  16 texels per block: the block's 64 words (Figure 4), wi
                         spare words 61-63 holding the block's box (block_boxes)
 headers       RG32UI    bucket ``t * buckets + key``: (priority alpha, entries)
 refs          R32UI     ``(t * buckets + key) * B + slot``: block reference
-thresholds    R32UI     ``t * T + i``: threshold codes (blockhash/index/thresholds.py)
+thresholds    R32UI     ``t * T + i``: threshold codes (blockhash/index/tables/thresholds.py)
 cells         RGBA32UI  cuckoo slot ``i`` of the Hilbert cells: (key hi, key lo, first slot,
-                        count) (blockhash/index/cells.py)
+                        count) (blockhash/index/lookups/cells.py)
 points        RGBA32F   photon slot ``s`` (block order): its decoded float32 position, 0
 boxes         RGBA32UI  2 texels per adaptive node ``t * (T / 2) + i``: (float32 bits of
                         lo x, y, z, 1 if the box holds photons else 0), (hi x, y, z, 0)
-                        (blockhash/index/node_boxes.py; one zero texel for a grid layout)
+                        (blockhash/index/tables/node_boxes.py; one zero texel for a grid layout)
 ============  ========  ====================================================
 
 A map that does not fit (more rows than GL_MAX_TEXTURE_SIZE) is refused
@@ -33,7 +33,7 @@ import numpy as np
 
 from blockhash.errors import CapacityError
 from blockhash.gl.context import check_gl
-from blockhash.index.blocks import COUNT_WORD, block_boxes  # noqa: F401 (block_boxes: re-exported)
+from blockhash.index.records.blocks import COUNT_WORD, block_boxes  # noqa: F401 (block_boxes: re-exported)
 
 
 def texture_shape(elements: int, max_size: int) -> tuple[int, int, int]:

@@ -125,7 +125,7 @@ class Variant:
                                       same results.  The default preset's walk
                                       (BH_BEST_FIRST) culls whatever this field, and
                                       its culled blocks are not examined (they do not
-                                      count toward A * k: blockhash/index/best_first.py)
+                                      count toward A * k: blockhash/index/lookups/walk.py)
 
     A name lists the choices in this order, '-'-separated; a name of the first four
     (the paper's stages) means cull 'off'.
@@ -187,7 +187,7 @@ NAMED = {
 
 
 #: The stages whose choice the default preset's index does not see, and why: its lookup is
-#: the nearest-box-first walk over the adaptive trees (blockhash/index/best_first.py).
+#: the nearest-box-first walk over the adaptive trees (blockhash/index/lookups/walk.py).
 IGNORED_BY_DEFAULT_INDEX = {
     "search": "the adaptive layout descends its trees; only grid layouts search thresholds",
     "priority": "the walk visits buckets nearest box first, never by priority",

@@ -1,12 +1,11 @@
 """The Block Hashing index (paper sections 3-5), pure CPU: no GL, no scenes.
 
-Data flows through these modules in this order: fixed-point positions and photon
-records (:mod:`.fixedpoint`, :mod:`.codec`), Hilbert keys and 64-word blocks
-(:mod:`.hilbert`, :mod:`.btree`, :mod:`.blocks`), adaptive thresholds and hash
-tables (:mod:`.thresholds`, :mod:`.hashtables`), parameters (:mod:`.params`),
-the CPU query that is the shader's oracle (:mod:`.query`), and the index object
-that ties them together (:mod:`.block_hash_index`).  :mod:`.metrics` (exact kNN,
-false negatives, dilations) and :mod:`.datasets` (synthetic photon sets) measure it.
+Three parts, in the order data flows through them: the photon records and blocks
+(:mod:`.records`), the hash tables and their builders (:mod:`.tables`), and the lookups
+(:mod:`.lookups`: the hash query, the walk, the Hilbert cells, the cover gather, each the
+CPU reference of the shader named alike in glsl/), tied together by the index object
+(:mod:`.block_hash_index`).  What measures it (exact kNN metrics, synthetic photon sets,
+photon maps on surfaces) is in :mod:`blockhash.evaluate`.
 """
 
 from blockhash.index.block_hash_index import BlockHashIndex, IndexStats, OrphanWarning

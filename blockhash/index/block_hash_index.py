@@ -24,18 +24,18 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.index.adaptive import build_adaptive
-from blockhash.index.best_first import bf_query, walk_cull
-from blockhash.index.blocks import BLOCK_WORDS, make_blocks, pack_blocks
-from blockhash.index.cell_query import CELL_ROUNDS, cells_query
-from blockhash.index.cells import build_cells
-from blockhash.index.codec import WORDS_PER_PHOTON, PhotonRecords
-from blockhash.index.hashtables import insert_blocks
-from blockhash.index.hilbert import hilbert_keys
-from blockhash.index.node_boxes import node_boxes
-from blockhash.index.params import BlockHashParams, candidate_cap, resolve_params
-from blockhash.index.query import bh_query
-from blockhash.index.thresholds import ThresholdLayout, build_thresholds, descent_rounds
+from blockhash.index.lookups.cells import build_cells
+from blockhash.index.lookups.cells_query import CELL_ROUNDS, cells_query
+from blockhash.index.lookups.hash import bh_query
+from blockhash.index.lookups.walk import bf_query, walk_cull
+from blockhash.index.records.blocks import BLOCK_WORDS, make_blocks, pack_blocks
+from blockhash.index.records.codec import WORDS_PER_PHOTON, PhotonRecords
+from blockhash.index.records.hilbert import hilbert_keys
+from blockhash.index.tables.adaptive import build_adaptive
+from blockhash.index.tables.hashtables import insert_blocks
+from blockhash.index.tables.node_boxes import node_boxes
+from blockhash.index.tables.params import BlockHashParams, candidate_cap, resolve_params
+from blockhash.index.tables.thresholds import ThresholdLayout, build_thresholds, descent_rounds
 from blockhash.validate import as_int, as_points, old_keywords
 
 #: Bytes per 32-bit word.
@@ -151,7 +151,7 @@ class BlockHashIndex:
     A : int, keyword-only
         Accuracy multiplier: a query examines about ``A * k`` candidates (>= 1).
     preset : {'default', 'paper'}
-        Parameter choice, see :mod:`blockhash.index.params`.
+        Parameter choice, see :mod:`blockhash.index.tables.params`.
     L, P, B : int, optional
         Override the preset's tables, buckets per axis (one int or three), refs per bucket.
     layout : {'adaptive', 'marginal'}, optional
@@ -164,7 +164,7 @@ class BlockHashIndex:
         Photon payload stored in the records (Figure 4).
 
     Block hashing gives no (1 + eps) guarantee on distances; measure recall and
-    dilation with :mod:`blockhash.index.metrics`.
+    dilation with :mod:`blockhash.evaluate.metrics`.
     """
 
     def __init__(self, positions, *, k: int = 50, A: int = 8, preset: str = "default",
@@ -323,17 +323,17 @@ class BlockHashIndex:
             selection only where squared distances agree to 2**-(23 - slot_bits).
         probe : bool, optional
             Multi-probe beyond the query's own buckets while the cap allows
-            (:mod:`blockhash.index.query`); default: the preset's (on for 'default').
+            (:mod:`blockhash.index.lookups.hash`); default: the preset's (on for 'default').
         best_first : bool, optional
             Walk the adaptive tables' node boxes nearest first
-            (:mod:`blockhash.index.best_first`) instead of hashing (and probing);
+            (:mod:`blockhash.index.lookups.walk`) instead of hashing (and probing);
             default: the preset's (on for 'default').  ``by_priority`` and ``probe``
             do not change this walk.
         walk_trees : int, optional
             Tables the walk is seeded with (1 .. L, more is L); default: the
             params' ``walk_trees`` (1 for 'default').
         lookup : {'cells', 'walk', 'hash'}, optional
-            The query: the Hilbert cells (:mod:`blockhash.index.cell_query`), the tables'
+            The query: the Hilbert cells (:mod:`blockhash.index.lookups.cells_query`), the tables'
             nearest-box-first walk (the default preset's), or their hash query;
             default: the params' (``cells``, else ``best_first``).  ``best_first`` given
             alone chooses between the last two.

@@ -32,8 +32,8 @@ from blockhash.gl.context import (
 from blockhash.gl.limits import check_lookup
 from blockhash.gl.lookup import GLLookup, query_slot_bits
 from blockhash.gl.shaderlib import Variant
-from blockhash.index.codec import decode_directions, decode_powers, unpack_records
-from blockhash.index.fixedpoint import min_r2
+from blockhash.index.records.codec import decode_directions, decode_powers, unpack_records
+from blockhash.index.records.fixedpoint import min_r2
 from blockhash.render.estimate import EstimateOptions, photon_weights
 from blockhash.render.photon_radius import exact_radii2, own_radii2
 from blockhash.scene.materials import material_arrays, phong_brdf
@@ -94,7 +94,7 @@ def estimate_exact(index, points: ShadingPoints, materials, *, k=None, backend=N
         tree = GLKdTree(index.positions, backend=backend)
         return estimate_from_neighbours(index, points, materials, lambda q: tree.query(q, k), k,
                                         options=options, radii=exact_radii2)
-    from blockhash.index.metrics import exact_knn
+    from blockhash.index.lookups.exact import exact_knn
 
     return estimate_from_neighbours(index, points, materials,
                                     lambda q: exact_knn(index.positions, q, k), k, options=options,
@@ -213,7 +213,7 @@ class CausticPass:
         (default :func:`.photon_radius.own_radii2`, the octree search).  ``gather``:
         ``'knn'`` finds the k nearest photons with the index's lookup (every estimate);
         ``'cover'`` every photon whose own disc covers the point (the conserving estimate,
-        :mod:`blockhash.index.cover`), and uploads no blocks."""
+        :mod:`blockhash.index.lookups.cover`), and uploads no blocks."""
         if gather not in GATHERS:
             raise InputError(f"gather={gather!r} is not known; choose one of {', '.join(GATHERS)}")
         self.radii = radii

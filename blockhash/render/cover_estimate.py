@@ -6,7 +6,7 @@ Phi / (pi h^2)`` over every photon whose own disc covers q (``d < h``, its own r
 :mod:`.photon_radius`), with the tests of :class:`~.estimate.EstimateOptions`: front side,
 the stored normal, the flattened neighbourhood (height over the tangent plane at most ``disc
 * h``: the photon's own radius, since the cover gather has no search radius) and the filter.
-The photons come from :meth:`blockhash.index.cover.CoverGather.query`, the integer-exact
+The photons come from :meth:`blockhash.index.lookups.cover.CoverGather.query`, the integer-exact
 reference of the shader's gather.
 """
 
@@ -17,8 +17,8 @@ import weakref
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.index.codec import decode_powers, unpack_records
-from blockhash.index.cover import OCTAVE_STEPS, CoverGather, octahedral_decode
+from blockhash.index.lookups.cover import OCTAVE_STEPS, CoverGather, octahedral_decode
+from blockhash.index.records.codec import decode_powers, unpack_records
 from blockhash.render.estimate import EstimateOptions, kernel
 from blockhash.render.photon_radius import own_radii2
 from blockhash.scene.materials import material_arrays, phong_brdf

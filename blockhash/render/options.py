@@ -34,7 +34,7 @@ class LookupOptions:
                                        'auto' (the default): 'cover' for the conserving
                                        estimate, else 'bh'.  'cover': every photon whose
                                        own disc covers the point, in the shader
-                                       (blockhash.index.cover); 'bh': the k nearest by
+                                       (blockhash.index.lookups.cover); 'bh': the k nearest by
                                        Block Hashing in the shader; 'kdtree': the exact k
                                        nearest, kd-tree shader; 'cpu': the CPU reference of
                                        what 'auto' picks

@@ -2,7 +2,7 @@
 
 The ``conserving`` estimate (:mod:`.estimate`) spreads every photon over a disc of its
 own radius h_p, fixed before rendering: the distance from the photon to its j-th nearest
-other photon, floored at the photon map's position error (:func:`blockhash.index.fixedpoint.min_radius`).
+other photon, floored at the photon map's position error (:func:`blockhash.index.records.fixedpoint.min_radius`).
 Because h_p belongs to the photon and not to the shading point, each photon's filter
 integrates to its power over its surface (Silverman's sample-point estimator, 1986,
 section 5.3.2), whatever the density beside it: the estimate puts no extra light beside
@@ -23,7 +23,7 @@ photon's farthest other photon; a map of one photon has no radius (infinite: the
 adds nothing).
 
 The j-th nearest other photon comes from an exact search over the octree of the index's
-Hilbert order (:mod:`blockhash.index.octree_knn`: the 3 x 3 x 3 cubes around each photon,
+Hilbert order (:mod:`blockhash.index.lookups.octree_knn`: the 3 x 3 x 3 cubes around each photon,
 read up the levels until the j-th lies within a cube's side), in about the index build's time
 (BENCHMARKS.md, "Photon radii"); :func:`exact_radii2` (scipy's cKDTree) is the oracle it is
 tested against, value for value.
@@ -37,7 +37,7 @@ import weakref
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.index.fixedpoint import min_r2
+from blockhash.index.records.fixedpoint import min_r2
 
 #: j = k - MARGIN_SIGMAS sqrt(k): the standard deviations of the count left as margin.
 MARGIN_SIGMAS = 2.0
@@ -57,7 +57,7 @@ def own_radii2(index, k: int) -> np.ndarray:
     """(n,) float64 squared radius of every photon (input order), for an estimate with k
     neighbours (module docstring).  Computed once per index and k, by the octree search."""
     def jth(pos, rank):
-        from blockhash.index.octree_knn import jth_distances
+        from blockhash.index.lookups.octree_knn import jth_distances
 
         codes = index.records.records[:, :3]  # in Hilbert order
         out = np.empty(len(pos))
@@ -101,7 +101,7 @@ def slot_radii2(index, k: int, radii=None) -> np.ndarray:
     """(slots,) float32 squared radii (``radii(index, k)``, default :func:`own_radii2`) in
     block slot order (block b, photon i: slot 10 b + i), as the caustic pass reads them by
     the slot that its lookup returns; 0 in empty slots."""
-    from blockhash.index.blocks import PHOTONS_PER_BLOCK
+    from blockhash.index.records.blocks import PHOTONS_PER_BLOCK
 
     r2 = (radii or own_radii2)(index, k)
     out = np.zeros(len(index.block_words) * PHOTONS_PER_BLOCK, dtype=np.float32)

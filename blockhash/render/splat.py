@@ -26,7 +26,7 @@ from blockhash.render.estimate import EstimateOptions
 
 
 class SplatPass:
-    """Splat a :class:`~blockhash.index.cover.CoverGather`'s photons onto the shading points
+    """Splat a :class:`~blockhash.index.lookups.cover.CoverGather`'s photons onto the shading points
     a scene camera (``Scene.camera``) sees, one per pixel."""
 
     def __init__(self, gather, *, backend=None):

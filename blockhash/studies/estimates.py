@@ -22,9 +22,9 @@ import time
 
 import numpy as np
 
+from blockhash.evaluate.metrics import exact_knn
 from blockhash.gl.lookup import query_slot_bits
 from blockhash.index.block_hash_index import BlockHashIndex
-from blockhash.index.metrics import exact_knn
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.reference.lighttrace import cached_reference, lambertian
 from blockhash.render.caustic import Neighbours, ShadingPoints

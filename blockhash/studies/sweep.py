@@ -13,7 +13,7 @@ For one scene and image size it
    timed: wall time of the pass, and the draw alone), and measures its image against
    the exact one and the reference (:mod:`.measure`), and its neighbours against the
    exact ones (false negatives and dilations per pixel query, paper Figs. 12 and 14;
-   :mod:`blockhash.index.metrics`).
+   :mod:`blockhash.evaluate.metrics`).
 
 The result is a dict (written as ``tradeoff.json`` by :mod:`.report`): ``rows`` holds
 one dict per setting with at least ``method``, ``photons``, ``k``, ``A``, ``preset``,
@@ -32,9 +32,9 @@ import numpy as np
 
 from blockhash import __version__
 from blockhash.errors import InputError
+from blockhash.evaluate.metrics import accuracy, exact_knn
 from blockhash.index.block_hash_index import BlockHashIndex
-from blockhash.index.metrics import accuracy, exact_knn
-from blockhash.index.params import PRESETS
+from blockhash.index.tables.params import PRESETS
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.reference.lighttrace import cached_reference, scene_digest
 from blockhash.render.caustic import CausticPass, estimate_cpu, estimate_exact

@@ -14,7 +14,7 @@ from blockhash.gl.limits import LOOP_LIMIT, MAX_K, check_lookup, largest_A, loop
 from blockhash.gl.lookup import GLLookup, query_slot_bits
 from blockhash.gl.packing import pack_index, texture_shape, upload
 from blockhash.gl.shaderlib import Variant, compile_program
-from blockhash.index.fixedpoint import min_radius
+from blockhash.index.records.fixedpoint import min_radius
 from blockhash.render.caustic import CausticPass, ShadingPoints, estimate_cpu
 from blockhash.render.estimate import EstimateOptions
 

@@ -13,7 +13,7 @@ from blockhash.gl.context import check_gl, get_context, gl_info
 from blockhash.gl.lookup import GLLookup, query_slot_bits
 from blockhash.gl.packing import texture_shape
 from blockhash.gl.shaderlib import Variant, variants
-from blockhash.index.params import candidate_cap
+from blockhash.index.tables.params import candidate_cap
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -179,7 +179,7 @@ def test_taken_bound_covers_the_most_blocks_a_query_takes():
     # a partial last block can add one more.
     assert taken_bound(7, 23, 400) == 41
     assert taken_bound(2, 5, 400) == 10
-    from blockhash.index.query import bh_query
+    from blockhash.index.lookups.hash import bh_query
     index = BlockHashIndex(photon_set("clustered", 3000), k=20, A=16)
     q = queries_for("clustered", m=300)[10:]
     prm = index.params
@@ -318,7 +318,7 @@ def test_a_full_walk_queue_drops_the_same_entries_on_both_sides(far_index, monke
     that the CPU reference drops (the largest (distance, node id))."""
     context_or_skip("egl")
     import blockhash.gl.lookup as lookup_module
-    from blockhash.index.best_first import bf_query, walk_cull
+    from blockhash.index.lookups.walk import bf_query, walk_cull
 
     monkeypatch.setattr(lookup_module, "QUEUE_CAPACITY", 32)
     q = two_patches_and_far_points()[1]
@@ -361,7 +361,7 @@ def test_the_walk_takes_more_than_L_B_blocks_the_same_on_both_sides(caustic_inde
     than L B blocks and up to ceil(A k / 10) + 1 (the candidates numbered in the packed keys'
     slot bits)."""
     context_or_skip("egl")
-    from blockhash.index.best_first import bf_query, walk_cull, walk_taken_bound
+    from blockhash.index.lookups.walk import bf_query, walk_cull, walk_taken_bound
 
     ix = walking(caustic_index, trees)
     prm, q, k, A = ix.params, queries_for("caustic"), 64, 8
@@ -379,7 +379,7 @@ def test_the_walk_takes_more_than_L_B_blocks_the_same_on_both_sides(caustic_inde
 def test_cell_shader_returns_what_the_cpu_cells_return(name, k, A):
     from dataclasses import replace as _replace
 
-    from blockhash.index.photon_maps import MAPS, queries
+    from blockhash.evaluate.photon_maps import MAPS, queries
 
     pm = MAPS[name]
     pts = pm.photons(8_000, np.random.default_rng(3))

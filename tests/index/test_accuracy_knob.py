@@ -1,15 +1,15 @@
 """A is the one accuracy knob: error never rises as A rises, down to near-exact.
 
 Fixed seeds; photon maps placed as a renderer places shading points (half on the lit
-surfaces, half anywhere on the map's surfaces: blockhash.index.photon_maps).
+surfaces, half anywhere on the map's surfaces: blockhash.evaluate.photon_maps).
 """
 
 import numpy as np
 import pytest
 
 from blockhash import BlockHashIndex
-from blockhash.index.metrics import dilations, exact_knn, false_negatives
-from blockhash.index.photon_maps import MAPS, queries
+from blockhash.evaluate.metrics import dilations, exact_knn, false_negatives
+from blockhash.evaluate.photon_maps import MAPS, queries
 
 AS = (1, 2, 4, 8, 16, 32, 64)
 K = 20

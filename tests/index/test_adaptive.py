@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from blockhash import BlockHashIndex
-from blockhash.index.adaptive import build_adaptive
-from blockhash.index.fixedpoint import Quantizer
-from blockhash.index.photon_maps import MAPS
-from blockhash.index.thresholds import LEAF, ThresholdLayout, hash_codes
+from blockhash.evaluate.photon_maps import MAPS
+from blockhash.index.records.fixedpoint import Quantizer
+from blockhash.index.tables.adaptive import build_adaptive
+from blockhash.index.tables.thresholds import LEAF, ThresholdLayout, hash_codes
 
 S = 40.0
 
@@ -111,8 +111,8 @@ def test_a_sparse_plane_above_a_floor_gets_its_own_buckets():
     it finds the plane's photons, not the floor's below it. Cut only by the widest spread, the
     plane's photons shared the floor's small buckets and such queries found floor photons at
     up to 30 times the exact average distance."""
-    from blockhash.index.metrics import dilations, exact_knn, false_negatives
-    from blockhash.index.photon_maps import _tilted_plane
+    from blockhash.evaluate.metrics import dilations, exact_knn, false_negatives
+    from blockhash.evaluate.photon_maps import _tilted_plane
 
     pm = MAPS["tilted"]
     pts = pm.photons(60_000, np.random.default_rng(0))

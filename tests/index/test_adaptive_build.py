@@ -15,10 +15,17 @@ import numba
 import numpy as np
 import pytest
 
-from blockhash.index.adaptive import PROBE_SLOTS, SELECT_SAMPLE, _gap_axis, _spreads, _widest, build_adaptive
-from blockhash.index.fixedpoint import Quantizer
-from blockhash.index.photon_maps import MAPS
-from blockhash.index.thresholds import LEAF, MAX_DEPTH, THRESHOLD_PAD, table_offsets
+from blockhash.evaluate.photon_maps import MAPS
+from blockhash.index.records.fixedpoint import Quantizer
+from blockhash.index.tables.adaptive import (
+    PROBE_SLOTS,
+    SELECT_SAMPLE,
+    _gap_axis,
+    _spreads,
+    _widest,
+    build_adaptive,
+)
+from blockhash.index.tables.thresholds import LEAF, MAX_DEPTH, THRESHOLD_PAD, table_offsets
 
 
 @numba.njit
@@ -175,8 +182,8 @@ def reference_adaptive(codes, *, L, photons_per_bucket, scale):
 
 def hilbert_ordered(name, n, seed=0):
     """Codes of a map in block (Hilbert) order, as the index builds its tables over them."""
-    from blockhash.index.blocks import make_blocks
-    from blockhash.index.hilbert import hilbert_keys
+    from blockhash.index.records.blocks import make_blocks
+    from blockhash.index.records.hilbert import hilbert_keys
 
     points = MAPS[name].photons(n, np.random.default_rng(seed))
     q = Quantizer.for_points(points)
@@ -234,7 +241,7 @@ def test_ties_planes_and_duplicates():
 def test_tables_cut_into_many_parts(monkeypatch):
     """Every node above 100 photons cut on its own (quickselected ones and buckets too), the
     rest grown as subtrees, in whatever order the threads take them."""
-    import blockhash.index.adaptive as adaptive
+    import blockhash.index.tables.adaptive as adaptive
 
     monkeypatch.setattr(adaptive, "SPLIT_MIN", 100)
     monkeypatch.setattr(adaptive, "SPLIT_SHARE", 1 << 20)

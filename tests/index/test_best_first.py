@@ -7,10 +7,10 @@ import pytest
 from conftest import photon_set, two_patches_and_far_points
 
 from blockhash import BlockHashIndex, InputError
-from blockhash.index.best_first import QUEUE_CAPACITY, bf_query, walk_cull
-from blockhash.index.metrics import exact_knn, false_negatives
-from blockhash.index.params import DEFAULT_WALK_FLOOR, candidate_cap
-from blockhash.index.thresholds import LEAF, THRESHOLD_PAD
+from blockhash.evaluate.metrics import exact_knn, false_negatives
+from blockhash.index.lookups.walk import QUEUE_CAPACITY, bf_query, walk_cull
+from blockhash.index.tables.params import DEFAULT_WALK_FLOOR, candidate_cap
+from blockhash.index.tables.thresholds import LEAF, THRESHOLD_PAD
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -20,7 +20,7 @@ def test_node_boxes_are_tight_around_their_photons():
     index = BlockHashIndex(photon_set("clustered", 20_000), k=8, A=8)
     boxes, rows = index.node_boxes, index.thresholds
     pos = index._positions
-    from blockhash.index.adaptive import build_adaptive
+    from blockhash.index.tables.adaptive import build_adaptive
 
     _, keys, _ = build_adaptive(index.records.records[:, :3], L=index.params.L,
                                 photons_per_bucket=index.params.bucket_photons,
@@ -139,7 +139,7 @@ def test_a_queue_capacity_the_shader_cannot_scan_is_refused_before_compiling(mon
 
 
 def test_the_walk_has_no_block_cap_and_its_bound_is_tight():
-    from blockhash.index.best_first import walk_taken_bound
+    from blockhash.index.lookups.walk import walk_taken_bound
 
     index = BlockHashIndex(photon_set("clustered", 6000), k=8, A=2)
     prm = index.params

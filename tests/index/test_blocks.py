@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from blockhash import BlockHashError, InputError
-from blockhash.index.blocks import (
+from blockhash.evaluate.datasets import caustic_like, uniform
+from blockhash.index.records.blocks import (
     BLOCK_WORDS,
     BUILDERS,
     COUNT_WORD,
@@ -15,11 +16,10 @@ from blockhash.index.blocks import (
     pack_blocks,
     unpack_blocks,
 )
-from blockhash.index.btree import btree_blocks
-from blockhash.index.codec import WORDS_PER_PHOTON
-from blockhash.index.datasets import caustic_like, uniform
-from blockhash.index.fixedpoint import Quantizer
-from blockhash.index.hilbert import hilbert_keys
+from blockhash.index.records.btree import btree_blocks
+from blockhash.index.records.codec import WORDS_PER_PHOTON
+from blockhash.index.records.fixedpoint import Quantizer
+from blockhash.index.records.hilbert import hilbert_keys
 
 
 def _hilbert_keys_of(points: np.ndarray) -> np.ndarray:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from blockhash.errors import InputError, InputTypeError
-from blockhash.index.btree import LeafBlocks, btree_blocks, btree_nodes, bulk_blocks
+from blockhash.index.records.btree import LeafBlocks, btree_blocks, btree_nodes, bulk_blocks
 
 
 def _keys(scenario: str, n: int, seed: int = 0) -> np.ndarray:

@@ -10,7 +10,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
 
 from cell_cover_bound import cover_bound, level_counts  # noqa: E402
 
-from blockhash.index.cells import CODE_SHIFT  # noqa: E402
+from blockhash.index.lookups.cells import CODE_SHIFT  # noqa: E402
 
 
 def brute_force(codes, centre, radius, max_cells, levels):

@@ -1,14 +1,14 @@
-"""The Hilbert cells lookup (blockhash/index/cells.py, cell_query.py, glsl/bh_cells.glsl)."""
+"""The Hilbert cells lookup (blockhash/index/lookups/cells.py, cell_query.py, glsl/bh_cells.glsl)."""
 
 import numpy as np
 import pytest
 
 from blockhash import BlockHashIndex
-from blockhash.index.cell_query import CELL_ROUNDS, SHELL_ORDER
-from blockhash.index.cells import LEVEL_MIN, LEVEL_TOP, build_cells, cell_lookup, cell_runs
-from blockhash.index.fixedpoint import Quantizer
-from blockhash.index.metrics import exact_knn, false_negatives
-from blockhash.index.photon_maps import MAPS, queries
+from blockhash.evaluate.metrics import exact_knn, false_negatives
+from blockhash.evaluate.photon_maps import MAPS, queries
+from blockhash.index.lookups.cells import LEVEL_MIN, LEVEL_TOP, build_cells, cell_lookup, cell_runs
+from blockhash.index.lookups.cells_query import CELL_ROUNDS, SHELL_ORDER
+from blockhash.index.records.fixedpoint import Quantizer
 
 
 def _index(name="caustic", n=20_000, k=20, A=8, seed=0):

@@ -1,4 +1,4 @@
-"""Tests for blockhash.index.codec: the six-word photon record of Figure 4 (section 3.2)."""
+"""Tests for blockhash.index.records.codec: the six-word photon record of Figure 4 (section 3.2)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from blockhash import InputError, InputTypeError
-from blockhash.index.codec import (
+from blockhash.index.records.codec import (
     WORDS_PER_PHOTON,
     PhotonRecords,
     decode_directions,
@@ -18,7 +18,7 @@ from blockhash.index.codec import (
     pack_records,
     unpack_records,
 )
-from blockhash.index.fixedpoint import Quantizer
+from blockhash.index.records.fixedpoint import Quantizer
 
 
 def _polar(t, p):

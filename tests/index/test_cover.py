@@ -1,4 +1,4 @@
-"""The cover gather (blockhash/index/cover.py) finds exactly the photons whose own discs cover a
+"""The cover gather (blockhash/index/lookups/cover.py) finds exactly the photons whose own discs cover a
 point: its CPU reference against cKDTree.query_ball_point per octave, on every synthetic map,
 near the photons and far from them, and on radii that span many octaves."""
 
@@ -9,7 +9,7 @@ from scipy.spatial import cKDTree
 
 from blockhash.errors import InputError
 from blockhash.index.block_hash_index import BlockHashIndex
-from blockhash.index.cover import CoverGather, octave_sides
+from blockhash.index.lookups.cover import CoverGather, octave_sides
 from blockhash.render.photon_radius import exact_radii2
 
 #: Distances within this relative margin of a radius may fall either way between the
@@ -133,7 +133,7 @@ def test_octave_steps_are_checked():
 
 
 def test_octahedral_directions_round_trip_within_a_ten_thousandth_of_a_radian():
-    from blockhash.index.cover import octahedral_decode, octahedral_encode
+    from blockhash.index.lookups.cover import octahedral_decode, octahedral_encode
 
     rng = np.random.default_rng(5)
     v = rng.normal(size=(20_000, 3))

@@ -10,9 +10,9 @@ import pytest
 from scipy.spatial import cKDTree
 
 from blockhash import BlockHashIndex, CapacityError, InputError, OrphanWarning
-from blockhash.index.codec import decode_powers, encode_powers
-from blockhash.index.fixedpoint import MIN_RESOLVED_EXTENT, Quantizer
-from blockhash.index.params import MAX_B, MAX_L, candidate_cap
+from blockhash.index.records.codec import decode_powers, encode_powers
+from blockhash.index.records.fixedpoint import MIN_RESOLVED_EXTENT, Quantizer
+from blockhash.index.tables.params import MAX_B, MAX_L, candidate_cap
 
 EPS32 = 2.0**-24  # one float32 rounding, relative
 

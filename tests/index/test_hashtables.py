@@ -2,11 +2,11 @@ import numpy as np
 import pytest
 from conftest import photon_set
 
-from blockhash.index.blocks import bulk_blocks
-from blockhash.index.fixedpoint import Quantizer
-from blockhash.index.hashtables import NO_BLOCK, insert_blocks
-from blockhash.index.hilbert import hilbert_keys
-from blockhash.index.thresholds import ThresholdLayout, build_thresholds
+from blockhash.index.records.blocks import bulk_blocks
+from blockhash.index.records.fixedpoint import Quantizer
+from blockhash.index.records.hilbert import hilbert_keys
+from blockhash.index.tables.hashtables import NO_BLOCK, insert_blocks
+from blockhash.index.tables.thresholds import ThresholdLayout, build_thresholds
 
 
 def table_inputs(name, n, P, L, layout=ThresholdLayout.MARGINAL):

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from blockhash import BlockHashError, InputError
-from blockhash.index.datasets import clustered, uniform
-from blockhash.index.fixedpoint import Quantizer
-from blockhash.index.hilbert import KEY_BITS_PER_AXIS, hilbert_keys
+from blockhash.evaluate.datasets import clustered, uniform
+from blockhash.index.records.fixedpoint import Quantizer
+from blockhash.index.records.hilbert import KEY_BITS_PER_AXIS, hilbert_keys
 
 
 def _grid(b: int) -> np.ndarray:

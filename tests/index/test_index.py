@@ -5,7 +5,7 @@ import pytest
 from conftest import photon_set
 
 from blockhash import BlockHashIndex, CapacityError, InputError, InputTypeError, OrphanWarning
-from blockhash.index.metrics import accuracy, exact_knn
+from blockhash.evaluate.metrics import accuracy, exact_knn
 
 
 @pytest.fixture(scope="module")

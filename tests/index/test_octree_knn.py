@@ -1,5 +1,5 @@
 """The exact j-th nearest other photon over the octree of the Hilbert order
-(blockhash/index/octree_knn.py), against scipy's cKDTree on the same decoded positions."""
+(blockhash/index/lookups/octree_knn.py), against scipy's cKDTree on the same decoded positions."""
 
 import numpy as np
 import pytest
@@ -8,7 +8,7 @@ from scipy.spatial import cKDTree
 
 from blockhash.errors import InputError
 from blockhash.index.block_hash_index import BlockHashIndex
-from blockhash.index.octree_knn import jth_distances
+from blockhash.index.lookups.octree_knn import jth_distances
 
 
 def jth_both(positions, j, k=50):

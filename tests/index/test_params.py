@@ -3,7 +3,7 @@ import math
 import pytest
 from conftest import photon_set
 
-from blockhash.index.params import (
+from blockhash.index.tables.params import (
     ADAPTIVE_REFERENCE_A,
     DEFAULT_PHOTONS_PER_BUCKET,
     DEFAULT_REFS_PER_PHOTON,
@@ -11,7 +11,7 @@ from blockhash.index.params import (
     paper_params,
     resolve_params,
 )
-from blockhash.index.thresholds import ThresholdLayout
+from blockhash.index.tables.thresholds import ThresholdLayout
 
 
 @pytest.mark.parametrize("n,k,A", [(200_000, 50, 8), (2_000_000, 50, 16), (1000, 10, 1)])

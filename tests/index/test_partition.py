@@ -5,7 +5,7 @@ import numba
 import numpy as np
 import pytest
 
-from blockhash.index.partition import kth_smallest, partition, photon_rows, select, swap
+from blockhash.index.tables.partition import kth_smallest, partition, photon_rows, select, swap
 
 
 @numba.njit

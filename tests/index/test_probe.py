@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from blockhash.index.probe import AXIS_PROBE, PROBE_SLOTS, spreads
+from blockhash.index.tables.probe import AXIS_PROBE, PROBE_SLOTS, spreads
 
 
 def _plain(c, lo, hi, scale, out):

@@ -9,7 +9,7 @@ from scipy.spatial import cKDTree
 from transcription import transcribed_query, walked_query
 
 from blockhash import BlockHashIndex
-from blockhash.index.thresholds import ThresholdLayout, hash_codes
+from blockhash.index.tables.thresholds import ThresholdLayout, hash_codes
 
 
 @pytest.mark.slow
@@ -97,7 +97,7 @@ def test_query_hashes_a_photon_to_the_buckets_that_hold_its_block(layout):
 def test_the_hash_query_counts_its_dependent_fetch_rounds(preset, layout_rounds):
     """Rounds = the deepest table's threshold chain + the bucket + the blocks: an adaptive
     row's depth (followed here node by node), or one for the marginal layout's thresholds."""
-    from blockhash.index.thresholds import LEAF
+    from blockhash.index.tables.thresholds import LEAF
 
     pts = photon_set("clustered", 20_000)
     index = BlockHashIndex(pts, k=8, A=8, preset=preset)

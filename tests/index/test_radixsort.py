@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from blockhash.index.radixsort import stable_argsort
+from blockhash.index.records.radixsort import stable_argsort
 
 
 @pytest.mark.parametrize("n", [1, 2, 17, 5000, 200_000])

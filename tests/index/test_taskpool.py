@@ -4,7 +4,7 @@ import threading
 
 import pytest
 
-from blockhash.index.taskpool import run_largest_first
+from blockhash.index.tables.taskpool import run_largest_first
 
 
 @pytest.mark.parametrize("workers", [1, 2, 4])

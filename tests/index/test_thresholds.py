@@ -3,8 +3,8 @@ import pytest
 from conftest import photon_set
 
 from blockhash.errors import InputError
-from blockhash.index.fixedpoint import Quantizer
-from blockhash.index.thresholds import (
+from blockhash.index.records.fixedpoint import Quantizer
+from blockhash.index.tables.thresholds import (
     THRESHOLD_PAD,
     ThresholdLayout,
     build_thresholds,

@@ -63,7 +63,7 @@ def test_shader_pass_equals_the_cpu_reference_per_point(plane_index, options, ba
 def test_the_cover_sum_holds_every_photon_the_k_nearest_sum_counts(plane_index):
     """With the k nearest (exact), the conserving estimate sums the covering photons among
     them: a subset, so never more, and here within a few percent."""
-    from blockhash.index.metrics import exact_knn
+    from blockhash.evaluate.metrics import exact_knn
     from blockhash.render.photon_radius import own_radii2
 
     pts = grid_points(24, 24)

@@ -7,7 +7,7 @@ from scipy.spatial import cKDTree
 
 from blockhash import BlockHashIndex
 from blockhash.errors import InputError
-from blockhash.index.fixedpoint import min_r2
+from blockhash.index.records.fixedpoint import min_r2
 from blockhash.render.caustic import ShadingPoints, estimate_cpu
 from blockhash.render.estimate import EstimateOptions
 from blockhash.render.photon_radius import exact_radii2, neighbours_for, own_radii2, slot_radii2
@@ -50,7 +50,7 @@ def test_own_radii_are_the_distance_to_the_jth_other_photon():
     expected = np.maximum(d[:, j] ** 2, min_r2(index)).astype(np.float32)
     np.testing.assert_array_equal(exact_radii2(index, 20), expected)
     # The render's radii come from the octree search over the Hilbert order
-    # (blockhash/index/octree_knn.py): exact, the same values.
+    # (blockhash/index/lookups/octree_knn.py): exact, the same values.
     own = own_radii2(index, 20)
     np.testing.assert_array_equal(own, expected)
     # in slot order for the shader: the photon in slot s is the one with slot_of == s

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from blockhash import BlockHashError
-from blockhash.index.datasets import DISTRIBUTIONS
-from blockhash.index.metrics import Accuracy, accuracy, dilations, exact_knn, false_negatives, summarize
+from blockhash.evaluate.datasets import DISTRIBUTIONS
+from blockhash.evaluate.metrics import Accuracy, accuracy, dilations, exact_knn, false_negatives, summarize
 
 #: cKDTree and numpy compute the same Euclidean distance with differently ordered sums:
 #: a few ulps apart, far below 1e-12 relative.
@@ -166,7 +166,7 @@ def test_accuracy_of_the_exact_search_against_itself_is_perfect():
 
 
 def test_far_queries_are_those_farther_from_the_photons_than_their_neighbourhood_is_wide():
-    from blockhash.index.metrics import far_queries
+    from blockhash.evaluate.metrics import far_queries
 
     rng = np.random.default_rng(0)
     disc = np.column_stack([rng.uniform(-1, 1, 4000), np.zeros(4000), rng.uniform(-1, 1, 4000)])

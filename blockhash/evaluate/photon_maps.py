@@ -43,7 +43,7 @@ from typing import Callable
 
 import numpy as np
 
-from blockhash.index.datasets import LAYOUT_SEED, caustic_like, clustered, uniform
+from blockhash.evaluate.datasets import LAYOUT_SEED, caustic_like, clustered, uniform
 from blockhash.validate import as_int
 
 Sampler = Callable[[int, np.random.Generator], np.ndarray]

@@ -28,7 +28,7 @@ splits, as the grid files that section 4.1 cites do:
 * the cut puts ``m_left + o`` buckets' worth of photons on the left, where the
   node needs ``m = round(c / S)`` buckets and ``m_left = m // 2``; ``o`` in
   [-1/2, 1/2) is the table's offset for that depth (Roberts' R3 sequence, as
-  :func:`~blockhash.index.thresholds.table_offsets`), so that the L tables'
+  :func:`~blockhash.index.tables.thresholds.table_offsets`), so that the L tables'
   bucket borders interleave (section 4.2, Figure 2).  Photons with a code equal
   to the threshold go right (the paper's ``h(x) = #{t <= x}``); where the cut
   falls among photons sharing one code, the threshold moves to the side of that
@@ -40,12 +40,12 @@ splits, as the grid files that section 4.1 cites do:
 Every bucket then holds about ``S`` photons whatever the surfaces, and buckets
 are about as wide as they are long on each surface.  Each table is built over
 all photons, partitioning a copy of their rows (codes and index) in place
-(:mod:`~blockhash.index.partition`: quickselect, linear time per level); a photon's bucket
+(:mod:`~blockhash.index.tables.partition`: quickselect, linear time per level); a photon's bucket
 is where its partition ends.  The axis probes and sampled cuts read rows at fixed places
 of a node's current order, so the tree depends on that order, not on how the work is
 shared: the nodes of a table holding more than ``1 / SPLIT_SHARE`` of its photons are cut
 one at a time and the subtrees below them grown whole, the parts of all tables run on
-parallel threads largest first (:mod:`~blockhash.index.taskpool`), and the parts are then
+parallel threads largest first (:mod:`~blockhash.index.tables.taskpool`), and the parts are then
 numbered as one depth-first walk numbers the whole tree.  A query descends
 ``log2(N / S)`` nodes per table, one two-word node read each: about the comparisons of the
 paper's three binary searches.
@@ -67,11 +67,11 @@ import numba
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.index.partition import kth_smallest, partition, photon_rows, select
-from blockhash.index.probe import PROBE_SLOTS
-from blockhash.index.probe import spreads as _spreads
-from blockhash.index.taskpool import run_largest_first
-from blockhash.index.thresholds import LEAF, MAX_DEPTH, THRESHOLD_PAD, table_offsets
+from blockhash.index.tables.partition import kth_smallest, partition, photon_rows, select
+from blockhash.index.tables.probe import PROBE_SLOTS
+from blockhash.index.tables.probe import spreads as _spreads
+from blockhash.index.tables.taskpool import run_largest_first
+from blockhash.index.tables.thresholds import LEAF, MAX_DEPTH, THRESHOLD_PAD, table_offsets
 
 #: Nodes larger than this take their cut's code from a strided sample of this many photons
 #: (a selection in the sample) instead of a quickselect over all of them.

@@ -4,7 +4,7 @@ A block is 64 32-bit words: up to ten 6-word photon records in words 0-59,
 then the spare words, of which word 60 holds the number of photons stored
 (the paper keeps the count there) and words 61-63 are zero.  Photons are
 ordered along a 3D Hilbert curve and cut into blocks by one of two builders
-(:mod:`blockhash.index.btree`): a real B+-tree with leaf compaction, or the compact
+(:mod:`blockhash.index.records.btree`): a real B+-tree with leaf compaction, or the compact
 static B+-tree bulk build for a known photon set.  Both leave disjoint blocks
 each covering a compact interval of the curve (Figure 7a).
 """
@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.index.btree import LeafBlocks, btree_blocks, bulk_blocks
-from blockhash.index.codec import WORDS_PER_PHOTON
+from blockhash.index.records.btree import LeafBlocks, btree_blocks, bulk_blocks
+from blockhash.index.records.codec import WORDS_PER_PHOTON
 
 #: Words per block: a 64-word burst (section 3.2).
 BLOCK_WORDS = 64
@@ -47,7 +47,7 @@ def block_boxes(block_words: np.ndarray) -> np.ndarray:
     ``lo16 << 16 <= u <= hi16 << 16 | 0xFFFF``.  The GL upload (blockhash/gl/packing.py)
     puts them in the spare words 61-63, which the index leaves zero, in the same texel as
     the photon count: the lookup's block culling (BH_CULL, and the walk's, glsl/bh_blocks.glsl
-    bh_block_gap2) reads them there; the CPU walk (blockhash/index/best_first.py) computes the
+    bh_block_gap2) reads them there; the CPU walk (blockhash/index/lookups/walk.py) computes the
     same bound from them.
     """
     w = np.asarray(block_words, dtype=np.uint32)

@@ -41,7 +41,7 @@ def hilbert_keys(codes, *, bits: int = KEY_BITS_PER_AXIS) -> np.ndarray:
     Parameters
     ----------
     codes : (n, 3) uint32
-        Fixed-point coordinates (see :class:`blockhash.index.fixedpoint.Quantizer`).
+        Fixed-point coordinates (see :class:`blockhash.index.records.fixedpoint.Quantizer`).
     bits : int
         Bits per axis kept from the top of each code, 1 <= bits <= 21.
 

@@ -12,15 +12,15 @@ Two presets choose them:
     caustic only ``P^2`` of the ``P^3`` buckets are live.
 
 ``default``
-    The adaptive layout (:mod:`blockhash.index.adaptive`): each table a kd-tree
+    The adaptive layout (:mod:`blockhash.index.tables.adaptive`): each table a kd-tree
     of count thresholds with buckets of ``S`` photons on whatever surfaces the
     photons lie; a query walks the tight node boxes of the first ``walk_trees``
     tables (one) nearest first, under the ``A k`` candidate cap alone
-    (:mod:`blockhash.index.best_first`; ``best_first=False`` at query time gives
+    (:mod:`blockhash.index.lookups.walk`; ``best_first=False`` at query time gives
     the hash query instead: buckets visited deepest first and multi-probed across
-    their nearest borders, :mod:`blockhash.index.query`).  ``lookup='cells'`` at query
+    their nearest borders, :mod:`blockhash.index.lookups.hash`).  ``lookup='cells'`` at query
     time (or ``cells=True`` in the params, for the shaders) reads the Hilbert cells
-    instead (:mod:`blockhash.index.cells`): a computed hash of octree cells, three
+    instead (:mod:`blockhash.index.lookups.cells`): a computed hash of octree cells, three
     rounds of independent fetches, no tree descent and no queue; not the default
     while it misses queries far from every photon (BENCHMARKS.md).  A is the one knob:
     ``S = DEFAULT_PHOTONS_PER_BUCKET * k * A / ADAPTIVE_REFERENCE_A`` grows with
@@ -40,8 +40,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from blockhash.errors import CapacityError, InputError
-from blockhash.index.blocks import PHOTONS_PER_BLOCK
-from blockhash.index.thresholds import RETIRED_LAYOUTS, ThresholdLayout
+from blockhash.index.records.blocks import PHOTONS_PER_BLOCK
+from blockhash.index.tables.thresholds import RETIRED_LAYOUTS, ThresholdLayout
 from blockhash.validate import as_int
 
 PRESETS = ("default", "paper")
@@ -127,15 +127,15 @@ class BlockHashParams:
     bucket_photons: float = 0.0
     adaptive_buckets: int = 0
     #: Multi-probe the buckets beyond the query's own when the candidate cap allows
-    #: (:mod:`blockhash.index.query`, step 4).
+    #: (:mod:`blockhash.index.lookups.hash`, step 4).
     probe: bool = False
     #: ADAPTIVE layout only: walk the tables' node boxes nearest first
-    #: (:mod:`blockhash.index.best_first`) instead of hashing and probing.
+    #: (:mod:`blockhash.index.lookups.walk`) instead of hashing and probing.
     best_first: bool = False
     #: The walk's tables: it is seeded with the roots of the first ``walk_trees``
     #: (1 .. L; L or more walks all of them).
     walk_trees: int = 1
-    #: Query the Hilbert cells (:mod:`blockhash.index.cells`, three rounds of independent
+    #: Query the Hilbert cells (:mod:`blockhash.index.lookups.cells`, three rounds of independent
     #: fetches, selection by counting) instead of the tables.
     cells: bool = False
     #: The walk's small-k floor: for k below it the walk examines up to A * walk_floor

@@ -85,7 +85,7 @@ def count_le(thresholds, start, count, code):
     return lo
 
 
-#: ADAPTIVE layout (blockhash/index/adaptive.py): the flag of a bucket node, and the deepest
+#: ADAPTIVE layout (blockhash/index/tables/adaptive.py): the flag of a bucket node, and the deepest
 #: tree a query descends (a loop bound; trees are about log2(N / S) deep).
 LEAF = np.uint32(4)
 MAX_DEPTH = 48
@@ -246,7 +246,7 @@ def build_thresholds(codes, P, L: int, layout: ThresholdLayout) -> tuple[np.ndar
     """
     if layout != ThresholdLayout.MARGINAL:
         raise InputError(f"build_thresholds builds the marginal layout, not {layout!r}; the "
-                         "adaptive layout is built by blockhash.index.adaptive.build_adaptive")
+                         "adaptive layout is built by blockhash.index.tables.adaptive.build_adaptive")
     _, sy, sz, T = row_starts(P)
     codes = np.ascontiguousarray(codes, dtype=np.uint32)
     out = np.full((L, T), THRESHOLD_PAD, dtype=np.uint32)

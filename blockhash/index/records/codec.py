@@ -2,7 +2,7 @@
 
 Each photon is six 32-bit words (little end = bit 0)::
 
-    word 0, 1, 2   x, y, z as uint32 fixed point (:class:`~blockhash.index.fixedpoint.Quantizer`)
+    word 0, 1, 2   x, y, z as uint32 fixed point (:class:`~blockhash.index.records.fixedpoint.Quantizer`)
     word 3         d | n << 16     incoming direction d, surface normal n (polar codes)
     word 4         c1 | c2 << 16   power channels as IEEE half floats (bits)
     word 5         c3 | c4 << 16
@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from blockhash.errors import InputError, InputTypeError
-from blockhash.index.fixedpoint import Quantizer
+from blockhash.index.records.fixedpoint import Quantizer
 from blockhash.validate import as_points
 
 #: 32-bit words per photon record (Figure 4): x, y, z, d|n, c1|c2, c3|c4.

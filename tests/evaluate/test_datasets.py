@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from blockhash import InputError, InputTypeError
-from blockhash.index.datasets import CAUSTIC_SHARES, DISTRIBUTIONS, caustic_like, planar, uniform
+from blockhash.evaluate.datasets import CAUSTIC_SHARES, DISTRIBUTIONS, caustic_like, planar, uniform
 
 NAMES = sorted(DISTRIBUTIONS)
 #: Points placed on the ring wall as (R cos t, R sin t) have radius R to a few ulps.

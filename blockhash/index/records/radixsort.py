@@ -1,6 +1,6 @@
 """Stable argsort of uint64 keys by least-significant-digit radix sort.
 
-The bulk block build (:func:`~blockhash.index.btree.bulk_blocks`) orders photons by their
+The bulk block build (:func:`~blockhash.index.records.btree.bulk_blocks`) orders photons by their
 Hilbert keys with ties in input order: exactly ``np.argsort(keys, kind="stable")``, which
 for 10^6 keys takes about 0.1 s (a merge sort).  Sorting ``DIGIT_BITS`` bits per pass,
 lowest first, each pass a stable counting scatter, gives the same order in about a third

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from blockhash.index.cells import CODE_SHIFT, LEVEL_MIN, LEVEL_TOP, cell_lookup
+from blockhash.index.lookups.cells import CODE_SHIFT, LEVEL_MIN, LEVEL_TOP, cell_lookup
 
 #: Rounds of dependent fetches of one cell query: own cells, group cells, photons.
 CELL_ROUNDS = 3

@@ -19,20 +19,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
-from blockhash.validate import as_int, as_points
+from blockhash.index.lookups.exact import exact_knn  # noqa: F401 (the metrics' oracle, re-exported)
 
 #: Percentiles reported by :func:`summarize`.
 PERCENTILES = (50, 90, 99)
-
-
-def exact_knn(positions, queries, k: int, *, workers: int = -1):
-    """Exact k nearest neighbours, ``(distances, indices)`` each (m, k), nearest first."""
-    k = as_int(k, "k", minimum=1)
-    tree = cKDTree(as_points(positions, "positions"))
-    d, i = tree.query(as_points(queries, "queries"), k=[*range(1, k + 1)], workers=workers)
-    return d, i
 
 
 def false_negatives(approx_indices, exact_indices, n: int) -> np.ndarray:

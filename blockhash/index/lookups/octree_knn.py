@@ -22,7 +22,7 @@ import numba
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.index.hilbert import KEY_BITS_PER_AXIS, hilbert_key, hilbert_keys, transition_tables
+from blockhash.index.records.hilbert import KEY_BITS_PER_AXIS, hilbert_key, hilbert_keys, transition_tables
 
 #: Low code bits below the Hilbert key's 21 per axis.
 CODE_SHIFT = 32 - KEY_BITS_PER_AXIS

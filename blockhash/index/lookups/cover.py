@@ -43,8 +43,8 @@ import numba
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.index.cells import cell_key, cuckoo_get, cuckoo_slots
-from blockhash.index.codec import decode_directions, unpack_records
+from blockhash.index.lookups.cells import cell_key, cuckoo_get, cuckoo_slots
+from blockhash.index.records.codec import decode_directions, unpack_records
 
 #: The finest cell side is 2^MIN_SHIFT codes: cell coordinates stay below 2^19 (cell_key).
 MIN_SHIFT = 13

@@ -5,7 +5,7 @@ shader runs, in arithmetic the shader reproduces bit for bit:
 
 1. quantize the float32 query to uint32 codes (:meth:`Quantizer.quantize_query`)
    and hash it in every table by integer threshold comparisons
-   (:func:`blockhash.index.thresholds.bucket_of`);
+   (:func:`blockhash.index.tables.thresholds.bucket_of`);
 2. fetch the L buckets and order them by priority alpha, smallest first
    (ties keep table order);
 3. walk the buckets in that order and their valid references in slot order,
@@ -26,7 +26,7 @@ shader runs, in arithmetic the shader reproduces bit for bit:
    position in block order (the shader's candidate slot order).
 
 Block hashing is approximate: there is no (1 + eps) guarantee on the
-distances; :mod:`blockhash.index.metrics` reports recall and dilation instead.
+distances; :mod:`blockhash.evaluate.metrics` reports recall and dilation instead.
 """
 
 from __future__ import annotations
@@ -34,13 +34,13 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from blockhash.index.thresholds import PROBE_CUTS, adaptive_bucket_of, adaptive_descend, bucket_of
+from blockhash.index.tables.thresholds import PROBE_CUTS, adaptive_bucket_of, adaptive_descend, bucket_of
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def block_gap2(cbox, blk, lo, step, qx, qy, qz):
     """Lower bound of the float32 squared distance from q to every photon of block ``blk``
-    whose box words (:func:`blockhash.index.blocks.block_boxes`) are ``cbox[blk]``: the
+    whose box words (:func:`blockhash.index.records.blocks.block_boxes`) are ``cbox[blk]``: the
     float32 operations of glsl/bh_blocks.glsl bh_block_gap2 one by one (``lo``, ``step``:
     the quantizer's float32 values)."""
     one_18 = np.float32(1.0 / 262144.0)
@@ -71,7 +71,7 @@ def take_bucket(ti, key, refs, starts, positions, qx, qy, qz, taken, ntaken, cou
           packed, mask, slot_bits, bits, bits_u, cbox, clo, cstep):
     """Take the blocks of bucket ``key`` of table ``ti`` not yet taken, while under the cap.
 
-    ``cbox`` non-empty (the walk, :mod:`blockhash.index.best_first`): a block whose
+    ``cbox`` non-empty (the walk, :mod:`blockhash.index.lookups.walk`): a block whose
     :func:`block_gap2` bound is above 0 and, as float32 bits, above the k-th key (as the
     walk compares it; nothing while fewer than k are held) is culled: not taken, its
     photons neither examined nor counted toward the cap.  Empty (0, 3): no culling."""
@@ -156,7 +156,7 @@ def bh_query(qcodes, qpos, thresholds, P, layout, refs, priority, starts, positi
     ----------
     qcodes : (m, 3) uint32      hashing codes of the queries
     qpos : (m, 3) float32       query positions
-    thresholds : (L, T) uint32  see :mod:`blockhash.index.thresholds`
+    thresholds : (L, T) uint32  see :mod:`blockhash.index.tables.thresholds`
     P : (3,) int64              buckets per axis
     layout : int                the ThresholdLayout's id (0 marginal, 2 adaptive)
     refs : (L, buckets, B) int32

@@ -78,7 +78,7 @@ class Quantizer:
         lo32 = np.where(lo32.astype(np.float64) > lo - 0.5 * pad,
                         np.nextafter(lo32, np.float32(-np.inf)), lo32).astype(np.float32)
         # One step on every axis: a cube of codes is a cube in metres, so the octree cells
-        # of the cell lookup (blockhash/index/cells.py) reach as far on every axis.
+        # of the cell lookup (blockhash/index/lookups/cells.py) reach as far on every axis.
         size = np.full(3, float(((hi + pad) - lo32.astype(np.float64)).max()))
         step = np.float32(size / CODE_RANGE)
         # Round the step up so that hi + pad maps below 2**32 in exact arithmetic.

@@ -17,7 +17,7 @@ in the tree, so compacted :func:`btree_blocks` equals :func:`bulk_blocks`.
 Nodes live in preallocated numpy arrays; insertion is compiled with numba.
 Measured on the 2-core development machine (numba 0.68.1, numpy 2.4.6)::
 
-    python -c "import time,numpy as np; from blockhash.index.btree import btree_blocks as b; \
+    python -c "import time,numpy as np; from blockhash.index.records.btree import btree_blocks as b; \
 k=np.random.default_rng(0).integers(0,2**63,10**6,dtype=np.uint64); b(k[:10]); \
 t=time.perf_counter(); b(k); print(time.perf_counter()-t)"
 
@@ -35,7 +35,7 @@ import numba
 import numpy as np
 
 from blockhash.errors import InputError, InputTypeError
-from blockhash.index.radixsort import stable_argsort
+from blockhash.index.records.radixsort import stable_argsort
 from blockhash.validate import as_int
 
 _MAX_HEIGHT = 64  # a tree of n >= 1 photons with fanout >= 3 is at most log2(n) + 1 tall

@@ -1,10 +1,10 @@
 """Nearest-box-first query of the adaptive layout (the default preset's query).
 
 The L adaptive tables are kd-trees whose nodes carry tight photon boxes
-(:mod:`blockhash.index.node_boxes`).  A query walks the first ``trees`` of them
+(:mod:`blockhash.index.tables.node_boxes`).  A query walks the first ``trees`` of them
 (``BlockHashParams.walk_trees``: 1 for the default preset, L for all) at once, nearest
 box first, and takes the blocks of each bucket it reaches as the hash query does
-(:func:`blockhash.index.query.take_bucket`: references in slot order, duplicates skipped,
+(:func:`blockhash.index.lookups.hash.take_bucket`: references in slot order, duplicates skipped,
 the candidate cap checked before each block).  The walk has no cap on blocks (the
 hash query's ``L * B``): the ``A * k`` cap alone ends it, so with compact blocks (all
 full but the last) it takes at most ``ceil(A k / 10) + 1`` blocks (:func:`walk_taken_bound`;
@@ -18,11 +18,11 @@ at most ``MAX_LEAVES * B`` whatever the blocks):
    (``kth`` below); a bucket node: stop if ``MAX_LEAVES`` buckets were visited, else
    take its bucket's blocks; an inner node: push each child whose box is non-empty and
    not farther than ``kth``;
-3. keep the k nearest candidates as :mod:`blockhash.index.query` step 5 does.
+3. keep the k nearest candidates as :mod:`blockhash.index.lookups.hash` step 5 does.
 
 Block culling: once k neighbours are held, a block of a reached bucket whose lower bound
-of squared distances (:func:`blockhash.index.query.block_gap2`, from its 16-bit code box,
-:func:`blockhash.index.blocks.block_boxes`) is above 0 and, as float32 bits, above ``kth``
+of squared distances (:func:`blockhash.index.lookups.hash.block_gap2`, from its 16-bit code box,
+:func:`blockhash.index.records.blocks.block_boxes`) is above 0 and, as float32 bits, above ``kth``
 is skipped: not taken (it has no candidate number, and the taken-block bound holds), its
 photons not examined and not counted toward the ``A * k`` cap, so the cap is spent on
 blocks that can still hold a neighbour rather than on a visited bucket's far blocks.
@@ -45,10 +45,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from blockhash.index.blocks import block_boxes
-from blockhash.index.node_boxes import box_dist2
-from blockhash.index.query import take_bucket, unpack_selection
-from blockhash.index.thresholds import LEAF
+from blockhash.index.lookups.hash import take_bucket, unpack_selection
+from blockhash.index.records.blocks import block_boxes
+from blockhash.index.tables.node_boxes import box_dist2
+from blockhash.index.tables.thresholds import LEAF
 
 #: Entries the walk's queue holds (glsl/bh_walk.glsl BH_QUEUE; a multiple of 32, the
 #: shader's unrolled scan chunk).  At N = 10^6, k = 50 the queue held at most 172
@@ -61,7 +61,7 @@ QUEUE_CAPACITY = 192
 MAX_POPS = 1024
 MAX_LEAVES = 64
 _NONE = np.uint32(0xFFFFFFFF)
-#: Photons per block (blockhash.index.blocks.PHOTONS_PER_BLOCK).
+#: Photons per block (blockhash.index.records.blocks.PHOTONS_PER_BLOCK).
 _PPB = 10
 
 
@@ -102,7 +102,7 @@ def _push(qd, qn, size, d, node):
 
 def walk_cull(index):
     """The culling arguments of :func:`bf_query` for ``index``: (its blocks' box words,
-    :func:`blockhash.index.blocks.block_boxes`; the quantizer's lo and step as float32),
+    :func:`blockhash.index.records.blocks.block_boxes`; the quantizer's lo and step as float32),
     the box words computed once and kept on the index."""
     cb = getattr(index, "_block_box_words", None)
     if cb is None or len(cb) != len(index.block_words):
@@ -124,7 +124,7 @@ def bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bits
     qpos : (m, 3) float32       query positions
     thresholds : (L, T) uint32  adaptive rows
     boxes : (L, T // 2, 6) float32  node boxes (:func:`.node_boxes.node_boxes`)
-    refs, starts, positions, k, cap, slot_bits : as :func:`blockhash.index.query.bh_query`
+    refs, starts, positions, k, cap, slot_bits : as :func:`blockhash.index.lookups.hash.bh_query`
     queue : int                 queue capacity
     max_pops : int              nodes popped at most
     max_leaves : int            buckets visited at most
@@ -132,7 +132,7 @@ def bf_query(qpos, thresholds, boxes, refs, starts, positions, k, cap, slot_bits
 
     Returns
     -------
-    d2, slots, examined, blocks : as :func:`blockhash.index.query.bh_query`
+    d2, slots, examined, blocks : as :func:`blockhash.index.lookups.hash.bh_query`
     pops : (m,) int32           nodes popped
     drops : (m,) int32          entries dropped from a full queue
     longest : (m,) int32        most entries the queue held

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from blockhash.index.thresholds import LEAF, THRESHOLD_PAD
+from blockhash.index.tables.thresholds import LEAF, THRESHOLD_PAD
 
 #: Words per node box: lo x, y, z, hi x, y, z (float32).
 BOX_WORDS = 6
@@ -45,7 +45,7 @@ def _boxes(thresholds, keys, positions, buckets, out):
                 if v > leaf[b, 3 + a]:
                     leaf[b, 3 + a] = v
         row = thresholds[t]
-        # Children are numbered after their parent (blockhash/index/adaptive.py): a walk
+        # Children are numbered after their parent (blockhash/index/tables/adaptive.py): a walk
         # from the last node back to the root sees both children before their parent.
         for i in range(nn - 1, -1, -1):
             meta = row[2 * i + 1]
@@ -67,7 +67,7 @@ def node_boxes(thresholds, keys, positions, buckets: int) -> np.ndarray:
 
     Parameters
     ----------
-    thresholds : (L, T) uint32  adaptive rows (:mod:`blockhash.index.adaptive`), nodes = T // 2
+    thresholds : (L, T) uint32  adaptive rows (:mod:`blockhash.index.tables.adaptive`), nodes = T // 2
     keys : (L, n) int64         bucket of every photon in every table
     positions : (n, 3) float32  decoded photon positions, in the order of ``keys``
     buckets : int               buckets per table (the largest table's count)
