@@ -10,12 +10,12 @@ from blockhash import moved
 
 moved.install()  # old module names, for one release
 
-from blockhash import render  # the frame package, callable: blockhash.render(scene, ...)
 from blockhash.errors import BlockHashError, CapacityError, InputError, InputTypeError, ShaderCompileError
+from blockhash.frame.estimate import EstimateOptions
+from blockhash.frame.options import LookupOptions
+from blockhash.frame.pipeline import render
 from blockhash.index.block_hash_index import BlockHashIndex, IndexStats, OrphanWarning
 from blockhash.index.tables.params import BlockHashParams
-from blockhash.render.estimate import EstimateOptions
-from blockhash.render.options import LookupOptions
 
 
 def load_scene(path):

@@ -177,8 +177,8 @@ def _cover_row(index, q, k, repeat, warmup, backend, clock, device) -> dict:
     """The cover gather alone (the caustic pass's lookup stage: every photon whose own disc
     covers each point, counted, no estimate) on the same queries, as one image of shading
     points facing +y; its radii (for k) are computed outside the timing."""
-    from blockhash.render.caustic import STAGES, CausticPass, ShadingPoints
-    from blockhash.render.cover_estimate import cover_gather
+    from blockhash.frame.caustic import STAGES, CausticPass, ShadingPoints
+    from blockhash.frame.cover_estimate import cover_gather
 
     m = len(q)
     side = int(np.ceil(np.sqrt(m)))
@@ -226,20 +226,20 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
                           warmup=2, backend=None, clock="auto", estimates=(), gathers=GATHERS,
                           progress=print):
     """Time a scene's caustic pass on its own pixels, one peer of ``gathers`` after another
-    (:data:`GATHERS`): the shader gathers per stage (blockhash.render.caustic.STAGES), the
+    (:data:`GATHERS`): the shader gathers per stage (blockhash.frame.caustic.STAGES), the
     kd-tree, CPU and splatting methods whole; then the walk's whole pass once more with each
-    of ``estimates`` (forms of :class:`~blockhash.render.estimate.EstimateOptions`, the other
+    of ``estimates`` (forms of :class:`~blockhash.frame.estimate.EstimateOptions`, the other
     fields the default's).  Each row names its ``gather`` and ``stage``, with ``seconds``; the
     splatting row also its ``reach``, the share of the cover gather's caustic (summed over the
     pixels) that it reaches: splatting misses what the camera sees in mirrors and glass."""
+    from blockhash.frame.caustic import STAGES, CausticPass, estimate_exact
+    from blockhash.frame.cover_estimate import cover_gather, estimate_cover_cpu
+    from blockhash.frame.estimate import EstimateOptions
+    from blockhash.frame.gbuffer import rasterize
+    from blockhash.frame.photon_radius import exact_radii2, own_radii2
+    from blockhash.frame.shading import SceneRays, shading_points
     from blockhash.gl.context import get_context
     from blockhash.photons.tracing import trace_caustic_photons
-    from blockhash.render.caustic import STAGES, CausticPass, estimate_exact
-    from blockhash.render.cover_estimate import cover_gather, estimate_cover_cpu
-    from blockhash.render.estimate import EstimateOptions
-    from blockhash.render.gbuffer import rasterize
-    from blockhash.render.photon_radius import exact_radii2, own_radii2
-    from blockhash.render.shading import SceneRays, shading_points
     from blockhash.scene.loader import load_scene
     from blockhash.scene.materials import receiver_materials
     from blockhash.scene.model import MirrorMaterial
@@ -295,7 +295,7 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
                 add(gather, stage, times, device, clk)
             continue
         if gather == "splat":
-            from blockhash.render.splat import SplatPass
+            from blockhash.frame.splat import SplatPass
 
             gathered = cover_gather(index, settings.k)
             image, walls = SplatPass(gathered, backend=backend).render(

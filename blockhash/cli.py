@@ -26,10 +26,10 @@ from blockhash.cli_tradeoff import add_parser as add_tradeoff_parser
 from blockhash.errors import BlockHashError, InputError
 from blockhash.evaluate.datasets import DISTRIBUTIONS
 from blockhash.evaluate.metrics import accuracy, exact_knn
+from blockhash.frame.options import METHODS
 from blockhash.gl.context import BACKENDS
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.index.tables.params import PRESETS
-from blockhash.render.options import METHODS
 from blockhash.scene.camera import DEFAULT_SPP
 
 
@@ -145,8 +145,8 @@ def _writable(path: Path, flag: str) -> Path:
 
 
 def cmd_render(args) -> int:
-    from blockhash.render.images import write_exr, write_png
-    from blockhash.render.pipeline import render_scene
+    from blockhash.frame.images import write_exr, write_png
+    from blockhash.frame.pipeline import render_scene
     from blockhash.scene.loader import load_scene
 
     out = Path(args.output or Path(args.scene).with_suffix(".exr").name)
@@ -203,7 +203,7 @@ def _choose_settings(args, scene) -> None:
 
 
 def cmd_preview(args) -> int:
-    from blockhash.render.images import write_rgb8
+    from blockhash.frame.images import write_rgb8
     from blockhash.scene.loader import load_scene
     from blockhash.scene.preview import preview
 

@@ -2,14 +2,14 @@
 
 ``--estimate {conserving,unbiased,paper}``, ``--filter {none,cone,epanechnikov,silverman}``,
 ``--normal-test COS|off``, ``--disc FRACTION|off``; each left out keeps the default of
-:class:`blockhash.render.estimate.EstimateOptions`.
+:class:`blockhash.frame.estimate.EstimateOptions`.
 """
 
 from __future__ import annotations
 
 import argparse
 
-from blockhash.render.estimate import ESTIMATES, FILTERS, EstimateOptions
+from blockhash.frame.estimate import ESTIMATES, FILTERS, EstimateOptions
 
 _DEFAULT = EstimateOptions()
 

@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from blockhash.errors import InputError
+from blockhash.frame.options import METHODS
 from blockhash.gl.context import BACKENDS
-from blockhash.render.options import METHODS
 
 
 def size(text: str) -> tuple[int, int]:
@@ -71,7 +71,7 @@ def _emit_json(dest: str, data: dict) -> None:
 
 def cmd_compare(args) -> int:
     from blockhash.evaluate.imagediff import compare_layers, write_pictures
-    from blockhash.render.images import write_exr
+    from blockhash.frame.images import write_exr
 
     result = compare_layers(args.a, args.b, max_rms=_limits(args.max_rms),
                             max_rel_rms=_limits(args.max_rel_rms), max_flip=_limits(args.max_flip),

@@ -11,8 +11,8 @@ import warnings
 from pathlib import Path
 
 from blockhash.cli_images import size as _size
+from blockhash.frame.options import METHODS
 from blockhash.gl.context import BACKENDS
-from blockhash.render.options import METHODS
 
 #: The methods the trade study sweeps as Block Hashing (``kdtree``'s exact kNN is measured beside
 #: either), from the one list of methods, and the engine each runs the sweep on.

@@ -54,10 +54,24 @@ MOVED = {
 }
 
 
+#: The frame's package, before ``blockhash.render`` became the render function.
+OLD_FRAME = "blockhash.render"
+
+
 class _Moved(importlib.abc.MetaPathFinder, importlib.abc.Loader):
-    """Finds an old name of :data:`MOVED` and gives it the new module."""
+    """Finds an old name of :data:`MOVED` and gives it the new module.  The frame's old
+    package name cannot be imported at all: ``blockhash.render`` is the render function, and
+    Python would bind the imported package over it; its names fail with the new one."""
 
     def find_spec(self, name, path=None, target=None):
+        if name == OLD_FRAME or name.startswith(OLD_FRAME + "."):
+            # Python imports the parent first, so the message cannot name the child module.
+            raise ModuleNotFoundError(
+                "blockhash.render is the render function now, not a package: the frame's modules "
+                "are in blockhash.frame (import blockhash.frame.pipeline for "
+                "blockhash.render.pipeline, and so on), and the scene's older names under "
+                "blockhash.render are in blockhash.scene, blockhash.photons, blockhash.reference "
+                "and blockhash.evaluate", name=name)
         if name in MOVED:
             return importlib.util.spec_from_loader(name, self)
         return None

@@ -2,7 +2,7 @@
 // over the k nearest, caustic_cover.glsl over the cover gather): the photon's polar codes
 // (Fig. 4), the modified Phong BRDF, the filter weights and the tests' uniforms.
 // Defines: CAUSTIC_FILTER 0 none, 1 cone 3(1-t), 2 epanechnikov 2(1-t^2), 3 silverman
-// 3(1-t^2)^2, t = d/r.  CPU: blockhash/render/estimate.py (kernel, photon_weights).
+// 3(1-t^2)^2, t = d/r.  CPU: blockhash/frame/estimate.py (kernel, photon_weights).
 #ifndef CAUSTIC_COMMON_GLSL
 #define CAUSTIC_COMMON_GLSL
 

@@ -1,9 +1,9 @@
 // caustic_cover.glsl: the conserving estimate over the cover gather (bh_cover.glsl):
 // L = sum w(d / h) f_r(wi, wo) Phi / (pi h^2) over every photon whose own disc covers q
-// (d < h, its own radius h; blockhash/render/photon_radius.py); the term and its tests are
+// (d < h, its own radius h; blockhash/frame/photon_radius.py); the term and its tests are
 // caustic_cover_term.glsl's.
 // Takes: q, its unit normal n, the unit direction toward the viewer wo, a modified Phong
-// material.  Returns: the radiance.  CPU reference: blockhash/render/cover_estimate.py.
+// material.  Returns: the radiance.  CPU reference: blockhash/frame/cover_estimate.py.
 #ifndef CAUSTIC_COVER_GLSL
 #define CAUSTIC_COVER_GLSL
 #include "caustic_cover_term.glsl"

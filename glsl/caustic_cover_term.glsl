@@ -6,7 +6,7 @@
 // photon-splatting pass (splat_pass.frag).
 // Takes: caustic_cover_point (the shading point's normal, viewer direction and material),
 // then per photon its record's second texel w (octahedral wi, octahedral normal, c1 | c2,
-// c3 | c4), d = p - q, d2 = |d|^2 and h2.  CPU reference: blockhash/render/cover_estimate.py.
+// c3 | c4), d = p - q, d2 = |d|^2 and h2.  CPU reference: blockhash/frame/cover_estimate.py.
 #ifndef CAUSTIC_COVER_TERM_GLSL
 #define CAUSTIC_COVER_TERM_GLSL
 #include "caustic_common.glsl"

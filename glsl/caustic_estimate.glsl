@@ -6,7 +6,7 @@
 // Returns: L = sum w(d/r) f_r(wi, wo) Phi_p / (pi r^2) over the found photons that
 // arrive from the front (dot(-d_p, n) > 0) and pass the tests below, r the distance
 // to the farthest photon found (the k-th when k were found), but never below
-// sqrt(caustic_min_r2), the photon map's position error (blockhash/render/caustic.py
+// sqrt(caustic_min_r2), the photon map's position error (blockhash/frame/caustic.py
 // min_radius): photons that coincide with the shading point give a large finite
 // radiance, not 0 or inf.  Powers are float16 times bh_power_scale.
 // Tests (uniforms, -2 = off): the photon's stored surface normal (Fig. 4) must have
@@ -16,10 +16,10 @@
 // which lies on the circle, left out: no m/(m-1) bias) or 2 conserving (each photon
 // over its own disc: r^2 replaced by the photon's own squared radius h^2, read from
 // caustic_own_r2 (R32F, wrapped rows of width 2^CAUSTIC_OWN_W, by the photon's slot),
-// and only photons with d < h counted; blockhash/render/photon_radius.py); CAUSTIC_FILTER 0 none,
+// and only photons with d < h counted; blockhash/frame/photon_radius.py); CAUSTIC_FILTER 0 none,
 // 1 cone 3(1-t), 2 epanechnikov 2(1-t^2), 3 silverman 3(1-t^2)^2, t = d/r.
-// The CPU reference is blockhash/render/caustic.py estimate_cpu; the options
-// blockhash/render/estimate.py EstimateOptions.
+// The CPU reference is blockhash/frame/caustic.py estimate_cpu; the options
+// blockhash/frame/estimate.py EstimateOptions.
 #ifndef CAUSTIC_ESTIMATE_GLSL
 #define CAUSTIC_ESTIMATE_GLSL
 #include "bh_blocks.glsl"

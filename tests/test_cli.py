@@ -118,8 +118,8 @@ def test_bench_rejects_no_timed_draws(capsys):
 
 def test_flags_are_named_one_way_with_choices_from_one_list():
     from blockhash.cli import build_parser
+    from blockhash.frame.options import METHODS
     from blockhash.gl.context import BACKENDS
-    from blockhash.render.options import METHODS
 
     parser = build_parser()
     trade = parser.parse_args(["tradeoff", "scenes/ring.toml", "-o", "out", "--k", "16,50"])

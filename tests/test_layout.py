@@ -1,4 +1,4 @@
-"""The package reads as its data flows: scene -> photons -> index -> gl -> render ->
+"""The package reads as its data flows: scene -> photons -> index -> gl -> frame ->
 reference -> evaluate -> studies -> command line.
 
 Every import between blockhash's modules (lazy ones inside functions included)
@@ -14,7 +14,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "blockhash"
 #: Rank of each part in the data flow; a module may import only ranks <= its own.
-RANKS = {"errors": 0, "validate": 0, "code_version": 0, "moved": 9, "scene": 1, "photons": 2, "index": 3, "gl": 4, "render": 5,
+RANKS = {"errors": 0, "validate": 0, "code_version": 0, "moved": 9, "scene": 1, "photons": 2, "index": 3, "gl": 4, "frame": 5,
          "reference": 6, "evaluate": 7, "studies": 8, "bench": 8,
          "cli": 9, "cli_estimate": 9, "cli_images": 9, "cli_tradeoff": 9, "__init__": 9, "__main__": 9}
 #: Lines above which a module's docstring must say why it is long.
@@ -73,7 +73,7 @@ def test_module_imports_only_earlier_parts(path):
 
 
 def test_the_three_parts_are_packages():
-    for part in ("scene", "photons", "index", "gl", "render", "reference", "evaluate", "studies"):
+    for part in ("scene", "photons", "index", "gl", "frame", "reference", "evaluate", "studies"):
         assert (PACKAGE / part / "__init__.py").is_file()
     assert not sorted(p.name for p in PACKAGE.glob("*.py")
                       if p.stem not in RANKS), "top-level modules outside the known parts"
@@ -92,7 +92,7 @@ def test_import_check_sees_a_backward_import(tmp_path):
     """The checker itself can fail: an index module importing the renderer is caught."""
     fake = PACKAGE / "index" / "_probe_backward.py"
     try:
-        fake.write_text("from ..render import pipeline\n")
+        fake.write_text("from ..frame import pipeline\n")
         with pytest.raises(AssertionError, match="against the data flow"):
             test_module_imports_only_earlier_parts(fake)
     finally:

@@ -6,10 +6,10 @@ import sys
 
 import pytest
 
-from blockhash.moved import MOVED
+from blockhash.moved import MOVED, OLD_FRAME
 
 
-@pytest.mark.parametrize("old", sorted(MOVED))
+@pytest.mark.parametrize("old", sorted(m for m in MOVED if not m.startswith(OLD_FRAME + ".")))
 def test_an_old_name_gives_the_new_module_and_warns(old):
     sys.modules.pop(old, None)
     with pytest.warns(DeprecationWarning, match=f"{old} is now {MOVED[old]}"):
@@ -19,14 +19,23 @@ def test_an_old_name_gives_the_new_module_and_warns(old):
 
 
 def test_from_imports_of_old_names_work():
-    sys.modules.pop("blockhash.render.scene_toml", None)
+    sys.modules.pop("blockhash.tradeoff.sweep", None)
     with pytest.warns(DeprecationWarning):
-        from blockhash.render.scene_toml import load_scene
-    from blockhash.scene.loader import load_scene as new
+        from blockhash.tradeoff.sweep import run_sweep
+    from blockhash.studies.sweep import run_sweep as new
 
-    assert load_scene is new
+    assert run_sweep is new
 
 
-def test_a_name_that_never_existed_still_fails():
-    with pytest.raises(ModuleNotFoundError):
-        importlib.import_module("blockhash.render.no_such_module")
+@pytest.mark.parametrize("old", ["blockhash.render.pipeline", "blockhash.render.scene_toml",
+                                 "blockhash.render"])
+def test_the_frames_old_package_name_fails_naming_the_new_one(old):
+    """blockhash.render is the render function: its old modules cannot be imported (Python
+    would bind the package over the function), and the error says where they are."""
+    import blockhash
+
+    with pytest.raises(ModuleNotFoundError, match=r"blockhash.render is the render function now.*"
+                                                  r"import blockhash.frame.pipeline for "
+                                                  r"blockhash.render.pipeline"):
+        importlib.import_module(old)
+    assert callable(blockhash.render) and blockhash.render.__module__ == "blockhash.frame.pipeline"

@@ -22,11 +22,11 @@ from pathlib import Path
 import numpy as np
 
 from blockhash import BlockHashIndex
+from blockhash.frame.caustic import estimate_cpu, estimate_exact
+from blockhash.frame.gbuffer import rasterize
+from blockhash.frame.shading import SceneRays, shading_points
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.reference.lighttrace import cached_reference, lambertian
-from blockhash.render.caustic import estimate_cpu, estimate_exact
-from blockhash.render.gbuffer import rasterize
-from blockhash.render.shading import SceneRays, shading_points
 from blockhash.scene.loader import load_scene
 from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial

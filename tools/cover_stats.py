@@ -18,16 +18,16 @@ import numpy as np
 
 from blockhash.bench import make_queries
 from blockhash.evaluate.datasets import DISTRIBUTIONS
+from blockhash.frame.cover_estimate import cover_gather
+from blockhash.frame.photon_radius import exact_radii2, own_radii2
 from blockhash.index.block_hash_index import BlockHashIndex
-from blockhash.render.cover_estimate import cover_gather
-from blockhash.render.photon_radius import exact_radii2, own_radii2
 
 
 def scene_points(path, photons, size, k):
     """(index, (m, 3) float32 shading points) of a scene's camera at size x size."""
+    from blockhash.frame.gbuffer import rasterize
+    from blockhash.frame.shading import SceneRays, shading_points
     from blockhash.photons.tracing import trace_caustic_photons
-    from blockhash.render.gbuffer import rasterize
-    from blockhash.render.shading import SceneRays, shading_points
     from blockhash.scene.loader import load_scene
     from blockhash.scene.model import MirrorMaterial
 

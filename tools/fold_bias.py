@@ -11,10 +11,10 @@ Photons of total power 1 on the unit square of a plane, uniform in y and, in x,
 * ``step``: x uniform on (0, 1): a sharp edge of constant density;
 * ``smooth``: x normal (0.3, 0.1): no edge.
 
-The estimate of blockhash.render.estimate (``--estimate unbiased``: the k-1 nearest photons
+The estimate of blockhash.frame.estimate (``--estimate unbiased``: the k-1 nearest photons
 with the filter's weights, over pi r^2, r the k-th's distance; ``--estimate conserving``:
 each of the k nearest photons over its own disc, of the radius to its
-round(k - 2 sqrt(k))-th nearest other photon, blockhash.render.photon_radius; exact kNN
+round(k - 2 sqrt(k))-th nearest other photon, blockhash.frame.photon_radius; exact kNN
 in 2D) is integrated
 over the window x in (-0.2, 0.5), y in (0.25, 0.75) with stratified jittered points
 (``--points`` per axis along x, half as many along y), and divided by the power of the
@@ -49,8 +49,8 @@ def flux_ratio(shape: str, n: int, k: int, filters, *, points: int = 1500, seed:
     """{filter: estimated flux over the window / photon power inside it}."""
     from scipy.spatial import cKDTree
 
-    from blockhash.render.estimate import kernel
-    from blockhash.render.photon_radius import neighbours_for
+    from blockhash.frame.estimate import kernel
+    from blockhash.frame.photon_radius import neighbours_for
 
     rng = np.random.default_rng(seed)
     p = photons(shape, n, rng)
@@ -78,7 +78,7 @@ def flux_ratio(shape: str, n: int, k: int, filters, *, points: int = 1500, seed:
 
 
 def main() -> int:
-    from blockhash.render.estimate import FILTERS
+    from blockhash.frame.estimate import FILTERS
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--shapes", default="fold,step", help="fold, step, smooth (comma-separated)")

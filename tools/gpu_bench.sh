@@ -28,7 +28,7 @@ fi
 WARMUP=${WARMUP:-3}
 if [ -f .whl/run.sh ] && command -v nvidia-smi >/dev/null; then
   bh() { bash .whl/run.sh "$@"; }                     # the installed wheel, NVIDIA's EGL
-  tests() { bash .whl/run.sh pytest -q "$root/tests/gl/test_gl_lookup.py" "$root/tests/render/test_caustic.py"; }
+  tests() { bash .whl/run.sh pytest -q "$root/tests/gl/test_gl_lookup.py" "$root/tests/frame/test_caustic.py"; }
   nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv > "$OUT/device.txt"
 else
   bh() { python -m blockhash.cli "$@"; }             # this checkout, the local GL

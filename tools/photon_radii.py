@@ -24,12 +24,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from blockhash import BlockHashIndex  # noqa: E402
+from blockhash.frame.caustic import CausticPass  # noqa: E402
+from blockhash.frame.photon_radius import exact_radii2, own_radii2  # noqa: E402
+from blockhash.frame.shading import SceneRays, shading_points  # noqa: E402
+from blockhash.frame.subpixel import box_filter, raycast_gbuffer  # noqa: E402
 from blockhash.photons.tracing import trace_caustic_photons  # noqa: E402
 from blockhash.reference.lighttrace import cached_reference, lambertian  # noqa: E402
-from blockhash.render.caustic import CausticPass  # noqa: E402
-from blockhash.render.photon_radius import exact_radii2, own_radii2  # noqa: E402
-from blockhash.render.shading import SceneRays, shading_points  # noqa: E402
-from blockhash.render.subpixel import box_filter, raycast_gbuffer  # noqa: E402
 from blockhash.scene.camera import SPP_SEED, spp_side  # noqa: E402
 from blockhash.scene.loader import load_scene  # noqa: E402
 from blockhash.scene.materials import receiver_materials  # noqa: E402

@@ -1,4 +1,4 @@
-"""Render the reference images that tests/render/test_reference_images.py compares against.
+"""Render the reference images that tests/frame/test_reference_images.py compares against.
 
     python tools/regenerate_references.py
 

@@ -15,11 +15,11 @@ import argparse
 
 import numpy as np
 
+from blockhash.frame.caustic import estimate_exact
+from blockhash.frame.gbuffer import rasterize
+from blockhash.frame.pipeline import render_scene
+from blockhash.frame.shading import SceneRays, shading_points
 from blockhash.photons.tracing import trace_caustic_photons
-from blockhash.render.caustic import estimate_exact
-from blockhash.render.gbuffer import rasterize
-from blockhash.render.pipeline import render_scene
-from blockhash.render.shading import SceneRays, shading_points
 from blockhash.scene.loader import load_scene
 from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial

@@ -224,15 +224,15 @@ def lookup_shaders(k: int = 50, A: int = 8, *, lookups=LOOKUPS, kdtree: bool = T
 
 def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_000,
                     lookups=("cover", "walk", "cells"), backend: str | None = None) -> dict[str, str]:
-    """The caustic pass's three stages (blockhash.render.caustic.STAGES) on the scene's own
+    """The caustic pass's three stages (blockhash.frame.caustic.STAGES) on the scene's own
     pixels at 16 x 16, for each of ``lookups`` ('cover': the default render's cover gather,
     'walk', 'cells')."""
     from blockhash import BlockHashIndex
+    from blockhash.frame.caustic import STAGES, CausticPass
+    from blockhash.frame.gbuffer import rasterize
+    from blockhash.frame.shading import SceneRays, shading_points
     from blockhash.gl.shaderlib import recording
     from blockhash.photons.tracing import trace_caustic_photons
-    from blockhash.render.caustic import STAGES, CausticPass
-    from blockhash.render.gbuffer import rasterize
-    from blockhash.render.shading import SceneRays, shading_points
     from blockhash.scene.loader import load_scene
     from blockhash.scene.materials import receiver_materials
     from blockhash.scene.model import MirrorMaterial

@@ -16,7 +16,7 @@ pixels whose view ray meets a diffuse surface first (``comparison_mask``):
     python tools/spp_sweep.py scenes/ring.toml scenes/corner.toml --spp 1,4,9,16
     python tools/spp_sweep.py scenes/venus.toml --photons 200000 --json out.json
 
-The default spp (``blockhash.render.subpixel.DEFAULT_SPP``) was chosen on ring and corner
+The default spp (``blockhash.frame.subpixel.DEFAULT_SPP``) was chosen on ring and corner
 only; venus is reported, never tuned on.
 """
 
@@ -31,9 +31,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from blockhash.frame.pipeline import render_scene  # noqa: E402
 from blockhash.photons.tracing import trace_caustic_photons  # noqa: E402
 from blockhash.reference.lighttrace import cached_reference, lambertian  # noqa: E402
-from blockhash.render.pipeline import render_scene  # noqa: E402
 from blockhash.scene.loader import load_scene  # noqa: E402
 from blockhash.studies.estimates import caustic_region, measure  # noqa: E402
 

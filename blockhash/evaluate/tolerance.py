@@ -33,7 +33,7 @@ from blockhash.errors import InputError
 from blockhash.evaluate.imagediff import compare_layers
 
 #: Smallest proposed limits: float32 rounding and driver differences on a layer the seed does
-#: not change (shader vs CPU reference agree to 1e-4 relative RMS, tests/render/test_render.py), and
+#: not change (shader vs CPU reference agree to 1e-4 relative RMS, tests/frame/test_render.py), and
 #: a FLIP far below the visible (0.01 is about the least a viewer notices when flipping).
 FLOORS = {"relative_rms": 1e-4, "flip": 1e-3}
 #: Metrics that get a proposed limit.
@@ -96,7 +96,7 @@ def seed_tolerances(scene, *, seeds: int = 4, first_seed: int = 0, photons=None,
     spp : int, optional
         Samples per pixel of every render (default: the scene's, else the renderer's).
     """
-    from blockhash.render.pipeline import render_scene
+    from blockhash.frame.pipeline import render_scene
 
     if seeds < 2:
         raise InputError(f"--seeds {seeds}: need at least 2 seeds to measure seed-to-seed noise; "

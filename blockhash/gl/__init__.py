@@ -1,7 +1,7 @@
 """The GL part: offscreen contexts, texture packing, the GLSL library and lookups.
 
 Sits between the index (:mod:`blockhash.index`, which it uploads) and the renderer
-(:mod:`blockhash.render`, which draws with it); it imports the index, never the
+(:mod:`blockhash.frame`, which draws with it); it imports the index, never the
 renderer.  ``GLLookup(index).query(points)`` answers like ``index.query(points)``.
 """
 

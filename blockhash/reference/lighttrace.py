@@ -38,7 +38,7 @@ Lambertian plane of radiance ``L`` gives ``I_j = (1/a) L a = L`` in every pixel.
 
 What the image holds, and what not.  It is the caustic radiance *seen directly*:
 pixels whose view ray meets a diffuse surface first.  The renderer's caustic layer
-also shows caustics *in mirrors* (:func:`blockhash.render.shading.shading_points` moves a mirror
+also shows caustics *in mirrors* (:func:`blockhash.frame.shading.shading_points` moves a mirror
 pixel's shading point to what the mirror reflects); the light tracer would need a
 specular connection through the mirror for those and leaves them out.  So compare
 only on :attr:`LightTraceImage.visible` (:meth:`LightTraceImage.comparison_mask`
@@ -68,9 +68,9 @@ import numpy as np
 from blockhash import __version__
 from blockhash.code_version import source_digest
 from blockhash.errors import InputError
+from blockhash.frame.shading import SceneRays
 from blockhash.photons.emission import Emitter, photon_uniforms
 from blockhash.photons.tracing import trace_batch
-from blockhash.render.shading import SceneRays
 from blockhash.scene.camera import Pinhole
 from blockhash.scene.materials import material_arrays, phong_brdf, receiver_materials
 from blockhash.scene.raycast import EmbreeGeometry
@@ -84,7 +84,7 @@ REFERENCE_SEED_OFFSET = 1 << 64
 #: The code a reference image depends on: a cached image is keyed by the source of these
 #: parts of the package (and the version), so an edit to the tracer or the scene model
 #: never reads an image the old code traced.
-CODE_PARTS = ("reference", "photons", "scene", "render/shading.py")
+CODE_PARTS = ("reference", "photons", "scene", "frame/shading.py")
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 
 :class:`Pinhole` is the scene camera at an image size: it projects world points to
 pixels (the light tracer's reference, :mod:`blockhash.reference.lighttrace`) and casts
-rays through film points (the renderer's samples, :mod:`blockhash.render.subpixel`), so
+rays through film points (the renderer's samples, :mod:`blockhash.frame.subpixel`), so
 both integrate over the same pixel footprint.  :func:`spp_side` checks a count of samples
 per pixel (stratified S x S).
 """

@@ -1,6 +1,6 @@
 """Ray casting through embree: one scene of every mesh, first hits, hit geometry.
 
-Photon tracing (:mod:`blockhash.photons.tracing`) and shading (:mod:`blockhash.render.shading`) both cast rays
+Photon tracing (:mod:`blockhash.photons.tracing`) and shading (:mod:`blockhash.frame.shading`) both cast rays
 against the same meshes; this module holds what they share.  ``EmbreeScene.run``
 is called directly (trimesh's wrappers are 2-3x slower, and trimesh
 silently falls back to a pure-numpy caster when embreex is missing).

@@ -5,7 +5,7 @@ tracer's comparison assumes no glossy lobe is missing), photon count N and k, on
 map is traced and its Block Hashing neighbours found once per pixel (the CPU reference
 of the default shader variant: the same photons the caustic pass finds, or exact kNN
 with cKDTree for the paper's and the default estimate, the lookup's own share); every
-:class:`~blockhash.render.estimate.EstimateOptions` is then evaluated on those same
+:class:`~blockhash.frame.estimate.EstimateOptions` is then evaluated on those same
 neighbours, so the options differ only in the estimate.  Images are rendered at
 ``supersample`` times the size and box-filtered, as in the trade study.
 
@@ -23,15 +23,15 @@ import time
 import numpy as np
 
 from blockhash.evaluate.metrics import exact_knn
+from blockhash.frame.caustic import Neighbours, ShadingPoints
+from blockhash.frame.estimate import EstimateOptions
+from blockhash.frame.gbuffer import rasterize
+from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.subpixel import raycast_gbuffer
 from blockhash.gl.lookup import query_slot_bits
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.reference.lighttrace import cached_reference, lambertian
-from blockhash.render.caustic import Neighbours, ShadingPoints
-from blockhash.render.estimate import EstimateOptions
-from blockhash.render.gbuffer import rasterize
-from blockhash.render.shading import SceneRays, shading_points
-from blockhash.render.subpixel import raycast_gbuffer
 from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial
 from blockhash.studies.measure import flux_ratio, masked_blur, rel_rms
@@ -74,7 +74,7 @@ def measure(image, reference, mask, region) -> dict:
 def scene_points(scene, size, supersample: int, jitter: int | None = None, rays=None):
     """Shading points at ``supersample`` x ``supersample`` per pixel of ``size``: the
     rasterised regular grid (``jitter`` None, as the trade study) or stratified jitter
-    with seed ``jitter`` (:mod:`blockhash.render.subpixel`)."""
+    with seed ``jitter`` (:mod:`blockhash.frame.subpixel`)."""
     ss = int(supersample)
     rays = SceneRays(scene.objects) if rays is None else rays
     if jitter is None:

@@ -9,7 +9,7 @@ aliases: its flux moves by several percent with the number of points per
 pixel.  Here each pixel's mean comes instead from
 
 1. **stratified jitter**, S x S cells per pixel and one uniform point in each
-   (:mod:`blockhash.render.subpixel`): an unbiased estimate of the pixel mean for any
+   (:mod:`blockhash.frame.subpixel`): an unbiased estimate of the pixel mean for any
    caustic, on the same film footprint as the reference's pixels;
 2. **refinement**: the ``refine`` pixels whose S x S values spread the most (the few that
    a fold line or the cusp crosses) are estimated again with fresh jittered points,
@@ -31,12 +31,12 @@ import time
 
 import numpy as np
 
+from blockhash.frame.estimate import EstimateOptions
+from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.subpixel import raycast_gbuffer
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.reference.lighttrace import cached_reference, lambertian, light_trace
-from blockhash.render.estimate import EstimateOptions
-from blockhash.render.shading import SceneRays, shading_points
-from blockhash.render.subpixel import raycast_gbuffer
 from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial
 from blockhash.studies.estimates import (

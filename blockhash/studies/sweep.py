@@ -33,19 +33,19 @@ import numpy as np
 from blockhash import __version__
 from blockhash.errors import InputError
 from blockhash.evaluate.metrics import accuracy, exact_knn
+from blockhash.frame.caustic import CausticPass, estimate_cpu, estimate_exact
+from blockhash.frame.gbuffer import rasterize
+from blockhash.frame.shading import SceneRays, shading_points
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.index.tables.params import PRESETS
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.reference.lighttrace import cached_reference, scene_digest
-from blockhash.render.caustic import CausticPass, estimate_cpu, estimate_exact
-from blockhash.render.gbuffer import rasterize
-from blockhash.render.shading import SceneRays, shading_points
 from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial
 from blockhash.studies.measure import errors_against
 
 #: How the caustic layer of a setting is computed: 'gl' the caustic pass shader (timed
-#: draws), 'cpu' its CPU reference (the same neighbours, tests/render/test_caustic.py; no shader
+#: draws), 'cpu' its CPU reference (the same neighbours, tests/frame/test_caustic.py; no shader
 #: compiles, so small studies and tests run in seconds, but times are CPU times).
 ENGINES = ("gl", "cpu")
 

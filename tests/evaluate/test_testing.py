@@ -8,7 +8,7 @@ import pytest
 
 from blockhash.errors import InputError
 from blockhash.evaluate.testing import assert_images_close
-from blockhash.render.images import write_exr
+from blockhash.frame.images import write_exr
 
 
 def image(seed=0, shape=(16, 16, 3)):

@@ -8,6 +8,8 @@ from conftest import context_or_skip
 
 from blockhash import BlockHashIndex, CapacityError, InputError
 from blockhash.errors import ShaderCompileError
+from blockhash.frame.caustic import CausticPass, ShadingPoints, estimate_cpu
+from blockhash.frame.estimate import EstimateOptions
 from blockhash.gl import limits
 from blockhash.gl.context import check_gl
 from blockhash.gl.limits import LOOP_LIMIT, MAX_K, check_lookup, largest_A, loop_iterations
@@ -15,8 +17,6 @@ from blockhash.gl.lookup import GLLookup, query_slot_bits
 from blockhash.gl.packing import pack_index, texture_shape, upload
 from blockhash.gl.shaderlib import Variant, compile_program
 from blockhash.index.records.fixedpoint import min_radius
-from blockhash.render.caustic import CausticPass, ShadingPoints, estimate_cpu
-from blockhash.render.estimate import EstimateOptions
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

@@ -8,9 +8,9 @@ from conftest import photon_set
 from scipy.spatial import cKDTree
 
 from blockhash.errors import InputError
+from blockhash.frame.photon_radius import exact_radii2
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.index.lookups.cover import CoverGather, octave_sides
-from blockhash.render.photon_radius import exact_radii2
 
 #: Distances within this relative margin of a radius may fall either way between the
 #: float32 test of the reference and the float64 oracle.

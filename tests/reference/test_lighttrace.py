@@ -140,10 +140,10 @@ def test_exact_knn_photon_map_agrees_with_the_light_tracer(traced):
 
     context_or_skip("egl")
     from blockhash import BlockHashIndex
+    from blockhash.frame.caustic import estimate_exact
+    from blockhash.frame.gbuffer import rasterize
+    from blockhash.frame.shading import SceneRays, shading_points
     from blockhash.photons.tracing import trace_caustic_photons
-    from blockhash.render.caustic import estimate_exact
-    from blockhash.render.gbuffer import rasterize
-    from blockhash.render.shading import SceneRays, shading_points
     from blockhash.scene.materials import receiver_materials
 
     scene, img = traced
@@ -177,7 +177,7 @@ def test_visible_pixels_line_up_with_the_renderers_gbuffer():
     from conftest import context_or_skip
 
     context_or_skip("egl")
-    from blockhash.render.gbuffer import rasterize
+    from blockhash.frame.gbuffer import rasterize
 
     base = mirror_scene()
     v = np.array([[-3.0, 0, 0.2], [0.1, 0, 0.2], [0.1, 0, 3.0], [-3.0, 0, 3.0]])

@@ -1,6 +1,6 @@
 """The cover gather: every photon whose own disc covers a point (the default estimate's query).
 
-The ``conserving`` estimate (blockhash/render/photon_radius.py) spreads each photon over a disc
+The ``conserving`` estimate (blockhash/frame/photon_radius.py) spreads each photon over a disc
 of its own radius h_i; a shading point q sums exactly the photons with ``|p_i - q| < h_i``.
 That is a fixed-radius question once photons are grouped by radius (Bentley, Stanat and
 Williams 1977, the grid of GPU particle systems, here once per radius octave):
@@ -148,7 +148,7 @@ class CoverGather:
     def build(cls, index, r2, *, steps: int = OCTAVE_STEPS) -> "CoverGather":
         """The gather of ``index``'s photons (a :class:`.block_hash_index.BlockHashIndex`:
         its records and quantizer) with squared radii ``r2`` ((n,) in the caller's order,
-        float32 steps as :func:`blockhash.render.photon_radius.own_radii2` gives them)."""
+        float32 steps as :func:`blockhash.frame.photon_radius.own_radii2` gives them)."""
         n = len(index)
         r2 = np.asarray(r2, dtype=np.float64)
         if r2.shape != (n,):

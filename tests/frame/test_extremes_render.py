@@ -8,8 +8,8 @@ from conftest import context_or_skip
 from conftest import small_ring_scene as scene
 
 from blockhash import CapacityError, InputError
-from blockhash.render.gbuffer import rasterize
-from blockhash.render.pipeline import NoCausticWarning, render_scene
+from blockhash.frame.gbuffer import rasterize
+from blockhash.frame.pipeline import NoCausticWarning, render_scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.render.gbuffer import GBuffer
+from blockhash.frame.gbuffer import GBuffer
 from blockhash.scene.camera import Pinhole
 from blockhash.validate import as_int
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from blockhash.render.caustic import ShadingPoints
+from blockhash.frame.caustic import ShadingPoints
 from blockhash.scene.materials import phong_brdf
 from blockhash.scene.optics import choice_uniforms, scatter
 from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, surface_hits

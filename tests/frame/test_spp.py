@@ -8,8 +8,8 @@ import pytest
 from conftest import context_or_skip
 
 from blockhash.errors import InputError
-from blockhash.render.pipeline import NoCausticWarning, render_scene
-from blockhash.render.subpixel import box_filter
+from blockhash.frame.pipeline import NoCausticWarning, render_scene
+from blockhash.frame.subpixel import box_filter
 from blockhash.scene.camera import Pinhole, spp_side
 from blockhash.scene.loader import load_scene
 
@@ -138,7 +138,7 @@ def test_spp_images_are_the_same_in_every_run(tmp_path):
 def test_render_command_records_spp_in_the_exr(tmp_path, capsys):
     context_or_skip("egl")
     from blockhash.cli import main
-    from blockhash.render.images import read_attribute
+    from blockhash.frame.images import read_attribute
 
     out = tmp_path / "ring.exr"
     assert main(["render", str(ROOT / "scenes" / "ring.toml"), "--size", "16x16", "--photons",
@@ -156,10 +156,10 @@ def test_spp_1_is_the_pixel_centre_render_of_the_rasteriser():
     shading points, their direct light and one caustic pass, with no filter."""
     context_or_skip("egl")
     from blockhash import BlockHashIndex
+    from blockhash.frame.caustic import CausticPass
+    from blockhash.frame.gbuffer import rasterize
+    from blockhash.frame.shading import SceneRays, direct_light, shading_points
     from blockhash.photons.tracing import trace_caustic_photons
-    from blockhash.render.caustic import CausticPass
-    from blockhash.render.gbuffer import rasterize
-    from blockhash.render.shading import SceneRays, direct_light, shading_points
     from blockhash.scene.materials import receiver_materials
     from blockhash.scene.model import MirrorMaterial
 

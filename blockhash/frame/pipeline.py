@@ -20,16 +20,16 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from blockhash.errors import InputError
+from blockhash.frame.caustic import CausticPass, estimate_cpu, estimate_exact
+from blockhash.frame.cover_estimate import cover_gather, estimate_cover_cpu
+from blockhash.frame.estimate import EstimateOptions
+from blockhash.frame.gbuffer import rasterize
+from blockhash.frame.options import LookupOptions, resolve_method
+from blockhash.frame.photon_radius import exact_radii2, own_radii2
+from blockhash.frame.shading import SceneRays, direct_light, shading_points
+from blockhash.frame.subpixel import box_filter, raycast_gbuffer
 from blockhash.gl.limits import MAX_K
 from blockhash.index.block_hash_index import BlockHashIndex
-from blockhash.render.caustic import CausticPass, estimate_cpu, estimate_exact
-from blockhash.render.cover_estimate import cover_gather, estimate_cover_cpu
-from blockhash.render.estimate import EstimateOptions
-from blockhash.render.gbuffer import rasterize
-from blockhash.render.options import LookupOptions, resolve_method
-from blockhash.render.photon_radius import exact_radii2, own_radii2
-from blockhash.render.shading import SceneRays, direct_light, shading_points
-from blockhash.render.subpixel import box_filter, raycast_gbuffer
 from blockhash.scene.camera import DEFAULT_SPP, SPP_SEED, spp_side
 from blockhash.scene.materials import receiver_materials
 from blockhash.validate import old_keywords
@@ -79,7 +79,7 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
     seed : int, optional
         The photons' seed (default: the scene's ``[photons] seed``).
     estimate : EstimateOptions
-        The density estimate (:mod:`blockhash.render.estimate`).
+        The density estimate (:mod:`blockhash.frame.estimate`).
     lookup : LookupOptions
         The photon search: method, k, A, shader variant.
     backend : {'auto', 'egl', 'osmesa'}, optional
@@ -133,7 +133,7 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
     photon_map : CausticPhotons, optional
         Reuse traced photons (for comparing methods on the same map).
     options : EstimateOptions, optional
-        The density estimate's options (:mod:`blockhash.render.estimate`; default:
+        The density estimate's options (:mod:`blockhash.frame.estimate`; default:
         ``EstimateOptions()``).
     spp : int, optional
         Samples per pixel, a square number S * S (default: the scene's ``[camera] spp``,

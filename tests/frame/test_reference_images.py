@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from blockhash.evaluate.testing import assert_images_close
-from blockhash.render.images import read_layers
-from blockhash.render.pipeline import render_scene
+from blockhash.frame.images import read_layers
+from blockhash.frame.pipeline import render_scene
 from blockhash.scene.loader import load_scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)

@@ -18,11 +18,11 @@ from dataclasses import replace
 
 import numpy as np
 
+from blockhash.frame.caustic import MAX_MATERIALS, ShadingPoints, material_table
+from blockhash.frame.cover_estimate import require_conserving
+from blockhash.frame.estimate import EstimateOptions
 from blockhash.gl.context import check_gl, get_context, home_framebuffer
 from blockhash.gl.shaderlib import compile_program, preprocess
-from blockhash.render.caustic import MAX_MATERIALS, ShadingPoints, material_table
-from blockhash.render.cover_estimate import require_conserving
-from blockhash.render.estimate import EstimateOptions
 
 
 class SplatPass:

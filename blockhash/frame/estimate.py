@@ -169,7 +169,7 @@ def photon_weights(options: EstimateOptions, d2, r2, found, wi, n_photon, n_shad
     if options.estimate == "conserving":
         if own_r2 is None:
             raise InputError("the conserving estimate needs each photon's own radius; pass "
-                             "own_r2 (blockhash.render.photon_radius.own_radii2)")
+                             "own_r2 (blockhash.frame.photon_radius.own_radii2)")
         with np.errstate(divide="ignore", invalid="ignore"):
             t2 = np.where(found, d2 / own_r2, np.inf)
             w = np.where(t2 < 1.0, kernel(options.filter, t2) * (r2[:, None] / own_r2), 0.0)

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from blockhash.errors import InputError
+from blockhash.frame.estimate import EstimateOptions, photon_weights
+from blockhash.frame.photon_radius import exact_radii2, own_radii2
 from blockhash.gl.context import (
     bind_textures,
     check_gl,
@@ -34,8 +36,6 @@ from blockhash.gl.lookup import GLLookup, query_slot_bits
 from blockhash.gl.shaderlib import Variant
 from blockhash.index.records.codec import decode_directions, decode_powers, unpack_records
 from blockhash.index.records.fixedpoint import min_r2
-from blockhash.render.estimate import EstimateOptions, photon_weights
-from blockhash.render.photon_radius import exact_radii2, own_radii2
 from blockhash.scene.materials import material_arrays, phong_brdf
 
 #: Materials a caustic pass can hold (uniform arrays in caustic_pass.frag).
@@ -262,8 +262,8 @@ class CausticPass:
 
     def _cover(self, k: int):
         """The cover gather for k neighbours' radii, uploaded once."""
+        from blockhash.frame.cover_estimate import cover_gather
         from blockhash.gl.cover import GLCover
-        from blockhash.render.cover_estimate import cover_gather
 
         if k not in self._covers:
             self._covers[k] = GLCover(cover_gather(self.index, k, self.radii), backend=self.backend)
@@ -271,8 +271,8 @@ class CausticPass:
 
     def _own_radii(self, k: int):
         """The texture of the photons' own squared radii for k neighbours, uploaded once."""
+        from blockhash.frame.photon_radius import slot_radii2
         from blockhash.gl.packing import upload
-        from blockhash.render.photon_radius import slot_radii2
 
         if k not in self._own:
             with self.ctx:
@@ -294,7 +294,7 @@ class CausticPass:
         options = EstimateOptions() if options is None else options
         own = {}
         if self.gather == "cover":
-            from blockhash.render.cover_estimate import require_conserving
+            from blockhash.frame.cover_estimate import require_conserving
 
             require_conserving(options)
             source = self._cover(k)

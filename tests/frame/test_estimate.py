@@ -10,8 +10,8 @@ from conftest import DOWN, FLOOR, KD, LAMBERT, floor_points, surfaces  # noqa: F
 from blockhash.cli import main
 from blockhash.errors import InputError
 from blockhash.evaluate.testing import assert_images_close
-from blockhash.render.caustic import CausticPass, estimate_cpu, estimate_from_neighbours
-from blockhash.render.estimate import FILTERS, EstimateOptions, kernel
+from blockhash.frame.caustic import CausticPass, estimate_cpu, estimate_from_neighbours
+from blockhash.frame.estimate import FILTERS, EstimateOptions, kernel
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

@@ -8,11 +8,11 @@ import pytest
 from blockhash.cli import main
 from blockhash.evaluate.imagediff import compare_layers
 from blockhash.evaluate.testing import assert_images_close
+from blockhash.frame.caustic import estimate_exact
+from blockhash.frame.gbuffer import rasterize
+from blockhash.frame.pipeline import NoCausticWarning, render_scene
+from blockhash.frame.shading import SceneRays, shading_points
 from blockhash.photons.tracing import trace_caustic_photons
-from blockhash.render.caustic import estimate_exact
-from blockhash.render.gbuffer import rasterize
-from blockhash.render.pipeline import NoCausticWarning, render_scene
-from blockhash.render.shading import SceneRays, shading_points
 from blockhash.scene.loader import load_scene
 from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial
@@ -61,7 +61,7 @@ SAME_ESTIMATE = 1e-4
 @pytest.mark.slow
 def test_shader_caustic_equals_the_cpu_reference_estimate(ring, ring_default, ring_points, tmp_path):
     """The default render's caustic (the cover gather's pass) against its CPU reference."""
-    from blockhash.render.cover_estimate import cover_gather, estimate_cover_cpu
+    from blockhash.frame.cover_estimate import cover_gather, estimate_cover_cpu
 
     r = ring_default
     cpu = estimate_cover_cpu(cover_gather(r.index, r.index.params.k), ring_points,

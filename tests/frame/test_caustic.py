@@ -5,7 +5,7 @@ import pytest
 
 from blockhash import BlockHashIndex
 from blockhash.evaluate.testing import assert_images_close
-from blockhash.render.caustic import CausticPass, ShadingPoints, estimate_cpu
+from blockhash.frame.caustic import CausticPass, ShadingPoints, estimate_cpu
 from blockhash.scene.materials import phong_brdf
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
@@ -35,7 +35,7 @@ def test_uniform_photons_on_a_plane_give_the_analytic_radiance(plane_index):
     # Irradiance E = FLUX / area = 10 W/m^2; a Lambertian kd gives L = kd E / pi.  The
     # default (conserving) estimate spreads each photon over its own disc, which reaches
     # its 36th nearest photon at k = 50: relative noise about sqrt(1.5 / 36) = 20 % per
-    # pixel with the cone filter (tests/render/test_photon_radius.py), 0.9 % over 1,024 pixels
+    # pixel with the cone filter (tests/frame/test_photon_radius.py), 0.9 % over 1,024 pixels
     # whose discs overlap a few times over.
     L = estimate_cpu(plane_index, grid_points(), [((KD,) * 3, (0, 0, 0), 1.0)])
     expected = KD * FLUX / np.pi

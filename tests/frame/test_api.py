@@ -9,7 +9,7 @@ import pytest
 
 import blockhash
 from blockhash import EstimateOptions, InputError, LookupOptions
-from blockhash.render.pipeline import render_scene
+from blockhash.frame.pipeline import render_scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -48,7 +48,7 @@ def test_render_reuses_traced_photons(ring):
 def test_render_takes_at_most_eight_arguments():
     import inspect
 
-    assert len(inspect.signature(blockhash.render.pipeline.render).parameters) <= 8
+    assert len(inspect.signature(blockhash.frame.pipeline.render).parameters) <= 8
 
 
 @pytest.mark.slow
@@ -80,3 +80,17 @@ def test_with_size_changes_only_the_image_size(ring):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         blockhash.render(big, photons=5_000, spp=1, lookup=LookupOptions(method="cpu", k=10))
+
+
+def test_render_is_a_plain_function_with_its_real_parameters():
+    """help(blockhash.render) and IDEs show the parameters, as mitsuba.render's."""
+    import inspect
+    import types
+
+    import blockhash
+
+    assert isinstance(blockhash.render, types.FunctionType)
+    params = inspect.signature(blockhash.render).parameters
+    assert list(params) == ["scene", "photons", "spp", "seed", "estimate", "lookup", "backend",
+                            "progress"]
+    assert "Render ``scene``" in blockhash.render.__doc__

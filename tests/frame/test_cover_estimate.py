@@ -10,10 +10,10 @@ from test_caustic import FLUX, KD, grid_points
 
 from blockhash import BlockHashIndex
 from blockhash.errors import CapacityError, InputError
-from blockhash.render.caustic import CausticPass, estimate_from_neighbours
-from blockhash.render.cover_estimate import cover_gather, estimate_cover_cpu
-from blockhash.render.estimate import EstimateOptions
-from blockhash.render.options import LookupOptions, resolve_method
+from blockhash.frame.caustic import CausticPass, estimate_from_neighbours
+from blockhash.frame.cover_estimate import cover_gather, estimate_cover_cpu
+from blockhash.frame.estimate import EstimateOptions
+from blockhash.frame.options import LookupOptions, resolve_method
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -64,7 +64,7 @@ def test_the_cover_sum_holds_every_photon_the_k_nearest_sum_counts(plane_index):
     """With the k nearest (exact), the conserving estimate sums the covering photons among
     them: a subset, so never more, and here within a few percent."""
     from blockhash.evaluate.metrics import exact_knn
-    from blockhash.render.photon_radius import own_radii2
+    from blockhash.frame.photon_radius import own_radii2
 
     pts = grid_points(24, 24)
     cover = estimate_cover_cpu(cover_gather(plane_index, 50), pts, MATS)
@@ -104,9 +104,9 @@ def test_a_pile_past_llvmpipes_loop_limit_is_refused_there():
 @pytest.fixture(scope="module")
 def ring_scene_points():
     """The ring's camera points at 40 x 40 (one per pixel) and 40,000 of its photons."""
+    from blockhash.frame.gbuffer import rasterize
+    from blockhash.frame.shading import SceneRays, shading_points
     from blockhash.photons.tracing import trace_caustic_photons
-    from blockhash.render.gbuffer import rasterize
-    from blockhash.render.shading import SceneRays, shading_points
     from blockhash.scene.loader import load_scene
     from blockhash.scene.materials import receiver_materials
     from blockhash.scene.model import MirrorMaterial
@@ -126,7 +126,7 @@ def test_splatting_equals_the_gather_where_the_camera_sees_the_receiver(ring_sce
     """The same estimate scattered: equal to the cover gather's per pixel that sees a receiver
     directly; where the pixel sees the floor in the mirror ring, only the photons that project
     near it (by the ring's foot, where the floor and its image meet) reach it."""
-    from blockhash.render.splat import SplatPass
+    from blockhash.frame.splat import SplatPass
 
     scene, index, pts, mats = ring_scene_points
     gather = cover_gather(index, 50)

@@ -7,8 +7,8 @@ from conftest import context_or_skip
 from conftest import small_ring_scene as scene
 
 from blockhash import BlockHashIndex
+from blockhash.frame.pipeline import render_scene
 from blockhash.photons.tracing import trace_caustic_photons
-from blockhash.render.pipeline import render_scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

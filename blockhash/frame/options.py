@@ -1,5 +1,5 @@
 """How a render finds each shading point's photons (:class:`LookupOptions`); how it
-turns them into radiance is :class:`blockhash.render.estimate.EstimateOptions`."""
+turns them into radiance is :class:`blockhash.frame.estimate.EstimateOptions`."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Shading points inside pixels (blockhash.render.subpixel) and the done-when check's
+"""Shading points inside pixels (blockhash.frame.subpixel) and the done-when check's
 pixel means (blockhash.studies.sampling)."""
 
 from pathlib import Path
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from blockhash.errors import InputError
-from blockhash.render.subpixel import raycast_gbuffer, subpixel_points
+from blockhash.frame.subpixel import raycast_gbuffer, subpixel_points
 from blockhash.scene.camera import Pinhole
 from blockhash.scene.loader import load_scene
 
@@ -85,8 +85,8 @@ def test_cell_centres_by_ray_casting_see_what_the_rasteriser_sees():
     from conftest import context_or_skip
 
     context_or_skip("egl")
-    from blockhash.render.gbuffer import rasterize
-    from blockhash.render.shading import SceneRays
+    from blockhash.frame.gbuffer import rasterize
+    from blockhash.frame.shading import SceneRays
 
     scene = load_scene(SCENES / "ring.toml")
     g = rasterize(scene.camera, scene.objects, size=(64, 48), backend="egl")
@@ -103,8 +103,8 @@ def test_cell_centres_by_ray_casting_see_what_the_rasteriser_sees():
 def test_estimate_images_in_chunks_equal_one_search_and_only_fill_what_was_asked():
     from conftest import FLOOR, LAMBERT, floor_points, surfaces
 
-    from blockhash.render.caustic import Neighbours
-    from blockhash.render.estimate import EstimateOptions
+    from blockhash.frame.caustic import Neighbours
+    from blockhash.frame.estimate import EstimateOptions
     from blockhash.studies.estimates import estimate_images
 
     index = surfaces([(4000, 1, 0.0, FLOOR)], k=10)
@@ -155,10 +155,10 @@ def test_done_when_study_rows_summary_and_tables(small_study):
 
 
 def test_refinement_replaces_only_the_most_uneven_pixels_with_fresh_points():
+    from blockhash.frame.shading import SceneRays
     from blockhash.index.block_hash_index import BlockHashIndex
     from blockhash.photons.tracing import trace_caustic_photons
     from blockhash.reference.lighttrace import lambertian
-    from blockhash.render.shading import SceneRays
     from blockhash.scene.materials import receiver_materials
     from blockhash.studies.sampling import options, pixel_means, refine_seed
 
