@@ -122,7 +122,24 @@ def report_markdown(study: dict, plots: list[str]) -> str:
                      f"{_fmt(r['flux_ratio_reference'])} | {_fmt(r['rel_rms_exact'])} | "
                      f"{_fmt(r['rel_rms_reference_blur'])} | {r['false_negatives']:.1%} | "
                      f"{_fmt(r['max_dilation'])} |")
-    ex = [r for r in study["rows"] if r["method"] != "bh"]
+    cover = [r for r in study["rows"] if r["method"] == "cover"]
+    if cover:
+        bh = {(r["photons"], r["k"]): r for r in study["rows"] if r["method"] == "bh"
+              and r["A"] == study["plan"]["A0"] and r["preset"] == "default"
+              and r["variant"] == "default"}
+        lines += ["", "## The cover gather (the default render's gather) against the reference", "",
+                  "Every photon whose own disc covers the point, so no A; its knobs are N, k (the "
+                  "disc's photon count j = round(k - 2 sqrt(k))) and the samples per pixel. "
+                  "'walk s' is the k-nearest walk's pass at the same N and k at the base A.", "",
+                  "| N | k | spp | flux / reference | rel RMS (blur) | seconds | walk s |",
+                  "|---|---|---|---|---|---|---|"]
+        for r in sorted(cover, key=lambda r: (r["k"], r["photons"], r["spp"])):
+            w = bh.get((r["photons"], r["k"]))
+            walk = f"{w['seconds']['caustic_pass']:.3f}" if w else "-"
+            lines.append(f"| {r['photons']:,} | {r['k']} | {r['spp']} | "
+                         f"{_fmt(r['flux_ratio_reference'])} | {_fmt(r['rel_rms_reference_blur'])} | "
+                         f"{r['seconds']['caustic_pass']:.3f} | {walk} |")
+    ex = [r for r in study["rows"] if r["method"].startswith("exact")]
     if ex:
         lines += ["", "## Exact kNN against the reference", "",
                   "Exact rows' seconds are the whole exact caustic: the k-nearest search (cKDTree "

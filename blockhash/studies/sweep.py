@@ -19,7 +19,8 @@ The result is a dict (written as ``tradeoff.json`` by :mod:`.report`): ``rows`` 
 one dict per setting with at least ``method``, ``photons``, ``k``, ``A``, ``preset``,
 ``variant``, ``seconds`` (per stage), ``rel_rms_exact``, ``rel_rms_reference`` and
 ``flux_ratio_reference``; exact rows have ``method`` 'exact-ckdtree' or
-'exact-kdtree-shader' and ``A = preset = variant = None``.
+'exact-kdtree-shader' and ``A = preset = variant = None``; the cover gather's rows (the default
+render's gather) ``method`` 'cover', ``A = preset = variant = None`` and ``spp``.
 """
 
 from __future__ import annotations
@@ -65,6 +66,10 @@ class SweepPlan:
         means (one sample at the pixel centre differs from the mean wherever the caustic
         has detail inside a pixel, and that would count as error).
     engine : {'gl', 'cpu'}, see ENGINES.
+    cover : also run the cover gather (the default render's gather; its knobs are N and k,
+        so the disc's photon count j, not A) once per (N, k), beside the k-nearest rows.
+    cover_supersamples : further supersampling factors s (s * s samples per pixel) of the
+        cover gather at the largest N and k0: its spp knob.
     """
 
     photons: tuple = (10_000, 30_000, 100_000, 300_000, 1_000_000)
@@ -82,6 +87,8 @@ class SweepPlan:
     kdtree_shader: bool = True
     engine: str = "gl"
     supersample: int = 2
+    cover: bool = True
+    cover_supersamples: tuple = (1, 3)
 
     def settings(self):
         """(N, k, A, preset, variant) tuples, each once, in run order."""
@@ -219,6 +226,9 @@ def run_sweep(scene, plan: SweepPlan = QUICK, *, seed=None, cache_dir=None, back
             t = time.perf_counter()
             knn[(n, k)] = exact_knn(index.positions, queries, k)
             ckd_row["seconds"]["search"] = time.perf_counter() - t  # the cKDTree search alone
+            if plan.cover:
+                rows += _cover_rows(plan, scene, index, points, materials, ss, n, k, photons,
+                                    t_trace, exact[(n, k)], live, ref, mask_ref, backend, progress)
         # (the fine image is box-filtered to the study's size below)
         if plan.engine == "gl":
             cp = CausticPass(index, backend=backend)
@@ -273,6 +283,54 @@ def run_sweep(scene, plan: SweepPlan = QUICK, *, seed=None, cache_dir=None, back
         "rows": rows, "notes": notes, "seconds_total": time.perf_counter() - t0,
         "_images": images,
     }
+
+
+def _cover_image(plan, index, points, materials, k, backend):
+    """(image, seconds) of the cover gather's caustic on ``points``: its pass (engine 'gl')
+    or its CPU reference; the gather's build (radii, cells) outside the timing."""
+    from blockhash.frame.cover_estimate import cover_gather, estimate_cover_cpu
+
+    t = time.perf_counter()
+    gather = cover_gather(index, k)
+    t_gather = time.perf_counter() - t
+    if plan.engine == "gl":
+        img, sec = _timed_pass(CausticPass(index, backend=backend, gather="cover"), points,
+                               materials, "default")
+    else:
+        t = time.perf_counter()
+        img = estimate_cover_cpu(gather, points, materials)
+        sec = {"caustic_pass": time.perf_counter() - t, "gl_draw": None, "gl_timer": None}
+    return img, {"cover_gather": t_gather, **sec}
+
+
+def _cover_rows(plan, scene, index, points, materials, ss, n, k, photons, t_trace, exact_img,
+                live, ref, mask_ref, backend, progress) -> list[dict]:
+    """The cover gather's rows of (n, k): at the study's supersampling, and at the largest N
+    and k0 also at each of ``plan.cover_supersamples``."""
+    factors = [ss]
+    if n == max(plan.photons) and k == plan.k0:
+        factors += [f for f in plan.cover_supersamples if f != ss]
+    out = []
+    for f in factors:
+        pts = points
+        if f != ss:
+            size = tuple(plan.size)
+            g = rasterize(scene.camera, scene.objects, size=(size[0] * f, size[1] * f),
+                          backend=backend)
+            pts = shading_points(scene.camera, g, scene.objects, SceneRays(scene.objects),
+                                 (MirrorMaterial,))
+        img, sec = _cover_image(plan, index, pts, materials, k, backend)
+        img = box_down(img, f)
+        row = {"method": "cover", "photons": n, "emitted": photons.emitted, "k": k, "A": None,
+               "preset": None, "variant": None, "spp": f * f,
+               "seconds": {"trace": t_trace, **sec},
+               **errors_against(img, exact_img, live, "exact"),
+               **errors_against(img, ref.radiance, mask_ref, "reference")}
+        out.append(row)
+        progress(f"cover N={n:,} k={k} spp={f * f}: err ref {row['rel_rms_reference']:.3f}, "
+                 f"flux {row['flux_ratio_reference']:.3f}, blur {row['rel_rms_reference_blur']:.3f}, "
+                 f"pass {sec['caustic_pass']:.3f} s")
+    return out
 
 
 def box_down(image, s: int) -> np.ndarray:

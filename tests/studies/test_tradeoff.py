@@ -152,3 +152,17 @@ def test_time_against_A_is_read_where_the_cap_binds():
     assert "above it the queries stop before the cap" in measured
     never = synthetic_study([30, 40, 45], [1.0, 1.1, 1.2])
     assert check_claims(never)[2][2].startswith("n/a")
+
+
+def test_the_cover_gather_is_measured_at_every_n_and_k_and_spp(study):
+    """Beside the k-nearest rows: one cover row per (N, k), and at the largest N and k0 one per
+    samples per pixel; its flux near the exact kNN's; the report's table shows it."""
+    s, out = study
+    cover = [r for r in s["rows"] if r["method"] == "cover"]
+    pairs = {(r["photons"], r["k"]) for r in s["rows"] if r["method"] == "bh"}
+    assert {(r["photons"], r["k"]) for r in cover} == pairs
+    top = [r for r in cover if r["photons"] == 20_000 and r["k"] == 50]
+    assert sorted(r["spp"] for r in top) == [1, 9]
+    assert all(r["A"] is None and "caustic_pass" in r["seconds"] for r in cover)
+    assert all(abs(r["flux_ratio_exact"] - 1) < 0.1 for r in cover)
+    assert "## The cover gather" in (out / "report.md").read_text()
