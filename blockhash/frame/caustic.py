@@ -187,6 +187,17 @@ class Neighbours:
         return out.reshape(h, w, 3)
 
 
+def point_textures(ctx, points: ShadingPoints) -> list:
+    """The shading points as the passes read them, three RGBA32F textures, bottom row first
+    (GL's): cp_position (xyz, material id), cp_normal (xyz, 1), cp_view (xyz, 0)."""
+    h, w = points.shape
+    pos = np.concatenate([points.position, points.material[..., None].astype(np.float32)], axis=2)
+    nrm = np.concatenate([points.normal, np.ones((h, w, 1), np.float32)], axis=2)
+    view = np.concatenate([points.view, np.zeros((h, w, 1), np.float32)], axis=2)
+    return [ctx.texture((w, h), 4, np.ascontiguousarray(a[::-1], dtype=np.float32).tobytes(),
+                        dtype="f4") for a in (pos, nrm, view)]
+
+
 def material_table(materials):
     """[(kd, ks, exponent)] -> (kd (M,3), ks (M,3), e (M,)) float64, within the pass's uniforms."""
     if len(materials) > MAX_MATERIALS:
@@ -312,11 +323,7 @@ class CausticPass:
         with ctx:
             prog = compile_program(ctx, "caustic_pass.frag", defines)
             # Textures are bottom-up in GL: flip rows on the way in and out.
-            pos = np.concatenate([points.position, points.material[..., None].astype(np.float32)], axis=2)
-            nrm = np.concatenate([points.normal, np.ones((h, w, 1), np.float32)], axis=2)
-            view = np.concatenate([points.view, np.zeros((h, w, 1), np.float32)], axis=2)
-            texs = [ctx.texture((w, h), 4, np.ascontiguousarray(a[::-1], dtype=np.float32).tobytes(),
-                                dtype="f4") for a in (pos, nrm, view)]
+            texs = point_textures(ctx, points)
             out_tex = ctx.texture((w, h), 4, dtype="f4")
             fbo = ctx.framebuffer(color_attachments=[out_tex])
             try:

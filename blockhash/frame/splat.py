@@ -18,7 +18,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from blockhash.frame.caustic import MAX_MATERIALS, ShadingPoints, material_table
+from blockhash.frame.caustic import MAX_MATERIALS, ShadingPoints, material_table, point_textures
 from blockhash.frame.cover_estimate import require_conserving
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.gl.context import check_gl, get_context, home_framebuffer
@@ -50,11 +50,7 @@ class SplatPass:
         with ctx:
             vs = preprocess("splat_pass.vert").text
             prog = compile_program(ctx, "splat_pass.frag", options.defines(), vertex=vs)
-            pos = np.concatenate([points.position, points.material[..., None].astype(np.float32)], axis=2)
-            nrm = np.concatenate([points.normal, np.ones((h, w, 1), np.float32)], axis=2)
-            view = np.concatenate([points.view, np.zeros((h, w, 1), np.float32)], axis=2)
-            texs = [ctx.texture((w, h), 4, np.ascontiguousarray(a[::-1], dtype=np.float32).tobytes(),
-                                dtype="f4") for a in (pos, nrm, view)]
+            texs = point_textures(ctx, points)
             out = ctx.texture((w, h), 4, dtype="f4")
             fbo = ctx.framebuffer(color_attachments=[out])
             vao = ctx.vertex_array(prog, [(self.vbo, "4f 4u /i", "in_position_h2", "in_payload")])
