@@ -1,0 +1,179 @@
+"""A reference from Mitsuba 3 under blockhash's layer names (``blockhash reference --engine
+mitsuba``; the optional extra ``blockhash[mitsuba]``).
+
+The scene goes to Mitsuba through :mod:`blockhash.scene.mitsuba_export` (modified Phong lobes
+dropped: Mitsuba has none, so compare with a render of the scene with ks = 0), and each layer
+is one or two Mitsuba renders at ``spp`` samples per pixel:
+
+* **caustic**: Mitsuba's particle tracer (``ptracer``, unbiased for light that reaches a
+  diffuse surface over specular ones) of the scene, less the same render with every
+  specular object made a black diffuse absorber (same seed, so the paths that never meet a
+  specular surface cancel sample by sample).  The difference holds every light path that
+  meets a mirror or glass before its last diffuse vertex: L S+ D E, blockhash's caustic
+  layer, and also those paths' further diffuse bounces (L S+ D D+ E) and the caustics of
+  diffusely reflected light (L D+ S+ D E), which blockhash does not model; on scenes whose
+  only receiver is one plane (ring, glass) these need a diffuse bounce off the plane onto a
+  specular object and back, a small share.  Like blockhash's light tracer it sees no
+  caustic through a mirror or glass (a particle tracer cannot connect to a pinhole through
+  a delta surface).
+* **direct**: Mitsuba's path tracer (``path``) with the depth the scene's specular chains
+  need: point and spot lights seen over diffuse surfaces, directly or through mirrors and
+  glass.  Point lights cannot be reached over a specular surface from the camera, so no
+  caustic is in it; diffuse interreflection is (a floor lit by a wall), which blockhash's
+  direct layer leaves out.
+
+Mitsuba's LLVM variant (``llvm_ad_rgb``) needs an LLVM shared library (16 or newer); the
+module finds a system one (``DRJIT_LIBLLVM_PATH``, else ``libLLVM-*.so`` under the usual
+library folders) and falls back to ``scalar_rgb`` without one.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+import re
+import tempfile
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from blockhash.errors import InputError
+from blockhash.scene.materials import PhongMaterial
+from blockhash.scene.model import SceneObject
+
+#: The variants tried, fastest first.
+VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
+#: Where a system LLVM is looked for when DRJIT_LIBLLVM_PATH is unset.
+LLVM_GLOBS = ("/usr/lib/x86_64-linux-gnu/libLLVM*.so*", "/usr/lib/aarch64-linux-gnu/libLLVM*.so*",
+              "/usr/lib/llvm-*/lib/libLLVM*.so*", "/usr/lib64/libLLVM*.so*",
+              "/usr/local/lib/libLLVM*.so*")
+#: The oldest LLVM Dr.Jit's code generation works with here (LLVM 15 fails to select).
+MIN_LLVM = 16
+
+INSTALL_HINT = ("install the extra: pip install 'blockhash[mitsuba]' (and, for the fast LLVM "
+                "variant, an LLVM >= 16 shared library, e.g. apt-get install libllvm19)")
+
+
+def _llvm_library() -> str | None:
+    best = None
+    for pattern in LLVM_GLOBS:
+        for path in glob.glob(pattern):
+            m = re.search(r"libLLVM[-.]?(\d+)", os.path.basename(path)) or \
+                re.search(r"libLLVM\.so\.(\d+)", os.path.basename(path))
+            if m and int(m.group(1)) >= MIN_LLVM and (best is None or int(m.group(1)) > best[0]):
+                best = (int(m.group(1)), path)
+    return best[1] if best else None
+
+
+def load_mitsuba_module():
+    """``(mitsuba, variant)``: the module with the fastest variant set that works here.
+    Raises InputError naming the way out when Mitsuba is not installed."""
+    if "DRJIT_LIBLLVM_PATH" not in os.environ:
+        lib = _llvm_library()
+        if lib:
+            os.environ["DRJIT_LIBLLVM_PATH"] = lib
+    try:
+        import mitsuba as mi
+    except ImportError as exc:
+        raise InputError(f"the Mitsuba engine needs the mitsuba package ({exc}); "
+                         f"{INSTALL_HINT}") from None
+    for variant in VARIANTS:
+        if variant not in mi.variants():
+            continue
+        try:
+            mi.set_variant(variant)
+            if variant.startswith("llvm"):
+                import drjit as dr
+                dr.eval(dr.llvm.Float(1.0) + 1.0)  # fails here without a working LLVM
+            return mi, variant
+        except (ImportError, RuntimeError, AttributeError):
+            continue
+    raise InputError(f"no Mitsuba variant of {VARIANTS} works here; {INSTALL_HINT}")
+
+
+def mitsuba_available() -> tuple[bool, str]:
+    """(whether :func:`mitsuba_reference` can run, the reason when not)."""
+    try:
+        load_mitsuba_module()
+    except InputError as exc:
+        return False, str(exc)
+    return True, ""
+
+
+@dataclass
+class MitsubaReference:
+    """The layers (h, w, 3) float32 of a Mitsuba reference and the seconds each took."""
+
+    direct: np.ndarray
+    caustic: np.ndarray
+    spp: int
+    variant: str
+    timings: dict = field(default_factory=dict)
+
+    @property
+    def combined(self) -> np.ndarray:
+        return self.direct + self.caustic
+
+    def layers(self) -> dict:
+        return {"direct": self.direct, "caustic": self.caustic, "combined": self.combined}
+
+
+def absorbing(scene):
+    """``scene`` with every specular object a black diffuse absorber (it still casts its
+    shadow, and light that reaches it ends there)."""
+    black = PhongMaterial(kd=0.0, ks=0.0, n=0.0)
+    objects = tuple(SceneObject(name=o.name, mesh=o.mesh, material=black) if o.is_specular else o
+                    for o in scene.objects)
+    return replace(scene, objects=objects)
+
+
+def without_specular_lobes(scene):
+    """``scene`` with ks = 0 on every modified Phong material (what the export writes)."""
+    objects = tuple(SceneObject(name=o.name, mesh=o.mesh, material=PhongMaterial(
+        kd=o.material.kd, ks=0.0, n=0.0)) if isinstance(o.material, PhongMaterial) else o
+        for o in scene.objects)
+    return replace(scene, objects=objects)
+
+
+def render_mitsuba(scene, integrator: str, spp: int, *, seed: int = 0, size=None) -> tuple:
+    """(image (h, w, 3) float32, seconds) of one Mitsuba render of ``scene`` with
+    ``integrator`` (``ptracer`` or ``path``) at ``spp`` samples per pixel; the seconds count
+    the render only, not the export and load."""
+    from blockhash.scene.mitsuba_export import export_mitsuba
+
+    mi, _ = load_mitsuba_module()
+    if size is not None:
+        scene = scene.with_size(*size)
+    with tempfile.TemporaryDirectory(prefix="blockhash-mitsuba-") as tmp:
+        xml = export_mitsuba(scene, tmp, drop_specular=True, spp=spp, integrator=integrator)
+        loaded = mi.load_file(str(xml), spp=int(spp))
+        t = time.perf_counter()
+        image = np.asarray(mi.render(loaded, spp=int(spp), seed=int(seed)), dtype=np.float32)
+        seconds = time.perf_counter() - t
+    return image[..., :3].copy(), seconds
+
+
+def mitsuba_reference(scene, spp: int, *, seed: int = 0, size=None,
+                      layers=("direct", "caustic")) -> MitsubaReference:
+    """The Mitsuba reference of ``scene`` (module docstring) at ``spp`` samples per pixel."""
+    spp = int(spp)
+    if spp < 1:
+        raise InputError(f"spp={spp} must be >= 1 samples per pixel")
+    _, variant = load_mitsuba_module()
+    w, h = size or (scene.camera.width, scene.camera.height)
+    timings = {}
+    direct = caustic = np.zeros((h, w, 3), np.float32)
+    if "caustic" in layers:
+        full, timings["caustic (ptracer)"] = render_mitsuba(scene, "ptracer", spp, seed=seed, size=size)
+        rest, timings["caustic (ptracer, specular absorbing)"] = render_mitsuba(
+            absorbing(scene), "ptracer", spp, seed=seed, size=size)
+        caustic = full - rest
+    if "direct" in layers:
+        direct, timings["direct (path)"] = render_mitsuba(scene, "path", spp, seed=seed, size=size)
+    return MitsubaReference(direct=direct, caustic=caustic, spp=spp, variant=variant,
+                            timings=timings)
+
+
+__all__ = ["mitsuba_reference", "render_mitsuba", "mitsuba_available", "MitsubaReference",
+           "absorbing", "without_specular_lobes", "load_mitsuba_module"]

@@ -1,0 +1,191 @@
+"""A scene as a Mitsuba 3 XML file (``blockhash export SCENE --to mitsuba -o DIR``).
+
+What is written, into ``DIR``:
+
+* ``scene.xml``: a ``perspective`` sensor (``lookat`` from the camera's eye, target and up;
+  ``fov`` on the y axis; an ``hdrfilm`` of the camera's size with a ``box`` filter, the pixel
+  mean blockhash's images hold; an ``independent`` sampler whose ``sample_count`` is the
+  variable ``spp``), a ``ptracer`` integrator of the scene's specular depth, one BSDF per
+  material, the lights and one ``ply`` shape per object.
+* ``meshes/NAME.ply``: each object's mesh in world coordinates with its vertex normals
+  (binary PLY, trimesh).
+
+Materials: ``phong`` with ks = 0 becomes ``diffuse`` (reflectance kd); ``mirror`` becomes
+``conductor`` with ``material = none`` and its reflectance as ``specular_reflectance``;
+``dielectric`` becomes ``dielectric`` (``int_ior`` its ior, ``ext_ior`` 1, the outside being
+vacuum as in blockhash, ``specular_transmittance`` its tint).  Mitsuba has no modified Phong:
+a material with ks > 0 is an error unless ``drop_specular`` is set, in which case the lobe is
+left out and the XML says so in a comment beside the BSDF.
+
+Lights: a point light of power P becomes a ``point`` emitter of intensity P / (4 pi); a spot
+light of power P in a cone of half angle c becomes a ``spot`` emitter of intensity
+P / (2 pi (1 - cos c)) with ``cutoff_angle`` = ``beam_width`` = c (uniform inside the cone,
+as blockhash's).
+
+What Mitsuba has no field for (the photon settings, the scene's samples per pixel and its
+description) is kept in one XML comment that :mod:`.mitsuba_import` reads back, so that
+export then import gives back the same scene.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+from xml.sax.saxutils import escape, quoteattr
+
+import numpy as np
+
+from blockhash.errors import InputError
+from blockhash.scene.model import (
+    DielectricMaterial,
+    MirrorMaterial,
+    PhongMaterial,
+    Scene,
+    SpotLight,
+)
+
+#: The marker of the comment that carries what Mitsuba has no field for.
+METADATA_MARK = "blockhash:"
+#: Mitsuba's sample count unless ``spp`` is given on its command line (``-D spp=N``).
+DEFAULT_MITSUBA_SPP = 64
+
+
+def _num(x: float) -> str:
+    return repr(float(x))
+
+
+def _rgb(name: str, value) -> str:
+    v = np.asarray(value, dtype=np.float64).reshape(-1)
+    return f'<rgb name="{name}" value="{", ".join(_num(c) for c in v)}"/>'
+
+
+def _vec(v) -> str:
+    return ", ".join(_num(c) for c in np.asarray(v, dtype=np.float64))
+
+
+def mesh_file_name(name: str) -> str:
+    """The PLY file an object's mesh is written to, under ``meshes/``: its name with every
+    character outside ``[A-Za-z0-9_.-]`` replaced by ``_``."""
+    return "meshes/" + re.sub(r"[^A-Za-z0-9_.-]", "_", name) + ".ply"
+
+
+def _bsdf(material, bsdf_id: str, drop_specular: bool, owner: str) -> list[str]:
+    if isinstance(material, MirrorMaterial):
+        return [f'<bsdf type="conductor" id={quoteattr(bsdf_id)}>',
+                '    <string name="material" value="none"/>',
+                "    " + _rgb("specular_reflectance", material.reflectance), "</bsdf>"]
+    if isinstance(material, DielectricMaterial):
+        return [f'<bsdf type="dielectric" id={quoteattr(bsdf_id)}>',
+                f'    <float name="int_ior" value="{_num(material.ior)}"/>',
+                '    <float name="ext_ior" value="1.0"/>',
+                "    " + _rgb("specular_transmittance", material.tint), "</bsdf>"]
+    if not isinstance(material, PhongMaterial):
+        raise InputError(f"object {owner!r}: material {material!r} has no Mitsuba equivalent")
+    lines = []
+    if np.any(material.ks > 0):
+        if not drop_specular:
+            raise InputError(
+                f"object {owner!r}: its modified Phong material has ks = "
+                f"{np.round(material.ks, 6).tolist()} > 0, and Mitsuba 3 has no modified Phong "
+                "BSDF; export with --drop-specular (drop_specular=True) to write it as "
+                "'diffuse' (kd only), or set ks = 0 in the scene")
+        lines.append(f"<!-- {escape(owner)}: the modified Phong lobe ks = "
+                     f"{np.round(material.ks, 6).tolist()}, n = {material.n:g} is dropped "
+                     "(Mitsuba has no modified Phong); diffuse kd only -->")
+    return lines + [f'<bsdf type="diffuse" id={quoteattr(bsdf_id)}>',
+                    "    " + _rgb("reflectance", material.kd), "</bsdf>"]
+
+
+def _emitter(light) -> list[str]:
+    power = np.asarray(light.power, dtype=np.float64)
+    if isinstance(light, SpotLight):
+        cone = float(light.cone_deg)
+        intensity = power / (2.0 * math.pi * (1.0 - math.cos(math.radians(cone))))
+        target = np.asarray(light.position) + np.asarray(light.direction)
+        up = (0.0, 1.0, 0.0) if abs(float(light.direction[1])) < 0.9 else (1.0, 0.0, 0.0)
+        return ['<emitter type="spot">',
+                '    <transform name="to_world">',
+                f'        <lookat origin="{_vec(light.position)}" target="{_vec(target)}" '
+                f'up="{_vec(up)}"/>',
+                "    </transform>",
+                "    " + _rgb("intensity", intensity),
+                f'    <float name="cutoff_angle" value="{_num(cone)}"/>',
+                f'    <float name="beam_width" value="{_num(cone)}"/>', "</emitter>"]
+    x, y, z = (float(c) for c in light.position)
+    return ['<emitter type="point">',
+            f'    <point name="position" x="{_num(x)}" y="{_num(y)}" z="{_num(z)}"/>',
+            "    " + _rgb("intensity", power / (4.0 * math.pi)), "</emitter>"]
+
+
+def scene_xml(scene: Scene, *, drop_specular: bool = False, spp: int = DEFAULT_MITSUBA_SPP,
+              integrator: str = "ptracer") -> str:
+    """The Mitsuba 3 XML text of ``scene`` (module docstring); meshes are referenced as
+    :func:`mesh_file_name` gives them, relative to the XML file."""
+    c = scene.camera
+    p = scene.photons
+    meta = {"photons": {"count": p.count, "k": p.k, "A": p.A, "seed": p.seed,
+                        "max_bounces": p.max_bounces},
+            "spp": c.spp, "description": scene.description}
+    out = ['<?xml version="1.0" encoding="utf-8"?>',
+           f"<!-- {METADATA_MARK} {escape(json.dumps(meta, sort_keys=True)).replace('--', '- -')} -->",
+           '<scene version="3.0.0">',
+           f'<default name="spp" value="{int(spp)}"/>',
+           f'<integrator type="{integrator}">',
+           f'    <integer name="max_depth" value="{int(p.max_bounces) + 2}"/>',
+           "</integrator>",
+           '<sensor type="perspective">',
+           f'    <float name="fov" value="{_num(c.fov_y_deg)}"/>',
+           '    <string name="fov_axis" value="y"/>',
+           '    <transform name="to_world">',
+           f'        <lookat origin="{_vec(c.eye)}" target="{_vec(c.target)}" up="{_vec(c.up)}"/>',
+           "    </transform>",
+           '    <sampler type="independent">',
+           '        <integer name="sample_count" value="$spp"/>',
+           "    </sampler>",
+           '    <film type="hdrfilm">',
+           f'        <integer name="width" value="{c.width}"/>',
+           f'        <integer name="height" value="{c.height}"/>',
+           '        <rfilter type="box"/>',
+           "    </film>",
+           "</sensor>"]
+    ids: dict[int, str] = {}
+    for obj in scene.objects:
+        if id(obj.material) not in ids:
+            ids[id(obj.material)] = f"{obj.name}-bsdf"
+            out += _bsdf(obj.material, ids[id(obj.material)], drop_specular, obj.name)
+    for light in scene.lights:
+        out += _emitter(light)
+    for obj in scene.objects:
+        out += [f'<shape type="ply" id={quoteattr(obj.name)}>',
+                f'    <string name="filename" value={quoteattr(mesh_file_name(obj.name))}/>',
+                f'    <ref id={quoteattr(ids[id(obj.material)])}/>', "</shape>"]
+    out.append("</scene>")
+    return "\n".join(out) + "\n"
+
+
+def export_mitsuba(scene: Scene, directory, *, drop_specular: bool = False,
+                   spp: int = DEFAULT_MITSUBA_SPP, integrator: str = "ptracer") -> Path:
+    """Write ``scene.xml`` and ``meshes/*.ply`` into ``directory`` (made if missing); returns
+    the XML's path.  Raises InputError for a material Mitsuba cannot express (module
+    docstring) before anything is written."""
+    text = scene_xml(scene, drop_specular=drop_specular, spp=spp, integrator=integrator)
+    names = [mesh_file_name(o.name) for o in scene.objects]
+    if len(set(names)) != len(names):
+        raise InputError(f"object names {[o.name for o in scene.objects]} give the same mesh "
+                         "file name twice; rename the objects so that they differ in "
+                         "[A-Za-z0-9_.-]")
+    root = Path(directory)
+    (root / "meshes").mkdir(parents=True, exist_ok=True)
+    for obj, name in zip(scene.objects, names):
+        mesh = obj.mesh
+        data = mesh.export(file_type="ply", encoding="binary", include_attributes=True,
+                           vertex_normal=True)
+        (root / name).write_bytes(data)
+    xml = root / "scene.xml"
+    xml.write_text(text, encoding="utf-8")
+    return xml
+
+
+__all__ = ["export_mitsuba", "scene_xml", "mesh_file_name", "METADATA_MARK"]
