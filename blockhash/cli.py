@@ -22,6 +22,7 @@ from blockhash.cli_estimate import add_arguments as add_estimate_arguments
 from blockhash.cli_estimate import options_from
 from blockhash.cli_images import add_parsers as add_image_parsers
 from blockhash.cli_images import size as _size
+from blockhash.cli_mitsuba import add_parsers as add_mitsuba_parsers
 from blockhash.cli_tradeoff import add_parser as add_tradeoff_parser
 from blockhash.errors import BlockHashError, InputError
 from blockhash.evaluate.datasets import DISTRIBUTIONS
@@ -290,7 +291,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Trace caustic photons, build the Block Hashing index, render "
                                    "direct light and the caustic pass; write a multi-layer EXR "
                                    "(direct, caustic, combined) and a tone-mapped PNG.")
-    p.add_argument("scene", help="scene file (TOML), e.g. scenes/ring.toml")
+    p.add_argument("scene", help="scene file (TOML, or Mitsuba 3 XML), e.g. scenes/ring.toml")
     p.add_argument("-o", "--output", help="EXR path (default: SCENE-NAME.exr here)")
     p.add_argument("--photons", type=int, help="caustic photons to store (default: the scene's)")
     p.add_argument("--k", type=int, help="photons per estimate (default: the scene's)")
@@ -318,6 +319,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_render)
     add_tradeoff_parser(sub)
     add_image_parsers(sub)
+    add_mitsuba_parsers(sub)
     p = sub.add_parser("preview", help="a quick pyrender view of a scene (camera, objects, lights)",
                        description="Render the scene with pyrender in a separate process, to check "
                                    "the camera, objects and lights before a real render.")

@@ -53,6 +53,10 @@ class ShadingPoints:
     view : (h, w, 3) float32         unit direction toward the viewer
     material : (h, w) int32          index into the material table, -1 for none
     weight : (h, w, 3) float32       path weight (1, or the product of mirror reflectances)
+    owner : (h * w,) int64 or None   the camera sample each point belongs to, when a camera
+                                     ray was split at glass (:meth:`gather`); None: point
+                                     (i, j) is sample (i, j)
+    samples : (h, w) or None         the camera samples' grid, with ``owner``
     """
 
     position: np.ndarray
@@ -60,10 +64,25 @@ class ShadingPoints:
     view: np.ndarray
     material: np.ndarray
     weight: np.ndarray
+    owner: np.ndarray | None = None
+    samples: tuple | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
         return self.material.shape
+
+    def gather(self, image: np.ndarray) -> np.ndarray:
+        """Per-point values (rows, cols, C) summed into the camera samples they belong to,
+        (h, w, C) of :attr:`samples`: the identity unless a camera ray was split into
+        several points (``owner``: each point's flat sample index, glass's two branches,
+        :func:`blockhash.frame.shading.shading_points`)."""
+        if self.owner is None:
+            return image
+        h, w = self.samples
+        flat = np.asarray(image, dtype=np.float64).reshape(len(self.owner), -1)
+        out = np.stack([np.bincount(self.owner, weights=flat[:, c], minlength=h * w)
+                        for c in range(flat.shape[1])], axis=1)
+        return out.reshape(h, w, *np.shape(image)[2:]).astype(np.asarray(image).dtype)
 
 
 def estimate_cpu(index, points: ShadingPoints, materials, *, k=None, A=None,

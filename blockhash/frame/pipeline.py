@@ -199,7 +199,8 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
         gbuf = rasterize(scene.camera, scene.objects, size=size, backend=backend)
     else:
         gbuf = raycast_gbuffer(scene.camera, rays, size=size, samples=side, seed=SPP_SEED)
-    points = shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,))
+    points = shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,),
+                            both_branches=True)
     timings["gbuffer"] = time.perf_counter() - t
     t = time.perf_counter()
     direct = direct_light(points, scene.objects, scene.lights, rays)
@@ -229,5 +230,6 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
                                      options=options).astype(np.float32)
         timings["caustic"] = time.perf_counter() - t
     timings["total"] = time.perf_counter() - t0
+    direct, caustic = points.gather(direct), points.gather(caustic)
     return RenderResult(direct=box_filter(direct, side), caustic=box_filter(caustic, side),
                         timings=timings, info=info, index=index, spp=side * side)

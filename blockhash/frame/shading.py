@@ -23,6 +23,10 @@ MAX_MIRROR_BOUNCES = 4
 #: Specular events (mirror bounces, glass reflections and refractions) followed for camera
 #: rays in a scene that holds a dielectric.
 MAX_DIELECTRIC_EVENTS = 8
+#: A branch of a camera ray split at glass is dropped when its weight falls below this in
+#: every channel (the weight it carries is lost: at most this share of the sample's
+#: radiance per dropped branch, against a floor or ball radiance of order 1).
+BRANCH_CUTOFF = 1e-3
 #: Seed of the camera rays' reflect-or-refract choices at glass (one stream, fixed, so an
 #: image is the same in every run).
 CAMERA_CHOICE_SEED = 0x9A55
@@ -66,7 +70,8 @@ class SceneRays:
         return ~(hit & (t < dist * (1 - 1e-6)))
 
 
-def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> ShadingPoints:
+def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
+                   both_branches: bool = False) -> ShadingPoints:
     """Per-pixel shading points; a pixel that sees a mirror or glass follows the ray.
 
     At a mirror the ray reflects and its path weight takes the reflectance.  At glass
@@ -76,8 +81,17 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> S
     expectation; a refraction multiplies it by the glass's tint.  With several samples per
     pixel (:mod:`.subpixel`) the pixel mean averages the branches.  A ray still on a
     specular surface after the last event, or leaving the scene, shades nothing.
+
+    With ``both_branches`` (the renderer's choice) a ray at glass follows both branches
+    instead, the reflection weighted by the Fresnel reflectance F and the refraction by
+    (1 - F) times the tint (:func:`branch_points`): no choice is drawn, so the glass is seen
+    without speckle.  The points are then more than the samples, and
+    :meth:`ShadingPoints.gather` sums each sample's.
     """
     from blockhash.scene.model import DielectricMaterial
+
+    if both_branches and any(isinstance(o.material, DielectricMaterial) for o in objects):
+        return branch_points(camera, gbuffer, objects, rays, mirror_types)
 
     h, w = gbuffer.object.shape
     pos = gbuffer.position.reshape(-1, 3).astype(np.float64)
@@ -86,15 +100,7 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> S
     view = np.asarray(camera.eye, dtype=np.float64) - pos
     view /= np.maximum(np.linalg.norm(view, axis=1, keepdims=True), 1e-30)
     weight = np.ones((h * w, 3))
-    # Per object (index len(objects) stands for "nothing hit", obj == -1).
-    glass = np.array([isinstance(o.material, DielectricMaterial) for o in objects] + [False])
-    mirror = np.array([isinstance(o.material, mirror_types) for o in objects] + [False]) & ~glass
-    specular = mirror | glass
-    reflectance = np.array([getattr(o.material, "reflectance", np.ones(3)) for o in objects]
-                           + [np.ones(3)], dtype=np.float64)
-    ior = np.array([getattr(o.material, "ior", 1.0) for o in objects] + [1.0])
-    tint = np.array([getattr(o.material, "tint", np.ones(3)) for o in objects] + [np.ones(3)],
-                    dtype=np.float64).reshape(-1, 3)
+    glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types)
     choices = outer = None
     if glass.any():
         choices = choice_uniforms(CAMERA_CHOICE_SEED, 0, h * w)
@@ -140,6 +146,97 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> S
                          view=view.reshape(h, w, 3).astype(np.float32),
                          material=obj.reshape(h, w).astype(np.int32),
                          weight=weight.reshape(h, w, 3).astype(np.float32))
+
+
+def _surface_tables(objects, mirror_types):
+    """Per object, and one more entry for "nothing hit" (index -1): glass, mirror, specular
+    masks, reflectance (n, 3), ior (n,) and tint (n, 3)."""
+    from blockhash.scene.model import DielectricMaterial
+
+    glass = np.array([isinstance(o.material, DielectricMaterial) for o in objects] + [False])
+    mirror = np.array([isinstance(o.material, mirror_types) for o in objects] + [False]) & ~glass
+    reflectance = np.array([getattr(o.material, "reflectance", np.ones(3)) for o in objects]
+                           + [np.ones(3)], dtype=np.float64)
+    ior = np.array([getattr(o.material, "ior", 1.0) for o in objects] + [1.0])
+    tint = np.array([getattr(o.material, "tint", np.ones(3)) for o in objects] + [np.ones(3)],
+                    dtype=np.float64).reshape(-1, 3)
+    return glass, mirror, mirror | glass, reflectance, ior, tint
+
+
+def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> ShadingPoints:
+    """Shading points of camera rays that follow both branches at glass
+    (:func:`shading_points` with ``both_branches``): at each dielectric event a ray becomes
+    a reflected ray of weight F and a refracted one of weight (1 - F) tint (one reflected
+    ray of weight 1 under total internal reflection), each traced on, up to
+    :data:`MAX_DIELECTRIC_EVENTS` events; a branch whose weight falls below
+    :data:`BRANCH_CUTOFF` of its camera sample's (every channel) is dropped, and mirrors
+    reflect as in :func:`shading_points`.  The points are laid out in rows of the
+    G-buffer's width, in the order they left the specular chain, padded with points that
+    shade nothing."""
+    from blockhash.scene.optics import fresnel
+
+    h, w = gbuffer.object.shape
+    glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types)
+    pos = gbuffer.position.reshape(-1, 3).astype(np.float64)
+    nrm = gbuffer.normal.reshape(-1, 3).astype(np.float64)
+    obj = gbuffer.object.reshape(-1).copy()
+    owner = np.arange(h * w)
+    view = np.asarray(camera.eye, dtype=np.float64) - pos
+    view /= np.maximum(np.linalg.norm(view, axis=1, keepdims=True), 1e-30)
+    weight = np.ones((h * w, 3))
+    outer = np.zeros(h * w, dtype=bool)
+    first = np.flatnonzero(glass[obj])
+    if len(first):  # whether the G-buffer's hit met its face's outer side: cast again
+        eye = np.broadcast_to(np.asarray(camera.eye, np.float64), (len(first), 3)).copy()
+        outer[first] = rays.first_hit(eye, -view[first], sides=True)[5]
+    done = []  # (owner, pos, nrm, view, obj, weight) of points that left the specular chain
+    offset = RAY_OFFSET * rays.scale
+    for _ in range(MAX_DIELECTRIC_EVENTS):
+        on = specular[obj]
+        done.append((owner[~on], pos[~on], nrm[~on], view[~on], obj[~on], weight[~on]))
+        if not on.any():
+            owner = owner[:0]
+            break
+        owner, pos, nrm, view, obj, weight, outer = (a[on] for a in (owner, pos, nrm, view, obj,
+                                                                     weight, outer))
+        d = -view
+        refl = d - 2.0 * np.sum(d * nrm, axis=1, keepdims=True) * nrm
+        g = glass[obj]
+        f = np.ones(len(obj))
+        f[g] = fresnel(-np.sum(d[g] * nrm[g], axis=1), np.where(outer[g], 1.0 / ior[obj[g]], ior[obj[g]]))
+        w_refl = weight * np.where(g, f, 1.0)[:, None] * np.where(g[:, None], 1.0, reflectance[obj])
+        through = np.flatnonzero(g & (f < 1.0))
+        t_dir, t_through, t_factor = scatter(d[through], nrm[through], nrm[through], outer[through],
+                                             ior[obj[through]], tint[obj[through]],
+                                             np.ones(len(through)))
+        keep_t = through[t_through]
+        w_refr = weight[keep_t] * (1.0 - f[keep_t])[:, None] * t_factor[t_through]
+        parent = np.concatenate([np.arange(len(obj)), keep_t])
+        dirs = np.concatenate([refl, t_dir[t_through]])
+        wts = np.concatenate([w_refl, w_refr])
+        side = np.concatenate([np.ones(len(obj)), -np.ones(len(keep_t))])
+        live = wts.max(axis=1) >= BRANCH_CUTOFF
+        parent, dirs, wts, side = parent[live], dirs[live], wts[live], side[live]
+        hit, p, sn, o, _, out_side = rays.first_hit(pos[parent] + nrm[parent] * (side * offset)[:, None],
+                                                    dirs, sides=True)
+        flip = np.sum(sn * -dirs, axis=1) < 0
+        sn[flip] *= -1  # face the incoming ray
+        owner, pos, nrm, view, weight, outer = owner[parent], p, sn, -dirs, wts, out_side
+        obj = np.where(hit, o, -1)
+    if len(owner):  # still on a specular surface after the last event: nothing to shade
+        done.append((owner, pos, nrm, view, np.full(len(owner), -1), weight))
+    parts = [np.concatenate(col) for col in zip(*done)]
+    m = len(parts[0])
+    rows = -(-m // w)
+    pad = rows * w - m
+    own, p, n, v, o, wt = (np.concatenate([a, np.zeros((pad,) + a.shape[1:], a.dtype)]) for a in parts)
+    o[m:] = -1
+    return ShadingPoints(position=p.reshape(rows, w, 3).astype(np.float32),
+                         normal=n.reshape(rows, w, 3).astype(np.float32),
+                         view=v.reshape(rows, w, 3).astype(np.float32),
+                         material=o.reshape(rows, w).astype(np.int32),
+                         weight=wt.reshape(rows, w, 3).astype(np.float32),
+                         owner=own.astype(np.int64), samples=(h, w))
 
 
 def light_intensity(light, directions) -> np.ndarray:

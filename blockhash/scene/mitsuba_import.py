@@ -33,8 +33,8 @@ from __future__ import annotations
 import json
 import math
 import xml.etree.ElementTree as ET
-from xml.parsers import expat
 from pathlib import Path
+from xml.parsers import expat
 
 import numpy as np
 import trimesh
