@@ -169,3 +169,15 @@ def test_tradeoff_runs_its_sweep_on_the_engine_of_the_method(monkeypatch, tmp_pa
     monkeypatch.setattr(sweep, "run_sweep", stop)
     assert main(["tradeoff", str(SCENES / "ring.toml"), "-o", str(tmp_path), "--quick"] + flags) == 2
     assert seen == [engine]
+
+
+def test_reference_command_with_the_light_tracer(tmp_path, capsys):
+    from blockhash.frame.images import read_layers
+
+    out = tmp_path / "glass.exr"
+    assert main(["reference", str(SCENES / "glass.toml"), "--photons", "20000", "--spp", "1",
+                 "--size", "24x24", "-o", str(out)]) == 0
+    layers = read_layers(out)
+    assert layers["caustic"].shape == (24, 24, 3) and layers["caustic"].max() > 0
+    assert "light tracer" in capsys.readouterr().out
+    assert main(["reference", str(SCENES / "glass.toml"), "--spp", "2", "-o", str(out)]) == 2

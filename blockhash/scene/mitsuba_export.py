@@ -128,9 +128,11 @@ def scene_xml(scene: Scene, *, drop_specular: bool = False, spp: int = DEFAULT_M
     meta = {"photons": {"count": p.count, "k": p.k, "A": p.A, "seed": p.seed,
                         "max_bounces": p.max_bounces},
             "spp": c.spp, "description": scene.description}
+    # A comment may not hold "--": dashes (only in strings here) become JSON's \u002d.
+    note = json.dumps(meta, sort_keys=True).replace("-", "\\u002d")
     out = ['<?xml version="1.0" encoding="utf-8"?>',
-           f"<!-- {METADATA_MARK} {escape(json.dumps(meta, sort_keys=True)).replace('--', '- -')} -->",
            '<scene version="3.0.0">',
+           f"<!-- {METADATA_MARK} {note} -->",
            f'<default name="spp" value="{int(spp)}"/>',
            f'<integrator type="{integrator}">',
            f'    <integer name="max_depth" value="{int(p.max_bounces) + 2}"/>',

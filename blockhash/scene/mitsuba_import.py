@@ -424,7 +424,7 @@ def load_mitsuba(path) -> Scene:
             text = (el.text or "").strip()
             if text.startswith(METADATA_MARK):
                 try:
-                    meta = json.loads(text[len(METADATA_MARK):].replace("- -", "--"))
+                    meta = json.loads(text[len(METADATA_MARK):])
                 except json.JSONDecodeError:
                     meta = {}
             continue
