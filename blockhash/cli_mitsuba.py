@@ -55,14 +55,15 @@ def blockhash_reference(scene, spp: int, photons: int, *, seed: int = 0):
 
 
 def cmd_reference(args) -> int:
-    from blockhash.cli import _writable
     from blockhash.frame.images import write_exr, write_png
     from blockhash.scene.loader import load_scene
 
     out = Path(args.output or Path(args.scene).with_suffix(".reference.exr").name)
     if out.suffix.lower() != ".exr":
         raise InputError(f"--output {out}: expected a .exr file name")
-    _writable(out, "--output")
+    if not (out.parent if str(out.parent) else Path(".")).is_dir():
+        raise InputError(f"--output {out}: the folder {out.parent} does not exist; create it or "
+                         "give another path")
     scene = load_scene(args.scene)
     if args.size:
         scene = scene.with_size(*args.size)

@@ -16,7 +16,7 @@ PACKAGE = ROOT / "blockhash"
 #: Rank of each part in the data flow; a module may import only ranks <= its own.
 RANKS = {"errors": 0, "validate": 0, "code_version": 0, "moved": 9, "scene": 1, "photons": 2, "index": 3, "gl": 4, "frame": 5,
          "reference": 6, "evaluate": 7, "studies": 8, "bench": 8,
-         "cli": 9, "cli_estimate": 9, "cli_images": 9, "cli_tradeoff": 9, "__init__": 9, "__main__": 9}
+         "cli": 9, "cli_estimate": 9, "cli_images": 9, "cli_tradeoff": 9, "cli_mitsuba": 9, "__init__": 9, "__main__": 9}
 #: Lines above which a module's docstring must say why it is long.
 LONG_MODULE = 420
 LONG_REASON = "Why this module is long:"

@@ -30,8 +30,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 from blockhash.frame.pipeline import render_scene
 from blockhash.reference.lighttrace import light_trace
 from blockhash.reference.mitsuba import mitsuba_reference, without_specular_lobes

@@ -18,7 +18,7 @@ import numpy as np
 from blockhash.errors import CapacityError
 from blockhash.gl.context import get_context
 from blockhash.gl.limits import LOOP_LIMIT, is_llvmpipe
-from blockhash.gl.packing import upload
+from blockhash.gl.packing import set_photon_box, upload
 from blockhash.index.lookups.cover import MAX_OCTAVES
 
 
@@ -60,12 +60,7 @@ class GLCover:
     def set_uniforms(self, program) -> None:
         """The photon box, the power scale and the octaves, as exact float32 and uint values."""
         g = self.gather
-        box = g.quantizer
-        for name, value in (("bh_lo", box.lo), ("bh_step", box.step), ("bh_inv_step", box.inv_step)):
-            if name in program:
-                program[name].value = tuple(float(x) for x in value)
-        if "bh_power_scale" in program:
-            program["bh_power_scale"].value = float(g.power_scale)
+        set_photon_box(program, g.quantizer, g.power_scale)
         octaves = g.octave_uniforms()
         program["bh_cover_octaves"].value = len(octaves)
         if len(octaves):

@@ -24,7 +24,7 @@ from blockhash.gl.context import (
     time_draws,
 )
 from blockhash.gl.limits import MAX_TAKEN_SET, check_lookup
-from blockhash.gl.packing import pack_index
+from blockhash.gl.packing import pack_index, set_photon_box
 from blockhash.gl.shaderlib import NAMED, Variant, compile_program
 from blockhash.index.block_hash_index import resolve_lookup
 from blockhash.index.lookups.cells_query import GROUP_CELLS
@@ -160,12 +160,7 @@ class GLLookup:
 
     def set_uniforms(self, program) -> None:
         """The photon box (bh_box.glsl) and power scale, as exact float32 values."""
-        box = self.index.quantizer
-        for name, value in (("bh_lo", box.lo), ("bh_step", box.step), ("bh_inv_step", box.inv_step)):
-            if name in program:  # the nearest-box-first walk quantizes no query: no bh_inv_step
-                program[name].value = tuple(float(x) for x in value)
-        if "bh_power_scale" in program:
-            program["bh_power_scale"].value = float(self.index.records.power_scale)
+        set_photon_box(program, self.index.quantizer, self.index.records.power_scale)
         if "bh_group_cells" in program:
             program["bh_group_cells"].value = GROUP_CELLS
 

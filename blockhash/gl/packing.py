@@ -130,3 +130,15 @@ def pack_index(ctx, index) -> PackedIndex:
                        cells=cel, points=pts, with_cells=with_cells,
                        widths={"BH_BLK_W": wb, "BH_HDR_W": wh, "BH_REF_W": wr, "BH_THR_W": wt,
                                "BH_BOX_W": wx, "BH_CELL_W": wc, "BH_PT_W": wp})
+
+
+def set_photon_box(program, quantizer, power_scale) -> None:
+    """The photon box (glsl/bh_box.glsl: ``bh_lo``, ``bh_step``, ``bh_inv_step``) and the
+    power scale (``bh_power_scale``) as exact float32 values, each where ``program`` uses it
+    (the nearest-box-first walk quantizes no query: no ``bh_inv_step``)."""
+    for name, value in (("bh_lo", quantizer.lo), ("bh_step", quantizer.step),
+                        ("bh_inv_step", quantizer.inv_step)):
+        if name in program:
+            program[name].value = tuple(float(x) for x in value)
+    if "bh_power_scale" in program:
+        program["bh_power_scale"].value = float(power_scale)

@@ -6,15 +6,20 @@ dropped: Mitsuba has none, so compare with a render of the scene with ks = 0), a
 is one or two Mitsuba renders at ``spp`` samples per pixel:
 
 * **caustic**: Mitsuba's particle tracer (``ptracer``, unbiased for light that reaches a
-  diffuse surface over specular ones) of the scene, less the same render with every
-  specular object made a black diffuse absorber (same seed, so the paths that never meet a
-  specular surface cancel sample by sample).  The difference holds every light path that
-  meets a mirror or glass before its last diffuse vertex: L S+ D E, blockhash's caustic
-  layer, and also those paths' further diffuse bounces (L S+ D D+ E) and the caustics of
-  diffusely reflected light (L D+ S+ D E), which blockhash does not model; on scenes whose
-  only receiver is one plane (ring, glass) these need a diffuse bounce off the plane onto a
-  specular object and back, a small share.  Like blockhash's light tracer it sees no
-  caustic through a mirror or glass (a particle tracer cannot connect to a pinhole through
+  diffuse surface over specular ones), ``max_depth`` the scene's specular events per photon
+  plus 2 (the chain blockhash's photons follow), of the scene with every diffuse albedo
+  multiplied by :data:`ALBEDO_SCALE`, less the same render with every specular object made
+  a black diffuse absorber (same seed, so the paths that never meet a specular surface
+  cancel sample by sample), divided by :data:`ALBEDO_SCALE`.  The difference holds the
+  light paths that meet a mirror or glass before their last diffuse vertex.  A path's
+  contribution is proportional to the product of the albedos at its diffuse vertices, so
+  after the division the paths of one diffuse vertex, L S+ D E (blockhash's caustic), keep
+  their value and their noise exactly (the albedo scales the connection to the camera, a
+  deterministic factor), while those of two or more (diffusely reflected light refocused by
+  a mirror, L D S+ D E, and a caustic's further diffuse bounces, L S+ D D E) are scaled down
+  by ALBEDO_SCALE or more: on venus, whose ring sits beside the lit bust, they are 37% of
+  the plain difference, 0.6% of this one.  Like blockhash's light tracer, the particle
+  tracer sees no caustic through a mirror or glass (it cannot connect to a pinhole through
   a delta surface).
 * **direct**: Mitsuba's path tracer (``path``) with the depth the scene's specular chains
   need: point and spot lights seen over diffuse surfaces, directly or through mirrors and
@@ -42,6 +47,9 @@ from blockhash.errors import InputError
 from blockhash.scene.materials import PhongMaterial
 from blockhash.scene.model import SceneObject
 
+#: The diffuse albedos' factor in the caustic's renders (module docstring): a power of two,
+#: so the scaling and the division are exact in float32.
+ALBEDO_SCALE = 1.0 / 64.0
 #: The variants tried, fastest first.
 VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
 #: Where a system LLVM is looked for when DRJIT_LIBLLVM_PATH is unset.
@@ -128,25 +136,33 @@ def absorbing(scene):
     return replace(scene, objects=objects)
 
 
-def without_specular_lobes(scene):
-    """``scene`` with ks = 0 on every modified Phong material (what the export writes)."""
+def dimmed(scene, factor: float):
+    """``scene`` with every modified Phong albedo kd multiplied by ``factor`` (ks dropped)."""
     objects = tuple(SceneObject(name=o.name, mesh=o.mesh, material=PhongMaterial(
-        kd=o.material.kd, ks=0.0, n=0.0)) if isinstance(o.material, PhongMaterial) else o
+        kd=o.material.kd * factor, ks=0.0, n=0.0)) if isinstance(o.material, PhongMaterial) else o
         for o in scene.objects)
     return replace(scene, objects=objects)
 
 
-def render_mitsuba(scene, integrator: str, spp: int, *, seed: int = 0, size=None) -> tuple:
+def without_specular_lobes(scene):
+    """``scene`` with ks = 0 on every modified Phong material (what the export writes)."""
+    return dimmed(scene, 1.0)
+
+
+def render_mitsuba(scene, integrator: str, spp: int, *, seed: int = 0, size=None,
+                   max_depth: int | None = None) -> tuple:
     """(image (h, w, 3) float32, seconds) of one Mitsuba render of ``scene`` with
-    ``integrator`` (``ptracer`` or ``path``) at ``spp`` samples per pixel; the seconds count
-    the render only, not the export and load."""
+    ``integrator`` (``ptracer`` or ``path``) at ``spp`` samples per pixel and ``max_depth``
+    (default :func:`blockhash.scene.mitsuba_export.scene_xml`'s); the seconds count the
+    render only, not the export and load."""
     from blockhash.scene.mitsuba_export import export_mitsuba
 
     mi, _ = load_mitsuba_module()
     if size is not None:
         scene = scene.with_size(*size)
     with tempfile.TemporaryDirectory(prefix="blockhash-mitsuba-") as tmp:
-        xml = export_mitsuba(scene, tmp, drop_specular=True, spp=spp, integrator=integrator)
+        xml = export_mitsuba(scene, tmp, drop_specular=True, spp=spp, integrator=integrator,
+                             max_depth=max_depth)
         loaded = mi.load_file(str(xml), spp=int(spp))
         t = time.perf_counter()
         image = np.asarray(mi.render(loaded, spp=int(spp), seed=int(seed)), dtype=np.float32)
@@ -165,15 +181,17 @@ def mitsuba_reference(scene, spp: int, *, seed: int = 0, size=None,
     timings = {}
     direct = caustic = np.zeros((h, w, 3), np.float32)
     if "caustic" in layers:
-        full, timings["caustic (ptracer)"] = render_mitsuba(scene, "ptracer", spp, seed=seed, size=size)
+        dim = dimmed(scene, ALBEDO_SCALE)
+        full, timings["caustic (ptracer)"] = render_mitsuba(dim, "ptracer", spp, seed=seed,
+                                                            size=size)
         rest, timings["caustic (ptracer, specular absorbing)"] = render_mitsuba(
-            absorbing(scene), "ptracer", spp, seed=seed, size=size)
-        caustic = full - rest
+            absorbing(dim), "ptracer", spp, seed=seed, size=size)
+        caustic = (full - rest) / np.float32(ALBEDO_SCALE)
     if "direct" in layers:
         direct, timings["direct (path)"] = render_mitsuba(scene, "path", spp, seed=seed, size=size)
     return MitsubaReference(direct=direct, caustic=caustic, spp=spp, variant=variant,
                             timings=timings)
 
 
-__all__ = ["mitsuba_reference", "render_mitsuba", "mitsuba_available", "MitsubaReference",
+__all__ = ["mitsuba_reference", "render_mitsuba", "dimmed", "ALBEDO_SCALE", "mitsuba_available", "MitsubaReference",
            "absorbing", "without_specular_lobes", "load_mitsuba_module"]

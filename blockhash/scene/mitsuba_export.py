@@ -120,11 +120,14 @@ def _emitter(light) -> list[str]:
 
 
 def scene_xml(scene: Scene, *, drop_specular: bool = False, spp: int = DEFAULT_MITSUBA_SPP,
-              integrator: str = "ptracer") -> str:
+              integrator: str = "ptracer", max_depth: int | None = None) -> str:
     """The Mitsuba 3 XML text of ``scene`` (module docstring); meshes are referenced as
-    :func:`mesh_file_name` gives them, relative to the XML file."""
+    :func:`mesh_file_name` gives them, relative to the XML file.  ``max_depth``: the
+    integrator's (default the scene's specular events per photon plus 2: light, the
+    specular chain, one diffuse vertex, the camera)."""
     c = scene.camera
     p = scene.photons
+    depth = int(p.max_bounces) + 2 if max_depth is None else int(max_depth)
     meta = {"photons": {"count": p.count, "k": p.k, "A": p.A, "seed": p.seed,
                         "max_bounces": p.max_bounces},
             "spp": c.spp, "description": scene.description}
@@ -135,7 +138,7 @@ def scene_xml(scene: Scene, *, drop_specular: bool = False, spp: int = DEFAULT_M
            f"<!-- {METADATA_MARK} {note} -->",
            f'<default name="spp" value="{int(spp)}"/>',
            f'<integrator type="{integrator}">',
-           f'    <integer name="max_depth" value="{int(p.max_bounces) + 2}"/>',
+           f'    <integer name="max_depth" value="{depth}"/>',
            "</integrator>",
            '<sensor type="perspective">',
            f'    <float name="fov" value="{_num(c.fov_y_deg)}"/>',
@@ -168,11 +171,13 @@ def scene_xml(scene: Scene, *, drop_specular: bool = False, spp: int = DEFAULT_M
 
 
 def export_mitsuba(scene: Scene, directory, *, drop_specular: bool = False,
-                   spp: int = DEFAULT_MITSUBA_SPP, integrator: str = "ptracer") -> Path:
+                   spp: int = DEFAULT_MITSUBA_SPP, integrator: str = "ptracer",
+                   max_depth: int | None = None) -> Path:
     """Write ``scene.xml`` and ``meshes/*.ply`` into ``directory`` (made if missing); returns
     the XML's path.  Raises InputError for a material Mitsuba cannot express (module
     docstring) before anything is written."""
-    text = scene_xml(scene, drop_specular=drop_specular, spp=spp, integrator=integrator)
+    text = scene_xml(scene, drop_specular=drop_specular, spp=spp, integrator=integrator,
+                     max_depth=max_depth)
     names = [mesh_file_name(o.name) for o in scene.objects]
     if len(set(names)) != len(names):
         raise InputError(f"object names {[o.name for o in scene.objects]} give the same mesh "

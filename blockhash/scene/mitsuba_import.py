@@ -26,6 +26,10 @@ Values: ``rgb`` and ``spectrum`` (one number), ``float``, ``integer``, ``string`
 
 A file written by :mod:`.mitsuba_export` carries the photon settings, the samples per pixel
 and the description in a comment; they are read back from it.
+
+Why this module is long: every supported element, property and transform is checked here
+with an error naming its line, in one reader class, so that nothing unsupported passes
+silently; split by element, each part would need the reader's line table and defaults.
 """
 
 from __future__ import annotations

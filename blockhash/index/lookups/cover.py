@@ -36,6 +36,7 @@ candidates bit for bit; the cover test ``d^2 < h^2`` in float32 as the shader ev
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -85,6 +86,15 @@ def octahedral_decode(words) -> np.ndarray:
     y = f[:, 1] + np.where(f[:, 1] >= 0, -t, t)
     v = np.stack([x, y, z], axis=1).astype(np.float32)
     return (v / np.sqrt((v * v).sum(axis=1, keepdims=True))).astype(np.float32)
+
+
+@functools.cache
+def _octahedral_tables() -> tuple[np.ndarray, np.ndarray]:
+    """(65536,) uint32 each: the octahedral word of every polar code's decoded direction,
+    negated (toward where the photon came from) and as it is (the normal).  A record's
+    16-bit polar codes index them, the same words as encoding each record's direction."""
+    v = decode_directions(np.arange(1 << 16, dtype=np.uint16)).astype(np.float64)
+    return octahedral_encode(-v), octahedral_encode(v)
 
 
 def octave_sides(steps: int = OCTAVE_STEPS) -> np.ndarray:
@@ -181,8 +191,9 @@ class CoverGather:
         records[:, :3] = q.decode(rec[:, :3]).view(np.uint32)
         records[:, 3] = slot_r2[keep][order].astype(np.float32).view(np.uint32)
         _, dcodes, ncodes, _ = unpack_records(rec)
-        records[:, 4] = octahedral_encode(-decode_directions(dcodes).astype(np.float64))
-        records[:, 5] = octahedral_encode(decode_directions(ncodes).astype(np.float64))
+        toward, normal = _octahedral_tables()
+        records[:, 4] = toward[dcodes]
+        records[:, 5] = normal[ncodes]
         records[:, 6:8] = rec[:, 4:6]
         change = np.ones(m, dtype=bool)
         change[1:] = (octave[1:] != octave[:-1]) | (cell[1:] != cell[:-1]).any(axis=1)
