@@ -181,3 +181,13 @@ def test_reference_command_with_the_light_tracer(tmp_path, capsys):
     assert layers["caustic"].shape == (24, 24, 3) and layers["caustic"].max() > 0
     assert "light tracer" in capsys.readouterr().out
     assert main(["reference", str(SCENES / "glass.toml"), "--spp", "2", "-o", str(out)]) == 2
+
+
+@pytest.mark.parametrize("command, words", [("export", ["--to", "--drop-specular", "DIR"]),
+                                            ("reference", ["--engine", "mitsuba", "--spp"])])
+def test_export_and_reference_have_help(command, words, capsys):
+    with pytest.raises(SystemExit) as done:
+        main([command, "--help"])
+    assert done.value.code == 0
+    out = capsys.readouterr().out
+    assert all(w in out for w in words)

@@ -223,10 +223,12 @@ def lookup_shaders(k: int = 50, A: int = 8, *, lookups=LOOKUPS, kdtree: bool = T
 
 
 def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_000,
-                    lookups=("cover", "walk", "cells"), backend: str | None = None) -> dict[str, str]:
+                    lookups=("cover", "walk", "cells", "splat"),
+                    backend: str | None = None) -> dict[str, str]:
     """The caustic pass's three stages (blockhash.frame.caustic.STAGES) on the scene's own
     pixels at 16 x 16, for each of ``lookups`` ('cover': the default render's cover gather,
-    'walk', 'cells')."""
+    'walk', 'cells'), and 'splat': the photon-splatting peer's fragment stage (its per-photon
+    vertex stage runs once a photon, not per pixel, and is not compiled here)."""
     from blockhash import BlockHashIndex
     from blockhash.frame.caustic import STAGES, CausticPass
     from blockhash.frame.gbuffer import rasterize
@@ -255,6 +257,14 @@ def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_00
                 cp.time_stages(points, receiver_materials(sc.objects), k=k, A=A, repeat=1, warmup=0,
                                stages=(stage,))
             out[f"caustic {name}: {stage}"] = _largest(got)
+    if "splat" in lookups:
+        from blockhash.frame.cover_estimate import cover_gather
+        from blockhash.frame.splat import SplatPass
+
+        with recording() as got:
+            SplatPass(cover_gather(index, k), backend=backend).render(
+                points, receiver_materials(sc.objects), sc.camera)
+        out["caustic splat: fragment"] = _largest(got)
     return out
 
 

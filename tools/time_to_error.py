@@ -14,13 +14,20 @@ For each scene, with ks = 0 on every modified Phong material (Mitsuba has none):
    bracket it.
 
 The ratio is Mitsuba's time at equal error over blockhash's.  Both run on this machine with
-all its threads (Dr.Jit's LLVM backend and blockhash's numba, embree and llvmpipe).  The
-reference's own noise sets a floor on the error both can reach; the table reports it (the
-blurred relative RMS of a second reference of the same spp against the first, divided by
-sqrt 2).
+all its threads (Dr.Jit's LLVM backend and blockhash's numba, embree and llvmpipe).
+
+The reference's own noise is in every error measured against it.  Mitsuba's is noise only
+(it is unbiased), so its squared error at s spp is ``a / s + a / S`` (S the reference's
+spp); ``a`` is fitted to the ladder by least squares.  Then blockhash's error less the
+reference's noise is ``e^2 - a / S``, Mitsuba reaches that at ``s* = a / (e^2 - a / S)``
+spp, and its time there comes from a straight line through the ladder's (spp, seconds).
+The table gives both: the crossing as measured (against the noisy reference) and the one
+with the reference's noise taken out; where blockhash's error is within the reference's
+noise, the latter is a lower bound.
 
 usage: python tools/time_to_error.py [--scenes ring,venus,glass,corner] [--size 512]
-                                     [--ref-spp 1024] [--json docs/time-to-error.json]
+                                     [--ref-spp 1024] [--spp N] [--json docs/time-to-error.json]
+       python tools/time_to_error.py --from-json docs/time-to-error.json
 """
 
 import argparse
@@ -29,6 +36,8 @@ import math
 import sys
 import time
 from pathlib import Path
+
+import numpy as np
 
 from blockhash.frame.pipeline import render_scene
 from blockhash.reference.lighttrace import light_trace
@@ -54,16 +63,47 @@ def time_at(errors, times, target):
     return times[0] if errors and errors[0] <= target else None
 
 
-def measure(name, size, ref_spp, max_spp):
+def analyse(row) -> dict:
+    """Fill ``row``'s crossings (module docstring) from its ladder."""
+    lad = row["mitsuba"]
+    spp = np.array([r["spp"] for r in lad], dtype=np.float64)
+    err2 = np.array([r["rel_rms_blur"] for r in lad]) ** 2
+    secs = np.array([r["seconds"] for r in lad])
+    e = row["blockhash_rel_rms_blur"]
+    t_eq = time_at(list(np.sqrt(err2)), list(secs), e)
+    row["mitsuba_seconds_at_equal_error"] = t_eq
+    row["ratio"] = t_eq / row["blockhash_seconds"] if t_eq is not None else None
+    basis = 1.0 / spp + 1.0 / row["ref_spp"]
+    a = float(np.sum(basis * err2) / np.sum(basis * basis))
+    floor2 = a / row["ref_spp"]
+    row["reference_noise"] = math.sqrt(floor2)
+    true2 = e * e - floor2
+    slope, icept = np.polyfit(spp, secs, 1) if len(spp) > 1 else (secs[0] / spp[0], 0.0)
+    if true2 > 0:
+        s_star = a / true2
+        row["blockhash_error_less_reference_noise"] = math.sqrt(true2)
+        row["mitsuba_spp_at_equal_true_error"] = s_star
+        row["mitsuba_seconds_at_equal_true_error"] = float(icept + slope * s_star)
+        row["ratio_true"] = row["mitsuba_seconds_at_equal_true_error"] / row["blockhash_seconds"]
+    else:
+        s_star = None
+        row["blockhash_error_less_reference_noise"] = 0.0
+        row["mitsuba_spp_at_equal_true_error"] = None
+        row["mitsuba_seconds_at_equal_true_error"] = None
+        row["ratio_true"] = None
+    return row
+
+
+def measure(name, size, ref_spp, max_spp, spp=None):
     scene = without_specular_lobes(load_scene(Path("scenes") / f"{name}.toml")).with_size(size, size)
     mask = light_trace(scene, 1000).comparison_mask(1)
     t = time.perf_counter()
     ref = mitsuba_reference(scene, ref_spp, seed=1, layers=("caustic",)).caustic
     ref_s = time.perf_counter() - t
-    bh = render_scene(scene)
+    bh = render_scene(scene, spp=spp)
     bh_s = bh.timings["total"]
     bh_err = blurred(bh.caustic, ref, mask)
-    row = {"scene": name, "size": size, "ref_spp": ref_spp, "ref_seconds": ref_s,
+    row = {"scene": name, "size": size, "ref_spp": ref_spp, "ref_seconds": ref_s, "spp": bh.spp,
            "blockhash_seconds": bh_s, "blockhash_stages": bh.timings,
            "blockhash_flux_ratio": flux_ratio(bh.caustic, ref, mask),
            "blockhash_rel_rms_blur": bh_err, "mitsuba": []}
@@ -78,16 +118,31 @@ def measure(name, size, ref_spp, max_spp):
         if row["mitsuba"][-1]["rel_rms_blur"] <= bh_err:
             break
         spp *= 2
-    errs = [r["rel_rms_blur"] for r in row["mitsuba"]]
-    times = [r["seconds"] for r in row["mitsuba"]]
-    t_eq = time_at(errs, times, bh_err)
-    row["mitsuba_seconds_at_equal_error"] = t_eq
-    row["ratio"] = t_eq / bh_s if t_eq is not None else None
+    analyse(row)
+    t_eq = row["mitsuba_seconds_at_equal_error"]
     print(f"{name}: blockhash {bh_s:.2f} s at blurred rel RMS {bh_err:.4f} (flux "
           f"{row['blockhash_flux_ratio']:.4f}); mitsuba ptracer "
           + (f"{t_eq:.2f} s at equal error: ratio {row['ratio']:.2f}x" if t_eq else
              f"does not reach it by {max_spp} spp"), flush=True)
     return row
+
+
+def table(rows) -> str:
+    def f(x, fmt):
+        return "-" if x is None else format(x, fmt)
+
+    out = ["| scene | spp | blockhash s | flux | blurred rel RMS (less the reference's noise) | "
+           "reference noise | Mitsuba s at equal error, measured | ratio | Mitsuba spp and s at "
+           "equal error, noise taken out | ratio |", "| --- " * 10 + "|"]
+    for r in rows:
+        out.append(f"| {r['scene']} | {r.get('spp', '-')} | {r['blockhash_seconds']:.2f} | "
+                   f"{r['blockhash_flux_ratio']:.3f} | {r['blockhash_rel_rms_blur']:.4f} "
+                   f"({r['blockhash_error_less_reference_noise']:.4f}) | "
+                   f"{r['reference_noise']:.4f} | {f(r['mitsuba_seconds_at_equal_error'], '.2f')} | "
+                   f"{f(r['ratio'], '.2f')}x | {f(r['mitsuba_spp_at_equal_true_error'], '.0f')}, "
+                   f"{f(r['mitsuba_seconds_at_equal_true_error'], '.2f')} | "
+                   f"{f(r['ratio_true'], '.2f')}x |")
+    return "\n".join(out)
 
 
 def main(argv=None):
@@ -96,17 +151,16 @@ def main(argv=None):
     p.add_argument("--size", type=int, default=512)
     p.add_argument("--ref-spp", type=int, default=1024)
     p.add_argument("--max-spp", type=int, default=256, help="the ladder's last spp")
+    p.add_argument("--spp", type=int, help="blockhash's samples per pixel (default: the scene's)")
     p.add_argument("--json")
+    p.add_argument("--from-json", help="print the table of an earlier run's JSON (no rendering)")
     args = p.parse_args(argv)
-    rows = [measure(s, args.size, args.ref_spp, args.max_spp) for s in args.scenes.split(",")]
-    print(f"\n| scene | blockhash s | flux | blurred rel RMS | Mitsuba ptracer s at equal error | "
-          f"ratio |\n| --- | --- | --- | --- | --- | --- |")
-    for r in rows:
-        t = r["mitsuba_seconds_at_equal_error"]
-        print(f"| {r['scene']} | {r['blockhash_seconds']:.2f} | {r['blockhash_flux_ratio']:.3f} | "
-              f"{r['blockhash_rel_rms_blur']:.4f} | {t:.2f} | {r['ratio']:.2f}x |" if t else
-              f"| {r['scene']} | {r['blockhash_seconds']:.2f} | {r['blockhash_flux_ratio']:.3f} | "
-              f"{r['blockhash_rel_rms_blur']:.4f} | > {args.max_spp} spp | - |")
+    if args.from_json:
+        rows = [analyse(r) for r in json.loads(Path(args.from_json).read_text())]
+    else:
+        rows = [measure(s, args.size, args.ref_spp, args.max_spp, args.spp)
+                for s in args.scenes.split(",")]
+    print(table(rows))
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=2) + "\n")
     return 0
