@@ -26,7 +26,8 @@ with the reference's noise taken out; where blockhash's error is within the refe
 noise, the latter is a lower bound.
 
 usage: python tools/time_to_error.py [--scenes ring,venus,glass,corner] [--size 512]
-                                     [--ref-spp 1024] [--spp N] [--json docs/time-to-error.json]
+                                     [--ref-spp 1024] [--spp N] [--photons N]
+                                     [--json docs/time-to-error.json]
        python tools/time_to_error.py --from-json docs/time-to-error.json
 """
 
@@ -94,16 +95,17 @@ def analyse(row) -> dict:
     return row
 
 
-def measure(name, size, ref_spp, max_spp, spp=None):
+def measure(name, size, ref_spp, max_spp, spp=None, photons=None):
     scene = without_specular_lobes(load_scene(Path("scenes") / f"{name}.toml")).with_size(size, size)
     mask = light_trace(scene, 1000).comparison_mask(1)
     t = time.perf_counter()
     ref = mitsuba_reference(scene, ref_spp, seed=1, layers=("caustic",)).caustic
     ref_s = time.perf_counter() - t
-    bh = render_scene(scene, spp=spp)
+    bh = render_scene(scene, spp=spp, photons=photons)
     bh_s = bh.timings["total"]
     bh_err = blurred(bh.caustic, ref, mask)
     row = {"scene": name, "size": size, "ref_spp": ref_spp, "ref_seconds": ref_s, "spp": bh.spp,
+           "photons": bh.info.get("photons_stored"),
            "blockhash_seconds": bh_s, "blockhash_stages": bh.timings,
            "blockhash_flux_ratio": flux_ratio(bh.caustic, ref, mask),
            "blockhash_rel_rms_blur": bh_err, "mitsuba": []}
@@ -131,11 +133,12 @@ def table(rows) -> str:
     def f(x, fmt):
         return "-" if x is None else format(x, fmt)
 
-    out = ["| scene | spp | blockhash s | flux | blurred rel RMS (less the reference's noise) | "
+    out = ["| scene | photons | spp | blockhash s | flux | blurred rel RMS (less the reference's noise) | "
            "reference noise | Mitsuba s at equal error, measured | ratio | Mitsuba spp and s at "
-           "equal error, noise taken out | ratio |", "| --- " * 10 + "|"]
+           "equal error, noise taken out | ratio |", "| --- " * 11 + "|"]
     for r in rows:
-        out.append(f"| {r['scene']} | {r.get('spp', '-')} | {r['blockhash_seconds']:.2f} | "
+        out.append(f"| {r['scene']} | {f(r.get('photons'), ',')} | {r.get('spp', '-')} | "
+                   f"{r['blockhash_seconds']:.2f} | "
                    f"{r['blockhash_flux_ratio']:.3f} | {r['blockhash_rel_rms_blur']:.4f} "
                    f"({r['blockhash_error_less_reference_noise']:.4f}) | "
                    f"{r['reference_noise']:.4f} | {f(r['mitsuba_seconds_at_equal_error'], '.2f')} | "
@@ -152,13 +155,14 @@ def main(argv=None):
     p.add_argument("--ref-spp", type=int, default=1024)
     p.add_argument("--max-spp", type=int, default=256, help="the ladder's last spp")
     p.add_argument("--spp", type=int, help="blockhash's samples per pixel (default: the scene's)")
+    p.add_argument("--photons", type=int, help="blockhash's photons (default: the scene's)")
     p.add_argument("--json")
     p.add_argument("--from-json", help="print the table of an earlier run's JSON (no rendering)")
     args = p.parse_args(argv)
     if args.from_json:
         rows = [analyse(r) for r in json.loads(Path(args.from_json).read_text())]
     else:
-        rows = [measure(s, args.size, args.ref_spp, args.max_spp, args.spp)
+        rows = [measure(s, args.size, args.ref_spp, args.max_spp, args.spp, args.photons)
                 for s in args.scenes.split(",")]
     print(table(rows))
     if args.json:

@@ -170,9 +170,10 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> Sh
     ray of weight 1 under total internal reflection), each traced on, up to
     :data:`MAX_DIELECTRIC_EVENTS` events; a branch whose weight falls below
     :data:`BRANCH_CUTOFF` of its camera sample's (every channel) is dropped, and mirrors
-    reflect as in :func:`shading_points`.  The points are laid out in rows of the
-    G-buffer's width, in the order they left the specular chain, padded with points that
-    shade nothing."""
+    reflect as in :func:`shading_points`.  Only the points that shade a surface are kept
+    (a branch that leaves the scene, or is still on a specular surface after the last event,
+    adds nothing), laid out in rows of the G-buffer's width in the order they left the
+    specular chain, padded with points that shade nothing."""
     from blockhash.scene.optics import fresnel
 
     h, w = gbuffer.object.shape
@@ -223,11 +224,13 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> Sh
         sn[flip] *= -1  # face the incoming ray
         owner, pos, nrm, view, weight, outer = owner[parent], p, sn, -dirs, wts, out_side
         obj = np.where(hit, o, -1)
-    if len(owner):  # still on a specular surface after the last event: nothing to shade
-        done.append((owner, pos, nrm, view, np.full(len(owner), -1), weight))
+    # Rays still on a specular surface after the last event, and those that left the scene,
+    # shade nothing: only the points that shade something are kept.
     parts = [np.concatenate(col) for col in zip(*done)]
+    shade = parts[4] >= 0
+    parts = [a[shade] for a in parts]
     m = len(parts[0])
-    rows = -(-m // w)
+    rows = max(-(-m // w), 1)  # one row at least: a pass needs a texture
     pad = rows * w - m
     own, p, n, v, o, wt = (np.concatenate([a, np.zeros((pad,) + a.shape[1:], a.dtype)]) for a in parts)
     o[m:] = -1
