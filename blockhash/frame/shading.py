@@ -65,9 +65,7 @@ class SceneRays:
         dist = np.linalg.norm(d, axis=1)
         d = d / dist[:, None]
         origins = points + normals * (RAY_OFFSET * self.scale)
-        hit, p, _, _, _ = self.first_hit(origins, d)
-        t = np.linalg.norm(p - origins, axis=1)
-        return ~(hit & (t < dist * (1 - 1e-6)))
+        return ~self.geometry.occluded(origins, d, dist * (1 - 1e-6))
 
 
 def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,

@@ -8,6 +8,7 @@ silently falls back to a pure-numpy caster when embreex is missing).
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 #: Ray origins leaving a mirror move this far along its geometric normal, relative
@@ -80,6 +81,15 @@ class EmbreeGeometry:
         return hit, face, res["u"][hit].astype(np.float64), res["v"][hit].astype(np.float64)
 
 
+    def occluded(self, origins: np.ndarray, dirs: np.ndarray, tmax: np.ndarray) -> np.ndarray:
+        """(n,) bool: each ray meets a surface before ``tmax`` (embree's occlusion query,
+        which stops at any hit and computes no hit record)."""
+        res = self.embree.run(np.ascontiguousarray(origins, dtype=np.float32),
+                              np.ascontiguousarray(dirs, dtype=np.float32),
+                              dists=np.ascontiguousarray(tmax, dtype=np.float32), query="OCCLUDED")
+        return np.asarray(res) != -1
+
+
 def entering(geom: EmbreeGeometry, face, d) -> np.ndarray:
     """(m,) bool: rays ``d`` meet ``face`` from its outer side (against its face normal;
     a closed mesh's faces point outward)."""
@@ -91,17 +101,32 @@ def surface_hits(geom: EmbreeGeometry, face, u, v, d):
 
     Points and shading normals interpolate with embree's barycentrics
     (``p = (1-u-v) v0 + u v1 + v v2``); both normals are flipped to face the side
-    the photon came from (mirrors and receivers are two-sided).
+    the photon came from (mirrors and receivers are two-sided); a shading normal that
+    cancels falls back to the face normal.  One pass per hit (numba), no temporaries.
     """
-    tri = geom.triangles[face]
-    vn = geom.vertex_normals[face]
-    b0, b1, b2 = (1.0 - u - v)[:, None], u[:, None], v[:, None]
-    p = b0 * tri[:, 0] + b1 * tri[:, 1] + b2 * tri[:, 2]
-    ns = b0 * vn[:, 0] + b1 * vn[:, 1] + b2 * vn[:, 2]
-    ng = geom.face_normals[face]
-    length = np.sqrt(np.einsum("ij,ij->i", ns, ns))
-    bad = length < 1e-12  # normals that cancel: fall back to the face normal
-    if bad.any():
-        ns[bad], length[bad] = ng[bad], 1.0
-    sgn = np.where(np.einsum("ij,ij->i", d, ng) > 0.0, -1.0, 1.0)
-    return p, ns * (sgn / length)[:, None], ng * sgn[:, None]
+    face = np.ascontiguousarray(face, dtype=np.int64)
+    m = len(face)
+    p, ns, ng = np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
+    _surface_hits(geom.triangles, geom.vertex_normals, geom.face_normals, face,
+                  np.ascontiguousarray(u, dtype=np.float64), np.ascontiguousarray(v, dtype=np.float64),
+                  np.ascontiguousarray(d, dtype=np.float64), p, ns, ng)
+    return p, ns, ng
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _surface_hits(tri, vn, fn, face, u, v, d, p, ns, ng):
+    for i in numba.prange(len(face)):
+        f = face[i]
+        b0, b1, b2 = 1.0 - u[i] - v[i], u[i], v[i]
+        g0, g1, g2 = fn[f, 0], fn[f, 1], fn[f, 2]
+        s = -1.0 if (d[i, 0] * g0 + d[i, 1] * g1) + d[i, 2] * g2 > 0.0 else 1.0
+        n = np.empty(3)
+        for c in range(3):
+            p[i, c] = (b0 * tri[f, 0, c] + b1 * tri[f, 1, c]) + b2 * tri[f, 2, c]
+            n[c] = (b0 * vn[f, 0, c] + b1 * vn[f, 1, c]) + b2 * vn[f, 2, c]
+        length = np.sqrt((n[0] * n[0] + n[1] * n[1]) + n[2] * n[2])
+        if length < 1e-12:
+            n[0], n[1], n[2], length = g0, g1, g2, 1.0
+        for c in range(3):
+            ns[i, c] = n[c] * (s / length)
+        ng[i, 0], ng[i, 1], ng[i, 2] = g0 * s, g1 * s, g2 * s
