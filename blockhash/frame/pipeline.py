@@ -181,10 +181,16 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
     index = None
     if stored >= k:
         t = time.perf_counter()
+        # The cover gather reads the records in Hilbert order only: the hash tables are built
+        # on first use (a caller's k-nearest query), not here.
+        cover = method in ("cover", "cpu") and options.estimate == "conserving"
         index = BlockHashIndex(photon_map.positions, k=k, A=A, directions=photon_map.directions,
-                               normals=photon_map.normals, powers=photon_map.powers)
+                               normals=photon_map.normals, powers=photon_map.powers,
+                               tables=not cover)
         timings["index"] = time.perf_counter() - t
-        info["index"] = index.stats.summary()
+        info["index"] = (index.stats.summary() if index.tables_built else
+                         f"photons {len(index):,} in Hilbert order (the cover gather's records; "
+                         "the Block Hashing tables are built on first use)")
         if options.estimate == "conserving":
             t = time.perf_counter()
             (exact_radii2 if method == "kdtree" else own_radii2)(index, k)  # cached for the pass

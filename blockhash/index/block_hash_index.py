@@ -169,7 +169,7 @@ class BlockHashIndex:
 
     def __init__(self, positions, *, k: int = 50, A: int = 8, preset: str = "default",
                  L=None, P=None, B=None, layout=None, builder: str = "bulk",
-                 directions=None, normals=None, powers=None):
+                 directions=None, normals=None, powers=None, tables: bool = True):
         pos = as_points(positions, "positions", allow_empty=False)
         timings = {}
         t0 = time.perf_counter()
@@ -184,12 +184,46 @@ class BlockHashIndex:
         self.order = leaves.order
         self.starts = leaves.starts
         sorted_records = np.take(records.records, self.order, axis=0)  # 3x faster than [order]
+        self.records = PhotonRecords._own(sorted_records, records.quantizer, records.power_scale)
+        self.quantizer = records.quantizer
+        self._positions = self.quantizer.decode(np.ascontiguousarray(sorted_records[:, :3]))
+        self._cells = None
+        self.counters: dict[str, float] = {}
+        timings["total"] = time.perf_counter() - t0
+        self.timings = timings
+        self._tables_built = False
+        if tables:
+            self._build_tables()
+
+    #: What :meth:`_build_tables` makes (an index built with ``tables=False`` makes it on the
+    #: first use of any of these).
+    _TABLE_ATTRS = frozenset({"thresholds", "tables", "priority", "block_words", "node_boxes",
+                              "stats"})
+
+    def __getattr__(self, name):
+        if name in BlockHashIndex._TABLE_ATTRS and not self.__dict__.get("_tables_built", True):
+            self._build_tables()
+            return getattr(self, name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    @property
+    def tables_built(self) -> bool:
+        """Whether the hash tables exist (built eagerly unless ``tables=False``)."""
+        return self._tables_built
+
+    def _build_tables(self) -> None:
+        """The hash tables, their node boxes and the packed blocks (sections 4.2-4.3), and the
+        stats; warns about orphan blocks."""
+        self._tables_built = True
+        timings = self.timings
+        t2 = time.perf_counter()
+        sorted_records = self.records.records
         sorted_codes = np.ascontiguousarray(sorted_records[:, :3])
         prm = self.params
         if prm.layout == ThresholdLayout.ADAPTIVE:
             self.thresholds, photon_keys, buckets = build_adaptive(
                 sorted_codes, L=prm.L, photons_per_bucket=prm.bucket_photons,
-                scale=records.quantizer.step)
+                scale=self.quantizer.step)
             self.params = prm = replace(prm, adaptive_buckets=buckets)
         else:
             self.thresholds, photon_keys = build_thresholds(sorted_codes, prm.P, prm.L, prm.layout)
@@ -199,10 +233,7 @@ class BlockHashIndex:
         self.priority = self.tables.priority
         t4 = time.perf_counter()
         timings["insert"] = t4 - t3
-        self.records = PhotonRecords._own(sorted_records, records.quantizer, records.power_scale)
-        self.quantizer = records.quantizer
         self.block_words = pack_blocks(sorted_records, self.starts)
-        self._positions = self.quantizer.decode(sorted_codes)
         t5 = time.perf_counter()
         timings["pack"] = t5 - t4
         #: (L, nodes, 6) float32 node boxes of the adaptive tables (None for a grid layout).
@@ -210,10 +241,7 @@ class BlockHashIndex:
         if prm.layout == ThresholdLayout.ADAPTIVE:
             self.node_boxes = node_boxes(self.thresholds, photon_keys, self._positions, prm.buckets)
         timings["boxes"] = time.perf_counter() - t5
-        self._cells = None
-        timings["total"] = time.perf_counter() - t0
-        self.timings = timings
-        self.counters: dict[str, float] = {}
+        timings["total"] = timings["total"] + time.perf_counter() - t2
         self.stats = self._stats()
         if prm.cells:  # an index built to query its cells has them from the start
             self._build_cells()
@@ -225,7 +253,7 @@ class BlockHashIndex:
             warnings.warn(
                 f"{self.stats.orphans:,} of {self.stats.blocks:,} photon blocks "
                 f"({self.stats.orphan_photons:,} photons) are in no hash table and can never be "
-                f"found with {prm!r}; {fix}", OrphanWarning, stacklevel=2)
+                f"found with {prm!r}; {fix}", OrphanWarning, stacklevel=3)
 
     def __len__(self) -> int:
         return len(self.order)

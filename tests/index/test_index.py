@@ -179,3 +179,22 @@ def test_bad_query_k_is_rejected(small_index, k):
 def test_bad_query_shape_is_rejected(small_index):
     with pytest.raises(InputError, match=r"points must have shape \(n, 3\)"):
         small_index.query(np.zeros((4, 2)))
+
+
+def test_an_index_without_tables_builds_them_on_first_use():
+    """tables=False (the cover gather's render) builds the records only; the first query or
+    stats build the same tables an eager index has."""
+    pts = np.random.default_rng(4).random((5_000, 3))
+    eager = BlockHashIndex(pts, k=8)
+    lazy = BlockHashIndex(pts, k=8, tables=False)
+    assert eager.tables_built and not lazy.tables_built
+    np.testing.assert_array_equal(lazy.records.records, eager.records.records)
+    np.testing.assert_array_equal(lazy.order, eager.order)
+    d0, i0 = eager.query(pts[:50])
+    d1, i1 = lazy.query(pts[:50])
+    assert lazy.tables_built
+    np.testing.assert_array_equal(i0, i1)
+    np.testing.assert_array_equal(lazy.block_words, eager.block_words)
+    assert lazy.stats.summary() == eager.stats.summary()
+    with pytest.raises(AttributeError, match="no attribute 'nothing'"):
+        lazy.nothing
