@@ -11,10 +11,10 @@ is point and spot lights with shadow rays, through the modified Phong BRDF.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from blockhash.frame.caustic import ShadingPoints
-from blockhash.scene.materials import phong_brdf
 from blockhash.scene.optics import choice_uniforms, scatter
 from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, surface_hits
 
@@ -240,47 +240,97 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> Sh
                          owner=own.astype(np.int64), samples=(h, w))
 
 
-def light_intensity(light, directions) -> np.ndarray:
-    """(n, 3) radiant intensity (W/sr) of ``light`` toward unit ``directions`` (n, 3)."""
+def _cone(light):
+    """(axis (3,), cos of the half angle, intensity (3,) W/sr inside): a point light's cone is
+    the whole sphere (cos -2: every direction is inside)."""
     power = np.asarray(light.power, dtype=np.float64)
     cone = getattr(light, "cone_deg", None)
     if cone is None:
-        return np.broadcast_to(power / (4.0 * np.pi), (len(directions), 3))
-    axis = np.asarray(light.direction, dtype=np.float64)
-    cos_c = np.cos(np.radians(cone))
-    inside = directions @ axis >= cos_c
-    return np.where(inside[:, None], power / (2.0 * np.pi * (1.0 - cos_c)), 0.0)
+        return np.zeros(3), -2.0, power / (4.0 * np.pi)
+    cos_c = float(np.cos(np.radians(cone)))
+    return (np.asarray(light.direction, dtype=np.float64), cos_c,
+            power / (2.0 * np.pi * (1.0 - cos_c)))
 
 
 def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays) -> np.ndarray:
-    """(h, w, 3) direct radiance from point and spot lights, shadowed, times the path weight."""
+    """(h, w, 3) direct radiance from point and spot lights, shadowed, times the path weight
+    (the modified Phong BRDF; per light one shadow ray per point on the lit side, embree's
+    occlusion query; the rest in two numba passes, :func:`_shadow_rays` and :func:`_lit`)."""
     h, w = points.shape
     mat = points.material.reshape(-1)
     live = np.flatnonzero(mat >= 0)
     out = np.zeros((h * w, 3))
     if not len(live):
         return out.reshape(h, w, 3)
-    p = points.position.reshape(-1, 3)[live].astype(np.float64)
-    n = points.normal.reshape(-1, 3)[live].astype(np.float64)
-    wo = points.view.reshape(-1, 3)[live].astype(np.float64)
-    def per_object(attr, default):
-        return np.array([getattr(o.material, attr, default) for o in objects], dtype=np.float64)
+    p = points.position.reshape(-1, 3)
+    n = points.normal.reshape(-1, 3)
+    wo = points.view.reshape(-1, 3)
 
-    kd = per_object("kd", np.zeros(3))[mat[live]]
-    ks = per_object("ks", np.zeros(3))[mat[live]]
-    e = per_object("n", 1.0)[mat[live]]
+    def per_object(attr, default):
+        return np.array([getattr(o.material, attr, default) for o in objects],
+                        dtype=np.float64).reshape(len(objects), -1)
+
+    kd, ks, e = per_object("kd", np.zeros(3)), per_object("ks", np.zeros(3)), per_object("n", 1.0)[:, 0]
+    offset = RAY_OFFSET * rays.scale
     for light in lights:
         lp = np.asarray(light.position, dtype=np.float64)
-        d = lp - p
-        dist2 = np.sum(d * d, axis=1)
-        wi = d / np.sqrt(dist2)[:, None]
-        cos = np.sum(wi * n, axis=1)
-        front = cos > 0
-        vis = np.zeros(len(p), dtype=bool)
-        if front.any():
-            vis[front] = rays.visible(p[front], n[front], np.broadcast_to(lp, (int(front.sum()), 3)))
-        f = phong_brdf(wi, wo, n, kd, ks, e)
-        radiance = f * light_intensity(light, -wi) * (np.maximum(cos, 0) / dist2)[:, None]
-        out[live] += np.where(vis[:, None], radiance, 0.0)
+        front, origins, dirs, tmax = _shadow_rays(p, n, live, lp, offset)
+        blocked = rays.geometry.occluded(origins, dirs, tmax)
+        axis, cos_c, intensity = _cone(light)
+        _lit(out, front[~blocked], p, n, wo, mat, kd, ks, e, lp, axis, cos_c, intensity)
     out *= points.weight.reshape(-1, 3)
     return out.reshape(h, w, 3)
+
+
+@numba.njit(cache=True, nogil=True)
+def _shadow_rays(p, n, live, lp, offset):
+    """The points of ``live`` on the lit side of their surface, and their shadow rays: origins
+    lifted off the surface by ``offset``, unit directions to the light, lengths short of it."""
+    m = len(live)
+    keep = np.empty(m, dtype=np.int64)
+    count = 0
+    for j in range(m):
+        i = live[j]
+        dx, dy, dz = lp[0] - p[i, 0], lp[1] - p[i, 1], lp[2] - p[i, 2]
+        if (dx * n[i, 0] + dy * n[i, 1]) + dz * n[i, 2] > 0.0:
+            keep[count] = i
+            count += 1
+    keep = keep[:count]
+    origins, dirs, tmax = np.empty((count, 3)), np.empty((count, 3)), np.empty(count)
+    for j in numba.prange(count):
+        i = keep[j]
+        d = np.empty(3)
+        for c in range(3):
+            d[c] = lp[c] - np.float64(p[i, c])
+        dist = np.sqrt((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2])
+        for c in range(3):
+            origins[j, c] = np.float64(p[i, c]) + np.float64(n[i, c]) * offset
+            dirs[j, c] = d[c] / dist
+        tmax[j] = dist * (1.0 - 1e-6)
+    return keep, origins, dirs, tmax
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _lit(out, idx, p, n, wo, mat, kd, ks, e, lp, axis, cos_c, intensity):
+    """Adds each unshadowed point's radiance from one light: f_r(wi, wo) I cos / d^2."""
+    for j in numba.prange(len(idx)):
+        i = idx[j]
+        d = np.empty(3)
+        for c in range(3):
+            d[c] = lp[c] - np.float64(p[i, c])
+        dist2 = (d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]
+        r = np.sqrt(dist2)
+        wi = d / r
+        nn = np.array([np.float64(n[i, 0]), np.float64(n[i, 1]), np.float64(n[i, 2])])
+        v = np.array([np.float64(wo[i, 0]), np.float64(wo[i, 1]), np.float64(wo[i, 2])])
+        cos = (wi[0] * nn[0] + wi[1] * nn[1]) + wi[2] * nn[2]
+        if cos <= 0.0 or -((wi[0] * axis[0] + wi[1] * axis[1]) + wi[2] * axis[2]) < cos_c:
+            continue  # behind the surface, or outside a spot light's cone
+        m = mat[i]
+        refl = 2.0 * cos
+        c_alpha = ((refl * nn[0] - wi[0]) * v[0] + (refl * nn[1] - wi[1]) * v[1]) + \
+            (refl * nn[2] - wi[2]) * v[2]
+        lobe = (e[m] + 2.0) / (2.0 * np.pi) * max(c_alpha, 0.0) ** e[m]
+        scale = cos / dist2
+        for c in range(3):
+            out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * intensity[c] * scale
