@@ -162,6 +162,10 @@ class BlockHashIndex:
     directions, normals : (n, 3) float unit vectors, optional
     powers : (n, 3) or (n, 4) float watts, optional
         Photon payload stored in the records (Figure 4).
+    tables : bool
+        False: build only the records in Hilbert order now (what the cover gather and the
+        photon radii read), and the hash tables, node boxes, packed blocks and ``stats`` on
+        their first use (``tables_built`` says which).
 
     Block hashing gives no (1 + eps) guarantee on distances; measure recall and
     dilation with :mod:`blockhash.evaluate.metrics`.
