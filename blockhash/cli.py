@@ -32,6 +32,7 @@ from blockhash.gl.context import BACKENDS
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.index.tables.params import PRESETS
 from blockhash.scene.camera import DEFAULT_SPP
+from blockhash.validate import writable_path
 
 
 def _load_photons(spec: str, n: int, seed: int) -> np.ndarray:
@@ -129,22 +130,6 @@ def cmd_bench(args) -> int:
     return 0
 
 
-def _writable(path: Path, flag: str) -> Path:
-    """``path`` if a file can be written there, else an InputError naming ``flag``
-    (checked before long work, so that a typo does not cost a render)."""
-    import os
-
-    folder = path.parent if str(path.parent) else Path(".")
-    if path.is_dir():
-        raise InputError(f"{flag} {path}: is a directory; give a file name such as {path / 'out.exr'}")
-    if not folder.is_dir():
-        raise InputError(f"{flag} {path}: the folder {folder} does not exist; create it or give "
-                         "another path")
-    if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
-        raise InputError(f"{flag} {path}: not writable (permission denied); give a writable path")
-    return path
-
-
 def cmd_render(args) -> int:
     from blockhash.frame.images import write_exr, write_png
     from blockhash.frame.pipeline import render_scene
@@ -154,7 +139,7 @@ def cmd_render(args) -> int:
     if out.suffix.lower() != ".exr":
         raise InputError(f"--output {out}: expected a .exr file name (the PNG preview is written "
                          "beside it)")
-    _writable(out, "--output")
+    writable_path(out, "--output")
     scene = load_scene(args.scene)
     if args.time_budget is not None or args.target_error is not None:
         _choose_settings(args, scene)
@@ -208,7 +193,7 @@ def cmd_preview(args) -> int:
     from blockhash.scene.loader import load_scene
     from blockhash.scene.preview import preview
 
-    out = _writable(Path(args.output or Path(args.scene).with_suffix(".preview.png").name), "--output")
+    out = writable_path(Path(args.output or Path(args.scene).with_suffix(".preview.png").name), "--output")
     scene = load_scene(args.scene)
     colour, _ = preview(scene, size=args.size)
     h, w, _ = colour.shape

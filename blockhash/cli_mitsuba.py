@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from blockhash.errors import InputError
+from blockhash.validate import writable_path
 
 
 def cmd_export(args) -> int:
@@ -33,20 +34,12 @@ def blockhash_reference(scene, spp: int, photons: int, *, seed: int = 0):
     stratified samples per pixel."""
     import time
 
-    from blockhash.frame.shading import SceneRays, direct_light, shading_points
-    from blockhash.frame.subpixel import box_filter, raycast_gbuffer
+    from blockhash.frame.pipeline import direct_layer
     from blockhash.reference.lighttrace import light_trace
-    from blockhash.scene.camera import spp_side
-    from blockhash.scene.model import MirrorMaterial
 
-    side = spp_side(spp)
-    c = scene.camera
     timings = {}
     t = time.perf_counter()
-    rays = SceneRays(scene.objects)
-    gbuf = raycast_gbuffer(c, rays, size=(c.width, c.height), samples=side, seed=seed)
-    points = shading_points(c, gbuf, scene.objects, rays, (MirrorMaterial,), both_branches=True)
-    direct = box_filter(points.gather(direct_light(points, scene.objects, scene.lights, rays)), side)
+    direct = direct_layer(scene, spp, seed=seed)
     timings["direct"] = time.perf_counter() - t
     t = time.perf_counter()
     caustic = light_trace(scene, photons, seed=None).radiance.astype(np.float32)
@@ -61,9 +54,7 @@ def cmd_reference(args) -> int:
     out = Path(args.output or Path(args.scene).with_suffix(".reference.exr").name)
     if out.suffix.lower() != ".exr":
         raise InputError(f"--output {out}: expected a .exr file name")
-    if not (out.parent if str(out.parent) else Path(".")).is_dir():
-        raise InputError(f"--output {out}: the folder {out.parent} does not exist; create it or "
-                         "give another path")
+    writable_path(out, "--output")
     scene = load_scene(args.scene)
     if args.size:
         scene = scene.with_size(*args.size)

@@ -8,6 +8,8 @@ expected, what was received and the way out.  Nothing is clamped or dropped.
 from __future__ import annotations
 
 import numbers
+import os
+from pathlib import Path
 
 import numpy as np
 
@@ -72,3 +74,18 @@ def old_keywords(call: str, given: dict, known: tuple, instead: str) -> None:
     if given:
         warnings.warn(f"{call}({', '.join(f'{n}=' for n in given)}) is deprecated: {instead}",
                       DeprecationWarning, stacklevel=3)
+
+
+def writable_path(path, flag: str) -> Path:
+    """``path`` (a Path) if a file can be written there, else an InputError naming ``flag``
+    (checked before long work, so that a typo does not cost a render)."""
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise InputError(f"{flag} {path}: is a directory; give a file name such as {path / 'out.exr'}")
+    if not folder.is_dir():
+        raise InputError(f"{flag} {path}: the folder {folder} does not exist; create it or give "
+                         "another path")
+    if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise InputError(f"{flag} {path}: not writable (permission denied); give a writable path")
+    return path

@@ -7,7 +7,10 @@ through and in the ball, lit directly) against Mitsuba's ``path`` image (the sam
 path tracer cannot reach a point light over glass, so it holds no caustic), blurred relative
 RMS inside the silhouette.
 
-usage: python tools/glass_speckle.py [--size 128] [--spp-ref 256] [--photons 50000]
+With ``--one-branch``, also the same at the default spp with one random branch per camera
+sample at glass (the renderer before it followed both), against the same reference.
+
+usage: python tools/glass_speckle.py [--size 128] [--spp-ref 256] [--one-branch]
                                      [--mitsuba-spp 1024]
 """
 
@@ -18,7 +21,7 @@ import numpy as np
 from scipy.ndimage import binary_erosion
 
 from blockhash.frame.gbuffer import rasterize
-from blockhash.frame.pipeline import render_scene
+from blockhash.frame.pipeline import direct_layer
 from blockhash.scene.loader import load_scene
 
 
@@ -32,25 +35,27 @@ def main(argv=None):
     p.add_argument("--scene", default="scenes/glass.toml")
     p.add_argument("--size", type=int, default=128)
     p.add_argument("--spp-ref", type=int, default=256)
-    p.add_argument("--photons", type=int, default=50_000)
+    p.add_argument("--one-branch", action="store_true",
+                   help="also one random branch per sample at glass")
     p.add_argument("--mitsuba-spp", type=int, help="also compare with Mitsuba's path tracer")
     args = p.parse_args(argv)
     scene = load_scene(args.scene)
     size = (args.size, args.size)
-    few = render_scene(scene, size=size, photons=args.photons)
-    many = render_scene(scene, size=size, photons=args.photons, spp=args.spp_ref)
+    many = direct_layer(scene, args.spp_ref, size=size)
     obj = rasterize(scene.camera, scene.objects, size=size).object
     ball = obj == [i for i, o in enumerate(scene.objects) if o.is_dielectric][0]
-    print(f"{args.size} x {args.size}, {few.spp} spp against {many.spp}: direct layer relative "
-          f"RMS inside the ball's silhouette {rel(few.direct, many.direct, ball):.4f}, one pixel "
-          f"in from its edge {rel(few.direct, many.direct, binary_erosion(ball)):.4f}, on the "
-          f"floor seen directly {rel(few.direct, many.direct, obj == 0):.4f}")
+    for label, both in (("both branches", True), ("one branch", False))[:1 + args.one_branch]:
+        few = direct_layer(scene, size=size, both_branches=both)
+        print(f"{args.size} x {args.size}, the default spp against {args.spp_ref}, {label}: "
+              f"direct layer relative RMS inside the ball's silhouette {rel(few, many, ball):.4f}, "
+              f"one pixel in from its edge {rel(few, many, binary_erosion(ball)):.4f}, on the "
+              f"floor seen directly {rel(few, many, obj == 0):.4f}")
     if args.mitsuba_spp:
         from blockhash.reference.mitsuba import mitsuba_reference, without_specular_lobes
         from blockhash.studies.measure import masked_blur, rel_rms
 
         plain = without_specular_lobes(scene).with_size(*size)
-        ours = render_scene(plain, photons=args.photons).direct
+        ours = direct_layer(plain)
         theirs = mitsuba_reference(plain, args.mitsuba_spp, layers=("direct",)).direct
         print(f"against Mitsuba's path tracer at {args.mitsuba_spp} spp (ks = 0): blurred relative "
               f"RMS inside the ball's silhouette "

@@ -153,7 +153,6 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
             options = replace(options, normal_cos=None)
     LookupOptions(method=method, k=k, A=A, variant=variant)  # checks them, as render's
     from blockhash.photons.tracing import trace_caustic_photons
-    from blockhash.scene.model import MirrorMaterial
 
     settings = scene.photons
     k = settings.k if k is None else k
@@ -201,12 +200,7 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
                 timings["cover gather"] = time.perf_counter() - t
     t = time.perf_counter()
     rays = SceneRays(scene.objects)
-    if side == 1:
-        gbuf = rasterize(scene.camera, scene.objects, size=size, backend=backend)
-    else:
-        gbuf = raycast_gbuffer(scene.camera, rays, size=size, samples=side, seed=SPP_SEED)
-    points = shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,),
-                            both_branches=True)
+    points = camera_points(scene, rays, side, size=size, backend=backend)
     timings["gbuffer"] = time.perf_counter() - t
     t = time.perf_counter()
     direct = direct_light(points, scene.objects, scene.lights, rays)
@@ -235,7 +229,34 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
             caustic = estimate_exact(index, points, materials, backend=backend,
                                      options=options).astype(np.float32)
         timings["caustic"] = time.perf_counter() - t
-    timings["total"] = time.perf_counter() - t0
     direct, caustic = points.gather(direct), points.gather(caustic)
+    timings["total"] = time.perf_counter() - t0
     return RenderResult(direct=box_filter(direct, side), caustic=box_filter(caustic, side),
                         timings=timings, info=info, index=index, spp=side * side)
+
+
+def camera_points(scene, rays: SceneRays, side: int, *, size=None, backend=None,
+                  both_branches: bool = True, seed: int = SPP_SEED):
+    """The camera's shading points at ``side`` x ``side`` samples per pixel: the rasterised
+    pixel centres for one, else stratified jitter cast with ``rays`` (``seed``); mirrors and
+    glass followed, glass on both branches unless ``both_branches`` is False
+    (:func:`.shading.shading_points`)."""
+    from blockhash.scene.model import MirrorMaterial
+
+    if side == 1:
+        gbuf = rasterize(scene.camera, scene.objects, size=size, backend=backend)
+    else:
+        gbuf = raycast_gbuffer(scene.camera, rays, size=size, samples=side, seed=seed)
+    return shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,),
+                          both_branches=both_branches)
+
+
+def direct_layer(scene, spp=None, *, size=None, backend=None, both_branches: bool = True,
+                 seed: int = SPP_SEED) -> np.ndarray:
+    """(h, w, 3) float32 pixel means of the direct layer alone, as :func:`render_scene`
+    computes it (no photons are traced): ``spp`` samples per pixel (default the scene's)."""
+    side = spp_side((scene.camera.spp or DEFAULT_SPP) if spp is None else spp)
+    rays = SceneRays(scene.objects)
+    points = camera_points(scene, rays, side, size=size, backend=backend,
+                           both_branches=both_branches, seed=seed)
+    return box_filter(points.gather(direct_light(points, scene.objects, scene.lights, rays)), side)

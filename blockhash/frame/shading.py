@@ -61,10 +61,7 @@ class SceneRays:
 
     def visible(self, points, normals, targets) -> np.ndarray:
         """(n,) bool: nothing blocks the segment from each point (lifted off its surface) to its target."""
-        d = targets - points
-        dist = np.linalg.norm(d, axis=1)
-        d = d / dist[:, None]
-        origins = points + normals * (RAY_OFFSET * self.scale)
+        origins, d, dist = shadow_segments(points, normals, targets, RAY_OFFSET * self.scale)
         return ~self.geometry.occluded(origins, d, dist * (1 - 1e-6))
 
 
@@ -92,24 +89,11 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
         return branch_points(camera, gbuffer, objects, rays, mirror_types)
 
     h, w = gbuffer.object.shape
-    pos = gbuffer.position.reshape(-1, 3).astype(np.float64)
-    nrm = gbuffer.normal.reshape(-1, 3).astype(np.float64)
-    obj = gbuffer.object.reshape(-1).copy()
-    view = np.asarray(camera.eye, dtype=np.float64) - pos
-    view /= np.maximum(np.linalg.norm(view, axis=1, keepdims=True), 1e-30)
-    weight = np.ones((h * w, 3))
     glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types)
-    choices = outer = None
-    if glass.any():
-        choices = choice_uniforms(CAMERA_CHOICE_SEED, 0, h * w)
-        # Whether the G-buffer's hit met its face's outer side: cast the camera ray again.
-        first = np.flatnonzero(glass[obj])
-        d0 = -view[first]
-        outer = np.zeros(h * w, dtype=bool)
-        eye = np.broadcast_to(np.asarray(camera.eye, np.float64), d0.shape).copy()
-        outer[first] = rays.first_hit(eye, d0, sides=True)[5]
+    pos, nrm, obj, view, outer = _camera_start(camera, gbuffer, glass, rays)
+    weight = np.ones((h * w, 3))
+    choices = choice_uniforms(CAMERA_CHOICE_SEED, 0, h * w) if glass.any() else None
     events = MAX_DIELECTRIC_EVENTS if glass.any() else MAX_MIRROR_BOUNCES
-    offset = RAY_OFFSET * rays.scale
     for event in range(events):
         on = specular[obj]
         if not on.any():
@@ -130,20 +114,41 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
             r[g], through, factor = scatter(d[g], n[g], n[g], outer[gi], ior[og], tint[og], u)
             weight[gi] *= factor
             side[np.flatnonzero(g)[through]] = -1.0
-        hit, p, sn, o, _, out_side = rays.first_hit(pos[idx] + n * (side * offset)[:, None], r,
-                                                    sides=True)
-        flip = np.sum(sn * -r, axis=1) < 0
-        sn[flip] *= -1  # face the incoming ray
-        pos[idx], nrm[idx], view[idx] = p, sn, -r
-        obj[idx] = np.where(hit, o, -1)
-        if outer is not None:
-            outer[idx] = out_side
+        pos[idx], nrm[idx], obj[idx], outer[idx] = _follow(rays, pos[idx], n, r, side)
+        view[idx] = -r
     obj[specular[obj]] = -1  # still on a specular surface after the last event: nothing to shade
     return ShadingPoints(position=pos.reshape(h, w, 3).astype(np.float32),
                          normal=nrm.reshape(h, w, 3).astype(np.float32),
                          view=view.reshape(h, w, 3).astype(np.float32),
                          material=obj.reshape(h, w).astype(np.int32),
                          weight=weight.reshape(h, w, 3).astype(np.float32))
+
+
+def _camera_start(camera, gbuffer, glass, rays: SceneRays):
+    """The G-buffer's samples as flat float64 arrays: positions, normals, objects, unit
+    directions toward the eye, and whether each glass hit met its face's outer side (the
+    camera ray cast again; False elsewhere)."""
+    pos = gbuffer.position.reshape(-1, 3).astype(np.float64)
+    nrm = gbuffer.normal.reshape(-1, 3).astype(np.float64)
+    obj = gbuffer.object.reshape(-1).copy()
+    view = np.asarray(camera.eye, dtype=np.float64) - pos
+    view /= np.maximum(np.linalg.norm(view, axis=1, keepdims=True), 1e-30)
+    outer = np.zeros(len(obj), dtype=bool)
+    first = np.flatnonzero(glass[obj])
+    if len(first):
+        eye = np.broadcast_to(np.asarray(camera.eye, np.float64), (len(first), 3)).copy()
+        outer[first] = rays.first_hit(eye, -view[first], sides=True)[5]
+    return pos, nrm, obj, view, outer
+
+
+def _follow(rays: SceneRays, pos, nrm, dirs, side):
+    """Rays leaving ``pos`` (lifted off the surface to the ``side`` (+1 or -1 per ray) of
+    ``nrm``) along ``dirs``, to their next hit: (points, normals facing the ray, objects
+    (-1: nothing hit), whether each met its face's outer side)."""
+    origins = pos + nrm * (side * (RAY_OFFSET * rays.scale))[:, None]
+    hit, p, sn, o, _, out_side = rays.first_hit(origins, dirs, sides=True)
+    sn[np.sum(sn * -dirs, axis=1) < 0] *= -1
+    return p, sn, np.where(hit, o, -1), out_side
 
 
 def _surface_tables(objects, mirror_types):
@@ -176,20 +181,10 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> Sh
 
     h, w = gbuffer.object.shape
     glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types)
-    pos = gbuffer.position.reshape(-1, 3).astype(np.float64)
-    nrm = gbuffer.normal.reshape(-1, 3).astype(np.float64)
-    obj = gbuffer.object.reshape(-1).copy()
+    pos, nrm, obj, view, outer = _camera_start(camera, gbuffer, glass, rays)
     owner = np.arange(h * w)
-    view = np.asarray(camera.eye, dtype=np.float64) - pos
-    view /= np.maximum(np.linalg.norm(view, axis=1, keepdims=True), 1e-30)
     weight = np.ones((h * w, 3))
-    outer = np.zeros(h * w, dtype=bool)
-    first = np.flatnonzero(glass[obj])
-    if len(first):  # whether the G-buffer's hit met its face's outer side: cast again
-        eye = np.broadcast_to(np.asarray(camera.eye, np.float64), (len(first), 3)).copy()
-        outer[first] = rays.first_hit(eye, -view[first], sides=True)[5]
     done = []  # (owner, pos, nrm, view, obj, weight) of points that left the specular chain
-    offset = RAY_OFFSET * rays.scale
     for _ in range(MAX_DIELECTRIC_EVENTS):
         on = specular[obj]
         done.append((owner[~on], pos[~on], nrm[~on], view[~on], obj[~on], weight[~on]))
@@ -216,12 +211,8 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> Sh
         side = np.concatenate([np.ones(len(obj)), -np.ones(len(keep_t))])
         live = wts.max(axis=1) >= BRANCH_CUTOFF
         parent, dirs, wts, side = parent[live], dirs[live], wts[live], side[live]
-        hit, p, sn, o, _, out_side = rays.first_hit(pos[parent] + nrm[parent] * (side * offset)[:, None],
-                                                    dirs, sides=True)
-        flip = np.sum(sn * -dirs, axis=1) < 0
-        sn[flip] *= -1  # face the incoming ray
-        owner, pos, nrm, view, weight, outer = owner[parent], p, sn, -dirs, wts, out_side
-        obj = np.where(hit, o, -1)
+        pos, nrm, obj, outer = _follow(rays, pos[parent], nrm[parent], dirs, side)
+        owner, view, weight = owner[parent], -dirs, wts
     # Rays still on a specular surface after the last event, and those that left the scene,
     # shade nothing: only the points that shade something are kept.
     parts = [np.concatenate(col) for col in zip(*done)]
@@ -254,8 +245,9 @@ def _cone(light):
 
 def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays) -> np.ndarray:
     """(h, w, 3) direct radiance from point and spot lights, shadowed, times the path weight
-    (the modified Phong BRDF; per light one shadow ray per point on the lit side, embree's
-    occlusion query; the rest in two numba passes, :func:`_shadow_rays` and :func:`_lit`)."""
+    (the modified Phong BRDF, :func:`blockhash.scene.materials.phong_brdf`): per light, the
+    points on its side of their surface cast one shadow ray each (:meth:`SceneRays.visible`'s
+    segments, embree's occlusion query), and :func:`_lit` adds the unshadowed ones' radiance."""
     h, w = points.shape
     mat = points.material.reshape(-1)
     live = np.flatnonzero(mat >= 0)
@@ -271,66 +263,66 @@ def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays) -> np.
                         dtype=np.float64).reshape(len(objects), -1)
 
     kd, ks, e = per_object("kd", np.zeros(3)), per_object("ks", np.zeros(3)), per_object("n", 1.0)[:, 0]
-    offset = RAY_OFFSET * rays.scale
     for light in lights:
-        lp = np.asarray(light.position, dtype=np.float64)
-        front, origins, dirs, tmax = _shadow_rays(p, n, live, lp, offset)
-        blocked = rays.geometry.occluded(origins, dirs, tmax)
+        lp = np.asarray(light.position, dtype=np.float64).reshape(1, 3)
+        front = _facing(p, n, live, lp[0])
+        origins, wi, dist = shadow_segments(p[front], n[front], lp, RAY_OFFSET * rays.scale)
+        lit = ~rays.geometry.occluded(origins, wi, dist * (1 - 1e-6))
         axis, cos_c, intensity = _cone(light)
-        _lit(out, front[~blocked], p, n, wo, mat, kd, ks, e, lp, axis, cos_c, intensity)
+        _lit(out, front[lit], wi[lit], dist[lit], n, wo, mat, kd, ks, e, axis, cos_c, intensity)
     out *= points.weight.reshape(-1, 3)
     return out.reshape(h, w, 3)
 
 
 @numba.njit(cache=True, nogil=True)
-def _shadow_rays(p, n, live, lp, offset):
-    """The points of ``live`` on the lit side of their surface, and their shadow rays: origins
-    lifted off the surface by ``offset``, unit directions to the light, lengths short of it."""
-    m = len(live)
-    keep = np.empty(m, dtype=np.int64)
+def _facing(p, n, live, lp):
+    """The points of ``live`` whose normal faces the light at ``lp``."""
+    keep = np.empty(len(live), dtype=np.int64)
     count = 0
-    for j in range(m):
-        i = live[j]
-        dx, dy, dz = lp[0] - p[i, 0], lp[1] - p[i, 1], lp[2] - p[i, 2]
-        if (dx * n[i, 0] + dy * n[i, 1]) + dz * n[i, 2] > 0.0:
+    for i in live:
+        if ((lp[0] - p[i, 0]) * n[i, 0] + (lp[1] - p[i, 1]) * n[i, 1]) \
+                + (lp[2] - p[i, 2]) * n[i, 2] > 0.0:
             keep[count] = i
             count += 1
-    keep = keep[:count]
-    origins, dirs, tmax = np.empty((count, 3)), np.empty((count, 3)), np.empty(count)
-    for j in numba.prange(count):
-        i = keep[j]
-        d = np.empty(3)
-        for c in range(3):
-            d[c] = lp[c] - np.float64(p[i, c])
-        dist = np.sqrt((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2])
-        for c in range(3):
-            origins[j, c] = np.float64(p[i, c]) + np.float64(n[i, c]) * offset
-            dirs[j, c] = d[c] / dist
-        tmax[j] = dist * (1.0 - 1e-6)
-    return keep, origins, dirs, tmax
+    return keep[:count]
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _lit(out, idx, p, n, wo, mat, kd, ks, e, lp, axis, cos_c, intensity):
-    """Adds each unshadowed point's radiance from one light: f_r(wi, wo) I cos / d^2."""
+def shadow_segments(points, normals, targets, offset):
+    """Shadow rays from ``points`` (m, 3), lifted by ``offset`` along their ``normals``, to
+    ``targets`` ((m, 3), or (1, 3) for one target): (origins (m, 3), unit directions (m, 3)
+    from the points, distances (m,) from the points), float64."""
+    m = len(points)
+    origins, dirs, dist = np.empty((m, 3)), np.empty((m, 3)), np.empty(m)
+    step = 0 if targets.shape[0] == 1 else 1  # one target: row 0 for every point
+    for i in numba.prange(m):
+        t = i * step
+        d0 = targets[t, 0] - np.float64(points[i, 0])
+        d1 = targets[t, 1] - np.float64(points[i, 1])
+        d2 = targets[t, 2] - np.float64(points[i, 2])
+        r = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+        dist[i] = r
+        dirs[i, 0], dirs[i, 1], dirs[i, 2] = d0 / r, d1 / r, d2 / r
+        for c in range(3):
+            origins[i, c] = np.float64(points[i, c]) + np.float64(normals[i, c]) * offset
+    return origins, dirs, dist
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _lit(out, idx, wi, dist, n, wo, mat, kd, ks, e, axis, cos_c, intensity):
+    """Adds to ``out[idx]`` the radiance from one light reaching each point unshadowed along
+    ``wi`` from ``dist`` away: f_r(wi, wo) I cos / d^2, the modified Phong f_r of
+    :func:`blockhash.scene.materials.phong_brdf` and I the light's intensity inside its cone."""
     for j in numba.prange(len(idx)):
         i = idx[j]
-        d = np.empty(3)
-        for c in range(3):
-            d[c] = lp[c] - np.float64(p[i, c])
-        dist2 = (d[0] * d[0] + d[1] * d[1]) + d[2] * d[2]
-        r = np.sqrt(dist2)
-        wi = d / r
-        nn = np.array([np.float64(n[i, 0]), np.float64(n[i, 1]), np.float64(n[i, 2])])
-        v = np.array([np.float64(wo[i, 0]), np.float64(wo[i, 1]), np.float64(wo[i, 2])])
-        cos = (wi[0] * nn[0] + wi[1] * nn[1]) + wi[2] * nn[2]
-        if cos <= 0.0 or -((wi[0] * axis[0] + wi[1] * axis[1]) + wi[2] * axis[2]) < cos_c:
+        w0, w1, w2 = wi[j, 0], wi[j, 1], wi[j, 2]
+        cos = (w0 * n[i, 0] + w1 * n[i, 1]) + w2 * n[i, 2]
+        if cos <= 0.0 or -((w0 * axis[0] + w1 * axis[1]) + w2 * axis[2]) < cos_c:
             continue  # behind the surface, or outside a spot light's cone
         m = mat[i]
-        refl = 2.0 * cos
-        c_alpha = ((refl * nn[0] - wi[0]) * v[0] + (refl * nn[1] - wi[1]) * v[1]) + \
-            (refl * nn[2] - wi[2]) * v[2]
+        c_alpha = ((2.0 * cos * n[i, 0] - w0) * wo[i, 0] + (2.0 * cos * n[i, 1] - w1) * wo[i, 1]) \
+            + (2.0 * cos * n[i, 2] - w2) * wo[i, 2]
         lobe = (e[m] + 2.0) / (2.0 * np.pi) * max(c_alpha, 0.0) ** e[m]
-        scale = cos / dist2
+        scale = cos / (dist[j] * dist[j])
         for c in range(3):
             out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * intensity[c] * scale
