@@ -2,7 +2,7 @@
 
 For each scene (its camera's shading points, one per pixel) and each synthetic map (bench's
 image raster of queries over the receiver): the photons covering each point (mean, max), the
-candidates read (mean, p99, max), their ratio, the cells probed, the octaves and the cell
+candidates read (mean, p99, max), their ratio, the windows probed, the octaves and the window
 table's bytes per photon.  Radii are the render's own (``own_radii2``) unless --exact-radii.
 
 usage: python tools/cover_stats.py [--scenes scenes/ring.toml,...] [--maps caustic,...]
@@ -21,6 +21,7 @@ from blockhash.evaluate.datasets import DISTRIBUTIONS
 from blockhash.frame.cover_estimate import cover_gather
 from blockhash.frame.photon_radius import exact_radii2, own_radii2
 from blockhash.index.block_hash_index import BlockHashIndex
+from blockhash.index.lookups.cover import axis_order
 
 
 def scene_points(path, photons, size, k):
@@ -51,13 +52,14 @@ def stats(name, index, q, k, exact):
     covered = counts > 0
     octs = gather.octave_uniforms()
     probes = 0
-    codes = gather.quantizer.quantize_query(q).astype(np.int64)
-    for _, side, half, _ in octs:  # cells probed: 1 or 2 per axis at each octave
-        lo = np.maximum(codes - half, 0) // side
-        hi = np.minimum(codes + half, 2**32 - 1) // side
+    codes = gather.quantizer.quantize_query(q).astype(np.int64)[:, list(axis_order(gather.fine))]
+    for _, side, half, _ in octs:  # windows probed: 1 or 2 cells on each coarse axis
+        lo = np.maximum(codes[:, :2] - half, 0) // side
+        hi = np.minimum(codes[:, :2] + half, 2**32 - 1) // side
         probes = probes + np.prod(hi - lo + 1, axis=1)
     row = {"map": name, "photons": len(index), "k": k, "queries": len(q),
-           "octaves": len(gather.octaves), "cells": gather.cells,
+           "octaves": len(gather.octaves), "windows": gather.windows,
+           "fine_axis": "xyz"[gather.fine],
            "table_bytes_per_photon": gather.table_bytes / len(index),
            "record_bytes_per_photon": gather.records.nbytes / len(index),
            "covered_share": float(covered.mean()),
@@ -68,11 +70,11 @@ def stats(name, index, q, k, exact):
            "ratio": float(cand.mean() / max(counts.mean(), 1e-12)),
            "probes_mean": float(np.mean(probes)), "build_s": build,
            "radii": "exact" if exact else "own", "r2_mean": float(np.mean(r2))}
-    print(f"{name:>10}: {row['octaves']} octaves, {row['cells']:,} cells "
+    print(f"{name:>10}: {row['octaves']} octaves, {row['windows']:,} windows (fine axis {row['fine_axis']}) "
           f"({row['table_bytes_per_photon']:.1f} B/photon); covering mean {row['covering_mean']:.1f} "
           f"max {row['covering_max']}; candidates mean {row['candidates_mean']:.0f} p99 "
           f"{row['candidates_p99']:.0f} max {row['candidates_max']}; ratio {row['ratio']:.1f}x; "
-          f"cells probed {row['probes_mean']:.0f}", flush=True)
+          f"windows probed {row['probes_mean']:.0f}", flush=True)
     return row
 
 

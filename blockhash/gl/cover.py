@@ -7,7 +7,7 @@ texture         format    element
 ==============  ========  ==============================================================
 cover records   RGBA32UI  2 texels per record: float32 bits of (x, y, z, h^2); words 3-5 of
                           Figure 4 (direction | normal, powers) and the photon's index
-cover cells     RGBA32UI  cuckoo slot: (key hi, key lo, first record, count)
+cover cells     RGBA32UI  cuckoo slot of a window: (key hi, key lo, first record, count)
 ==============  ========  ==============================================================
 """
 
@@ -44,7 +44,7 @@ class GLCover:
         if is_llvmpipe(self.ctx) and need > LOOP_LIMIT:
             raise CapacityError(
                 f"the cover gather may run up to {need:,} shader loop iterations per shading "
-                f"point (its fullest cells hold {int(self.gather.max_count.max()):,} photons: "
+                f"point (its fullest windows hold {int(self.gather.max_count.max()):,} photons: "
                 f"photons piled at one place), above llvmpipe's {LOOP_LIMIT:,} (beyond it "
                 "llvmpipe silently stops the loops and photons go missing); render with "
                 "method='cpu', or on a GPU driver")
@@ -52,7 +52,8 @@ class GLCover:
     def defines(self, *, fetch_only: bool = False) -> dict:
         return {"BH_COVER": 1, "BH_CELLS": 0, "BH_COVER_REC_W": self.rec_w,
                 "BH_COVER_CELL_W": self.cell_w, "BH_COVER_MASK": self.gather.buckets - 1,
-                "BH_COVER_MAX_OCTAVES": MAX_OCTAVES, "BH_FETCH_ONLY": int(fetch_only)}
+                "BH_COVER_MAX_OCTAVES": MAX_OCTAVES, "BH_COVER_FINE_AXIS": self.gather.fine,
+                "BH_FETCH_ONLY": int(fetch_only)}
 
     def textures(self) -> dict:
         return {"bh_cover_records": self.records, "bh_cover_cells": self.cells}

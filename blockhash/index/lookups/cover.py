@@ -9,16 +9,25 @@ Williams 1977, the grid of GPU particle systems, here once per radius octave):
   from ``2^MIN_SHIFT`` codes, ``side_l = floor(2^(MIN_SHIFT + l / steps))``, up to a top octave
   of side 2^31 that holds the photons wider than a quarter of the box. A photon goes to the
   first octave whose side is at least ``2 (h_i + margin)``, its radius and the bound on the
-  float32 position and query errors (:func:`cover_margin`) in codes.  Its cell there is
-  ``code // side_l`` per axis (below 2^19: :func:`.cells.cell_key`).
-* **Cells.** Records are sorted by (octave, cell): every cell is one run of records, stored
-  in a cuckoo hash (:func:`.cells.cuckoo_slots`) under ``cell_key(octave, cell)`` as (first,
-  count).  A query's cells are *computed*: at each non-empty octave, the cells that hold
-  ``qcode +- half_l`` on each axis (``half_l = side_l / 2``, saturating; the top octave's is
-  the whole box), at most 2 x 2 x 2.  Every photon of the octave within ``half_l >= h_i +
+  float32 position and query errors (:func:`cover_margin`) in codes.
+* **Cells.** Two axes of an octave (the *coarse* axes) are cut into cells of side ``side_l``;
+  the third (the *fine* axis) into cells ``FINE`` times thinner, of side ``fine_l =
+  ceil(2 half_l / FINE)`` (``half_l = side_l / 2``, saturating; the top octave's is the whole
+  box).  The fine axis is the one the photons' surfaces run along most (the smallest mean
+  ``|n_a|`` of their stored normals; a floor's photons: x), so a column of fine cells follows
+  the surface.  Records are sorted by (octave, coarse cell, coarse cell, fine cell), the
+  Hilbert order kept within a cell, so the ``FINE + 1`` fine cells of one column that start
+  at fine cell ``f`` are one run of records: the *window* (octave, cx, cy, f), stored in a
+  cuckoo hash (:func:`.cells.cuckoo_slots`) under :func:`window_key` as (first, count),
+  wherever one of its fine cells holds a photon.
+* **A query's windows are computed**: at each non-empty octave, on each coarse axis the
+  cells that hold ``qcode +- half_l`` (1 or 2), and on the fine axis the window starting at
+  the fine cell of ``qcode - half_l``, which holds ``qcode + half_l`` too (``2 half_l <=
+  FINE fine_l``): at most 2 x 2 windows.  Every photon of the octave within ``half_l >= h_i +
   margin`` of the query is in them, so every covering photon is found, however the photons
-  are spread.
-* **Two dependent rounds** after the keys: the cells' cuckoo slots (2 fetches a cell, all
+  are spread.  Against 2 x 2 x 2 cubic cells of side ``side_l`` the windows read half the
+  cuckoo slots and, on a surface along the fine axis, 5/8 of the candidates.
+* **Two dependent rounds** after the keys: the windows' cuckoo slots (2 fetches a window, all
   independent), then their records (independent of each other).  No list is held.
 * **Records**, 2 RGBA32UI texels each: the decoded float32 position and the float32 squared
   radius; then the direction toward where the photon came from and its surface normal, each
@@ -27,7 +36,7 @@ Williams 1977, the grid of GPU particle systems, here once per radius octave):
   power words of Figure 4 (c1 | c2, c3 | c4).
 
 The bound: a photon of octave l has ``h_i > side_(l-1) / 2 - margin``, so fewer than j other
-photons lie within that of it; a cell holds O(j) photons of its octave whatever N and the
+photons lie within that of it; a window holds O(j) photons of its octave whatever N and the
 distribution (the candidates a query reads are measured by ``tools/cover_stats.py``).
 
 :func:`cover_query` is the integer-exact CPU reference of glsl/bh_cover.glsl (keys, cells and
@@ -44,12 +53,18 @@ import numba
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.index.lookups.cells import cell_key, cuckoo_get, cuckoo_slots
+from blockhash.index.lookups.cells import cuckoo_get, cuckoo_slots
 from blockhash.index.records.codec import decode_directions, unpack_records
 from blockhash.index.records.radixsort import stable_argsort
 
-#: The finest cell side is 2^MIN_SHIFT codes: cell coordinates stay below 2^19 (cell_key).
-MIN_SHIFT = 13
+#: The finest cell side is 2^MIN_SHIFT codes: coarse cells stay below 2^18 and fine cells
+#: below 2^20 (:func:`window_key`).
+MIN_SHIFT = 14
+#: Fine cells per coarse side on the fine axis; a window is FINE + 1 of them.  Chosen on the
+#: ring (2 x 10^5 photons, k = 50, exact radii): 1 reads 7.3x the covering photons, 2 5.5x,
+#: 4 4.6x, 8 4.1x, the stored windows growing about as FINE + 1 (BENCHMARKS.md, "The cover
+#: gather").
+FINE = 4
 #: The top octave's side: its 2 x 2 cells per axis are the whole box.
 TOP_SHIFT = 31
 #: Octaves per doubling of the cell side (the octave factor is 2^(1 / steps)).  Tuned on the
@@ -115,6 +130,35 @@ def octave_halves(sides: np.ndarray) -> np.ndarray:
     return halves
 
 
+def octave_fine(halves: np.ndarray) -> np.ndarray:
+    """(octaves,) int64 side of each octave's fine cells: ``ceil(2 half / FINE)``, so that a
+    window of FINE + 1 fine cells holds ``code +- half`` wherever it starts."""
+    return -(-2 * halves.astype(np.int64) // FINE)
+
+
+def fine_axis(normals: np.ndarray) -> int:
+    """The axis the photons' surfaces run along most: the smallest mean ``|n_a|`` of their
+    stored unit normals ((n, 3)), the first of equals (x on a floor)."""
+    if not len(normals):
+        return 0
+    return int(np.argmin(np.abs(np.asarray(normals, np.float64)).mean(axis=0)))
+
+
+def axis_order(fine: int) -> tuple[int, int, int]:
+    """The code axes as the gather reads them: the two coarse axes, then the fine one."""
+    return tuple([a for a in range(3) if a != fine] + [fine])
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def window_key(level, cx, cy, f):
+    """The two key words (hi, lo) of window (cx, cy, f) of ``level``: 6 + 18 + 18 + 21 bits,
+    coarse cells below 2^18, the fine cell below 2^21 (glsl/bh_cover.glsl bh_cover_key)."""
+    lo = np.uint32((np.uint64(f) | (np.uint64(cy) << np.uint64(21))) & np.uint64(0xFFFFFFFF))
+    hi = np.uint32((np.uint64(cy) >> np.uint64(11)) | (np.uint64(cx) << np.uint64(7))
+                   | (np.uint64(level) << np.uint64(25)))
+    return hi, lo
+
+
 def cover_margin(quantizer) -> float:
     """Codes added to every radius so that the integer cells hold each photon whose float32
     distance test passes: twice the decode error bound (the photon's decoded position and the
@@ -131,11 +175,13 @@ class CoverGather:
                                normal; the power words
     photon : (n,) int64        each record's photon, in the caller's order
     octave : (n,) int64        each record's octave
-    slots, buckets             the cuckoo table of cells (:func:`.cells.cuckoo_slots`)
+    slots, buckets             the cuckoo table of windows (:func:`.cells.cuckoo_slots`)
     sides, halves              every octave's side and reach (:func:`octave_sides`)
+    fines : (octaves,) int64   every octave's fine cell side (:func:`octave_fine`)
+    fine : int                 the fine axis (:func:`fine_axis`)
     octaves : (m,) int64       the octaves that hold photons, finest first
-    max_count : (octaves,) int64  the most records one cell of each octave holds
-    cells : int                cells stored
+    max_count : (octaves,) int64  the most records one window of each octave holds
+    windows : int              windows stored
     left_out : int             photons with an infinite radius (a map of one photon): they
                                cover nothing at a finite distance and add nothing
     """
@@ -147,9 +193,11 @@ class CoverGather:
     buckets: int
     sides: np.ndarray
     halves: np.ndarray
+    fines: np.ndarray
+    fine: int
     octaves: np.ndarray
     max_count: np.ndarray
-    cells: int
+    windows: int
     left_out: int
     quantizer: object
     power_scale: np.ndarray
@@ -178,36 +226,36 @@ class CoverGather:
         h_codes = np.sqrt(slot_r2[keep]) / float(np.asarray(q.step, np.float64).max())
         need = 2.0 * (h_codes * (1.0 + 2.0**-20) + cover_margin(q))
         octave = np.minimum(np.searchsorted(sides, need, side="left"), len(sides) - 1)
-        cell = (rec[:, :3].astype(np.int64) // sides[octave][:, None])
-        # One 63-bit key per record, octave then cell (6 + 3 x 19 bits), sorted stably: the
-        # Hilbert order stays within each cell (a radix sort, 6x faster than np.lexsort).
-        key = ((octave.astype(np.uint64) << np.uint64(57)) | (cell[:, 0].astype(np.uint64) << np.uint64(38))
-               | (cell[:, 1].astype(np.uint64) << np.uint64(19)) | cell[:, 2].astype(np.uint64))
+        halves = octave_halves(sides)
+        fines = octave_fine(halves)
+        _, dcodes, ncodes, _ = unpack_records(rec)
+        fine = fine_axis(decode_directions(ncodes))
+        codes = rec[:, list(axis_order(fine))].astype(np.int64)
+        cell = np.stack([codes[:, 0] // sides[octave], codes[:, 1] // sides[octave],
+                         codes[:, 2] // fines[octave]], axis=1)
+        # One 63-bit key per record, octave then cell (6 + 18 + 18 + 21 bits), sorted stably:
+        # the Hilbert order stays within each cell (a radix sort, 6x faster than np.lexsort),
+        # and the fine cells of a column follow one another.
+        key = _window_keys(octave, cell)
         order = stable_argsort(key)
-        rec, octave, cell = rec[order], octave[order], cell[order]
+        rec, octave, key = rec[order], octave[order], key[order]
+        dcodes, ncodes = dcodes[order], ncodes[order]
         photon = index.order[np.flatnonzero(keep)[order]]
         m = len(rec)
         records = np.zeros((m, RECORD_WORDS), dtype=np.uint32)
         records[:, :3] = q.decode(rec[:, :3]).view(np.uint32)
         records[:, 3] = slot_r2[keep][order].astype(np.float32).view(np.uint32)
-        _, dcodes, ncodes, _ = unpack_records(rec)
         toward, normal = _octahedral_tables()
         records[:, 4] = toward[dcodes]
         records[:, 5] = normal[ncodes]
         records[:, 6:8] = rec[:, 4:6]
-        change = np.ones(m, dtype=bool)
-        change[1:] = (octave[1:] != octave[:-1]) | (cell[1:] != cell[:-1]).any(axis=1)
-        starts = np.flatnonzero(change)
-        counts = np.diff(np.append(starts, m))
-        hi, lo = cell_key.py_func(octave[starts], cell[starts, 0], cell[starts, 1], cell[starts, 2])
-        entries = np.stack([np.asarray(hi, np.uint32), np.asarray(lo, np.uint32),
-                            starts.astype(np.uint32), counts.astype(np.uint32)], axis=1)
-        slots, buckets = cuckoo_slots(entries.reshape(-1, 4), "cover gather's cell table")
+        entries, max_count = _windows(key, len(sides))
+        slots, buckets = cuckoo_slots(entries, "cover gather's window table")
         return cls(records=records, photon=photon.astype(np.int64), octave=octave, slots=slots,
-                   buckets=buckets, sides=sides, halves=octave_halves(sides),
-                   octaves=np.unique(octave), max_count=_max_per(octave[starts], counts, len(sides)),
-                   cells=len(starts), left_out=int(n - m), quantizer=q,
-                   power_scale=index.records.power_scale, steps=int(steps))
+                   buckets=buckets, sides=sides, halves=halves, fines=fines, fine=fine,
+                   octaves=np.unique(octave), max_count=max_count, windows=len(entries),
+                   left_out=int(n - m), quantizer=q, power_scale=index.records.power_scale,
+                   steps=int(steps))
 
     def __len__(self) -> int:
         return len(self.records)
@@ -219,25 +267,27 @@ class CoverGather:
 
     @property
     def table_bytes(self) -> int:
-        """Bytes beyond the records: the cuckoo table of cells."""
+        """Bytes beyond the records: the cuckoo table of windows."""
         return int(self.slots.nbytes)
 
     def loop_bound(self) -> int:
         """An upper bound on one query's loop iterations in glsl/bh_cover.glsl: per non-empty
-        octave its 8 cells, each with at most the octave's fullest cell of records."""
-        return int(sum(8 * (1 + self.max_count[o]) + 1 for o in self.octaves))
+        octave its 4 windows, each with at most the octave's fullest window of records, read
+        in chunks of 32 (a pass over the chunk, then one over its covering records)."""
+        return int(sum(4 * (1 + 2 * self.max_count[o] + -(-self.max_count[o] // 32)) + 1
+                       for o in self.octaves))
 
     def octave_uniforms(self) -> np.ndarray:
-        """(m, 4) int64 per non-empty octave, finest first: (octave, side, half, 0), each
-        below 2^32 (the shader's uvec4 uniforms)."""
+        """(m, 4) int64 per non-empty octave, finest first: (octave, side, half, fine side),
+        each below 2^32 (the shader's uvec4 uniforms)."""
         o = self.octaves
-        return np.stack([o, self.sides[o], self.halves[o].astype(np.int64),
-                         np.zeros(len(o), np.int64)], axis=1)
+        return np.stack([o, self.sides[o], self.halves[o].astype(np.int64), self.fines[o]],
+                        axis=1)
 
     def query(self, points) -> "Covering":
         """Every record whose photon's disc covers each of ``points`` ((m, 3), float32)."""
         qpos = np.ascontiguousarray(np.asarray(points, dtype=np.float32).reshape(-1, 3))
-        qcodes = self.quantizer.quantize_query(qpos)
+        qcodes = np.ascontiguousarray(self.quantizer.quantize_query(qpos)[:, list(axis_order(self.fine))])
         oct_ = self.octave_uniforms()
         recf = self.records.view(np.float32)
         counts, cand = _cover_count(qpos, qcodes, self.slots, np.uint32(self.buckets - 1), oct_,
@@ -251,10 +301,48 @@ class CoverGather:
         return Covering(offsets=offsets, records=hits, d2=d2, candidates=cand)
 
 
-def _max_per(octave_of_cell, counts, octaves) -> np.ndarray:
-    out = np.zeros(octaves, dtype=np.int64)
-    np.maximum.at(out, octave_of_cell, counts)
-    return out
+#: Bits of a record's sort key (:func:`_window_keys`): the octave, two coarse cells, the fine.
+_KEY_BITS = (6, 18, 18, 21)
+
+
+def _window_keys(octave, cell) -> np.ndarray:
+    """(n,) uint64 sort keys (octave, cx, cy, f), ``f`` lowest: a window's fine cells are
+    consecutive keys."""
+    _, bx, by, bf = _KEY_BITS
+    return ((octave.astype(np.uint64) << np.uint64(bx + by + bf))
+            | (cell[:, 0].astype(np.uint64) << np.uint64(by + bf))
+            | (cell[:, 1].astype(np.uint64) << np.uint64(bf)) | cell[:, 2].astype(np.uint64))
+
+
+def _windows(key, octaves) -> tuple[np.ndarray, np.ndarray]:
+    """The window table's entries ((w, 4) uint32: key hi, key lo, first record, count) from
+    the records' sorted keys, and the most records a window of each octave holds."""
+    bf = _KEY_BITS[3]
+    change = np.ones(len(key), dtype=bool)
+    change[1:] = key[1:] != key[:-1]
+    first = np.flatnonzero(change)
+    cells = key[first]
+    ends = np.append(first[1:], len(key))
+    # A window starts at any fine cell that has a photon within FINE cells after it (in the
+    # same column: the fine cell never goes below 0).
+    f = (cells & np.uint64((1 << bf) - 1)).astype(np.int64)
+    back = np.arange(FINE + 1, dtype=np.uint64)
+    starts = (cells[:, None] - back[None, :])[(f[:, None] >= back[None, :].astype(np.int64))]
+    starts = np.unique(starts)
+    lo = np.searchsorted(cells, starts, side="left")
+    hi = np.searchsorted(cells, starts + np.uint64(FINE), side="right")
+    begin = first[lo]
+    count = ends[hi - 1] - begin
+    level = (starts >> np.uint64(sum(_KEY_BITS[1:]))).astype(np.int64)
+    cx = ((starts >> np.uint64(_KEY_BITS[2] + bf)) & np.uint64((1 << _KEY_BITS[1]) - 1)).astype(np.int64)
+    cy = ((starts >> np.uint64(bf)) & np.uint64((1 << _KEY_BITS[2]) - 1)).astype(np.int64)
+    wf = (starts & np.uint64((1 << bf) - 1)).astype(np.int64)
+    whi, wlo = window_key.py_func(level, cx, cy, wf)
+    entries = np.stack([np.asarray(whi, np.uint32), np.asarray(wlo, np.uint32),
+                        begin.astype(np.uint32), count.astype(np.uint32)], axis=1)
+    max_count = np.zeros(octaves, dtype=np.int64)
+    np.maximum.at(max_count, level, count)
+    return entries, max_count
 
 
 @dataclass(frozen=True)
@@ -286,31 +374,31 @@ def _axis_cells(code, half, side):
 @numba.njit(cache=True, nogil=True)
 def _visit(qpos, qcodes, slots, mask, octaves, recf, i, offsets, hits, d2s, fill):
     """Covering records of point i (written from offsets[i] when ``fill``): (count, read).
-    ``recf`` is the records' float32 view: position and squared radius in words 0-3."""
+    ``qcodes`` are in :func:`axis_order` (coarse, coarse, fine); ``recf`` is the records'
+    float32 view: position and squared radius in words 0-3."""
     qx, qy, qz = qpos[i, 0], qpos[i, 1], qpos[i, 2]
     found = 0
     read = 0
     for o in range(octaves.shape[0]):
-        level, side, half = octaves[o, 0], octaves[o, 1], octaves[o, 2]
+        level, side, half, fine = octaves[o, 0], octaves[o, 1], octaves[o, 2], octaves[o, 3]
         x0, x1 = _axis_cells(qcodes[i, 0], half, side)
         y0, y1 = _axis_cells(qcodes[i, 1], half, side)
-        z0, z1 = _axis_cells(qcodes[i, 2], half, side)
+        f0, _ = _axis_cells(qcodes[i, 2], half, fine)
         for cx in range(x0, x1 + 1):
             for cy in range(y0, y1 + 1):
-                for cz in range(z0, z1 + 1):
-                    hi, lo = cell_key(level, cx, cy, cz)
-                    first, count = cuckoo_get(slots, mask, hi, lo)
-                    read += count
-                    for r in range(first, first + count):
-                        dx = recf[r, 0] - qx
-                        dy = recf[r, 1] - qy
-                        dz = recf[r, 2] - qz
-                        dd = (dx * dx + dy * dy) + dz * dz
-                        if dd < recf[r, 3]:
-                            if fill:
-                                hits[offsets[i] + found] = r
-                                d2s[offsets[i] + found] = dd
-                            found += 1
+                hi, lo = window_key(level, cx, cy, f0)
+                first, count = cuckoo_get(slots, mask, hi, lo)
+                read += count
+                for r in range(first, first + count):
+                    dx = recf[r, 0] - qx
+                    dy = recf[r, 1] - qy
+                    dz = recf[r, 2] - qz
+                    dd = (dx * dx + dy * dy) + dz * dz
+                    if dd < recf[r, 3]:
+                        if fill:
+                            hits[offsets[i] + found] = r
+                            d2s[offsets[i] + found] = dd
+                        found += 1
     return found, read
 
 
@@ -335,4 +423,4 @@ def _cover_fill(qpos, qcodes, slots, mask, octaves, recf, offsets, hits, d2s):
 
 
 __all__ = ["CoverGather", "Covering", "octave_sides", "cover_margin", "OCTAVE_STEPS",
-           "MAX_OCTAVES", "MIN_SHIFT"]
+           "MAX_OCTAVES", "MIN_SHIFT", "FINE", "fine_axis", "axis_order", "window_key"]
