@@ -8,8 +8,11 @@ whose own cube at level l (side ``2^(11 + l)`` codes) holds at least ``cmin`` ph
 3 x 3 x 3 cubes around it hold every photon within one side of it: when the j-th nearest of
 their photons lies within a side (less the float32 position error), it is the exact j-th
 nearest; otherwise the next level up is read.  The top level is one cube, the whole box, so
-the search always ends.  Cubes farther from the photon than the j-th nearest found so far are
-skipped (its own cube is read first).  Consecutive photons share their cube and its 27 runs.
+the search always ends.  Consecutive photons share their cube, and its 27 runs are copied once
+into contiguous coordinate arrays: each photon's squared distances to all of them are one
+loop the compiler vectorises, and the j-th comes from a selection (Hoare's), not a sorted
+list, over the candidates within 1.2 times the previous photon's radius when j + 1 lie
+there (neighbours in Hilbert order have alike radii), else over all of them.
 
 Distances are float64 from the float32 decoded positions, as ``scipy.spatial.cKDTree`` computes
 them from the same positions: the result equals its j-th neighbour distance (the tests hold it
@@ -28,7 +31,8 @@ from blockhash.index.records.hilbert import KEY_BITS_PER_AXIS, hilbert_key, hilb
 CODE_SHIFT = 32 - KEY_BITS_PER_AXIS
 #: A photon's search starts at the finest level whose own cube holds at least
 #: ``ceil(CMIN_FRACTION * (j + 1))`` photons.  Tuned on the ring at 10^6 photons (j = 36,
-#: 2026-12-02): 1/2, 1/4, 1/8 and 1/16 took 1.11, 1.03, 1.05 and 1.05 s.
+#: 2026-12-02, one core): 1, 1/2, 1/4, 1/8 and 1/16 took 1.40, 1.20, 1.16, 1.21 and 1.20 s
+#: (medians alike within the machine's noise; 1 is slower).
 CMIN_FRACTION = 0.25
 #: Consecutive photons per parallel task.
 CHUNK = 4096
@@ -50,9 +54,8 @@ def jth_distances(sorted_codes: np.ndarray, positions: np.ndarray, j: int, quant
     cmin = max(1, int(np.ceil(CMIN_FRACTION * (j + 1))))
     step = float(np.asarray(quantizer.step, dtype=np.float64).max())
     margin = 2.0 * float(np.asarray(quantizer.decode_error).max())
-    lo = np.asarray(quantizer.lo, dtype=np.float64)
     return _jth(np.ascontiguousarray(sorted_codes, dtype=np.uint32), pos, keys, j, cmin, step,
-                margin, lo, single, pair, start)
+                margin, single, pair, start)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -98,35 +101,53 @@ def _neighbour_runs(codes_i, level, keys, single, pair, start, runs):
     return m
 
 
-@numba.njit(cache=True, nogil=True, inline="always")
-def _gap2(runs, r, x, y, z, lo, cube, margin):
-    """Squared distance from (x, y, z) to cube r of side ``cube`` metres, less ``margin``
-    (0 when within it): no photon of the cube lies nearer."""
-    g = 0.0
-    for a in range(3):
-        p = x if a == 0 else (y if a == 1 else z)
-        c0 = lo[a] + runs[r, 2 + a] * cube
-        d = max(c0 - p, p - (c0 + cube), 0.0) - margin
-        if d > 0:
-            g += d * d
-    return g
+@numba.njit(cache=True, nogil=True)
+def _select(a, m, kth):
+    """The kth smallest (0-based) of a[:m], partly reordering a[:m] (Hoare's selection)."""
+    lo = 0
+    hi = m - 1
+    while lo < hi:
+        pivot = a[(lo + hi) >> 1]
+        i = lo
+        k = hi
+        while i <= k:
+            while a[i] < pivot:
+                i += 1
+            while a[k] > pivot:
+                k -= 1
+            if i <= k:
+                t = a[i]
+                a[i] = a[k]
+                a[k] = t
+                i += 1
+                k -= 1
+        if kth <= k:
+            hi = k
+        elif kth >= i:
+            lo = i
+        else:
+            return a[kth]
+    return a[kth]
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _jth(codes, pos, keys, j, cmin, step, margin, lo, single, pair, start):
+def _jth(codes, pos, keys, j, cmin, step, margin, single, pair, start):
     n = codes.shape[0]
     out = np.empty(n)
     tasks = (n + CHUNK - 1) // CHUNK
     for t in numba.prange(tasks):
         runs = np.empty((27, 5), dtype=np.int64)
-        best = np.empty(j)
+        cap = 1024
+        xs = np.empty(cap)
+        ys = np.empty(cap)
+        zs = np.empty(cap)
+        d2 = np.empty(cap)
+        near = np.empty(cap)
+        m = 0
         cached_level = -1
         cached_prefix = np.uint64(0)
-        filled = 0
         prev = -1.0
         for i in range(t * CHUNK, min(n, (t + 1) * CHUNK)):
-            # The level: the cached one while photon i stays in its cube, else the finest
-            # whose own cube holds cmin photons.
             if cached_level >= 0 and (keys[i] >> np.uint64(3 * cached_level)) == cached_prefix:
                 level = cached_level
             else:
@@ -141,39 +162,55 @@ def _jth(codes, pos, keys, j, cmin, step, margin, lo, single, pair, start):
                 prefix = keys[i] >> np.uint64(3 * level) if level < KEY_BITS_PER_AXIS else np.uint64(0)
                 if level != cached_level or prefix != cached_prefix:
                     filled = _neighbour_runs(codes[i], level, keys, single, pair, start, runs)
+                    m = 0
+                    for r in range(filled):
+                        m += runs[r, 1] - runs[r, 0]
+                    if m > cap:
+                        cap = 2 * m
+                        xs = np.empty(cap)
+                        ys = np.empty(cap)
+                        zs = np.empty(cap)
+                        d2 = np.empty(cap)
+                        near = np.empty(cap)
+                    m = 0
+                    for r in range(filled):
+                        for c in range(runs[r, 0], runs[r, 1]):
+                            xs[m] = pos[c, 0]
+                            ys[m] = pos[c, 1]
+                            zs[m] = pos[c, 2]
+                            m += 1
                     cached_level = level
                     cached_prefix = prefix
-                cube = step * (2.0 ** (CODE_SHIFT + level))
-                # A guess, 1.2 times the photon before's (neighbours in Hilbert order have alike
-                # radii): candidates beyond it are skipped; if fewer than j lie within it,
-                # the cubes are read again without it.
+                # Every candidate's squared distance, the photon itself at 0 among them: the
+                # (j + 1)-th smallest is the j-th nearest other photon's.
+                for c in range(m):
+                    dx = xs[c] - x
+                    dy = ys[c] - y
+                    dz = zs[c] - z
+                    d2[c] = dx * dx + dy * dy + dz * dz
+                # A guess, 1.2 times the photon before's radius (neighbours in Hilbert order
+                # have alike radii): the selection reads only the candidates within it when
+                # at least j + 1 are.
                 guess = 1.44 * prev * prev if prev >= 0 else np.inf
-                while True:
-                    for b in range(j):
-                        best[b] = guess
-                    for r in range(filled):
-                        if r > 0 and _gap2(runs, r, x, y, z, lo, cube, margin) > best[j - 1]:
-                            continue  # the cube lies beyond the j-th found so far
-                        for c in range(runs[r, 0], runs[r, 1]):
-                            if c == i:
-                                continue
-                            dx = pos[c, 0] - x
-                            dy = pos[c, 1] - y
-                            dz = pos[c, 2] - z
-                            d = dx * dx + dy * dy + dz * dz
-                            if d < best[j - 1]:
-                                b = j - 1
-                                while b > 0 and best[b - 1] > d:
-                                    best[b] = best[b - 1]
-                                    b -= 1
-                                best[b] = d
-                    if best[j - 1] < guess or guess == np.inf:
-                        break
-                    guess = np.inf
+                inside = 0
+                for c in range(m):
+                    if d2[c] < guess:
+                        near[inside] = d2[c]
+                        inside += 1
+                if inside > j:
+                    best = _select(near, inside, j)
+                elif m > j:
+                    for c in range(m):
+                        near[c] = d2[c]
+                    best = _select(near, m, j)
+                else:
+                    best = np.inf  # fewer than j others in the 27 cubes: the next level up
+                cube = step * (2.0 ** (CODE_SHIFT + level))
                 side = cube - margin
-                if level >= KEY_BITS_PER_AXIS or (side > 0 and best[j - 1] <= side * side):
+                if level >= KEY_BITS_PER_AXIS or (side > 0 and best <= side * side):
                     break
                 level += 1
-            out[i] = np.sqrt(best[j - 1])
+            out[i] = np.sqrt(best)
             prev = out[i]
     return out
+
