@@ -86,6 +86,29 @@ def test_the_cover_gather_takes_the_conserving_estimate_only(plane_index):
             grid_points(4, 4), MATS, options=EstimateOptions(estimate="unbiased"))
 
 
+@pytest.mark.parametrize("axes", [(0, 1, 2), (1, 0, 2), (2, 0, 1), (0, 2, 1)])
+def test_the_shader_reads_the_windows_of_every_fine_axis(plane_index, axes):
+    """The plane turned so that the fine axis (cover.py fine_axis) is each of x, y and z:
+    the shader's axis order and window keys give the CPU reference's sum per point."""
+    context_or_skip("egl")
+    from blockhash.frame.caustic import ShadingPoints
+
+    axes = list(axes)
+    rec, slot = plane_index.records, plane_index.slot_of
+    index = BlockHashIndex(plane_index.positions[:, axes], k=50,
+                           directions=rec.directions()[slot][:, axes],
+                           normals=rec.normals()[slot][:, axes], powers=rec.powers()[slot, :3])
+    base = grid_points(32, 24, lo=-0.05, hi=1.05, view=(0.6, 0.8, 0.0))
+    pts = ShadingPoints(base.position[..., axes], base.normal[..., axes], base.view[..., axes],
+                        base.material, base.weight)
+    gather = cover_gather(index, 50)
+    assert gather.fine == axes.index(2)  # the plane's photons mostly face +y, some +x
+    cpu = estimate_cover_cpu(gather, pts, MATS)
+    gl = CausticPass(index, backend="egl", gather="cover").render(pts, MATS)
+    assert (cpu > 0).mean() > 0.8
+    np.testing.assert_allclose(gl, cpu, rtol=2e-5, atol=1e-6 * cpu.max())
+
+
 def test_a_pile_past_llvmpipes_loop_limit_is_refused_there():
     """Photons piled at one point fill one cell; past llvmpipe's loop limit the pass refuses
     (it would silently stop there), naming the limit and the way out."""
