@@ -1,12 +1,16 @@
 """The cover gather's reads per shading point, from its CPU reference (blockhash/index/lookups/cover.py).
 
-For each scene (its camera's shading points, one per pixel) and each synthetic map (bench's
-image raster of queries over the receiver): the photons covering each point (mean, max), the
-candidates read (mean, p99, max), their ratio, the windows probed, the octaves and the window
-table's bytes per photon.  Radii are the render's own (``own_radii2``) unless --exact-radii.
+For each scene (its camera's shading points, one per pixel) and each photon map of
+``tools/eval_accuracy.py`` (its query set: half drawn like the photons, half uniform over the
+map's surfaces, :func:`blockhash.evaluate.photon_maps.queries`): the photons covering each
+point (mean, max), the candidates read (mean, p99, max), their ratio, the windows probed, the
+octaves and the window table's bytes per photon.  Radii are the render's own
+(``own_radii2``) unless --exact-radii.  ``--fine`` and ``--axis`` build the gather with
+other fine cells per coarse side or another fine axis (one row each), to compare layouts.
 
 usage: python tools/cover_stats.py [--scenes scenes/ring.toml,...] [--maps caustic,...]
-                                   [--photons 200000] [--size 256] [--json PATH]
+                                   [--photons 200000] [--size 256] [--fine 1,2,4]
+                                   [--axis auto,x,y,z] [--json PATH]
 """
 
 import argparse
@@ -16,12 +20,10 @@ import time
 
 import numpy as np
 
-from blockhash.bench import make_queries
-from blockhash.evaluate.datasets import DISTRIBUTIONS
-from blockhash.frame.cover_estimate import cover_gather
+from blockhash.evaluate.photon_maps import MAPS, moved, queries, scaled
 from blockhash.frame.photon_radius import exact_radii2, own_radii2
 from blockhash.index.block_hash_index import BlockHashIndex
-from blockhash.index.lookups.cover import axis_order
+from blockhash.index.lookups.cover import FINE, CoverGather, axis_order
 
 
 def scene_points(path, photons, size, k):
@@ -42,24 +44,37 @@ def scene_points(path, photons, size, k):
     return index, pts.position.reshape(-1, 3)[live]
 
 
-def stats(name, index, q, k, exact):
+#: The photon maps of tools/eval_accuracy.py but its scene maps (ring, venus: --scenes).
+MAP_NAMES = ("uniform", "clustered", "caustic", "plane", "tilted", "room", "sphere", "tilted@1e4",
+             "roomx0.001")
+
+
+def photon_map(name):
+    if name == "tilted@1e4":
+        return moved(MAPS["tilted"], (1e4, 0.0, 0.0))
+    if name == "roomx0.001":
+        return scaled(MAPS["room"], 1e-3)
+    return MAPS[name]
+
+
+def stats(name, index, q, k, exact, fine=FINE, axis=None):
     r2 = (exact_radii2 if exact else own_radii2)(index, k)
     t = time.perf_counter()
-    gather = cover_gather(index, k, exact_radii2 if exact else None)
+    gather = CoverGather.build(index, r2, fine=fine, axis=axis)
     build = time.perf_counter() - t
     cov = gather.query(q)
     counts, cand = cov.counts, cov.candidates
     covered = counts > 0
     octs = gather.octave_uniforms()
     probes = 0
-    codes = gather.quantizer.quantize_query(q).astype(np.int64)[:, list(axis_order(gather.fine))]
+    codes = gather.quantizer.quantize_query(q).astype(np.int64)[:, list(axis_order(gather.axis))]
     for _, side, half, _ in octs:  # windows probed: 1 or 2 cells on each coarse axis
         lo = np.maximum(codes[:, :2] - half, 0) // side
         hi = np.minimum(codes[:, :2] + half, 2**32 - 1) // side
         probes = probes + np.prod(hi - lo + 1, axis=1)
-    row = {"map": name, "photons": len(index), "k": k, "queries": len(q),
+    row = {"map": name, "photons": len(index), "k": k, "queries": len(q), "fine_cells": fine,
            "octaves": len(gather.octaves), "windows": gather.windows,
-           "fine_axis": "xyz"[gather.fine],
+           "fine_axis": "xyz"[gather.axis],
            "table_bytes_per_photon": gather.table_bytes / len(index),
            "record_bytes_per_photon": gather.records.nbytes / len(index),
            "covered_share": float(covered.mean()),
@@ -70,7 +85,7 @@ def stats(name, index, q, k, exact):
            "ratio": float(cand.mean() / max(counts.mean(), 1e-12)),
            "probes_mean": float(np.mean(probes)), "build_s": build,
            "radii": "exact" if exact else "own", "r2_mean": float(np.mean(r2))}
-    print(f"{name:>10}: {row['octaves']} octaves, {row['windows']:,} windows (fine axis {row['fine_axis']}) "
+    print(f"{name:>10} (fine {fine}): {row['octaves']} octaves, {row['windows']:,} windows (fine axis {row['fine_axis']}) "
           f"({row['table_bytes_per_photon']:.1f} B/photon); covering mean {row['covering_mean']:.1f} "
           f"max {row['covering_max']}; candidates mean {row['candidates_mean']:.0f} p99 "
           f"{row['candidates_p99']:.0f} max {row['candidates_max']}; ratio {row['ratio']:.1f}x; "
@@ -82,26 +97,34 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scenes", default="scenes/ring.toml,scenes/venus.toml,scenes/glass.toml,"
                                        "scenes/corner.toml")
-    p.add_argument("--maps", default=",".join(sorted(DISTRIBUTIONS)),
-                   help="synthetic maps (blockhash.evaluate.datasets), queried on bench's raster")
+    p.add_argument("--maps", default=",".join(MAP_NAMES),
+                   help="photon maps of tools/eval_accuracy.py, queried with its query sets")
     p.add_argument("--photons", type=float, default=2e5)
-    p.add_argument("--queries", type=int, default=65536, help="raster queries per synthetic map")
+    p.add_argument("--queries", type=int, default=65536, help="queries per photon map")
     p.add_argument("--size", type=int, default=256, help="scene image side (one point per pixel)")
     p.add_argument("--k", type=int, default=50)
+    p.add_argument("--fine", default=str(FINE), help="fine cells per coarse side, comma-separated")
+    p.add_argument("--axis", default="auto", help="fine axes, comma-separated: auto, x, y, z")
     p.add_argument("--exact-radii", action="store_true", help="cKDTree radii instead of the render's")
     p.add_argument("--json", help="write the rows here")
     args = p.parse_args(argv)
     n = int(args.photons)
+    layouts = [(int(f), None if a == "auto" else "xyz".index(a))
+               for f in args.fine.split(",") for a in args.axis.split(",")]
     rows = []
+
+    def measure(name, index, q):
+        for fine, axis in layouts:
+            rows.append(stats(name, index, q, args.k, args.exact_radii, fine, axis))
+            rows[-1]["axis_choice"] = "auto" if axis is None else "xyz"[axis]
+
     for path in [s for s in args.scenes.split(",") if s]:
         index, q = scene_points(path, n, args.size, args.k)
-        rows.append(stats(path.rsplit("/", 1)[-1].removesuffix(".toml"), index, q, args.k,
-                          args.exact_radii))
+        measure(path.rsplit("/", 1)[-1].removesuffix(".toml"), index, q)
     for name in [m for m in args.maps.split(",") if m]:
-        pts = DISTRIBUTIONS[name](n, np.random.default_rng(7))
-        index = BlockHashIndex(pts, k=args.k)
-        q = make_queries(pts, args.queries, "image", 0, name)
-        rows.append(stats(name, index, q, args.k, args.exact_radii))
+        pm = photon_map(name)
+        index = BlockHashIndex(pm.photons(n, np.random.default_rng(7)), k=args.k)
+        measure(name, index, queries(pm, args.queries, np.random.default_rng(8)))
     if args.json:
         with open(args.json, "w") as fh:
             json.dump({"command": "python tools/cover_stats.py " + " ".join(argv or sys.argv[1:]),

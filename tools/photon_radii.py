@@ -9,6 +9,10 @@ and blurred relative RMS over the caustic region, as ``tools/spp_sweep.py``) and
 other (relative RMS).
 
     python tools/photon_radii.py scenes/ring.toml scenes/venus.toml --photons 1e6 --spp 1
+
+``--times-only`` skips the reference and the images: the index build as the render makes it
+(records in Hilbert order, no hash tables) and in full, then both radii, each ``--repeat``
+times in turn (medians).
 """
 
 from __future__ import annotations
@@ -44,6 +48,30 @@ def timed(fn):
     return out, time.perf_counter() - t
 
 
+def times_only(paths, photons: int, repeat: int) -> int:
+    """Median seconds of the index builds and the radii, side by side in one run."""
+    from blockhash.frame import photon_radius
+
+    for path in paths:
+        scene = load_scene(path)
+        pm = trace_caustic_photons(scene, photons, seed=scene.photons.seed)
+        k = scene.photons.k
+        times = {"index (render: no tables)": [], "index (full)": [], "own radii": [],
+                 "exact radii (cKDTree)": []}
+        for _ in range(repeat):
+            for tables in (False, True):
+                index, t = timed(lambda: BlockHashIndex(
+                    pm.positions, k=k, A=scene.photons.A, directions=pm.directions,
+                    normals=pm.normals, powers=pm.powers, tables=tables))
+                times["index (full)" if tables else "index (render: no tables)"].append(t)
+            for name, fn in (("own radii", own_radii2), ("exact radii (cKDTree)", exact_radii2)):
+                photon_radius._CACHE.pop(index, None)
+                times[name].append(timed(lambda: fn(index, k))[1])
+        print(f"{Path(path).stem}, {len(pm.positions):,} photons, median of {repeat}: "
+              + "; ".join(f"{name} {np.median(v):.2f} s" for name, v in times.items()), flush=True)
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("scenes", nargs="+")
@@ -51,7 +79,11 @@ def main(argv=None) -> int:
     ap.add_argument("--spp", type=int, default=1)
     ap.add_argument("--reference", type=float, default=1e8)
     ap.add_argument("--cache", default=str(Path.home() / ".cache" / "blockhash"))
+    ap.add_argument("--times-only", action="store_true", help="time the builds and radii only")
+    ap.add_argument("--repeat", type=int, default=3, help="runs of each timing (--times-only)")
     a = ap.parse_args(argv)
+    if a.times_only:
+        return times_only(a.scenes, int(a.photons), a.repeat)
     side = spp_side(a.spp)
     for path in a.scenes:
         scene = lambertian(load_scene(path))

@@ -52,7 +52,7 @@ class GLCover:
     def defines(self, *, fetch_only: bool = False) -> dict:
         return {"BH_COVER": 1, "BH_CELLS": 0, "BH_COVER_REC_W": self.rec_w,
                 "BH_COVER_CELL_W": self.cell_w, "BH_COVER_MASK": self.gather.buckets - 1,
-                "BH_COVER_MAX_OCTAVES": MAX_OCTAVES, "BH_COVER_FINE_AXIS": self.gather.fine,
+                "BH_COVER_MAX_OCTAVES": MAX_OCTAVES, "BH_COVER_FINE_AXIS": self.gather.axis,
                 "BH_FETCH_ONLY": int(fetch_only)}
 
     def textures(self) -> dict:

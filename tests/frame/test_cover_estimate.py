@@ -102,7 +102,7 @@ def test_the_shader_reads_the_windows_of_every_fine_axis(plane_index, axes):
     pts = ShadingPoints(base.position[..., axes], base.normal[..., axes], base.view[..., axes],
                         base.material, base.weight)
     gather = cover_gather(index, 50)
-    assert gather.fine == axes.index(2)  # the plane's photons mostly face +y, some +x
+    assert gather.axis == axes.index(2)  # the plane's photons mostly face +y, some +x
     cpu = estimate_cover_cpu(gather, pts, MATS)
     gl = CausticPass(index, backend="egl", gather="cover").render(pts, MATS)
     assert (cpu > 0).mean() > 0.8

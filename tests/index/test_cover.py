@@ -171,5 +171,5 @@ def test_windows_along_a_surface_read_few_candidates(plane, rng):
     q = np.full((2_000, 3), 0.5)
     q[:, [a for a in range(3) if a != flat]] = rng.uniform(0.1, 0.9, (2_000, 2))
     gather, cov = assert_matches_oracle(index, r2, q.astype(np.float32))
-    assert gather.fine != flat
+    assert gather.axis != flat
     assert cov.candidates.mean() < 6.0 * cov.counts.mean()

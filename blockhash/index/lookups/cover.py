@@ -60,10 +60,11 @@ from blockhash.index.records.radixsort import stable_argsort
 #: The finest cell side is 2^MIN_SHIFT codes: coarse cells stay below 2^18 and fine cells
 #: below 2^20 (:func:`window_key`).
 MIN_SHIFT = 14
-#: Fine cells per coarse side on the fine axis; a window is FINE + 1 of them.  Chosen on the
-#: ring (2 x 10^5 photons, k = 50, exact radii): 1 reads 7.3x the covering photons, 2 5.5x,
-#: 4 4.6x, 8 4.1x, the stored windows growing about as FINE + 1 (BENCHMARKS.md, "The cover
-#: gather").
+#: Fine cells per coarse side on the fine axis (1 to 4: fine cells stay below 2^20); a window
+#: is FINE + 1 of them.  Chosen on the ring (2 x 10^5 photons, k = 50): 1 reads 7.3x the
+#: covering photons, 2 5.5x, 4 4.6x, the stored windows growing about as FINE + 1
+#: (``python tools/cover_stats.py --scenes scenes/ring.toml --maps '' --fine 1,2,4``,
+#: BENCHMARKS.md, "The cover gather").
 FINE = 4
 #: The top octave's side: its 2 x 2 cells per axis are the whole box.
 TOP_SHIFT = 31
@@ -130,10 +131,13 @@ def octave_halves(sides: np.ndarray) -> np.ndarray:
     return halves
 
 
-def octave_fine(halves: np.ndarray) -> np.ndarray:
-    """(octaves,) int64 side of each octave's fine cells: ``ceil(2 half / FINE)``, so that a
-    window of FINE + 1 fine cells holds ``code +- half`` wherever it starts."""
-    return -(-2 * halves.astype(np.int64) // FINE)
+def octave_fine(halves: np.ndarray, fine: int = FINE) -> np.ndarray:
+    """(octaves,) int64 side of each octave's fine cells: ``ceil(2 half / fine)``, so that a
+    window of ``fine + 1`` fine cells holds ``code +- half`` wherever it starts."""
+    if isinstance(fine, bool) or not isinstance(fine, (int, np.integer)) or not 1 <= fine <= 4:
+        raise InputError(f"fine={fine!r} must be 1, 2, 3 or 4 fine cells per coarse side (the "
+                         "window key holds fine cells below 2^20)")
+    return -(-2 * halves.astype(np.int64) // int(fine))
 
 
 def fine_axis(normals: np.ndarray) -> int:
@@ -178,7 +182,8 @@ class CoverGather:
     slots, buckets             the cuckoo table of windows (:func:`.cells.cuckoo_slots`)
     sides, halves              every octave's side and reach (:func:`octave_sides`)
     fines : (octaves,) int64   every octave's fine cell side (:func:`octave_fine`)
-    fine : int                 the fine axis (:func:`fine_axis`)
+    axis : int                 the fine axis (:func:`fine_axis`)
+    fine_cells : int           fine cells per coarse side (:data:`FINE`)
     octaves : (m,) int64       the octaves that hold photons, finest first
     max_count : (octaves,) int64  the most records one window of each octave holds
     windows : int              windows stored
@@ -194,7 +199,8 @@ class CoverGather:
     sides: np.ndarray
     halves: np.ndarray
     fines: np.ndarray
-    fine: int
+    axis: int
+    fine_cells: int
     octaves: np.ndarray
     max_count: np.ndarray
     windows: int
@@ -204,10 +210,13 @@ class CoverGather:
     steps: int
 
     @classmethod
-    def build(cls, index, r2, *, steps: int = OCTAVE_STEPS) -> "CoverGather":
+    def build(cls, index, r2, *, steps: int = OCTAVE_STEPS, fine: int = FINE,
+              axis: int | None = None) -> "CoverGather":
         """The gather of ``index``'s photons (a :class:`.block_hash_index.BlockHashIndex`:
         its records and quantizer) with squared radii ``r2`` ((n,) in the caller's order,
-        float32 steps as :func:`blockhash.frame.photon_radius.own_radii2` gives them)."""
+        float32 steps as :func:`blockhash.frame.photon_radius.own_radii2` gives them);
+        ``steps`` octaves per doubling, ``fine`` fine cells per coarse side, ``axis`` the fine
+        axis (None: :func:`fine_axis` of the photons' normals)."""
         n = len(index)
         r2 = np.asarray(r2, dtype=np.float64)
         if r2.shape != (n,):
@@ -227,10 +236,13 @@ class CoverGather:
         need = 2.0 * (h_codes * (1.0 + 2.0**-20) + cover_margin(q))
         octave = np.minimum(np.searchsorted(sides, need, side="left"), len(sides) - 1)
         halves = octave_halves(sides)
-        fines = octave_fine(halves)
+        fines = octave_fine(halves, fine)
         _, dcodes, ncodes, _ = unpack_records(rec)
-        fine = fine_axis(decode_directions(ncodes))
-        codes = rec[:, list(axis_order(fine))].astype(np.int64)
+        if axis is None:
+            axis = fine_axis(decode_directions(ncodes))
+        elif axis not in (0, 1, 2):
+            raise InputError(f"axis={axis!r} must be 0, 1 or 2 (x, y or z), or None to choose")
+        codes = rec[:, list(axis_order(axis))].astype(np.int64)
         cell = np.stack([codes[:, 0] // sides[octave], codes[:, 1] // sides[octave],
                          codes[:, 2] // fines[octave]], axis=1)
         # One 63-bit key per record, octave then cell (6 + 18 + 18 + 21 bits), sorted stably:
@@ -249,10 +261,10 @@ class CoverGather:
         records[:, 4] = toward[dcodes]
         records[:, 5] = normal[ncodes]
         records[:, 6:8] = rec[:, 4:6]
-        entries, max_count = _windows(key, len(sides))
+        entries, max_count = _windows(key, len(sides), int(fine))
         slots, buckets = cuckoo_slots(entries, "cover gather's window table")
         return cls(records=records, photon=photon.astype(np.int64), octave=octave, slots=slots,
-                   buckets=buckets, sides=sides, halves=halves, fines=fines, fine=fine,
+                   buckets=buckets, sides=sides, halves=halves, fines=fines, axis=int(axis), fine_cells=int(fine),
                    octaves=np.unique(octave), max_count=max_count, windows=len(entries),
                    left_out=int(n - m), quantizer=q, power_scale=index.records.power_scale,
                    steps=int(steps))
@@ -287,7 +299,7 @@ class CoverGather:
     def query(self, points) -> "Covering":
         """Every record whose photon's disc covers each of ``points`` ((m, 3), float32)."""
         qpos = np.ascontiguousarray(np.asarray(points, dtype=np.float32).reshape(-1, 3))
-        qcodes = np.ascontiguousarray(self.quantizer.quantize_query(qpos)[:, list(axis_order(self.fine))])
+        qcodes = np.ascontiguousarray(self.quantizer.quantize_query(qpos)[:, list(axis_order(self.axis))])
         oct_ = self.octave_uniforms()
         recf = self.records.view(np.float32)
         counts, cand = _cover_count(qpos, qcodes, self.slots, np.uint32(self.buckets - 1), oct_,
@@ -314,7 +326,7 @@ def _window_keys(octave, cell) -> np.ndarray:
             | (cell[:, 1].astype(np.uint64) << np.uint64(bf)) | cell[:, 2].astype(np.uint64))
 
 
-def _windows(key, octaves) -> tuple[np.ndarray, np.ndarray]:
+def _windows(key, octaves, fine) -> tuple[np.ndarray, np.ndarray]:
     """The window table's entries ((w, 4) uint32: key hi, key lo, first record, count) from
     the records' sorted keys, and the most records a window of each octave holds."""
     bf = _KEY_BITS[3]
@@ -323,14 +335,14 @@ def _windows(key, octaves) -> tuple[np.ndarray, np.ndarray]:
     first = np.flatnonzero(change)
     cells = key[first]
     ends = np.append(first[1:], len(key))
-    # A window starts at any fine cell that has a photon within FINE cells after it (in the
+    # A window starts at any fine cell that has a photon within ``fine`` cells after it (in the
     # same column: the fine cell never goes below 0).
     f = (cells & np.uint64((1 << bf) - 1)).astype(np.int64)
-    back = np.arange(FINE + 1, dtype=np.uint64)
+    back = np.arange(fine + 1, dtype=np.uint64)
     starts = (cells[:, None] - back[None, :])[(f[:, None] >= back[None, :].astype(np.int64))]
     starts = np.unique(starts)
     lo = np.searchsorted(cells, starts, side="left")
-    hi = np.searchsorted(cells, starts + np.uint64(FINE), side="right")
+    hi = np.searchsorted(cells, starts + np.uint64(fine), side="right")
     begin = first[lo]
     count = ends[hi - 1] - begin
     level = (starts >> np.uint64(sum(_KEY_BITS[1:]))).astype(np.int64)
