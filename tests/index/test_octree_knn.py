@@ -42,3 +42,18 @@ def test_a_rank_outside_the_map_is_refused():
     codes = index.records.records[:, :3]
     with pytest.raises(InputError, match=r"j=20 must lie in \[1, 19\]"):
         jth_distances(codes, index.quantizer.decode(codes), 20, index.quantizer)
+
+
+@pytest.mark.filterwarnings("ignore::blockhash.index.block_hash_index.OrphanWarning")
+def test_lone_photons_between_dense_clusters():
+    """A photon's search starts from the radius of the one before it in Hilbert order: after
+    a lone photon far from everything that guess is far too wide (the own-cube rule takes
+    over), beside a dense cluster far too narrow (the search climbs); exact either way."""
+    rng = np.random.default_rng(4)
+    centres = rng.random((20, 3))
+    dense = (centres[:, None, :] + rng.normal(0, 1e-3, (20, 3_000, 3))).reshape(-1, 3)
+    lone = rng.uniform(-50, 50, (200, 3))
+    pos = np.vstack([dense, lone])
+    for j in (8, 36):
+        got, want = jth_both(pos, j)
+        np.testing.assert_array_equal(got, want)

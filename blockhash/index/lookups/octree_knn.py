@@ -8,11 +8,12 @@ whose own cube at level l (side ``2^(11 + l)`` codes) holds at least ``cmin`` ph
 3 x 3 x 3 cubes around it hold every photon within one side of it: when the j-th nearest of
 their photons lies within a side (less the float32 position error), it is the exact j-th
 nearest; otherwise the next level up is read.  The top level is one cube, the whole box, so
-the search always ends.  Consecutive photons share their cube, and its 27 runs are copied once
+the search always ends.  A photon starts at the level whose side holds 1.2 times the radius
+of the photon before it in Hilbert order (:data:`GUESS`; the first of a task, or one after a
+far, lone photon: the level whose own cube holds a quarter of j + 1 photons).  Consecutive photons share their cube, and its 27 runs are copied once
 into contiguous coordinate arrays: each photon's squared distances to all of them are one
 loop the compiler vectorises, and the j-th comes from a selection (Hoare's), not a sorted
-list, over the candidates within 1.2 times the previous photon's radius when j + 1 lie
-there (neighbours in Hilbert order have alike radii), else over all of them.
+list, over the candidates within that guess when j + 1 lie there, else over all of them.
 
 Distances are float64 from the float32 decoded positions, as ``scipy.spatial.cKDTree`` computes
 them from the same positions: the result equals its j-th neighbour distance (the tests hold it
@@ -29,11 +30,21 @@ from blockhash.index.records.hilbert import KEY_BITS_PER_AXIS, hilbert_key, hilb
 
 #: Low code bits below the Hilbert key's 21 per axis.
 CODE_SHIFT = 32 - KEY_BITS_PER_AXIS
-#: A photon's search starts at the finest level whose own cube holds at least
+#: The first photon of a task starts at the finest level whose own cube holds at least
 #: ``ceil(CMIN_FRACTION * (j + 1))`` photons.  Tuned on the ring at 10^6 photons (j = 36,
-#: 2026-12-02, one core): 1, 1/2, 1/4, 1/8 and 1/16 took 1.40, 1.20, 1.16, 1.21 and 1.20 s
-#: (medians alike within the machine's noise; 1 is slower).
+#: 2026-12-02, one core, when every photon started so): 1, 1/2, 1/4, 1/8 and 1/16 took 1.40,
+#: 1.20, 1.16, 1.21 and 1.20 s.
 CMIN_FRACTION = 0.25
+#: Every later photon starts at the finest level whose cube side holds GUESS times the radius
+#: of the photon before it (neighbours in Hilbert order have alike radii), and reads only the
+#: candidates within that distance when j + 1 lie there.  The own-cube rule read 395
+#: candidates a photon on the ring and 2,667 on venus (dense caustic lines beside sparse own
+#: cubes); this one reads 317 and 331 (10^6 photons; 0.71 -> 0.62 s and 2.37 -> 0.87 s on one
+#: core, side by side; the rule was changed after measuring venus, its constant kept).
+GUESS = 1.2
+#: Candidates, in units of j + 1, past which a photon's guessed level falls back to the
+#: own-cube rule when that is finer (the photon after a far, lone one).
+CROWD = 64
 #: Consecutive photons per parallel task.
 CHUNK = 4096
 
@@ -68,6 +79,18 @@ def _run(keys, prefix, level):
         return np.int64(0), np.int64(keys.shape[0])
     hi = np.searchsorted(keys, (np.uint64(prefix) + np.uint64(1)) << shift)
     return np.int64(lo), np.int64(hi)
+
+
+@numba.njit(cache=True, nogil=True)
+def _own_level(keys, key, cmin):
+    """The finest level whose cube around ``key`` holds at least ``cmin`` photons."""
+    level = 0
+    while level < KEY_BITS_PER_AXIS:
+        a, b = _run(keys, key >> np.uint64(3 * level), level)
+        if b - a >= cmin:
+            break
+        level += 1
+    return level
 
 
 @numba.njit(cache=True, nogil=True)
@@ -148,25 +171,35 @@ def _jth(codes, pos, keys, j, cmin, step, margin, single, pair, start):
         cached_prefix = np.uint64(0)
         prev = -1.0
         for i in range(t * CHUNK, min(n, (t + 1) * CHUNK)):
-            if cached_level >= 0 and (keys[i] >> np.uint64(3 * cached_level)) == cached_prefix:
-                level = cached_level
-            else:
+            if prev >= 0:
+                # The finest level whose cubes' side holds the guess (GUESS times the photon
+                # before's radius): its 27 cubes then hold the j-th nearest, whatever the
+                # density beside the photon (a sparse own cube beside a dense caustic line).
+                g = GUESS * prev + margin
                 level = 0
-                while level < KEY_BITS_PER_AXIS:
-                    a, b = _run(keys, keys[i] >> np.uint64(3 * level), level)
-                    if b - a >= cmin:
-                        break
+                while level < KEY_BITS_PER_AXIS and step * (2.0 ** (CODE_SHIFT + level)) < g:
                     level += 1
+            else:
+                level = _own_level(keys, keys[i], cmin)
+            crowded = prev < 0
             x, y, z = pos[i, 0], pos[i, 1], pos[i, 2]
             while True:
                 prefix = keys[i] >> np.uint64(3 * level) if level < KEY_BITS_PER_AXIS else np.uint64(0)
                 if level != cached_level or prefix != cached_prefix:
                     filled = _neighbour_runs(codes[i], level, keys, single, pair, start, runs)
-                    m = 0
+                    total = 0
                     for r in range(filled):
-                        m += runs[r, 1] - runs[r, 0]
-                    if m > cap:
-                        cap = 2 * m
+                        total += runs[r, 1] - runs[r, 0]
+                    if not crowded and total > CROWD * (j + 1):
+                        # A guess far too wide for this photon's neighbourhood (the photon
+                        # before lay far from the others): the own-cube rule, if finer.
+                        crowded = True
+                        own = _own_level(keys, keys[i], cmin)
+                        if own < level:
+                            level = own
+                            continue
+                    if total > cap:
+                        cap = 2 * total
                         xs = np.empty(cap)
                         ys = np.empty(cap)
                         zs = np.empty(cap)
@@ -191,7 +224,7 @@ def _jth(codes, pos, keys, j, cmin, step, margin, single, pair, start):
                 # A guess, 1.2 times the photon before's radius (neighbours in Hilbert order
                 # have alike radii): the selection reads only the candidates within it when
                 # at least j + 1 are.
-                guess = 1.44 * prev * prev if prev >= 0 else np.inf
+                guess = GUESS * GUESS * prev * prev if prev >= 0 else np.inf
                 inside = 0
                 for c in range(m):
                     if d2[c] < guess:
