@@ -160,12 +160,8 @@ def _jth(codes, pos, keys, j, cmin, step, margin, single, pair, start):
     tasks = (n + CHUNK - 1) // CHUNK
     for t in numba.prange(tasks):
         runs = np.empty((27, 5), dtype=np.int64)
-        cap = 1024
-        xs = np.empty(cap)
-        ys = np.empty(cap)
-        zs = np.empty(cap)
-        d2 = np.empty(cap)
-        near = np.empty(cap)
+        buf = np.empty((5, 1024))  # per candidate: x, y, z, squared distance; the near ones
+        xs, ys, zs, d2, near = buf[0], buf[1], buf[2], buf[3], buf[4]
         m = 0
         cached_level = -1
         cached_prefix = np.uint64(0)
@@ -177,7 +173,9 @@ def _jth(codes, pos, keys, j, cmin, step, margin, single, pair, start):
                 # density beside the photon (a sparse own cube beside a dense caustic line).
                 g = GUESS * prev + margin
                 level = 0
-                while level < KEY_BITS_PER_AXIS and step * (2.0 ** (CODE_SHIFT + level)) < g:
+                side0 = step * (2.0 ** CODE_SHIFT)
+                while level < KEY_BITS_PER_AXIS and side0 < g:
+                    side0 *= 2.0  # exact: a power of two times the step
                     level += 1
             else:
                 level = _own_level(keys, keys[i], cmin)
@@ -198,13 +196,9 @@ def _jth(codes, pos, keys, j, cmin, step, margin, single, pair, start):
                         if own < level:
                             level = own
                             continue
-                    if total > cap:
-                        cap = 2 * total
-                        xs = np.empty(cap)
-                        ys = np.empty(cap)
-                        zs = np.empty(cap)
-                        d2 = np.empty(cap)
-                        near = np.empty(cap)
+                    if total > buf.shape[1]:
+                        buf = np.empty((5, 2 * total))
+                        xs, ys, zs, d2, near = buf[0], buf[1], buf[2], buf[3], buf[4]
                     m = 0
                     for r in range(filled):
                         for c in range(runs[r, 0], runs[r, 1]):
