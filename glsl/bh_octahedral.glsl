@@ -1,5 +1,5 @@
-// bh_octahedral.glsl: an octahedral unit vector from two snorm16 (blockhash/index/lookups/cover.py
-// octahedral_encode and octahedral_decode, its CPU reference): no trigonometry.
+// bh_octahedral.glsl: an octahedral unit vector from two snorm16
+// (blockhash/index/records/octahedral.py, its CPU reference): no trigonometry.
 #ifndef BH_OCTAHEDRAL_GLSL
 #define BH_OCTAHEDRAL_GLSL
 

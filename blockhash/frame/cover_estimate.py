@@ -19,8 +19,9 @@ import numpy as np
 from blockhash.errors import InputError
 from blockhash.frame.estimate import EstimateOptions, kernel
 from blockhash.frame.photon_radius import own_radii2
-from blockhash.index.lookups.cover import OCTAVE_STEPS, CoverGather, octahedral_decode
+from blockhash.index.lookups.cover import OCTAVE_STEPS, CoverGather
 from blockhash.index.records.codec import decode_powers, unpack_records
+from blockhash.index.records.octahedral import octahedral_decode
 from blockhash.scene.materials import material_arrays, phong_brdf
 
 #: Shading points estimated at once (their covering photons are decoded together).

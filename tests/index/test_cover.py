@@ -133,7 +133,7 @@ def test_octave_steps_are_checked():
 
 
 def test_octahedral_directions_round_trip_within_a_ten_thousandth_of_a_radian():
-    from blockhash.index.lookups.cover import octahedral_decode, octahedral_encode
+    from blockhash.index.records.octahedral import octahedral_decode, octahedral_encode
 
     rng = np.random.default_rng(5)
     v = rng.normal(size=(20_000, 3))

@@ -14,7 +14,7 @@ Williams 1977, the grid of GPU particle systems, here once per radius octave):
   the third (the *fine* axis) into cells ``FINE`` times thinner, of side ``fine_l =
   ceil(2 half_l / FINE)`` (``half_l = side_l / 2``, saturating; the top octave's is the whole
   box).  The fine axis is the one the photons' surfaces run along most (the smallest mean
-  ``|n_a|`` of their stored normals; a floor's photons: x), so a column of fine cells follows
+  ``|n_a|`` of their stored normals; a floor's photons: x or z), so a column of fine cells follows
   the surface.  Records are sorted by (octave, coarse cell, coarse cell, fine cell), the
   Hilbert order kept within a cell, so the ``FINE + 1`` fine cells of one column that start
   at fine cell ``f`` are one run of records: the *window* (octave, cx, cy, f), stored in a
@@ -31,7 +31,7 @@ Williams 1977, the grid of GPU particle systems, here once per radius octave):
   independent), then their records (independent of each other).  No list is held.
 * **Records**, 2 RGBA32UI texels each: the decoded float32 position and the float32 squared
   radius; then the direction toward where the photon came from and its surface normal, each
-  as an octahedral unit vector in two snorm16 (:func:`octahedral_encode`: the shader decodes
+  as an octahedral unit vector in two snorm16 (:mod:`blockhash.index.records.octahedral`: the shader decodes
   it with no trigonometry, where Figure 4's polar codes need four sines and cosines), and the
   power words of Figure 4 (c1 | c2, c3 | c4).
 
@@ -45,7 +45,6 @@ candidates bit for bit; the cover test ``d^2 < h^2`` in float32 as the shader ev
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
@@ -55,16 +54,17 @@ import numpy as np
 from blockhash.errors import InputError
 from blockhash.index.lookups.cells import cuckoo_get, cuckoo_slots
 from blockhash.index.records.codec import decode_directions, unpack_records
+from blockhash.index.records.octahedral import octahedral_tables
 from blockhash.index.records.radixsort import stable_argsort
 
 #: The finest cell side is 2^MIN_SHIFT codes: coarse cells stay below 2^18 and fine cells
 #: below 2^20 (:func:`window_key`).
 MIN_SHIFT = 14
 #: Fine cells per coarse side on the fine axis (1 to 4: fine cells stay below 2^20); a window
-#: is FINE + 1 of them.  Chosen on the ring (2 x 10^5 photons, k = 50): 1 reads 7.3x the
-#: covering photons, 2 5.5x, 4 4.6x, the stored windows growing about as FINE + 1
-#: (``python tools/cover_stats.py --scenes scenes/ring.toml --maps '' --fine 1,2,4``,
-#: BENCHMARKS.md, "The cover gather").
+#: is FINE + 1 of them.  Chosen on the ring (2 x 10^5 photons, k = 50, exact radii): 1 reads
+#: 7.6x the covering photons, 2 5.7x, 4 4.7x, the stored windows growing about as FINE + 1
+#: (``python tools/cover_stats.py --scenes scenes/ring.toml --maps '' --fine 1,2,4
+#: --exact-radii``, BENCHMARKS.md, "The cover gather").
 FINE = 4
 #: The top octave's side: its 2 x 2 cells per axis are the whole box.
 TOP_SHIFT = 31
@@ -76,41 +76,6 @@ OCTAVE_STEPS = 2
 MAX_OCTAVES = 64
 #: Record words per photon: 2 texels.
 RECORD_WORDS = 8
-
-
-def octahedral_encode(v: np.ndarray) -> np.ndarray:
-    """(n, 3) unit vectors -> (n,) uint32: the octahedral map's two coordinates as snorm16,
-    x in the low half (GLSL ``unpackSnorm2x16``)."""
-    v = np.asarray(v, dtype=np.float64)
-    p = v[:, :2] / np.maximum(np.abs(v).sum(axis=1, keepdims=True), 1e-300)
-    sign = np.where(p >= 0, 1.0, -1.0)
-    p = np.where(v[:, 2:3] < 0, (1.0 - np.abs(p[:, ::-1])) * sign, p)
-    q = np.round(np.clip(p, -1.0, 1.0) * 32767.0).astype(np.int16).view(np.uint16).astype(np.uint32)
-    return q[:, 0] | (q[:, 1] << np.uint32(16))
-
-
-def octahedral_decode(words) -> np.ndarray:
-    """(n,) uint32 -> (n, 3) float32 unit vectors, in float32 as glsl/bh_cover.glsl's
-    bh_octahedral evaluates them (up to its inversesqrt)."""
-    w = np.asarray(words, dtype=np.uint32)
-    f = np.stack([(w & np.uint32(0xFFFF)).astype(np.uint16).view(np.int16),
-                  (w >> np.uint32(16)).astype(np.uint16).view(np.int16)], axis=1)
-    f = np.clip(f.astype(np.float32) / np.float32(32767.0), np.float32(-1), np.float32(1))
-    z = np.float32(1.0) - np.abs(f[:, 0]) - np.abs(f[:, 1])
-    t = np.maximum(-z, np.float32(0.0))
-    x = f[:, 0] + np.where(f[:, 0] >= 0, -t, t)
-    y = f[:, 1] + np.where(f[:, 1] >= 0, -t, t)
-    v = np.stack([x, y, z], axis=1).astype(np.float32)
-    return (v / np.sqrt((v * v).sum(axis=1, keepdims=True))).astype(np.float32)
-
-
-@functools.cache
-def _octahedral_tables() -> tuple[np.ndarray, np.ndarray]:
-    """(65536,) uint32 each: the octahedral word of every polar code's decoded direction,
-    negated (toward where the photon came from) and as it is (the normal).  A record's
-    16-bit polar codes index them, the same words as encoding each record's direction."""
-    v = decode_directions(np.arange(1 << 16, dtype=np.uint16)).astype(np.float64)
-    return octahedral_encode(-v), octahedral_encode(v)
 
 
 def octave_sides(steps: int = OCTAVE_STEPS) -> np.ndarray:
@@ -257,7 +222,7 @@ class CoverGather:
         records = np.zeros((m, RECORD_WORDS), dtype=np.uint32)
         records[:, :3] = q.decode(rec[:, :3]).view(np.uint32)
         records[:, 3] = slot_r2[keep][order].astype(np.float32).view(np.uint32)
-        toward, normal = _octahedral_tables()
+        toward, normal = octahedral_tables()
         records[:, 4] = toward[dcodes]
         records[:, 5] = normal[ncodes]
         records[:, 6:8] = rec[:, 4:6]
