@@ -132,6 +132,15 @@ def test_octave_steps_are_checked():
     assert (np.diff(octave_sides(2)) > 0).all() and octave_sides(1)[-1] == 1 << 31
 
 
+@pytest.mark.parametrize("kwargs, match", [({"fine": 5}, r"fine=5 must be 1, 2, 3 or 4"),
+                                           ({"fine": 0}, r"fine=0 must be"),
+                                           ({"axis": 3}, r"axis=3 must be 0, 1 or 2")])
+def test_the_window_layout_is_checked(kwargs, match):
+    index = BlockHashIndex(photon_set("uniform", 200), k=8)
+    with pytest.raises(InputError, match=match):
+        CoverGather.build(index, exact_radii2(index, 8), **kwargs)
+
+
 def test_octahedral_directions_round_trip_within_a_ten_thousandth_of_a_radian():
     from blockhash.index.records.octahedral import octahedral_decode, octahedral_encode
 
