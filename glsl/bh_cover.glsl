@@ -84,6 +84,8 @@ uvec2 bh_cover_gather(vec3 q) {
                 while (bits != 0u) {
                     uint r = base + uint(findLSB(bits));
                     bits &= bits - 1u;
+                    // The first texel again (a cache hit), not kept from the pass above: no
+                    // per-chunk list in registers or scratch.
                     uvec4 t0 = bh_fetch4(bh_cover_records, uint(BH_COVER_REC_W), 2u * r);
                     precise vec3 d = uintBitsToFloat(t0.xyz) - q;
                     precise float d2 = (d.x * d.x + d.y * d.y) + d.z * d.z;

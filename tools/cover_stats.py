@@ -5,12 +5,13 @@ For each scene (its camera's shading points, one per pixel) and each photon map 
 map's surfaces, :func:`blockhash.evaluate.photon_maps.queries`): the photons covering each
 point (mean, max), the candidates read (mean, p99, max), their ratio, the windows probed, the
 octaves and the window table's bytes per photon.  Radii are the render's own
-(``own_radii2``) unless --exact-radii.  ``--fine`` and ``--axis`` build the gather with
-other fine cells per coarse side or another fine axis (one row each), to compare layouts.
+(``own_radii2``) unless --exact-radii.  ``--fine``, ``--axis`` and ``--steps`` build the
+gather with other fine cells per coarse side, fine axes or octave factors (one row each), to
+compare layouts.
 
 usage: python tools/cover_stats.py [--scenes scenes/ring.toml,...] [--maps caustic,...]
                                    [--photons 200000] [--size 256] [--fine 1,2,4]
-                                   [--axis auto,x,y,z] [--json PATH]
+                                   [--axis auto,x,y,z] [--steps 1,2,3] [--json PATH]
 """
 
 import argparse
@@ -20,10 +21,10 @@ import time
 
 import numpy as np
 
-from blockhash.evaluate.photon_maps import MAPS, moved, queries, scaled
+from blockhash.evaluate.photon_maps import EXTREMES, MAPS, named, queries
 from blockhash.frame.photon_radius import exact_radii2, own_radii2
 from blockhash.index.block_hash_index import BlockHashIndex
-from blockhash.index.lookups.cover import FINE, CoverGather, axis_order
+from blockhash.index.lookups.cover import FINE, OCTAVE_STEPS, CoverGather
 
 
 def scene_points(path, photons, size, k):
@@ -45,34 +46,19 @@ def scene_points(path, photons, size, k):
 
 
 #: The photon maps of tools/eval_accuracy.py but its scene maps (ring, venus: --scenes).
-MAP_NAMES = ("uniform", "clustered", "caustic", "plane", "tilted", "room", "sphere", "tilted@1e4",
-             "roomx0.001")
+MAP_NAMES = (*MAPS, *EXTREMES)
 
 
-def photon_map(name):
-    if name == "tilted@1e4":
-        return moved(MAPS["tilted"], (1e4, 0.0, 0.0))
-    if name == "roomx0.001":
-        return scaled(MAPS["room"], 1e-3)
-    return MAPS[name]
-
-
-def stats(name, index, q, k, exact, fine=FINE, axis=None):
+def stats(name, index, q, k, exact, fine=FINE, axis=None, steps=OCTAVE_STEPS):
     r2 = (exact_radii2 if exact else own_radii2)(index, k)
     t = time.perf_counter()
-    gather = CoverGather.build(index, r2, fine=fine, axis=axis)
+    gather = CoverGather.build(index, r2, fine=fine, axis=axis, steps=steps)
     build = time.perf_counter() - t
     cov = gather.query(q)
     counts, cand = cov.counts, cov.candidates
     covered = counts > 0
-    octs = gather.octave_uniforms()
-    probes = 0
-    codes = gather.quantizer.quantize_query(q).astype(np.int64)[:, list(axis_order(gather.axis))]
-    for _, side, half, _ in octs:  # windows probed: 1 or 2 cells on each coarse axis
-        lo = np.maximum(codes[:, :2] - half, 0) // side
-        hi = np.minimum(codes[:, :2] + half, 2**32 - 1) // side
-        probes = probes + np.prod(hi - lo + 1, axis=1)
     row = {"map": name, "photons": len(index), "k": k, "queries": len(q), "fine_cells": fine,
+           "octave_steps": steps,
            "octaves": len(gather.octaves), "windows": gather.windows,
            "fine_axis": "xyz"[gather.axis],
            "table_bytes_per_photon": gather.table_bytes / len(index),
@@ -83,9 +69,10 @@ def stats(name, index, q, k, exact, fine=FINE, axis=None):
            "candidates_mean": float(cand.mean()), "candidates_p99": float(np.quantile(cand, 0.99)),
            "candidates_max": int(cand.max(initial=0)),
            "ratio": float(cand.mean() / max(counts.mean(), 1e-12)),
-           "probes_mean": float(np.mean(probes)), "build_s": build,
+           "probes_mean": float(np.mean(cov.probes)), "build_s": build,
            "radii": "exact" if exact else "own", "r2_mean": float(np.mean(r2))}
-    print(f"{name:>10} (fine {fine}): {row['octaves']} octaves, {row['windows']:,} windows (fine axis {row['fine_axis']}) "
+    print(f"{name:>10} (fine {fine}, steps {steps}): {row['octaves']} octaves, {row['windows']:,} "
+          f"windows (fine axis {row['fine_axis']}) "
           f"({row['table_bytes_per_photon']:.1f} B/photon); covering mean {row['covering_mean']:.1f} "
           f"max {row['covering_max']}; candidates mean {row['candidates_mean']:.0f} p99 "
           f"{row['candidates_p99']:.0f} max {row['candidates_max']}; ratio {row['ratio']:.1f}x; "
@@ -105,24 +92,27 @@ def main(argv=None):
     p.add_argument("--k", type=int, default=50)
     p.add_argument("--fine", default=str(FINE), help="fine cells per coarse side, comma-separated")
     p.add_argument("--axis", default="auto", help="fine axes, comma-separated: auto, x, y, z")
+    p.add_argument("--steps", default=str(OCTAVE_STEPS),
+                   help="octaves per doubling of the cell side, comma-separated (1, 2, 3)")
     p.add_argument("--exact-radii", action="store_true", help="cKDTree radii instead of the render's")
     p.add_argument("--json", help="write the rows here")
     args = p.parse_args(argv)
     n = int(args.photons)
-    layouts = [(int(f), None if a == "auto" else "xyz".index(a))
-               for f in args.fine.split(",") for a in args.axis.split(",")]
+    layouts = [(int(f), None if a == "auto" else "xyz".index(a), int(st))
+               for st in args.steps.split(",") for f in args.fine.split(",")
+               for a in args.axis.split(",")]
     rows = []
 
     def measure(name, index, q):
-        for fine, axis in layouts:
-            rows.append(stats(name, index, q, args.k, args.exact_radii, fine, axis))
+        for fine, axis, steps in layouts:
+            rows.append(stats(name, index, q, args.k, args.exact_radii, fine, axis, steps))
             rows[-1]["axis_choice"] = "auto" if axis is None else "xyz"[axis]
 
     for path in [s for s in args.scenes.split(",") if s]:
         index, q = scene_points(path, n, args.size, args.k)
         measure(path.rsplit("/", 1)[-1].removesuffix(".toml"), index, q)
     for name in [m for m in args.maps.split(",") if m]:
-        pm = photon_map(name)
+        pm = named(name)
         index = BlockHashIndex(pm.photons(n, np.random.default_rng(7)), k=args.k)
         measure(name, index, queries(pm, args.queries, np.random.default_rng(8)))
     if args.json:

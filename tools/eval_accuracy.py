@@ -48,7 +48,7 @@ sys.path.insert(0, str(ROOT))
 import blockhash.index.tables.params as bp  # noqa: E402
 from blockhash import BlockHashIndex, OrphanWarning  # noqa: E402
 from blockhash.evaluate.metrics import accuracy, exact_knn, false_negatives, far_queries  # noqa: E402
-from blockhash.evaluate.photon_maps import MAPS, PhotonMap, moved, queries, scaled  # noqa: E402
+from blockhash.evaluate.photon_maps import MAPS, PhotonMap, named, queries  # noqa: E402
 
 #: Maps the default preset's constants were chosen on.
 TUNE = ("uniform", "clustered", "caustic", "ring")
@@ -97,13 +97,7 @@ def scene_map(name: str) -> PhotonMap:
 
 
 def photon_map(name: str) -> PhotonMap:
-    if name in ("ring", "venus"):
-        return scene_map(name)
-    if name == "tilted@1e4":
-        return moved(MAPS["tilted"], (1e4, 0.0, 0.0))
-    if name == "roomx0.001":
-        return scaled(MAPS["room"], 1e-3)
-    return MAPS[name]
+    return scene_map(name) if name in ("ring", "venus") else named(name)
 
 
 def timed(fn):

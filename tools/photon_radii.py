@@ -49,9 +49,8 @@ def timed(fn):
 
 
 def times_only(paths, photons: int, repeat: int) -> int:
-    """Median seconds of the index builds and the radii, side by side in one run."""
-    from blockhash.frame import photon_radius
-
+    """Median seconds of the index builds and the radii, side by side in one run (each repeat
+    builds its own index, so no radii are cached from one repeat to the next)."""
     for path in paths:
         scene = load_scene(path)
         pm = trace_caustic_photons(scene, photons, seed=scene.photons.seed)
@@ -65,7 +64,6 @@ def times_only(paths, photons: int, repeat: int) -> int:
                     normals=pm.normals, powers=pm.powers, tables=tables))
                 times["index (full)" if tables else "index (render: no tables)"].append(t)
             for name, fn in (("own radii", own_radii2), ("exact radii (cKDTree)", exact_radii2)):
-                photon_radius._CACHE.pop(index, None)
                 times[name].append(timed(lambda: fn(index, k))[1])
         print(f"{Path(path).stem}, {len(pm.positions):,} photons, median of {repeat}: "
               + "; ".join(f"{name} {np.median(v):.2f} s" for name, v in times.items()), flush=True)

@@ -231,3 +231,23 @@ def scaled(photon_map: PhotonMap, factor: float) -> PhotonMap:
     return PhotonMap(f"{photon_map.name}x{f:g}",
                      lambda n, rng: photon_map.photons(n, rng) * f,
                      lambda n, rng: photon_map.surfaces(n, rng) * f)
+
+
+#: The extreme maps :func:`named` knows beside :data:`MAPS`.
+EXTREMES = ("tilted@1e4", "roomx0.001")
+
+
+def named(name: str) -> PhotonMap:
+    """A map of :data:`MAPS` by name, or one of the extremes the accuracy study also reads:
+    ``tilted@1e4`` (the tilted map 10^4 m from the origin, where float32 resolves about
+    1 mm) and ``roomx0.001`` (the room scaled to millimetres)."""
+    if name == "tilted@1e4":
+        return moved(MAPS["tilted"], (1e4, 0.0, 0.0))
+    if name == "roomx0.001":
+        return scaled(MAPS["room"], 1e-3)
+    if name not in MAPS:
+        from blockhash.errors import InputError
+
+        raise InputError(f"photon map {name!r} is not known; choose from "
+                         f"{', '.join((*MAPS, *EXTREMES))}")
+    return MAPS[name]

@@ -14,6 +14,7 @@ import numba
 import numpy as np
 
 from blockhash.errors import CapacityError
+from blockhash.index.records.select import select_by
 from blockhash.validate import as_points
 
 #: The node's original index shares a 32-bit word with the split axis (2 bits).
@@ -32,38 +33,6 @@ def _left_size(n):
     last = n - ((1 << h) - 1)  # nodes on the last level, 1 .. 2^h
     half = 1 << (h - 1)  # of which the left subtree can hold at most half
     return (half - 1) + min(last, half)
-
-
-@numba.njit(cache=True)
-def _select(perm, lo, hi, m, coord):
-    """Partially sort perm[lo:hi] by coord[perm] so that perm[m] is the (m - lo)-th smallest,
-    everything before it <= and everything after it >= (Hoare quickselect, median of three)."""
-    while hi - lo > 1:
-        mid = (lo + hi - 1) >> 1
-        a, b, c = coord[perm[lo]], coord[perm[mid]], coord[perm[hi - 1]]
-        if a < b:
-            pivot = b if b < c else (c if a < c else a)
-        else:
-            pivot = a if a < c else (c if b < c else b)
-        i, j = lo, hi - 1
-        while i <= j:
-            while coord[perm[i]] < pivot:
-                i += 1
-            while coord[perm[j]] > pivot:
-                j -= 1
-            if i <= j:
-                t = perm[i]
-                perm[i] = perm[j]
-                perm[j] = t
-                i += 1
-                j -= 1
-        # now perm[lo:j+1] <= pivot, perm[i:hi] >= pivot, perm[j+1:i] == pivot
-        if m <= j:
-            hi = j + 1
-        elif m >= i:
-            lo = i
-        else:
-            return
 
 
 @numba.njit(cache=True)
@@ -102,7 +71,7 @@ def _build(pos):
                 axis = 2
             for t in range(lo, hi):
                 coord[perm[t]] = pos[perm[t], axis]
-            _select(perm, lo, hi, m, coord)
+            select_by(perm, lo, hi, m, coord)
         node_index[node] = perm[m]
         node_axis[node] = axis
         if m + 1 < hi:

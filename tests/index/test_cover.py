@@ -105,6 +105,7 @@ def test_an_empty_octave_costs_nothing_and_an_uncovered_point_reads_nothing():
     assert gather.octave_uniforms().shape == (len(gather.octaves), 4)
     cov = gather.query(np.array([[10.0, -10.0, 10.0]], dtype=np.float32))
     assert cov.counts[0] == 0 and cov.candidates[0] == 0
+    assert 1 <= cov.probes[0] <= 4 * len(gather.octaves)  # at most 2 x 2 windows an octave
 
 
 def test_one_photon_has_no_radius_and_adds_nothing():

@@ -69,10 +69,12 @@ FINE = 4
 #: The top octave's side: its 2 x 2 cells per axis are the whole box.
 TOP_SHIFT = 31
 #: Octaves per doubling of the cell side (the octave factor is 2^(1 / steps)).  Tuned on the
-#: ring (2 x 10^5 photons, k = 50): 1 reads 10.9x the covering photons with 9 octaves, 2 reads
-#: 7.4x with 17, 3 reads 6.5x with 24 (BENCHMARKS.md, "The cover gather").
+#: ring (2 x 10^5 photons, k = 50, exact radii, cubic cells): 1 reads 11.5x the covering
+#: photons with 9 octaves, 2 reads 7.6x with 16, 3 reads 6.8x with 23 (``python
+#: tools/cover_stats.py --scenes scenes/ring.toml --maps '' --fine 1 --steps 1,2,3
+#: --exact-radii``; BENCHMARKS.md, "The cover gather").
 OCTAVE_STEPS = 2
-#: Octaves a shader holds (uniform arrays of glsl/bh_cover.glsl): steps * 18 + 1 <= this.
+#: Octaves a shader holds (uniform arrays of glsl/bh_cover.glsl): steps * 17 + 1 <= this.
 MAX_OCTAVES = 64
 #: Record words per photon: 2 texels.
 RECORD_WORDS = 8
@@ -118,14 +120,27 @@ def axis_order(fine: int) -> tuple[int, int, int]:
     return tuple([a for a in range(3) if a != fine] + [fine])
 
 
+#: Bits of a window's key below the octave's 6: two coarse cells of 18, the fine cell's 21.
+COARSE_BITS = 18
+FINE_BITS = 21
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def window_key64(level, cx, cy, f):
+    """The 63-bit key of window (cx, cy, f) of ``level`` (coarse cells below 2^18, the fine cell
+    below 2^21), ``f`` lowest, so a column's fine cells are consecutive keys.  Scalars in the
+    CPU reference, arrays through ``.py_func`` in the build."""
+    return ((np.uint64(level) << np.uint64(2 * COARSE_BITS + FINE_BITS))
+            | (np.uint64(cx) << np.uint64(COARSE_BITS + FINE_BITS))
+            | (np.uint64(cy) << np.uint64(FINE_BITS)) | np.uint64(f))
+
+
 @numba.njit(cache=True, nogil=True, inline="always")
 def window_key(level, cx, cy, f):
-    """The two key words (hi, lo) of window (cx, cy, f) of ``level``: 6 + 18 + 18 + 21 bits,
-    coarse cells below 2^18, the fine cell below 2^21 (glsl/bh_cover.glsl bh_cover_key)."""
-    lo = np.uint32((np.uint64(f) | (np.uint64(cy) << np.uint64(21))) & np.uint64(0xFFFFFFFF))
-    hi = np.uint32((np.uint64(cy) >> np.uint64(11)) | (np.uint64(cx) << np.uint64(7))
-                   | (np.uint64(level) << np.uint64(25)))
-    return hi, lo
+    """The key's two words (hi, lo), as the cuckoo table stores them (glsl/bh_cover.glsl
+    bh_cover_key computes the same words)."""
+    key = window_key64(level, cx, cy, f)
+    return np.uint32(key >> np.uint64(32)), np.uint32(key & np.uint64(0xFFFFFFFF))
 
 
 def cover_margin(quantizer) -> float:
@@ -210,10 +225,10 @@ class CoverGather:
         codes = rec[:, list(axis_order(axis))].astype(np.int64)
         cell = np.stack([codes[:, 0] // sides[octave], codes[:, 1] // sides[octave],
                          codes[:, 2] // fines[octave]], axis=1)
-        # One 63-bit key per record, octave then cell (6 + 18 + 18 + 21 bits), sorted stably:
-        # the Hilbert order stays within each cell (a radix sort, 6x faster than np.lexsort),
-        # and the fine cells of a column follow one another.
-        key = _window_keys(octave, cell)
+        # One 63-bit key per record, its cell's, sorted stably: the Hilbert order stays within
+        # each cell (a radix sort, 6x faster than np.lexsort), and the fine cells of a column
+        # follow one another.
+        key = window_key64.py_func(octave, cell[:, 0], cell[:, 1], cell[:, 2])
         order = stable_argsort(key)
         rec, octave, key = rec[order], octave[order], key[order]
         dcodes, ncodes = dcodes[order], ncodes[order]
@@ -229,8 +244,9 @@ class CoverGather:
         entries, max_count = _windows(key, len(sides), int(fine))
         slots, buckets = cuckoo_slots(entries, "cover gather's window table")
         return cls(records=records, photon=photon.astype(np.int64), octave=octave, slots=slots,
-                   buckets=buckets, sides=sides, halves=halves, fines=fines, axis=int(axis), fine_cells=int(fine),
-                   octaves=np.unique(octave), max_count=max_count, windows=len(entries),
+                   buckets=buckets, sides=sides, halves=halves, fines=fines, axis=int(axis),
+                   fine_cells=int(fine), octaves=np.unique(octave), max_count=max_count,
+                   windows=len(entries),
                    left_out=int(n - m), quantizer=q, power_scale=index.records.power_scale,
                    steps=int(steps))
 
@@ -239,7 +255,7 @@ class CoverGather:
 
     @property
     def nbytes(self) -> int:
-        """Bytes of the records and the cell table."""
+        """Bytes of the records and the window table."""
         return int(self.records.nbytes + self.slots.nbytes)
 
     @property
@@ -267,34 +283,20 @@ class CoverGather:
         qcodes = np.ascontiguousarray(self.quantizer.quantize_query(qpos)[:, list(axis_order(self.axis))])
         oct_ = self.octave_uniforms()
         recf = self.records.view(np.float32)
-        counts, cand = _cover_count(qpos, qcodes, self.slots, np.uint32(self.buckets - 1), oct_,
-                                    recf)
+        counts, cand, probes = _cover_count(qpos, qcodes, self.slots, np.uint32(self.buckets - 1),
+                                            oct_, recf)
         offsets = np.zeros(len(qpos) + 1, dtype=np.int64)
         np.cumsum(counts, out=offsets[1:])
         hits = np.empty(offsets[-1], dtype=np.int64)
         d2 = np.empty(offsets[-1], dtype=np.float32)
         _cover_fill(qpos, qcodes, self.slots, np.uint32(self.buckets - 1), oct_, recf,
                     offsets, hits, d2)
-        return Covering(offsets=offsets, records=hits, d2=d2, candidates=cand)
-
-
-#: Bits of a record's sort key (:func:`_window_keys`): the octave, two coarse cells, the fine.
-_KEY_BITS = (6, 18, 18, 21)
-
-
-def _window_keys(octave, cell) -> np.ndarray:
-    """(n,) uint64 sort keys (octave, cx, cy, f), ``f`` lowest: a window's fine cells are
-    consecutive keys."""
-    _, bx, by, bf = _KEY_BITS
-    return ((octave.astype(np.uint64) << np.uint64(bx + by + bf))
-            | (cell[:, 0].astype(np.uint64) << np.uint64(by + bf))
-            | (cell[:, 1].astype(np.uint64) << np.uint64(bf)) | cell[:, 2].astype(np.uint64))
+        return Covering(offsets=offsets, records=hits, d2=d2, candidates=cand, probes=probes)
 
 
 def _windows(key, octaves, fine) -> tuple[np.ndarray, np.ndarray]:
     """The window table's entries ((w, 4) uint32: key hi, key lo, first record, count) from
     the records' sorted keys, and the most records a window of each octave holds."""
-    bf = _KEY_BITS[3]
     change = np.ones(len(key), dtype=bool)
     change[1:] = key[1:] != key[:-1]
     first = np.flatnonzero(change)
@@ -302,7 +304,7 @@ def _windows(key, octaves, fine) -> tuple[np.ndarray, np.ndarray]:
     ends = np.append(first[1:], len(key))
     # A window starts at any fine cell that has a photon within ``fine`` cells after it (in the
     # same column: the fine cell never goes below 0).
-    f = (cells & np.uint64((1 << bf) - 1)).astype(np.int64)
+    f = (cells & np.uint64((1 << FINE_BITS) - 1)).astype(np.int64)
     back = np.arange(fine + 1, dtype=np.uint64)
     starts = (cells[:, None] - back[None, :])[(f[:, None] >= back[None, :].astype(np.int64))]
     starts = np.unique(starts)
@@ -310,12 +312,9 @@ def _windows(key, octaves, fine) -> tuple[np.ndarray, np.ndarray]:
     hi = np.searchsorted(cells, starts + np.uint64(fine), side="right")
     begin = first[lo]
     count = ends[hi - 1] - begin
-    level = (starts >> np.uint64(sum(_KEY_BITS[1:]))).astype(np.int64)
-    cx = ((starts >> np.uint64(_KEY_BITS[2] + bf)) & np.uint64((1 << _KEY_BITS[1]) - 1)).astype(np.int64)
-    cy = ((starts >> np.uint64(bf)) & np.uint64((1 << _KEY_BITS[2]) - 1)).astype(np.int64)
-    wf = (starts & np.uint64((1 << bf) - 1)).astype(np.int64)
-    whi, wlo = window_key.py_func(level, cx, cy, wf)
-    entries = np.stack([np.asarray(whi, np.uint32), np.asarray(wlo, np.uint32),
+    level = (starts >> np.uint64(2 * COARSE_BITS + FINE_BITS)).astype(np.int64)
+    entries = np.stack([(starts >> np.uint64(32)).astype(np.uint32),
+                        (starts & np.uint64(0xFFFFFFFF)).astype(np.uint32),
                         begin.astype(np.uint32), count.astype(np.uint32)], axis=1)
     max_count = np.zeros(octaves, dtype=np.int64)
     np.maximum.at(max_count, level, count)
@@ -327,12 +326,13 @@ class Covering:
     """The answer of :meth:`CoverGather.query` for m points, as compressed rows:
     point i's covering records are ``records[offsets[i]:offsets[i + 1]]`` (in the order the
     shader visits them), at squared distances ``d2`` (float32); ``candidates`` (m,) the
-    records each point read."""
+    records each point read, ``probes`` (m,) the windows it looked up."""
 
     offsets: np.ndarray
     records: np.ndarray
     d2: np.ndarray
     candidates: np.ndarray
+    probes: np.ndarray
 
     @property
     def counts(self) -> np.ndarray:
@@ -350,12 +350,14 @@ def _axis_cells(code, half, side):
 
 @numba.njit(cache=True, nogil=True)
 def _visit(qpos, qcodes, slots, mask, octaves, recf, i, offsets, hits, d2s, fill):
-    """Covering records of point i (written from offsets[i] when ``fill``): (count, read).
+    """Covering records of point i (written from offsets[i] when ``fill``): (count, records
+    read, windows looked up).
     ``qcodes`` are in :func:`axis_order` (coarse, coarse, fine); ``recf`` is the records'
     float32 view: position and squared radius in words 0-3."""
     qx, qy, qz = qpos[i, 0], qpos[i, 1], qpos[i, 2]
     found = 0
     read = 0
+    probes = 0
     for o in range(octaves.shape[0]):
         level, side, half, fine = octaves[o, 0], octaves[o, 1], octaves[o, 2], octaves[o, 3]
         x0, x1 = _axis_cells(qcodes[i, 0], half, side)
@@ -366,6 +368,7 @@ def _visit(qpos, qcodes, slots, mask, octaves, recf, i, offsets, hits, d2s, fill
                 hi, lo = window_key(level, cx, cy, f0)
                 first, count = cuckoo_get(slots, mask, hi, lo)
                 read += count
+                probes += 1
                 for r in range(first, first + count):
                     dx = recf[r, 0] - qx
                     dy = recf[r, 1] - qy
@@ -376,7 +379,7 @@ def _visit(qpos, qcodes, slots, mask, octaves, recf, i, offsets, hits, d2s, fill
                             hits[offsets[i] + found] = r
                             d2s[offsets[i] + found] = dd
                         found += 1
-    return found, read
+    return found, read, probes
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
@@ -384,13 +387,14 @@ def _cover_count(qpos, qcodes, slots, mask, octaves, recf):
     m = qpos.shape[0]
     counts = np.zeros(m, dtype=np.int64)
     cand = np.zeros(m, dtype=np.int64)
+    probes = np.zeros(m, dtype=np.int64)
     dummy_o = np.zeros(1, dtype=np.int64)
     dummy_h = np.zeros(1, dtype=np.int64)
     dummy_d = np.zeros(1, dtype=np.float32)
     for i in numba.prange(m):
-        counts[i], cand[i] = _visit(qpos, qcodes, slots, mask, octaves, recf, i, dummy_o,
-                                    dummy_h, dummy_d, False)
-    return counts, cand
+        counts[i], cand[i], probes[i] = _visit(qpos, qcodes, slots, mask, octaves, recf, i,
+                                               dummy_o, dummy_h, dummy_d, False)
+    return counts, cand, probes
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)

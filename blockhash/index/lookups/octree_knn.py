@@ -3,18 +3,21 @@ the Hilbert order (the photon radii of the conserving estimate).
 
 Photons in Hilbert order (:mod:`.hilbert`, 21 bits per axis of the 32-bit codes) put every
 cube of the octree over those codes in one contiguous run, found by two binary searches of the
-sorted keys (:mod:`.cells` stores some of them in a hash; here no table is built).  For a photon
-whose own cube at level l (side ``2^(11 + l)`` codes) holds at least ``cmin`` photons, the
-3 x 3 x 3 cubes around it hold every photon within one side of it: when the j-th nearest of
-their photons lies within a side (less the float32 position error), it is the exact j-th
-nearest; otherwise the next level up is read.  The top level is one cube, the whole box, so
-the search always ends.  A photon starts at the level whose side holds 1.2 times the radius
-of the photon before it in Hilbert order (:data:`GUESS`; the first of a task, or one after a
-far, lone photon: the level whose own cube holds a quarter of j + 1 photons).  Consecutive photons share their cube, and its 27 runs are copied once
-into contiguous coordinate arrays: each photon's squared distances to all of them are one
-loop the compiler vectorises, and the j-th comes from the candidates within that guess when
-j + 1 lie there (about 1.44 j of them on a surface), by counting each one's rank (branch-free
-loops, :func:`_rank_select`), else from all of them by Hoare's selection.
+sorted keys (:mod:`.cells` stores some of them in a hash; here no table is built).  At level l
+(cube side ``2^(11 + l)`` codes) the 3 x 3 x 3 cubes around a photon's own hold every photon
+within one side of it: when the j-th nearest of their photons lies within a side (less the
+float32 position error), it is the exact j-th nearest; otherwise the next level up is read.
+The top level is one cube, the whole box, so the search always ends.
+
+A photon starts at the level whose side holds 1.2 times the radius of the photon before it in
+Hilbert order (:data:`GUESS`; neighbours in Hilbert order have alike radii, and the level
+follows the photon's own neighbourhood even where a sparse own cube lies beside a dense
+caustic line).  The first photon of a task, and one after a far, lone photon, start at the
+level whose own cube holds a quarter of j + 1 photons.  Consecutive photons share their cube,
+and its 27 runs are copied once into contiguous coordinate arrays: each photon's squared
+distances to all of them are one loop the compiler vectorises, and the j-th comes from the
+candidates within the guess when j + 1 lie there (about 1.44 j of them on a surface), else
+from all of them (:func:`_kth`: ranks counted in branch-free loops, or Hoare's selection).
 
 Distances are float64 from the float32 decoded positions, as ``scipy.spatial.cKDTree`` computes
 them from the same positions: the result equals its j-th neighbour distance (the tests hold it
@@ -28,26 +31,24 @@ import numpy as np
 
 from blockhash.errors import InputError
 from blockhash.index.records.hilbert import KEY_BITS_PER_AXIS, hilbert_key, hilbert_keys, transition_tables
+from blockhash.index.records.select import select_by
 
 #: Low code bits below the Hilbert key's 21 per axis.
 CODE_SHIFT = 32 - KEY_BITS_PER_AXIS
 #: The first photon of a task starts at the finest level whose own cube holds at least
-#: ``ceil(CMIN_FRACTION * (j + 1))`` photons.  Tuned on the ring at 10^6 photons (j = 36,
-#: 2026-12-02, one core, when every photon started so): 1, 1/2, 1/4, 1/8 and 1/16 took 1.40,
-#: 1.20, 1.16, 1.21 and 1.20 s.
+#: ``ceil(CMIN_FRACTION * (j + 1))`` photons (every photon did, before :data:`GUESS`; the
+#: value was chosen then, on the ring at 10^6 photons).
 CMIN_FRACTION = 0.25
 #: Every later photon starts at the finest level whose cube side holds GUESS times the radius
-#: of the photon before it (neighbours in Hilbert order have alike radii), and reads only the
-#: candidates within that distance when j + 1 lie there.  The own-cube rule read 395
-#: candidates a photon on the ring and 2,667 on venus (dense caustic lines beside sparse own
-#: cubes); this one reads 317 and 331 (10^6 photons; 0.71 -> 0.62 s and 2.37 -> 0.87 s on one
-#: core, side by side; the rule was changed after measuring venus, its constant kept).
+#: of the photon before it, and reads only the candidates within that distance when j + 1 lie
+#: there (``python tools/photon_radii.py scenes/ring.toml scenes/venus.toml --photons 1e6
+#: --times-only`` times it; BENCHMARKS.md, "Photon radii").
 GUESS = 1.2
 #: Candidates, in units of j + 1, past which a photon's guessed level falls back to the
 #: own-cube rule when that is finer (the photon after a far, lone one).
 CROWD = 64
-#: Candidates within the guess up to which the j-th is found by counting ranks
-#: (:func:`_rank_select`), above it by Hoare's selection.
+#: Candidates up to which the j-th is found by counting ranks (:func:`_rank_select`),
+#: above it by Hoare's selection (:func:`blockhash.index.records.select.select_by`).
 RANK_MAX = 128
 #: Consecutive photons per parallel task.
 CHUNK = 4096
@@ -146,32 +147,15 @@ def _rank_select(a, m, kth):
 
 
 @numba.njit(cache=True, nogil=True)
-def _select(a, m, kth):
-    """The kth smallest (0-based) of a[:m], partly reordering a[:m] (Hoare's selection)."""
-    lo = 0
-    hi = m - 1
-    while lo < hi:
-        pivot = a[(lo + hi) >> 1]
-        i = lo
-        k = hi
-        while i <= k:
-            while a[i] < pivot:
-                i += 1
-            while a[k] > pivot:
-                k -= 1
-            if i <= k:
-                t = a[i]
-                a[i] = a[k]
-                a[k] = t
-                i += 1
-                k -= 1
-        if kth <= k:
-            hi = k
-        elif kth >= i:
-            lo = i
-        else:
-            return a[kth]
-    return a[kth]
+def _kth(a, m, kth, order):
+    """The kth smallest (0-based) of a[:m], leaving ``a`` as it is: by counting ranks up to
+    :data:`RANK_MAX` values, above by Hoare's selection over ``order`` (scratch, at least m)."""
+    if m <= RANK_MAX:
+        return _rank_select(a, m, kth)
+    for c in range(m):
+        order[c] = c
+    select_by(order, 0, m, kth, a)
+    return a[order[kth]]
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
@@ -183,6 +167,7 @@ def _jth(codes, pos, keys, j, cmin, step, margin, single, pair, start):
         runs = np.empty((27, 5), dtype=np.int64)
         buf = np.empty((5, 1024))  # per candidate: x, y, z, squared distance; the near ones
         xs, ys, zs, d2, near = buf[0], buf[1], buf[2], buf[3], buf[4]
+        order = np.empty(1024, dtype=np.int64)
         m = 0
         cached_level = -1
         cached_prefix = np.uint64(0)
@@ -220,6 +205,7 @@ def _jth(codes, pos, keys, j, cmin, step, margin, single, pair, start):
                     if total > buf.shape[1]:
                         buf = np.empty((5, 2 * total))
                         xs, ys, zs, d2, near = buf[0], buf[1], buf[2], buf[3], buf[4]
+                        order = np.empty(2 * total, dtype=np.int64)
                     m = 0
                     for r in range(filled):
                         for c in range(runs[r, 0], runs[r, 1]):
@@ -245,14 +231,9 @@ def _jth(codes, pos, keys, j, cmin, step, margin, single, pair, start):
                     near[inside] = d2[c]  # kept only if it lies within the guess: no branch
                     inside += d2[c] < guess
                 if inside > j:
-                    if inside <= RANK_MAX:
-                        best = _rank_select(near, inside, j)
-                    else:
-                        best = _select(near, inside, j)
+                    best = _kth(near, inside, j, order)
                 elif m > j:
-                    for c in range(m):
-                        near[c] = d2[c]
-                    best = _select(near, m, j)
+                    best = _kth(d2, m, j, order)
                 else:
                     best = np.inf  # fewer than j others in the 27 cubes: the next level up
                 cube = step * (2.0 ** (CODE_SHIFT + level))
