@@ -6,10 +6,6 @@ from blockhash import code_version
 
 code_version.configure(__version__)  # before any compiled function is defined
 
-from blockhash import moved
-
-moved.install()  # old module names, for one release
-
 from blockhash.errors import BlockHashError, CapacityError, InputError, InputTypeError, ShaderCompileError
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.options import LookupOptions

@@ -139,7 +139,7 @@ def test_flags_are_named_one_way_with_choices_from_one_list():
 
 def test_tradeoff_takes_the_method_and_its_older_engine_spelling(capsys):
     from blockhash.cli import build_parser
-    from blockhash.cli_tradeoff import METHOD_ENGINE
+    from blockhash.cli.tradeoff import METHOD_ENGINE
 
     parser = build_parser()
     args = ["tradeoff", "scenes/ring.toml", "-o", "o"]

@@ -64,12 +64,12 @@ def test_unwritable_output_is_refused_before_rendering(capsys, tmp_path, monkeyp
 
 
 def test_an_os_error_is_one_line_not_a_traceback(capsys, monkeypatch):
-    import blockhash.cli as cli
+    import blockhash.cli.images as images
 
     def boom(args):
         raise PermissionError(13, "Permission denied", "/some/file.exr")
 
-    monkeypatch.setattr(cli, "cmd_info", boom)
+    monkeypatch.setattr(images, "cmd_info", boom)
     status, err = run_cli(capsys, ["info"])
     assert status == 2
     assert err.strip() == ("blockhash info: error: /some/file.exr Permission denied; check the path "

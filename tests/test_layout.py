@@ -14,9 +14,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "blockhash"
 #: Rank of each part in the data flow; a module may import only ranks <= its own.
-RANKS = {"errors": 0, "validate": 0, "code_version": 0, "moved": 9, "scene": 1, "photons": 2, "index": 3, "gl": 4, "frame": 5,
-         "reference": 6, "evaluate": 7, "studies": 8, "bench": 8,
-         "cli": 9, "cli_estimate": 9, "cli_images": 9, "cli_tradeoff": 9, "cli_mitsuba": 9, "__init__": 9, "__main__": 9}
+RANKS = {"errors": 0, "validate": 0, "code_version": 0, "scene": 1, "photons": 2, "index": 3, "gl": 4,
+         "frame": 5, "reference": 6, "evaluate": 7, "studies": 8, "bench": 8, "cli": 9, "__init__": 9,
+         "__main__": 9}
 #: Lines above which a module's docstring must say why it is long.
 LONG_MODULE = 420
 LONG_REASON = "Why this module is long:"
@@ -73,7 +73,7 @@ def test_module_imports_only_earlier_parts(path):
 
 
 def test_the_three_parts_are_packages():
-    for part in ("scene", "photons", "index", "gl", "frame", "reference", "evaluate", "studies"):
+    for part in ("scene", "photons", "index", "gl", "frame", "reference", "evaluate", "studies", "cli"):
         assert (PACKAGE / part / "__init__.py").is_file()
     assert not sorted(p.name for p in PACKAGE.glob("*.py")
                       if p.stem not in RANKS), "top-level modules outside the known parts"
@@ -182,3 +182,76 @@ def test_ruff_finds_no_unused_or_undefined_names_and_sorted_imports():
     run = subprocess.run([sys.executable, "-m", "ruff", "check", "--no-cache", "blockhash", "tools",
                           "tests"], cwd=ROOT, capture_output=True, text=True)
     assert run.returncode == 0, run.stdout + run.stderr
+
+
+#: What keeps a module name alive that the tree does not hold: an import hook or a module
+#: planted in ``sys.modules`` under another name.
+SHIM_MARKS = ("meta_path", "path_hooks", "MetaPathFinder", "PathEntryFinder", "sys.modules[")
+
+
+def _shim_marks(path: Path) -> list[str]:
+    text = path.read_text()
+    return [f"line {text[:text.index(mark)].count(chr(10)) + 1}: {mark}" for mark in SHIM_MARKS
+            if mark in text]
+
+
+@pytest.mark.parametrize("path", _modules(), ids=lambda p: p.relative_to(ROOT).as_posix())
+def test_no_module_keeps_other_module_names_alive(path):
+    """Every module is imported by its own name: none installs an import hook or plants a
+    module under another name (as a shim of old names would)."""
+    marks = _shim_marks(path)
+    assert not marks, (f"{path.name} hooks the import system ({marks}); import modules by the "
+                       "names the tree gives them")
+
+
+def test_importing_blockhash_adds_no_import_hook():
+    import subprocess
+    import sys
+
+    probe = ("import sys; before = list(sys.meta_path) + list(sys.path_hooks); import blockhash, "
+             "blockhash.cli; print([repr(f) for f in list(sys.meta_path) + list(sys.path_hooks) "
+             "if f not in before and 'blockhash' in type(f).__module__])")
+    run = subprocess.run([sys.executable, "-c", probe], cwd=ROOT, capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == "[]", f"importing blockhash installs an import hook: {run.stdout}"
+
+
+def _tree_modules() -> set[str]:
+    return {".".join(_dotted(p)) for p in _modules()}
+
+
+@pytest.mark.parametrize("folder", ["blockhash", "tests", "tools"])
+def test_every_import_names_a_module_of_the_tree(folder):
+    """``import blockhash.x.y`` and ``from blockhash.x.y import name`` name modules that exist:
+    no old module name is imported anywhere."""
+    modules = _tree_modules()
+    missing = []
+    for path in sorted((ROOT / folder).rglob("*.py")):
+        if "__pycache__" in path.parts:
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and not node.level and node.module:
+                names = [node.module]
+            missing += [f"{path.relative_to(ROOT)} line {node.lineno}: {name}" for name in names
+                        if name.split(".")[0] == "blockhash" and name not in modules]
+    assert not missing, f"imports of modules the tree does not hold: {missing}"
+
+
+def test_the_shim_checks_can_fail():
+    """A module that puts a finder on sys.meta_path, and an import of an old module name, are
+    both caught."""
+    shim = PACKAGE / "_probe_shim.py"
+    user = ROOT / "tools" / "_probe_old_name.py"
+    try:
+        shim.write_text("import sys\n\nsys.meta_path.insert(0, object())\n")
+        with pytest.raises(AssertionError, match="hooks the import system"):
+            test_no_module_keeps_other_module_names_alive(shim)
+        user.write_text("from blockhash.index.query import query\n")
+        with pytest.raises(AssertionError, match="blockhash.index.query"):
+            test_every_import_names_a_module_of_the_tree("tools")
+    finally:
+        shim.unlink(missing_ok=True)
+        user.unlink(missing_ok=True)

@@ -31,7 +31,7 @@ if [ -f .whl/run.sh ] && command -v nvidia-smi >/dev/null; then
   tests() { bash .whl/run.sh pytest -q "$root/tests/gl/test_gl_lookup.py" "$root/tests/frame/test_caustic.py"; }
   nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv > "$OUT/device.txt"
 else
-  bh() { python -m blockhash.cli "$@"; }             # this checkout, the local GL
+  bh() { python -m blockhash "$@"; }                 # this checkout, the local GL
   tests() { python -m pytest -q -p no:cacheprovider tests/gl/test_gl_lookup.py -k "backends or register"; }
   : > "$OUT/device.txt"
 fi

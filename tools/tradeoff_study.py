@@ -26,7 +26,7 @@ def main() -> int:
     parser.add_argument("--out", default="docs/tradeoff", help="relative to the checkout's root")
     args, extra = parser.parse_known_args()
     for name in args.scenes.split(","):
-        cmd = [sys.executable, "-m", "blockhash.cli", "tradeoff", f"scenes/{name}.toml",
+        cmd = [sys.executable, "-m", "blockhash", "tradeoff", f"scenes/{name}.toml",
                "-o", str(Path(args.out) / name)] + (["--quick"] if args.quick else []) + extra
         print(" ".join(cmd), flush=True)
         code = subprocess.call(cmd, cwd=ROOT)

@@ -1,6 +1,7 @@
-"""``blockhash compare`` and ``blockhash tolerance``: image comparison on the command line.
-
-Split from :mod:`blockhash.cli`, which adds these subcommands with :func:`add_parsers`.
+"""The image commands: ``blockhash compare`` (per-layer errors against a reference, with
+limits that set the exit status), ``blockhash tolerance`` (limits proposed from the noise between
+photon seeds), ``blockhash preview`` (a quick pyrender view of a scene) and ``blockhash info``
+(the OpenGL context that renders them).
 """
 
 from __future__ import annotations
@@ -11,19 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
+from blockhash.cli.args import size
 from blockhash.errors import InputError
 from blockhash.frame.options import METHODS
 from blockhash.gl.context import BACKENDS
-
-
-def size(text: str) -> tuple[int, int]:
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--size {text!r}: expected WIDTHxHEIGHT such as 512x512") from None
-    if w < 1 or h < 1:
-        raise argparse.ArgumentTypeError(f"--size {text!r}: width and height must be positive")
-    return w, h
+from blockhash.validate import writable_path
 
 
 def _limit(text: str) -> tuple[str, float]:
@@ -119,8 +112,39 @@ def cmd_tolerance(args) -> int:
     return 0
 
 
-def add_parsers(sub) -> None:
-    """Add the ``compare`` and ``tolerance`` subcommands to ``sub`` (argparse subparsers)."""
+def cmd_info(args) -> int:
+    from blockhash.gl.context import get_context, gl_info
+
+    ctx = get_context(args.backend)
+    from blockhash.gl.limits import LOOP_LIMIT, MAX_K, is_llvmpipe
+
+    with ctx:
+        info = gl_info(ctx)
+    info["lookup MAX_K"] = MAX_K
+    info["lookup loop limit"] = (f"{LOOP_LIMIT:,} iterations (llvmpipe; bounds A*k)" if is_llvmpipe(ctx)
+                                 else "none")
+    width = max(len(k) for k in info)
+    for key, value in info.items():
+        print(f"{key:<{width}}  {value}")
+    return 0
+
+
+def cmd_preview(args) -> int:
+    from blockhash.frame.images import write_rgb8
+    from blockhash.scene.loader import load_scene
+    from blockhash.scene.preview import preview
+
+    out = writable_path(Path(args.output or Path(args.scene).with_suffix(".preview.png").name), "--output")
+    scene = load_scene(args.scene)
+    colour, _ = preview(scene, size=args.size)
+    h, w, _ = colour.shape
+    write_rgb8(out, colour)
+    print(f"preview of {args.scene}: {out} ({w} x {h}, pyrender)")
+    return 0
+
+
+def add_compare(sub) -> None:
+    """Add ``compare`` to the subcommands ``sub``."""
     p = sub.add_parser("compare", help="per-layer RMS, relative RMS, max and FLIP error; limits "
                                        "set the exit status",
                        description="Compare image A with the reference B layer by layer: RMS, "
@@ -152,6 +176,10 @@ def add_parsers(sub) -> None:
                                               "layer's 99th percentile for abs)")
     p.add_argument("--diff", help="write |A - B| per layer to this EXR")
     p.set_defaults(func=cmd_compare)
+
+
+def add_tolerance(sub) -> None:
+    """Add ``tolerance`` to the subcommands ``sub``."""
     p = sub.add_parser("tolerance", help="propose compare limits from the noise between photon seeds",
                        description="Render a scene with several photon seeds at a small size, "
                                    "compare every pair of seeds (RMS, relative RMS, FLIP), measure "
@@ -173,3 +201,23 @@ def add_parsers(sub) -> None:
     p.add_argument("--heatmap", metavar="PNG", help="write the per-pixel spread maps")
     p.add_argument("--backend", choices=BACKENDS, default=None)
     p.set_defaults(func=cmd_tolerance)
+
+
+def add_info(sub) -> None:
+    """Add ``info`` to the subcommands ``sub``."""
+    p = sub.add_parser("info", help="OpenGL renderer, version, backend and limits",
+                       description="Create the offscreen OpenGL context and print what it offers.")
+    p.add_argument("--backend", choices=BACKENDS, default=None,
+                   help="GL backend (default: $BLOCKHASH_GL or auto: EGL, then OSMesa)")
+    p.set_defaults(func=cmd_info)
+
+
+def add_preview(sub) -> None:
+    """Add ``preview`` to the subcommands ``sub``."""
+    p = sub.add_parser("preview", help="a quick pyrender view of a scene (camera, objects, lights)",
+                       description="Render the scene with pyrender in a separate process, to check "
+                                   "the camera, objects and lights before a real render.")
+    p.add_argument("scene")
+    p.add_argument("-o", "--output", help="PNG path (default: SCENE-NAME.preview.png here)")
+    p.add_argument("--size", type=size, help="image size WIDTHxHEIGHT (default: the camera's)")
+    p.set_defaults(func=cmd_preview)

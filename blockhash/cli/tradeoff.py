@@ -1,7 +1,4 @@
-"""``blockhash tradeoff``: the trade study of speed against accuracy on the command line.
-
-Split from :mod:`blockhash.cli`, which adds this subcommand with :func:`add_parser`.
-"""
+"""``blockhash tradeoff``: the trade study of speed against accuracy on the command line."""
 
 from __future__ import annotations
 
@@ -10,7 +7,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from blockhash.cli_images import size as _size
+from blockhash.cli.args import size as _size
 from blockhash.frame.options import METHODS
 from blockhash.gl.context import BACKENDS
 
@@ -79,7 +76,7 @@ def cmd_tradeoff(args) -> int:
     return 0
 
 
-def add_parser(sub) -> None:
+def add_tradeoff(sub) -> None:
     """Add ``tradeoff`` to the subcommands ``sub``."""
     p = sub.add_parser("tradeoff", help="measure speed against accuracy over N, k, A, presets, variants",
                        description="Sweep photon count, k, A, index preset and shader variant on a "

@@ -1,7 +1,5 @@
 """``blockhash export`` and ``blockhash reference``: the scene in Mitsuba 3, and a reference
 image from blockhash's light tracer or from Mitsuba.
-
-Split from :mod:`blockhash.cli`, which adds these subcommands with :func:`add_parsers`.
 """
 
 from __future__ import annotations
@@ -10,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from blockhash.cli.args import size
 from blockhash.errors import InputError
 from blockhash.validate import writable_path
 
@@ -79,9 +78,8 @@ def cmd_reference(args) -> int:
     return 0
 
 
-def add_parsers(sub) -> None:
-    from blockhash.cli_images import size
-
+def add_export(sub) -> None:
+    """Add ``export`` to the subcommands ``sub``."""
     p = sub.add_parser("export", help="write a scene as a Mitsuba 3 XML file with PLY meshes",
                        description="Write SCENE as DIR/scene.xml (Mitsuba 3) and DIR/meshes/*.ply. "
                                    "Mitsuba has no modified Phong: a material with ks > 0 is an "
@@ -95,6 +93,10 @@ def add_parsers(sub) -> None:
     p.add_argument("--spp", type=int, default=64,
                    help="the XML's default sample count (Mitsuba's -D spp=N overrides it)")
     p.set_defaults(func=cmd_export)
+
+
+def add_reference(sub) -> None:
+    """Add ``reference`` to the subcommands ``sub``."""
     p = sub.add_parser("reference", help="a reference image: blockhash's light tracer, or Mitsuba 3",
                        description="Render the reference of SCENE's layers (direct, caustic, "
                                    "combined) to a multi-layer EXR that `blockhash compare` "
