@@ -1,0 +1,290 @@
+"""Mitsuba 3 XML's values, transforms and parameters, read as Mitsuba reads them (the base of
+:mod:`.mitsuba_import`; every error names the file, the line, the element and the way out).
+
+* Parameters: ``<default name value>`` at the top of the scene, ``$name`` substituted in every
+  attribute of every element after it (``type`` included); a ``$name`` with no default before
+  it is an error, as in Mitsuba ("undefined parameter").
+* Values: ``float``, ``integer``, ``string``, ``boolean``, ``point`` and ``vector`` (``value``
+  or ``x``/``y``/``z``), ``rgb`` (one number or three) and ``spectrum`` of one number.  A
+  spectrum of one value v is grey (v, v, v) as a reflectance, but on an emitter it is an
+  equal-energy (flat) spectrum, whose colour Mitsuba's RGB variants take as
+  v * :data:`FLAT_EMITTER_RGB`.  Spectra of ``wavelength:value`` pairs and from a
+  ``filename`` are refused (give ``<rgb>``).
+* Transforms: ``translate``, ``rotate`` (axis and angle), ``scale``, ``matrix`` (9 or 16
+  numbers) and ``lookat``, composed in order (each applied after the ones before it).  A
+  ``lookat`` without ``up`` takes Mitsuba's: the first vector of
+  :func:`coordinate_system` of the view direction.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from xml.parsers import expat
+
+import numpy as np
+import trimesh
+
+from blockhash.errors import InputError
+
+#: CIE XYZ to linear sRGB (IEC 61966-2-1), the matrix of Mitsuba's ``xyz_to_srgb``.
+XYZ_TO_SRGB = np.array([[3.240479, -1.537150, -0.498535],
+                        [-0.969256, 1.875991, 0.041556],
+                        [0.055648, -0.204043, 1.057311]])
+#: The RGB Mitsuba's RGB variants give an emitter's ``<spectrum value="1"/>``: the flat
+#: (equal-energy) spectrum has CIE XYZ (1, 1, 1) at luminance 1, and in linear sRGB, whose
+#: white is D65, that is XYZ_TO_SRGB @ (1, 1, 1) = (1.2048, 0.9483, 0.9089), not grey.
+#: (A reflectance spectrum is converted under D65, so value v there stays (v, v, v).)
+FLAT_EMITTER_RGB = XYZ_TO_SRGB @ np.ones(3)
+#: How far from orthonormal the sensor's to_world may be (Mitsuba's ``has_scale``:
+#: |M^T M - I| above this in any entry is a scale or a shear).
+ORTHONORMAL_TOLERANCE = 1e-3
+_PARAM = re.compile(r"\$([A-Za-z_][A-Za-z0-9_]*)")
+
+
+def coordinate_system(n) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors (s, t) completing unit ``n`` to an orthonormal frame: Mitsuba's
+    ``coordinate_system`` (Duff et al. 2017), whose s is the ``up`` of a ``lookat``
+    written without one."""
+    n = np.asarray(n, dtype=np.float64)
+    sign = math.copysign(1.0, n[2])
+    a = -1.0 / (sign + n[2])
+    b = n[0] * n[1] * a
+    s = np.array([1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]])
+    t = np.array([b, sign + n[1] * n[1] * a, -n[1]])
+    return s, t
+
+
+class _Builder(ET.TreeBuilder):
+    """An element tree built from expat's events, keeping comments and each element's line."""
+
+    def __init__(self):
+        super().__init__(insert_comments=True)
+        self.lines: dict[int, int] = {}
+
+    def parse(self, data: bytes):
+        parser = expat.ParserCreate()
+
+        def start(tag, attrs):
+            self.lines[id(self.start(tag, attrs))] = parser.CurrentLineNumber
+
+        parser.StartElementHandler = start
+        parser.EndElementHandler = self.end
+        parser.CommentHandler = self.comment
+        parser.Parse(data, True)
+        return self.close()
+
+
+def parse(path: Path):
+    """(root element, {id(element): line}) of the XML file at ``path``."""
+    builder = _Builder()
+    try:
+        root = builder.parse(path.read_bytes())
+    except expat.ExpatError as exc:
+        raise InputError(f"{path}: XML syntax error: {exc}; fix the file") from None
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the file: {exc}") from None
+    return root, builder.lines
+
+
+class XmlReader:
+    """Values and transforms of one file, each error naming the element and its line."""
+
+    def __init__(self, path: Path, lines: dict):
+        self.path = path
+        self.lines = lines
+        self.defaults: dict[str, str] = {}
+        #: id(element) -> its attributes as written, for those that held a $name.
+        self.raw: dict[int, dict] = {}
+
+    def where(self, el) -> str:
+        return f"{self.path}:{self.lines.get(id(el), '?')}"
+
+    def fail(self, el, what: str):
+        raise InputError(f"{self.where(el)}: <{el.tag}"
+                         + (f" type=\"{el.get('type')}\"" if el.get("type") else "")
+                         + (f" name=\"{el.get('name')}\"" if el.get("name") else "")
+                         + f">: {what}")
+
+    def build(self, el, cls, **kwargs):
+        """``cls(**kwargs)``, its InputError naming ``el`` and its line."""
+        try:
+            return cls(**kwargs)
+        except InputError as exc:
+            self.fail(el, str(exc))
+
+    def substitute(self, root) -> None:
+        """Read the top-level ``<default>``s and put their values for ``$name`` in every
+        attribute of every element after them, in document order (as Mitsuba does)."""
+        for el in root.iter():
+            if not isinstance(el.tag, str):
+                continue
+            if any("$" in v for v in el.attrib.values()):
+                self.raw[id(el)] = dict(el.attrib)
+            for key, value in el.attrib.items():
+                el.set(key, _PARAM.sub(lambda m, el=el: self._param(el, m.group(1)), value))
+            if el.tag == "default":
+                if el not in list(root):
+                    self.fail(el, "a <default> must sit directly in <scene>; move it to the top")
+                extra = sorted(set(el.attrib) - {"name", "value"})
+                if extra:
+                    self.fail(el, f"unsupported attribute(s) {extra}; a <default> takes name and value")
+                self.defaults.setdefault(self.attr(el, "name"), self.attr(el, "value"))
+
+    def _param(self, el, name: str) -> str:
+        if name not in self.defaults:
+            self.fail(el, f"undefined parameter ${name} (Mitsuba refuses it too); add "
+                      f"<default name=\"{name}\" value=\"...\"/> at the top of the scene, "
+                      "before its first use")
+        return self.defaults[name]
+
+    def attr(self, el, key: str, default=None) -> str:
+        v = el.get(key)
+        if v is None:
+            if default is not None:
+                return default
+            self.fail(el, f"missing attribute {key!r}")
+        return v
+
+    def floats(self, el, text: str, count: int | None = None) -> np.ndarray:
+        try:
+            v = np.array([float(t) for t in text.replace(",", " ").split()], dtype=np.float64)
+        except ValueError:
+            self.fail(el, f"expected numbers; got {text!r}")
+        if count is not None and len(v) != count:
+            self.fail(el, f"expected {count} numbers; got {len(v)} ({text!r})")
+        if not np.isfinite(v).all():
+            self.fail(el, f"expected finite numbers; got {text!r}")
+        return v
+
+    def value(self, el, *, emitter: bool = False):
+        """The value of property element ``el``; ``emitter``: it is an emitter's (a
+        spectrum there is an illuminant, module docstring)."""
+        tag = el.tag
+        if tag in ("float", "integer"):
+            v = self.floats(el, self.attr(el, "value"), 1)[0]
+            if tag == "integer" and v != int(v):
+                self.fail(el, f"expected an integer; got {self.attr(el, 'value')!r}")
+            return int(v) if tag == "integer" else float(v)
+        if tag == "string":
+            return self.attr(el, "value")
+        if tag == "boolean":
+            v = self.attr(el, "value").lower()
+            if v not in ("true", "false"):
+                self.fail(el, f"expected true or false; got {v!r}")
+            return v == "true"
+        if tag == "rgb":
+            v = self.floats(el, self.attr(el, "value"))
+            if len(v) not in (1, 3):
+                self.fail(el, "expected one number or three (r, g, b)")
+            return np.broadcast_to(v, (3,)).copy()
+        if tag == "spectrum":
+            return self.spectrum(el, emitter)
+        if tag in ("point", "vector"):
+            return self.value_xyz(el, 0.0)
+        if tag == "transform":
+            return self.transform(el)
+        self.fail(el, "unsupported property; supported: float, integer, string, boolean, rgb, "
+                  "spectrum, point, vector, transform")
+
+    def spectrum(self, el, emitter: bool) -> np.ndarray:
+        if el.get("filename") is not None:
+            self.fail(el, "a spectrum read from a file is not supported; give its colour as "
+                      "<rgb value=\"r, g, b\"/>")
+        text = self.attr(el, "value")
+        if ":" in text:
+            self.fail(el, "a spectrum of wavelength:value pairs is not supported; give one "
+                      "number (a flat spectrum) or its colour as <rgb value=\"r, g, b\"/>")
+        v = self.floats(el, text, 1)[0]
+        return v * FLAT_EMITTER_RGB if emitter else np.full(3, v)
+
+    def props(self, el, allowed: dict, *, children=(), emitter: bool = False) -> dict:
+        """The named properties of ``el`` (``allowed``: name -> tags), every other child an
+        error unless its tag is in ``children`` (returned under ``'<children>'``)."""
+        out, kids = {}, []
+        for child in el:
+            if not isinstance(child.tag, str):
+                continue  # a comment
+            if child.tag in children:
+                kids.append(child)
+                continue
+            name = child.get("name")
+            if name not in allowed:
+                self.fail(child, f"unsupported here; <{el.tag} type=\"{el.get('type')}\"> takes "
+                          + (", ".join(f"{n} ({'/'.join(t)})" for n, t in allowed.items()) or "nothing")
+                          + (f" and {', '.join(children)}" if children else "")
+                          + "; remove it or fix its name")
+            if name in out:
+                self.fail(child, f"{name} is given twice; keep one")
+            if child.tag not in allowed[name]:
+                self.fail(child, f"{name} must be given as {' or '.join(allowed[name])}")
+            out[name] = self.value(child, emitter=emitter)
+        out["<children>"] = kids
+        return out
+
+    def transform(self, el) -> np.ndarray:
+        m = np.eye(4)
+        for op in el:
+            if not isinstance(op.tag, str):
+                continue
+            t = np.eye(4)
+            if op.tag == "translate":
+                t[:3, 3] = self.value_xyz(op, 0.0)
+            elif op.tag == "scale":
+                if op.get("value") is not None:
+                    s = self.floats(op, self.attr(op, "value"))
+                    s = np.broadcast_to(s, (3,)) if len(s) in (1, 3) else self.fail(op, "expected 1 or 3 numbers")
+                else:
+                    s = self.value_xyz(op, 1.0)
+                t[:3, :3] = np.diag(s)
+            elif op.tag == "rotate":
+                angle = math.radians(self.floats(op, self.attr(op, "angle"), 1)[0])
+                axis = self.value_xyz(op, 0.0)
+                if not np.linalg.norm(axis) > 0:
+                    self.fail(op, "the rotation axis is zero; give x, y, z or value")
+                t[:3, :3] = trimesh.transformations.rotation_matrix(angle, axis)[:3, :3]
+            elif op.tag == "matrix":
+                v = self.floats(op, self.attr(op, "value"))
+                if len(v) not in (9, 16):
+                    self.fail(op, f"expected 9 or 16 numbers; got {len(v)}")
+                if len(v) == 9:
+                    t[:3, :3] = v.reshape(3, 3)
+                else:
+                    t = v.reshape(4, 4)
+            elif op.tag == "lookat":
+                t = self.lookat(op)[0]
+            else:
+                self.fail(op, "unsupported transform; supported: translate, rotate, scale, "
+                          "matrix, lookat")
+            m = t @ m
+        return m
+
+    def value_xyz(self, op, default: float) -> np.ndarray:
+        if op.get("value") is not None:
+            return self.floats(op, self.attr(op, "value"), 3)
+        return np.array([self.floats(op, self.attr(op, a, str(default)), 1)[0] for a in "xyz"])
+
+    def lookat(self, op):
+        """(matrix, origin, target, up as written or Mitsuba's default) of a <lookat>,
+        Mitsuba's frame (local +z forward, +x left)."""
+        o = self.floats(op, self.attr(op, "origin"), 3)
+        t = self.floats(op, self.attr(op, "target"), 3)
+        d = t - o
+        if not np.linalg.norm(d) > 0:
+            self.fail(op, "origin equals target; give a target away from the origin")
+        d /= np.linalg.norm(d)
+        up = (self.floats(op, op.get("up"), 3) if op.get("up") is not None
+              else coordinate_system(d)[0])
+        left = np.cross(up, d)
+        if not np.linalg.norm(left) > 1e-12:
+            self.fail(op, "up is parallel to the view direction (Mitsuba refuses it too); "
+                      "give an up across it")
+        left /= np.linalg.norm(left)
+        m = np.eye(4)
+        m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = left, np.cross(d, left), d, o
+        return m, o, t, up
+
+
+__all__ = ["XmlReader", "parse", "coordinate_system", "FLAT_EMITTER_RGB", "XYZ_TO_SRGB"]
