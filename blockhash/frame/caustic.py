@@ -86,11 +86,12 @@ class ShadingPoints:
 
 
 def estimate_cpu(index, points: ShadingPoints, materials, *, k=None, A=None,
-                 variant: str = "default", options: EstimateOptions | None = None) -> np.ndarray:
+                 variant: str = "default", options: EstimateOptions | None = None,
+                 radii=None) -> np.ndarray:
     """The CPU reference of the caustic pass: (h, w, 3) float64 radiance.
 
     Uses :meth:`BlockHashIndex.query` in the mode of ``variant`` so that it finds the
-    same photons as the shader; ``options`` as :class:`CausticPass.render` takes them.
+    same photons as the shader; ``options`` and ``radii`` as :class:`CausticPass` takes them.
     """
     v = Variant.parse(variant)
     prm = index.params
@@ -100,24 +101,30 @@ def estimate_cpu(index, points: ShadingPoints, materials, *, k=None, A=None,
     def search(q):
         return index.reference_query(q, k=k, A=A, by_priority=v.priority == "on", slot_bits=bits)
 
-    return estimate_from_neighbours(index, points, materials, search, k, options=options)
+    return estimate_from_neighbours(index, points, materials, search, k, options=options,
+                                    radii=radii)
 
 
 def estimate_exact(index, points: ShadingPoints, materials, *, k=None, backend=None,
-                   gpu: bool = True, options: EstimateOptions | None = None) -> np.ndarray:
-    """The caustic with the exact k nearest photons: the kd-tree shader (``gpu``) or cKDTree."""
+                   gpu: bool = True, options: EstimateOptions | None = None,
+                   radii=exact_radii2) -> np.ndarray:
+    """The caustic with the exact k nearest photons: the kd-tree shader (``gpu``) or cKDTree;
+    ``radii(index, k)`` the conserving estimate's (default :func:`.photon_radius.exact_radii2`)."""
     k = index.params.k if k is None else k
     if gpu:
         from blockhash.gl.kdtree import GLKdTree
 
         tree = GLKdTree(index.positions, backend=backend)
-        return estimate_from_neighbours(index, points, materials, lambda q: tree.query(q, k), k,
-                                        options=options, radii=exact_radii2)
+        try:
+            return estimate_from_neighbours(index, points, materials, lambda q: tree.query(q, k),
+                                            k, options=options, radii=radii)
+        finally:
+            tree.release()
     from blockhash.index.lookups.exact import exact_knn
 
     return estimate_from_neighbours(index, points, materials,
                                     lambda q: exact_knn(index.positions, q, k), k, options=options,
-                                    radii=exact_radii2)
+                                    radii=radii)
 
 
 def estimate_from_neighbours(index, points: ShadingPoints, materials, search, k, *,
@@ -289,6 +296,20 @@ class CausticPass:
                 check_gl(self.ctx, f"the timed caustic pass draws ({stage})")
             out[stage] = {"wall": walls, "gpu": gpus}
         return out
+
+    def release(self) -> None:
+        """Release the pass's GL objects (the index's textures, its gathers and radii); the
+        programs stay in :mod:`blockhash.gl.shaderlib`'s cache."""
+        with self.ctx:
+            for cover in self._covers.values():
+                cover.release()
+            for tex, _ in self._own.values():
+                tex.release()
+        self._covers.clear()
+        self._own.clear()
+        if self.lookup is not None:
+            self.lookup.release()
+            self.lookup = None
 
     def _cover(self, k: int):
         """The cover gather for k neighbours' radii, uploaded once."""

@@ -1,47 +1,42 @@
-"""Render a scene: caustic photons, Block Hashing index, G-buffer, direct light, caustic pass.
+"""Render a scene: caustic photons, Block Hashing index, G-buffer, direct light, caustic pass,
+in passes.
 
-``render`` (``blockhash.render``) and ``render_scene`` (every setting a keyword) return
-the three layers (direct, caustic, combined) and a
-summary of every phase; ``blockhash render`` writes them to a multi-layer EXR
-and a tone-mapped PNG.  The default ``method='auto'`` gathers, for the conserving estimate,
-every photon whose own disc covers the shading point (the cover gather, in the shader) and
-for the k-nearest estimates the Block Hashing walk; ``method='bh'`` the walk with every
-estimate; ``method='kdtree'`` the exact k nearest photons from the kd-tree shader (the
-estimate itself in numpy) for comparison; ``method='cpu'`` the CPU reference of what
-``auto`` picks.
+``render`` (``blockhash.render``) runs a progressive render (:mod:`.progressive`: a fresh
+photon batch and camera sample per pass, shrinking radii, running means) to a stopping rule
+(:class:`.stopping.Passes`); ``render_scene`` (every setting a keyword) is one pass of it,
+the single render with S x S stratified samples per pixel.  Both return the three layers
+(direct, caustic, combined) and a summary of every phase; ``blockhash render`` writes them to
+a multi-layer EXR and a tone-mapped PNG.  The default ``method='auto'`` gathers, for the
+conserving estimate, every photon whose own disc covers the shading point (the cover gather,
+in the shader) and for the k-nearest estimates the Block Hashing walk; ``method='bh'`` the
+walk with every estimate; ``method='kdtree'`` the exact k nearest photons from the kd-tree
+shader (the estimate itself in numpy) for comparison; ``method='cpu'`` the CPU reference of
+what ``auto`` picks.
 """
 
 from __future__ import annotations
 
-import time
-import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.frame.caustic import CausticPass, estimate_cpu, estimate_exact
-from blockhash.frame.cover_estimate import cover_gather, estimate_cover_cpu
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.gbuffer import rasterize
-from blockhash.frame.options import LookupOptions, resolve_method
-from blockhash.frame.photon_radius import exact_radii2, own_radii2
+from blockhash.frame.options import LookupOptions
+from blockhash.frame.progressive import NoCausticWarning, Renderer, Schedule  # noqa: F401
 from blockhash.frame.shading import SceneRays, direct_light, shading_points
+from blockhash.frame.stopping import Passes, run_passes
 from blockhash.frame.subpixel import box_filter, raycast_gbuffer
-from blockhash.gl.limits import MAX_K
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.scene.camera import DEFAULT_SPP, SPP_SEED, spp_side
-from blockhash.scene.materials import receiver_materials
 from blockhash.validate import old_keywords
-
-
-class NoCausticWarning(UserWarning):
-    """The scene has no specular object or no photon reached a receiver."""
 
 
 @dataclass
 class RenderResult:
-    """The layers of a render, (h, w, 3) float32 pixel means of ``spp`` samples each."""
+    """The layers of a render, (h, w, 3) float32 pixel means of ``spp`` samples each
+    (``passes`` passes of ``spp / passes``)."""
 
     direct: np.ndarray
     caustic: np.ndarray
@@ -49,6 +44,11 @@ class RenderResult:
     info: dict = field(default_factory=dict)
     index: BlockHashIndex | None = None
     spp: int = 1
+    passes: int = 1
+    #: The conserving estimate's radii of the last pass (a :class:`.progressive.PassRadii`,
+    #: ``radii(index, k)``), to estimate again on ``index`` as the render did; None for the
+    #: k-nearest estimates.
+    radii: object = None
 
     @property
     def samples(self) -> np.ndarray:
@@ -64,18 +64,21 @@ class RenderResult:
 
 
 def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions(),
-           lookup=LookupOptions(), backend=None, progress=False) -> RenderResult:
-    """Render ``scene`` (:func:`blockhash.load_scene`): its direct and caustic layers.
+           lookup=LookupOptions(), backend=None, passes=Passes()) -> RenderResult:
+    """Render ``scene`` (:func:`blockhash.load_scene`) in passes until ``passes`` says stop:
+    its direct and caustic layers.
 
     Parameters
     ----------
     photons : int or CausticPhotons, optional
-        Photons to trace (default: the scene's ``[photons] count``), or photons already
-        traced (``blockhash.photons.tracing.trace_caustic_photons``), to compare lookups
-        on one photon map.
+        Caustic photons stored per pass (default: the scene's ``[photons] count``; every pass
+        after the first emits as many photons as the first did), or photons already traced
+        (``blockhash.photons.tracing.trace_caustic_photons``) for a one-pass render, to
+        compare lookups on one photon map (with the default ``passes``, one pass).
     spp : int, optional
-        Samples per pixel, a square number (default: the scene's ``[camera] spp``, else
-        :data:`blockhash.scene.camera.DEFAULT_SPP`).
+        Samples per pixel per pass, a square number (default: the scene's ``[camera] spp``;
+        else :data:`blockhash.scene.camera.DEFAULT_SPP` in a one-pass render and 1 per pass in
+        a progressive one).
     seed : int, optional
         The photons' seed (default: the scene's ``[photons] seed``).
     estimate : EstimateOptions
@@ -83,14 +86,17 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
     lookup : LookupOptions
         The photon search: method, k, A, shader variant.
     backend : {'auto', 'egl', 'osmesa'}, optional
-    progress : bool
-        Print the photon tracing's progress.
+    passes : Passes
+        The stopping rule (passes, seconds, target error) and the radii's schedule
+        (:mod:`blockhash.frame.stopping`); ``Passes(passes=1)`` is the single render of
+        ``render_scene``.
 
     Returns
     -------
     RenderResult
-        ``direct``, ``caustic``, ``combined`` and ``layers()``, ``timings`` per stage,
-        ``info``, the ``index``, and ``spp``.  The image size is the camera's
+        ``direct``, ``caustic``, ``combined`` and ``layers()``, ``timings`` per stage (summed
+        over passes), ``info`` (passes, photons, estimated error, why it stopped), the last
+        pass's ``index``, ``spp`` and ``passes``.  The image size is the camera's
         (``Scene.with_size`` for another).
     """
     if not isinstance(estimate, EstimateOptions):
@@ -99,11 +105,27 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
     if not isinstance(lookup, LookupOptions):
         raise InputError(f"lookup must be a LookupOptions; got {type(lookup).__name__} "
                          "(e.g. lookup=LookupOptions(method='kdtree', k=50))")
-    count, traced = ((photons, None) if photons is None or isinstance(photons, (int, np.integer))
-                     else (None, photons))
-    return render_scene(scene, photons=count, photon_map=traced, k=lookup.k, A=lookup.A,
-                        method=lookup.method, variant=lookup.variant, seed=seed, backend=backend,
-                        progress=progress, options=estimate, spp=spp)
+    if not isinstance(passes, Passes):
+        raise InputError(f"passes must be a Passes; got {type(passes).__name__} "
+                         "(e.g. passes=Passes(passes=16) or Passes(passes=None, seconds=30))")
+    traced = not (photons is None or isinstance(photons, (int, np.integer)))
+    if traced and passes == Passes():
+        passes = Passes(passes=1)  # a traced map is one pass's photons
+    renderer = Renderer(scene, photons=photons, side=spp_side(per_pass_spp(scene, spp, passes)),
+                        seed=seed, estimate=estimate, lookup=lookup, backend=backend,
+                        schedule=passes.schedule)
+    run_passes(renderer, passes)
+    return renderer.image
+
+
+def per_pass_spp(scene, spp, passes: Passes) -> int:
+    """Samples per pixel per pass: ``spp``, else the scene's ``[camera] spp``, else
+    :data:`DEFAULT_SPP` for one pass and 1 per pass for a progressive render."""
+    if spp is not None:
+        return spp
+    if scene.camera.spp:
+        return scene.camera.spp
+    return DEFAULT_SPP if passes.one_pass else 1
 
 
 #: render_scene's keywords that repeat fields of EstimateOptions.
@@ -113,10 +135,10 @@ _ESTIMATE_KEYWORDS = ("estimate", "filter", "normal_cos", "normal_test", "disc")
 def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant="default",
                  size=None, seed=None, backend=None, progress=False, photon_map=None,
                  options=None, spp=None, **deprecated) -> RenderResult:
-    """Render ``scene`` with every setting a keyword: the form :func:`render` is made
-    from, which also takes an image ``size``.  The keywords ``estimate``, ``filter``,
-    ``normal_cos``, ``normal_test`` and ``disc`` still work and warn
-    (DeprecationWarning): give ``options=EstimateOptions(...)``, or call
+    """One pass of :func:`render` with every setting a keyword (the single render with S x S
+    stratified samples per pixel), which also takes an image ``size``.  The keywords
+    ``estimate``, ``filter``, ``normal_cos``, ``normal_test`` and ``disc`` still work and
+    warn (DeprecationWarning): give ``options=EstimateOptions(...)``, or call
     ``blockhash.render(scene, estimate=EstimateOptions(...))``.
 
     Parameters
@@ -137,11 +159,13 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
         ``EstimateOptions()``).
     spp : int, optional
         Samples per pixel, a square number S * S (default: the scene's ``[camera] spp``,
-        else :data:`blockhash.scene.camera.DEFAULT_SPP`).  1 shades the pixel centres the rasteriser
-        gives; S * S > 1 casts one ray per cell of an S x S stratified, jittered grid in
-        each pixel (a fixed pattern, :data:`blockhash.scene.camera.SPP_SEED`), and every sample gets
-        its own hit, direct light and caustic estimate (one caustic pass over all of
-        them) before the box filter averages them into pixels.
+        else :data:`blockhash.scene.camera.DEFAULT_SPP`).  1 shades the pixel centres the
+        rasteriser gives; S * S > 1 casts one ray per cell of an S x S stratified, jittered
+        grid in each pixel (a fixed pattern, :data:`blockhash.scene.camera.SPP_SEED`), and
+        every sample gets its own hit, direct light and caustic estimate (one caustic pass
+        over all of them) before the box filter averages them into pixels.
+    progress : bool
+        Accepted for compatibility; a one-pass render shows no progress.
     """
     old_keywords("render_scene", deprecated, _ESTIMATE_KEYWORDS,
                  "give options=EstimateOptions(...), or call "
@@ -151,88 +175,12 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
         options = EstimateOptions.of(options, **deprecated)
         if not normal_test:
             options = replace(options, normal_cos=None)
-    LookupOptions(method=method, k=k, A=A, variant=variant)  # checks them, as render's
-    from blockhash.photons.tracing import trace_caustic_photons
-
-    settings = scene.photons
-    k = settings.k if k is None else k
-    A = settings.A if A is None else A
-    method = resolve_method(method, EstimateOptions.of(options).estimate)
-    if method == "bh" and k > MAX_K:  # refused before hours of tracing, not after
-        raise InputError(f"k={k} is above the lookup shader's limit MAX_K={MAX_K}; use k <= "
-                         f"{MAX_K}, or method='cpu' or 'kdtree', or the conserving estimate's "
-                         "cover gather (method='auto'), which has no such limit")
-    options = EstimateOptions.of(options)
-    side = spp_side((scene.camera.spp or DEFAULT_SPP) if spp is None else spp)
-    timings, info = {}, {}
-    info["estimate"] = options.label
-    info["spp"] = side * side
-    t0 = time.perf_counter()
-    if photon_map is None and scene.specular_objects:
-        photon_map = trace_caustic_photons(scene, photons or settings.count,
-                                           seed=settings.seed if seed is None else seed,
-                                           progress=progress)
-    timings["trace"] = time.perf_counter() - t0
-    stored = 0 if photon_map is None else len(photon_map.positions)
-    info["photons_stored"] = stored
-    if photon_map is not None:
-        info["photons_emitted"] = photon_map.emitted
-    index = None
-    if stored >= k:
-        t = time.perf_counter()
-        # The cover gather reads the records in Hilbert order only: the hash tables are built
-        # on first use (a caller's k-nearest query), not here.
-        cover = method in ("cover", "cpu") and options.estimate == "conserving"
-        index = BlockHashIndex(photon_map.positions, k=k, A=A, directions=photon_map.directions,
-                               normals=photon_map.normals, powers=photon_map.powers,
-                               tables=not cover)
-        timings["index"] = time.perf_counter() - t
-        info["index"] = (index.stats.summary() if index.tables_built else
-                         f"photons {len(index):,} in Hilbert order (the cover gather's records; "
-                         "the Block Hashing tables are built on first use)")
-        if options.estimate == "conserving":
-            t = time.perf_counter()
-            (exact_radii2 if method == "kdtree" else own_radii2)(index, k)  # cached for the pass
-            timings["photon radii"] = time.perf_counter() - t
-            if method in ("cover", "cpu"):
-                t = time.perf_counter()
-                cover_gather(index, k)  # cached for the pass
-                timings["cover gather"] = time.perf_counter() - t
-    t = time.perf_counter()
-    rays = SceneRays(scene.objects)
-    points = camera_points(scene, rays, side, size=size, backend=backend)
-    timings["gbuffer"] = time.perf_counter() - t
-    t = time.perf_counter()
-    direct = direct_light(points, scene.objects, scene.lights, rays)
-    timings["direct"] = time.perf_counter() - t
-    caustic = np.zeros_like(direct, dtype=np.float32)
-    if stored == 0:
-        why = ("the scene has no specular object" if not scene.specular_objects
-               else "no caustic photon reached a receiver")
-        warnings.warn(f"rendering direct light only: {why}", NoCausticWarning, stacklevel=2)
-    elif stored < k:
-        raise InputError(f"only {stored} caustic photons were stored, fewer than k={k}; "
-                         "trace more photons (--photons) or lower --k")
-    else:
-        materials = receiver_materials(scene.objects)
-        t = time.perf_counter()
-        if method in ("bh", "cover"):
-            cp = CausticPass(index, backend=backend, gather="cover" if method == "cover" else "knn")
-            caustic = cp.render(points, materials, variant=variant, options=options)
-        elif method == "cpu" and options.estimate == "conserving":
-            caustic = estimate_cover_cpu(cover_gather(index, k), points, materials,
-                                         options).astype(np.float32)
-        elif method == "cpu":
-            caustic = estimate_cpu(index, points, materials, variant=variant,
-                                   options=options).astype(np.float32)
-        else:
-            caustic = estimate_exact(index, points, materials, backend=backend,
-                                     options=options).astype(np.float32)
-        timings["caustic"] = time.perf_counter() - t
-    direct, caustic = points.gather(direct), points.gather(caustic)
-    timings["total"] = time.perf_counter() - t0
-    return RenderResult(direct=box_filter(direct, side), caustic=box_filter(caustic, side),
-                        timings=timings, info=info, index=index, spp=side * side)
+    lookup = LookupOptions(method=method, k=k, A=A, variant=variant)
+    if size is not None:
+        scene = scene.with_size(*size)
+    return render(scene, photons=photons if photon_map is None else photon_map, spp=spp, seed=seed,
+                  estimate=EstimateOptions.of(options), lookup=lookup, backend=backend,
+                  passes=Passes(passes=1))
 
 
 def camera_points(scene, rays: SceneRays, side: int, *, size=None, backend=None,

@@ -83,6 +83,12 @@ def raycast_gbuffer(camera, rays, *, size=None, samples: int = 1, seed: int | No
 
     pin = Pinhole.of(camera, size)
     x, y = subpixel_points(pin.width, pin.height, samples, seed, pixels=pixels)
+    return film_gbuffer(pin, rays, x, y)
+
+
+def film_gbuffer(pin: Pinhole, rays, x: np.ndarray, y: np.ndarray) -> GBuffer:
+    """The G-buffer of the rays through film points ``(x, y)`` (pixels from the top left,
+    any shape), by ray casting."""
     d = pin.film_rays(x, y)
     hit, p, n, obj, _ = rays.first_hit(np.broadcast_to(pin.eye, d.shape).copy(), d)
     flip = np.einsum("ij,ij->i", n, pin.eye - p) < 0
@@ -91,3 +97,26 @@ def raycast_gbuffer(camera, rays, *, size=None, samples: int = 1, seed: int | No
     return GBuffer(position=p.reshape(*shape, 3).astype(np.float32),
                    normal=n.reshape(*shape, 3).astype(np.float32),
                    object=np.where(hit, obj, -1).reshape(shape).astype(np.int32))
+
+
+#: The R2 sequence's steps (Roberts 2018): 1 / g and 1 / g^2 for the plastic number g, the
+#: two-dimensional generalisation of the golden ratio's additive recurrence.
+R2_STEP = (0.7548776662466927, 0.5698402909980532)
+
+
+def pass_offsets(width: int, height: int, pass_index: int, seed: int):
+    """``(u, v)``, (height, width) offsets in [0, 1) of pass ``pass_index``'s one camera
+    sample in each pixel.
+
+    Pixel by pixel the passes run through the R2 sequence ``frac(shift + p * R2_STEP)``,
+    low-discrepancy over the passes (any run of n passes covers the pixel about as evenly as
+    an n-point stratified pattern), under a random shift of each pixel's own (Cranley and
+    Patterson 1976; drawn from ``seed``), so that every sample is uniform in its pixel (the
+    pixel mean stays unbiased) and neighbouring pixels do not share one pattern.
+    """
+    rng = np.random.default_rng(as_int(seed, "seed", minimum=0))
+    shift = rng.random((2, height, width))
+    p = as_int(pass_index, "pass_index", minimum=0)
+    u = np.mod(shift[0] + p * R2_STEP[0], 1.0)
+    v = np.mod(shift[1] + p * R2_STEP[1], 1.0)
+    return u, v

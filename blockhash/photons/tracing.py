@@ -41,17 +41,12 @@ not depend on the batch size.
 
 from __future__ import annotations
 
-import time
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from blockhash.errors import InputError
-from blockhash.photons.emission import Emitter, photon_uniforms
 from blockhash.scene.optics import choice_uniforms, scatter
 from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, reflect, surface_hits
-from blockhash.validate import as_int
 
 #: Default safety cap on emitted photons, as a multiple of the stored target
 #: (with at least DEFAULT_MIN_CAP).  The ring scene stores ~30% of the photons
@@ -292,122 +287,8 @@ def trace_caustic_photons(scene, n_stored_target: int | None = None, *, seed: in
         No lights; ``max_bounces`` < 1; lights with no power toward the mirrors; no
         light reaching any mirror (spot cones miss, occluders, wrong side).
     """
-    t0 = time.perf_counter()
-    name = _scene_name(scene)
-    settings = scene.photons
-    target = as_int(settings.count if n_stored_target is None else n_stored_target,
-                    "n_stored_target", minimum=1)
-    seed = as_int(settings.seed if seed is None else seed, "seed", minimum=0,
-                  maximum=2**128 - 1, hint="use a non-negative integer seed")
-    batch_size = as_int(batch_size, "batch_size", minimum=1)
-    max_bounces = as_int(settings.max_bounces, "photons.max_bounces", minimum=1,
-                         hint=f"{name}: caustic paths need at least one mirror bounce")
-    cap = as_int(max(DEFAULT_CAP_FACTOR * target, DEFAULT_MIN_CAP) if max_emitted is None
-                 else max_emitted, "max_emitted", minimum=1)
+    from blockhash.photons.source import PhotonSource
 
-    lights = tuple(scene.lights)
-    if not lights:
-        raise InputError(f"{name} has no lights; caustic photons need at least one point or "
-                         "spot light: add a [[lights]] entry")
-    specular = tuple(scene.specular_objects)
-    if not specular:
-        return CausticPhotons.empty({
-            "emitted": 0, "hit_specular": 0, "stored": 0, "stopped_by": "no_specular_objects",
-            "reason": f"{name} has no specular (mirror) object, so it has no caustic",
-            "seconds": time.perf_counter() - t0})
-
-    emitter = Emitter(lights, specular)
-    if not emitter.cones:
-        raise InputError(
-            f"{name}: no light reaches a specular object (every spot light's cone misses "
-            f"the mirrors {[o.name for o in specular]}); aim a spot light at a mirror or widen "
-            "its cone_deg")
-    if emitter.total_brightness <= 0.0:
-        raise InputError(f"{name}: the lights that face the mirrors have zero power; "
-                         "give a light a positive power")
-    geom = EmbreeGeometry(tuple(scene.objects))
-
-    fate_counts = np.zeros(len(FATE_NAMES), dtype=np.int64)
-    light_counts = np.zeros(len(lights), dtype=np.int64)
-    chunks: list[_Batch] = []
-    stored = fallbacks = rays = batches = traced = 0
-    start = 0
-    stopped_by = "cap"
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-        bar = tqdm(total=target, unit="photon", desc="caustic photons")
-    try:
-        while start < cap:
-            # size the batch to what is still needed (results do not depend on it)
-            need = target + 1 - stored
-            if stored:
-                guess = int(need * start / stored * OVERSHOOT) + 256
-            else:
-                guess = 4 * need + 1024 if start == 0 else batch_size
-            count = min(batch_size, cap - start, guess)
-            u = photon_uniforms(seed, start, count)
-            origins, dirs, weights, light = emitter.sample(u)
-            batch = trace_batch(geom, origins, dirs, weights, max_bounces, seed=seed, start=start)
-            batches += 1
-            traced += count
-            rays += batch.rays
-            done = len(batch.stored) >= need
-            if done:
-                end = int(batch.stored[need - 1])  # the (target+1)-th photon: not kept
-                batch = batch.cut(end)
-                light = light[:end]
-                count = end
-                stopped_by = "target"
-            fate_counts += np.bincount(batch.fate, minlength=len(FATE_NAMES))
-            light_counts += np.bincount(light, minlength=len(lights))
-            fallbacks += int(batch.fallbacks.sum())
-            chunks.append(batch)
-            stored += len(batch.stored)
-            start += count
-            if bar is not None:
-                bar.update(min(len(batch.stored), target - bar.n))
-            if done:
-                break
-            if stored == 0 and start >= ZERO_STORED_ABORT:
-                break
-    finally:
-        if bar is not None:
-            bar.close()
-    emitted = start
-
-    if stored == 0:
-        raise InputError(
-            f"{name}: no caustic photon stored after {emitted:,} photons shot toward the "
-            f"mirrors {[o.name for o in specular]} (fates: "
-            f"{dict(zip(FATE_NAMES, fate_counts.tolist()))}); the mirrors are not reachable "
-            "from the lights, or nothing diffuse receives their reflection: move the light, "
-            "remove the occluder or add a receiver")
-    if stored < target:
-        warnings.warn(
-            f"{name}: only {stored:,} of n_stored_target={target:,} caustic photons after "
-            f"max_emitted={cap:,} photons; the mirrors catch little of the light. Raise "
-            "max_emitted or lower n_stored_target", TracingWarning, stacklevel=2)
-
-    positions = np.concatenate([c.positions for c in chunks])
-    powers = np.concatenate([c.weights for c in chunks]) / float(emitted)
-    depth = np.concatenate([c.depth for c in chunks])
-    stats = {
-        "emitted": emitted,
-        "hit_specular": int(emitted - fate_counts[[OUTSIDE_SPOT, MISSED, DIRECT]].sum()),
-        **{k: int(v) for k, v in zip(FATE_NAMES, fate_counts)},
-        "max_depth_reached": int(depth.max()),
-        "shading_normal_fallbacks": fallbacks,
-        "emitted_per_light": tuple(int(c) for c in light_counts),
-        "cones": tuple({"light": c.light, "object": c.object_name, "sampled": c.sampled,
-                        "half_angle_deg": float(np.degrees(np.arccos(c.cos_half))),
-                        "solid_angle": c.solid_angle, "pmf": float(p)}
-                       for c, p in zip(emitter.cones, emitter.pmf)),
-        "stopped_by": stopped_by,
-        "traced": traced, "rays_cast": rays, "batches": batches,
-        "seconds": time.perf_counter() - t0,
-    }
-    return CausticPhotons(positions=positions,
-                          directions=np.concatenate([c.directions for c in chunks]),
-                          normals=np.concatenate([c.normals for c in chunks]),
-                          powers=powers, emitted=emitted, stats=stats)
+    source = PhotonSource(scene)
+    return source.until_stored(n_stored_target, seed=seed, batch_size=batch_size,
+                               max_emitted=max_emitted, progress=progress)

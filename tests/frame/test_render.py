@@ -1,5 +1,6 @@
 """End-to-end rendering of the canonical ring scene at test size, against its oracles."""
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -10,6 +11,7 @@ from blockhash.evaluate.imagediff import compare_layers
 from blockhash.evaluate.testing import assert_images_close
 from blockhash.frame.caustic import estimate_exact
 from blockhash.frame.gbuffer import rasterize
+from blockhash.frame.photon_radius import exact_radii2
 from blockhash.frame.pipeline import NoCausticWarning, render_scene
 from blockhash.frame.shading import SceneRays, shading_points
 from blockhash.photons.tracing import trace_caustic_photons
@@ -64,7 +66,7 @@ def test_shader_caustic_equals_the_cpu_reference_estimate(ring, ring_default, ri
     from blockhash.frame.cover_estimate import cover_gather, estimate_cover_cpu
 
     r = ring_default
-    cpu = estimate_cover_cpu(cover_gather(r.index, r.index.params.k), ring_points,
+    cpu = estimate_cover_cpu(cover_gather(r.index, r.index.params.k, r.radii), ring_points,
                              receiver_materials(ring.objects))
     assert r.caustic.max() > 0
     assert_images_close(r.caustic, cpu, max_rel_rms=SAME_ESTIMATE, out_dir=tmp_path)
@@ -74,15 +76,17 @@ def test_shader_caustic_equals_the_cpu_reference_estimate(ring, ring_default, ri
 def test_kdtree_shader_caustic_equals_the_ckdtree_estimate(ring, ring_renders, ring_points, tmp_path):
     index = ring_renders[8].index
     mats = receiver_materials(ring.objects)
-    gpu = estimate_exact(index, ring_points, mats, gpu=True)
-    cpu = estimate_exact(index, ring_points, mats, gpu=False)
+    radii = replace(ring_renders[8].radii, base=exact_radii2)
+    gpu = estimate_exact(index, ring_points, mats, gpu=True, radii=radii)
+    cpu = estimate_exact(index, ring_points, mats, gpu=False, radii=radii)
     assert_images_close(gpu, cpu, max_rel_rms=SAME_ESTIMATE, out_dir=tmp_path)
 
 
 @pytest.mark.slow
 def test_bh_error_against_exact_falls_with_A_and_is_small_at_8(ring, ring_renders, ring_points,
                                                                tmp_path):
-    exact = estimate_exact(ring_renders[8].index, ring_points, receiver_materials(ring.objects), gpu=False)
+    exact = estimate_exact(ring_renders[8].index, ring_points, receiver_materials(ring.objects),
+                           gpu=False, radii=replace(ring_renders[8].radii, base=exact_radii2))
     errors = [compare_layers(ring_renders[A].caustic, exact).metrics["rgb"]["relative_rms"]
               for A in (1, 2, 8)]
     assert errors[0] > errors[1] > errors[2]

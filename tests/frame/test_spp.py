@@ -171,7 +171,7 @@ def test_spp_1_is_the_pixel_centre_render_of_the_rasteriser():
                          scene.objects, rays, (MirrorMaterial,))
     index = BlockHashIndex(pm.positions, k=scene.photons.k, A=scene.photons.A,
                            directions=pm.directions, normals=pm.normals, powers=pm.powers)
-    caustic = CausticPass(index, gather="cover").render(pts, receiver_materials(scene.objects))
+    caustic = CausticPass(index, gather="cover", radii=r.radii).render(pts, receiver_materials(scene.objects))
     np.testing.assert_array_equal(r.caustic, caustic)
     np.testing.assert_array_equal(r.direct, direct_light(pts, scene.objects, scene.lights,
                                                          rays).astype(np.float32))

@@ -1,0 +1,86 @@
+"""The film of a progressive render: running per-pixel means of its passes and the spread
+between them.
+
+Each pass brings pixel means of its own samples: a direct layer and a caustic layer whose
+photons' powers were divided by the photons that pass emitted.  The film keeps
+
+* the direct layer's mean over passes (each pass one equal share of the samples);
+* the caustic layer's mean weighted by each pass's emitted photons: the sum of every pass's
+  unnormalised flux over all photons emitted, as SPPM divides by the photons of every pass
+  (a pass that stores no photon adds its emitted count and nothing else, so the image stays
+  unbiased);
+* the weighted sum of squared deviations of the caustic layer from its running mean, updated
+  by West's incremental algorithm (1979; Welford's, weighted), stable in float64 whatever the
+  count of passes or the scale of the values.
+
+From the last, :attr:`Film.caustic_variance` is the per-pixel variance of the caustic mean and
+:meth:`Film.estimated_error` the layer's relative standard error: the estimate the stopping
+rule ``target_error`` reads.  Only the film grows with a render's length: memory is one
+pass's plus these (h, w, 3) float64 arrays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from blockhash.errors import InputError
+
+
+class Film:
+    """Running means of ``(h, w, 3)`` pass images (module docstring)."""
+
+    def __init__(self, height: int, width: int):
+        shape = (int(height), int(width), 3)
+        self.passes = 0
+        self.direct = np.zeros(shape)
+        self.caustic = np.zeros(shape)
+        self.weight = 0.0      # sum of the passes' weights (photons emitted)
+        self.weight2 = 0.0     # sum of their squares: the effective count of passes
+        self._m2 = np.zeros(shape)
+
+    def add(self, direct: np.ndarray, caustic: np.ndarray, emitted: int) -> None:
+        """One pass's pixel means; ``emitted`` its photons shot (0 when the scene has no
+        specular object, and then every pass weighs the same)."""
+        direct = np.asarray(direct, dtype=np.float64)
+        caustic = np.asarray(caustic, dtype=np.float64)
+        if direct.shape != self.direct.shape or caustic.shape != self.caustic.shape:
+            raise InputError(f"a pass of shape {direct.shape} / {caustic.shape} does not fit the "
+                             f"film's {self.direct.shape}; every pass renders the same image size")
+        if emitted < 0:
+            raise InputError(f"emitted={emitted}: a pass emits a non-negative count of photons")
+        w = float(emitted) if emitted > 0 else 1.0
+        self.passes += 1
+        self.direct += (direct - self.direct) / self.passes
+        self.weight += w
+        self.weight2 += w * w
+        delta = caustic - self.caustic
+        self.caustic += delta * (w / self.weight)
+        self._m2 += w * delta * (caustic - self.caustic)
+
+    @property
+    def effective_passes(self) -> float:
+        """Kish's effective count of passes, (sum w)^2 / sum w^2: the passes when they weigh
+        the same."""
+        return self.weight ** 2 / self.weight2 if self.weight2 else 0.0
+
+    @property
+    def caustic_variance(self) -> np.ndarray:
+        """(h, w, 3) estimated variance of the caustic mean per pixel: the spread of the
+        passes about it over the effective count of passes (inf before two passes)."""
+        n = self.effective_passes
+        if self.passes < 2 or n <= 1:
+            return np.full(self.caustic.shape, np.inf)
+        spread = self._m2 / self.weight * n / (n - 1)  # unbiased for equal weights
+        return spread / n
+
+    def estimated_error(self) -> float:
+        """The caustic layer's relative standard error: sqrt(mean variance of the mean) /
+        sqrt(mean squared mean) over all pixels and channels, the noise part of the relative
+        RMS error against the converged image (``blockhash.studies.measure.rel_rms``).
+        inf before two passes or while the layer is black.  The bias that the passes'
+        radii still leave is not in it."""
+        var = self.caustic_variance
+        scale = float(np.mean(self.caustic ** 2))
+        if not np.isfinite(var).all() or scale <= 0:
+            return float("inf")
+        return float(np.sqrt(np.mean(var) / scale))

@@ -1,0 +1,345 @@
+"""The render as a sequence of passes: stochastic progressive photon mapping.
+
+A :class:`Renderer` builds what does not change once (the photon source with its embree
+geometry and emitter, the camera's rays, the materials; the GL context and its compiled
+programs are shared process-wide by :mod:`blockhash.gl`), then each :meth:`Renderer.step`
+runs one pass:
+
+1. photons: pass 0 shoots until the requested count is stored (exactly the one-pass render);
+   pass p >= 1 shoots as many photons as pass 0 emitted, from photon ``p * PASS_STRIDE`` of
+   the streams (:class:`blockhash.photons.source.PhotonSource`), so passes are independent
+   and reproducible per (seed, pass);
+2. the index of that batch and, for the conserving estimate, the photons' own radii scaled by
+   the pass's shrink (:class:`PassRadii`);
+3. a fresh camera sample per pixel (:func:`camera_samples`): pass 0 the one-pass layout,
+   later passes the R2 sequence under a per-pixel shift (or stratified S x S jitter with a
+   seed of the pass's own);
+4. direct light and the caustic estimate of those samples, box-filtered into pixels and added
+   to the :class:`~.film.Film`.
+
+Radii shrink as Knaus and Zwicker's probabilistic progressive photon mapping (2011): the
+squared radius of pass i (1-based) is ``r_1^2 prod_{j=2..i} (j - 1 + alpha) / j``, so the
+variance of a pass grows as ``i^(1 - alpha)`` while the bias falls as ``r_i^2``, and the mean
+of the passes converges to the unbiased image (MSE about ``N^-(2/3)`` passes at
+``alpha = 2/3``).  Here ``r_1`` is each photon's own radius (its j-th nearest other photon in
+its own pass, :mod:`.photon_radius`), at least ``footprint`` pixel footprints across where
+the camera would see the photon directly: a focus smaller than a pixel is spread over the
+pixel, not point-sampled, and the floor shrinks with the radii.  The k-nearest estimates
+(``paper``, ``unbiased``) take their radius from the k-th neighbour: their passes average
+noise away, their bias stays that of one pass.
+
+Memory is one pass's: a pass's photons, index, gather and GL textures are released before
+the next pass traces (the last pass's index stays on the image for callers that query it).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from blockhash.errors import InputError
+from blockhash.frame.caustic import CausticPass, estimate_cpu, estimate_exact
+from blockhash.frame.cover_estimate import cover_gather, estimate_cover_cpu
+from blockhash.frame.estimate import EstimateOptions
+from blockhash.frame.film import Film
+from blockhash.frame.gbuffer import rasterize
+from blockhash.frame.options import LookupOptions, resolve_method
+from blockhash.frame.photon_radius import exact_radii2, own_radii2
+from blockhash.frame.shading import SceneRays, direct_light, shading_points
+from blockhash.frame.subpixel import box_filter, film_gbuffer, pass_offsets, subpixel_points
+from blockhash.gl.limits import MAX_K
+from blockhash.index.block_hash_index import BlockHashIndex
+from blockhash.index.records.fixedpoint import min_r2
+from blockhash.scene.camera import SPP_SEED, Pinhole
+from blockhash.validate import as_int
+
+#: Knaus and Zwicker's alpha: the share of a pass's photons kept in the next radius.
+DEFAULT_ALPHA = 2.0 / 3.0
+#: The photons' discs at pass 1 are at least this many pixel footprints across where the
+#: camera sees them directly.
+DEFAULT_FOOTPRINT = 1.0
+#: A warning follows this many passes in a row that store no photon.
+EMPTY_PASSES_WARNING = 10
+
+
+class NoCausticWarning(UserWarning):
+    """The scene has no specular object or no photon reached a receiver."""
+
+
+class EmptyPassesWarning(UserWarning):
+    """Many passes in a row stored no caustic photon."""
+
+
+def shrink(pass_index: int, alpha: float) -> float:
+    """The factor on the squared radii of pass ``pass_index`` (0-based):
+    ``prod_{j=2..p+1} (j - 1 + alpha) / j`` (1 for the first pass)."""
+    return math.exp(sum(math.log((j - 1 + alpha) / j) for j in range(2, pass_index + 2)))
+
+
+@dataclass(frozen=True)
+class PassRadii:
+    """The squared radii of one pass of the conserving estimate: ``base(index, k)`` (each
+    photon's own, :mod:`.photon_radius`) at least the squared pixel footprint where the camera
+    sees the photon, ``(footprint * distance * pixel_angle / 2)^2``, both times ``scale``,
+    then at least the map's position error; float32 steps as the shader reads them.  Hashable
+    and holding no index, so the caches keyed by the index let it go with the pass."""
+
+    base: object
+    scale: float = 1.0
+    eye: tuple = (0.0, 0.0, 0.0)
+    pixel_angle: float = 0.0
+    footprint: float = DEFAULT_FOOTPRINT
+
+    def __call__(self, index, k: int) -> np.ndarray:
+        r2 = self.base(index, k)
+        if self.pixel_angle > 0 and self.footprint > 0:
+            d = np.linalg.norm(np.asarray(index.positions, np.float64) - np.asarray(self.eye), axis=1)
+            r2 = np.maximum(r2, (0.5 * self.footprint * self.pixel_angle * d) ** 2)
+        if self.scale == 1.0 and not (self.pixel_angle > 0 and self.footprint > 0):
+            return r2
+        return np.maximum(r2 * self.scale, min_r2(index)).astype(np.float32).astype(np.float64)
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """How a progressive render's passes shrink their radii.
+
+    alpha : float in (0, 1)      Knaus and Zwicker's alpha (module docstring)
+    footprint : float >= 0       photon discs at pass 1 at least this many pixel footprints
+                                 across where the camera sees them directly; 0: no floor
+    """
+
+    alpha: float = DEFAULT_ALPHA
+    footprint: float = DEFAULT_FOOTPRINT
+
+    def __post_init__(self):
+        if not (isinstance(self.alpha, (int, float)) and 0.0 < self.alpha < 1.0):
+            raise InputError(f"alpha={self.alpha!r} is outside (0, 1): the share of a pass's "
+                             f"photons kept in the next radius; use e.g. {DEFAULT_ALPHA:.3g}")
+        if not (isinstance(self.footprint, (int, float)) and 0.0 <= self.footprint < math.inf):
+            raise InputError(f"footprint={self.footprint!r}: the photon discs' floor in pixel "
+                             f"footprints must be a finite number >= 0 (0 turns it off); use "
+                             f"e.g. {DEFAULT_FOOTPRINT}")
+
+
+@dataclass
+class PassStats:
+    """What one :meth:`Renderer.step` did."""
+
+    index: int
+    stored: int
+    emitted: int
+    scale: float
+    timings: dict = field(default_factory=dict)
+
+
+def camera_samples(scene, rays: SceneRays, side: int, pass_index: int, *, backend=None,
+                   both_branches: bool = True):
+    """The shading points of pass ``pass_index`` at ``side`` x ``side`` samples per pixel.
+
+    Pass 0 is the one-pass layout: the rasterised pixel centres for one sample, else
+    stratified jitter under :data:`SPP_SEED`.  Later passes take one sample per pixel from
+    :func:`.subpixel.pass_offsets`, or S x S stratified jitter under a seed of their own.
+    """
+    from blockhash.scene.model import MirrorMaterial
+
+    pin = Pinhole.of(scene.camera)
+    if pass_index == 0 and side == 1:
+        gbuf = rasterize(scene.camera, scene.objects, backend=backend)
+    elif side == 1:
+        u, v = pass_offsets(pin.width, pin.height, pass_index, SPP_SEED)
+        gbuf = film_gbuffer(pin, rays, np.arange(pin.width)[None, :] + u,
+                            np.arange(pin.height)[:, None] + v)
+    else:
+        seed = SPP_SEED if pass_index == 0 else SPP_SEED + 7919 * pass_index
+        gbuf = film_gbuffer(pin, rays, *subpixel_points(pin.width, pin.height, side, seed))
+    return shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,),
+                          both_branches=both_branches)
+
+
+class Renderer:
+    """A progressive render of ``scene``: :meth:`step` runs one pass, :attr:`image` is the
+    image so far (:class:`RenderResult`); see the module docstring.
+
+    ``photons``: caustic photons stored in the first pass (every later pass emits as many as
+    the first did), or a traced map (``CausticPhotons``) for a one-pass render.  ``side``:
+    S for S x S samples per pixel per pass.  The rest as :func:`.pipeline.render`.
+    """
+
+    def __init__(self, scene, *, photons=None, side: int = 1, seed=None,
+                 estimate: EstimateOptions = EstimateOptions(), lookup: LookupOptions = LookupOptions(),
+                 backend=None, schedule: Schedule = Schedule()):
+        from blockhash.photons.source import PhotonSource
+
+        self.scene = scene
+        self.side = as_int(side, "side", minimum=1)
+        settings = scene.photons
+        self.k = settings.k if lookup.k is None else lookup.k
+        self.A = settings.A if lookup.A is None else lookup.A
+        self.variant = lookup.variant
+        self.estimate = estimate
+        self.method = resolve_method(lookup.method, estimate.estimate)
+        if self.method == "bh" and self.k > MAX_K:  # refused before hours of tracing, not after
+            raise InputError(f"k={self.k} is above the lookup shader's limit MAX_K={MAX_K}; use "
+                             f"k <= {MAX_K}, or method='cpu' or 'kdtree', or the conserving "
+                             "estimate's cover gather (method='auto'), which has no such limit")
+        self.backend = backend
+        self.schedule = schedule
+        self.seed = settings.seed if seed is None else seed
+        if photons is None or isinstance(photons, (int, np.integer)):
+            self.count, self.traced = photons or settings.count, None
+        else:
+            self.count, self.traced = None, photons
+        self.rays = SceneRays(scene.objects)
+        self.source = PhotonSource(scene, geometry=self.rays.geometry)
+        from blockhash.scene.materials import receiver_materials
+
+        self.materials = receiver_materials(scene.objects)
+        pin = Pinhole.of(scene.camera)
+        self._eye = tuple(float(x) for x in pin.eye)
+        self._pixel_angle = 2.0 * pin.tan_y / pin.height
+        self.film = Film(pin.height, pin.width)
+        self.timings: dict = {}
+        self.info: dict = {"estimate": estimate.label, "spp": self.side ** 2}
+        self.first_emitted = None
+        self.stored = self.emitted = 0
+        self.empty_run = 0
+        self.index = self.radii = None
+
+    @property
+    def passes(self) -> int:
+        return self.film.passes
+
+    def step(self) -> PassStats:
+        """Run one pass and add it to the film."""
+        p = self.passes
+        self.index = self.radii = None  # the last pass's go before this pass's photons come
+        timings: dict = {}
+        t0 = time.perf_counter()
+        photons = self._photons(p)
+        timings["trace"] = time.perf_counter() - t0
+        stored = len(photons.positions) if photons is not None else 0
+        emitted = photons.emitted if photons is not None else 0
+        scale = shrink(p, self.schedule.alpha)
+        index, radii = self._index(photons, scale, timings)
+        t = time.perf_counter()
+        points = camera_samples(self.scene, self.rays, self.side, p, backend=self.backend)
+        timings["gbuffer"] = time.perf_counter() - t
+        t = time.perf_counter()
+        direct = direct_light(points, self.scene.objects, self.scene.lights, self.rays)
+        timings["direct"] = time.perf_counter() - t
+        caustic = np.zeros_like(direct, dtype=np.float32)
+        if index is not None:
+            t = time.perf_counter()
+            caustic = self._caustic(index, points, radii)
+            timings["caustic"] = time.perf_counter() - t
+        self.film.add(box_filter(points.gather(direct), self.side),
+                      box_filter(points.gather(caustic), self.side), emitted)
+        timings["total"] = time.perf_counter() - t0
+        for name, sec in timings.items():
+            self.timings[name] = self.timings.get(name, 0.0) + sec
+        self.index, self.radii = index, radii
+        self._count(p, stored, emitted)
+        return PassStats(p, stored, emitted, scale, timings)
+
+    def _photons(self, p: int):
+        from blockhash.photons.source import PASS_STRIDE
+
+        if self.traced is not None:
+            if p:
+                raise InputError("a traced photon map (photons=CausticPhotons) is one pass; give "
+                                 "photons=N (photons per pass) to render more passes")
+            return self.traced
+        if self.source.emitter is None:
+            return None
+        if p == 0:
+            photons = self.source.until_stored(self.count, seed=self.seed)
+            self.first_emitted = photons.emitted
+            return photons
+        return self.source.emit(self.first_emitted, seed=self.seed, start=p * PASS_STRIDE)
+
+    def _index(self, photons, scale: float, timings: dict):
+        """The pass's index and the conserving estimate's radii (None, None: no photons)."""
+        stored = 0 if photons is None else len(photons.positions)
+        if stored == 0:
+            return None, None
+        if self.passes == 0 and stored < self.k:
+            raise InputError(f"only {stored} caustic photons were stored, fewer than k={self.k}; "
+                             "trace more photons (--photons) or lower --k")
+        t = time.perf_counter()
+        # The cover gather reads the records in Hilbert order only: the hash tables are built
+        # on first use (a caller's k-nearest query), not here.
+        cover = self.method in ("cover", "cpu") and self.estimate.estimate == "conserving"
+        index = BlockHashIndex(photons.positions, k=self.k, A=self.A,
+                               directions=photons.directions, normals=photons.normals,
+                               powers=photons.powers, tables=not cover)
+        timings["index"] = time.perf_counter() - t
+        if self.passes == 0:
+            self.info["index"] = (
+                index.stats.summary() if index.tables_built else
+                f"photons {len(index):,} in Hilbert order (the cover gather's records; the "
+                "Block Hashing tables are built on first use)")
+        radii = None
+        if self.estimate.estimate == "conserving":
+            base = exact_radii2 if self.method == "kdtree" else own_radii2
+            radii = PassRadii(base, scale, self._eye, self._pixel_angle, self.schedule.footprint)
+            t = time.perf_counter()
+            radii(index, self.k)  # cached for the pass (the base radii per index)
+            timings["photon radii"] = time.perf_counter() - t
+            if self.method in ("cover", "cpu"):
+                t = time.perf_counter()
+                cover_gather(index, self.k, radii)  # cached for the pass
+                timings["cover gather"] = time.perf_counter() - t
+        return index, radii
+
+    def _caustic(self, index, points, radii) -> np.ndarray:
+        options, method = self.estimate, self.method
+        if method in ("bh", "cover"):
+            cp = CausticPass(index, backend=self.backend, radii=radii,
+                             gather="cover" if method == "cover" else "knn")
+            try:
+                return cp.render(points, self.materials, variant=self.variant, options=options)
+            finally:
+                cp.release()
+        if method == "cpu" and options.estimate == "conserving":
+            return estimate_cover_cpu(cover_gather(index, self.k, radii), points, self.materials,
+                                      options).astype(np.float32)
+        if method == "cpu":
+            return estimate_cpu(index, points, self.materials, variant=self.variant,
+                                options=options, radii=radii).astype(np.float32)
+        return estimate_exact(index, points, self.materials, backend=self.backend,
+                              options=options, radii=radii or exact_radii2).astype(np.float32)
+
+    def _count(self, p: int, stored: int, emitted: int) -> None:
+        self.stored += stored
+        self.emitted += emitted
+        if p == 0 and stored == 0:
+            why = ("the scene has no specular object" if not self.scene.specular_objects
+                   else "no caustic photon reached a receiver")
+            warnings.warn(f"rendering direct light only: {why}", NoCausticWarning, stacklevel=3)
+        if self.scene.specular_objects:
+            self.empty_run = self.empty_run + 1 if stored == 0 else 0
+            if self.empty_run == EMPTY_PASSES_WARNING:
+                warnings.warn(
+                    f"{EMPTY_PASSES_WARNING} passes in a row stored no caustic photon (each "
+                    f"emitted {emitted:,}); they count, so the image stays unbiased, but it "
+                    "refines slowly: raise --photons (photons per pass)", EmptyPassesWarning,
+                    stacklevel=3)
+
+    @property
+    def image(self):
+        """The image so far (:class:`.pipeline.RenderResult`, float32 pixel means)."""
+        from blockhash.frame.pipeline import RenderResult
+
+        info = {**self.info, "passes": self.passes, "photons_stored": self.stored,
+                "photons_emitted": self.emitted, "estimated_error": self.film.estimated_error(),
+                "radius_scale": shrink(max(self.passes - 1, 0), self.schedule.alpha)}
+        return RenderResult(direct=self.film.direct.astype(np.float32),
+                            caustic=self.film.caustic.astype(np.float32),
+                            timings=dict(self.timings), info=info, index=self.index,
+                            spp=self.side ** 2 * self.passes, passes=self.passes,
+                            radii=self.radii)

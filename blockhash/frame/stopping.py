@@ -1,0 +1,119 @@
+"""When a progressive render stops: :class:`Passes`, and :func:`run_passes`, the loop.
+
+A render stops at the first of its rules that holds: ``passes`` passes run, ``seconds``
+elapsed, or the caustic layer's estimated relative standard error
+(:meth:`blockhash.frame.film.Film.estimated_error`, from the spread between passes) at most
+``target_error``.  A target is checked from :data:`PROJECT_AFTER` passes on against the pass
+limit: the error of the mean falls about as ``n^(-alpha / 2)`` over n passes (Knaus and
+Zwicker: a pass's variance grows as ``n^(1 - alpha)``), so a target that the projection puts
+beyond ``PROJECTION_MARGIN`` times ``passes`` is refused then, naming the passes it needs,
+rather than run to the limit.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+from blockhash.errors import InputError
+from blockhash.frame.progressive import Schedule
+
+#: Passes of the default render (with one sample per pixel per pass and the scene's photons
+#: per pass): chosen on the ring scene (BENCHMARKS.md, "Progressive render").
+DEFAULT_PASSES = 4
+#: A target error is projected against the pass limit from this many passes on.
+PROJECT_AFTER = 4
+#: A target error whose projected passes exceed the limit by this factor is refused.
+PROJECTION_MARGIN = 2.0
+
+
+@dataclass(frozen=True)
+class Passes:
+    """The stopping rule of a render and its radius schedule (module docstring).
+
+    passes : int >= 1 or None          most passes (None: no limit; then ``seconds`` or
+                                       ``target_error`` must stop the render)
+    seconds : float > 0 or None        stop once this much time has passed (checked after
+                                       each pass)
+    target_error : float > 0 or None   stop once the caustic layer's estimated relative
+                                       standard error is at most this (needs two passes)
+    schedule : Schedule                alpha and the pixel-footprint floor of the radii
+    """
+
+    passes: int | None = DEFAULT_PASSES
+    seconds: float | None = None
+    target_error: float | None = None
+    schedule: Schedule = field(default_factory=Schedule)
+
+    def __post_init__(self):
+        if self.passes is not None and (isinstance(self.passes, bool) or
+                                        not isinstance(self.passes, int) or self.passes < 1):
+            raise InputError(f"passes={self.passes!r}: a render runs at least one pass; give "
+                             "--passes N with N >= 1 (or leave it out to stop by --time or "
+                             "--target-error)")
+        if self.seconds is not None and not (_number(self.seconds) and 0 < self.seconds < math.inf):
+            raise InputError(f"time={self.seconds!r} s: the time limit must be a positive, finite "
+                             "number of seconds; give e.g. --time 30")
+        if self.target_error is not None and not (_number(self.target_error)
+                                                  and 0 < self.target_error < math.inf):
+            raise InputError(f"target_error={self.target_error!r}: the caustic layer's relative "
+                             "standard error to stop at must be > 0; give e.g. --target-error 0.05")
+        if self.passes is None and self.seconds is None and self.target_error is None:
+            raise InputError("a render with no pass limit needs --time or --target-error to stop; "
+                             "give --passes N, --time SECONDS or --target-error E")
+        if self.target_error is not None and self.passes is not None and self.passes < 2:
+            raise InputError(f"--target-error {self.target_error} cannot be reached within "
+                             f"--passes {self.passes}: the error is estimated from the spread "
+                             "between passes, so it needs at least 2; raise --passes or drop it")
+
+    @property
+    def one_pass(self) -> bool:
+        """One pass and no other rule: today's single render."""
+        return self.passes == 1
+
+    def reason(self, renderer, elapsed: float) -> str | None:
+        """Why the render stops now (None: it goes on); InputError for a target that the
+        projection puts out of reach of ``passes``."""
+        n = renderer.passes
+        if self.target_error is not None and n >= 2:
+            err = renderer.film.estimated_error()
+            if err <= self.target_error:
+                return f"estimated error {err:.3g} <= target {self.target_error:g}"
+            if self.passes is not None and n >= PROJECT_AFTER and math.isfinite(err):
+                need = n * (err / self.target_error) ** (2.0 / self.schedule.alpha)
+                if need > PROJECTION_MARGIN * self.passes:
+                    raise TargetOutOfReach(
+                        f"--target-error {self.target_error:g} cannot be reached within "
+                        f"--passes {self.passes}: after {n} passes the estimated error is "
+                        f"{err:.3g}, which needs about {need:,.0f} passes at alpha "
+                        f"{self.schedule.alpha:.3g}; raise --passes, raise the target, or give "
+                        "more --photons per pass")
+        if self.passes is not None and n >= self.passes:
+            return f"{n} pass{'es' if n > 1 else ''}"
+        if self.seconds is not None and elapsed >= self.seconds:
+            return f"time limit {self.seconds:g} s"
+        return None
+
+
+class TargetOutOfReach(InputError):
+    """The target error needs far more passes than the render may run."""
+
+
+def _number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def run_passes(renderer, stop: Passes, *, on_pass=None):
+    """Step ``renderer`` until ``stop`` says so; ``on_pass(renderer, stats, elapsed)`` after
+    every pass.  Returns the reason it stopped (also in ``renderer.info['stopped_by']``)."""
+    t0 = time.perf_counter()
+    while True:
+        stats = renderer.step()
+        elapsed = time.perf_counter() - t0
+        if on_pass is not None:
+            on_pass(renderer, stats, elapsed)
+        why = stop.reason(renderer, elapsed)
+        if why is not None:
+            renderer.info["stopped_by"] = why
+            return why

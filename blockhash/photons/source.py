@@ -1,0 +1,227 @@
+"""A scene's photon source, built once: caustic photons from any stretch of the streams.
+
+:func:`blockhash.photons.tracing.trace_caustic_photons` shoots photons 0, 1, ... until a
+count is stored (one map).  A progressive render (:mod:`blockhash.frame.progressive`) takes
+a fresh batch every pass from one :class:`PhotonSource`: the lights checked, the emitter's
+cones and the embree geometry built once, pass p shooting exactly as many photons as the
+first pass emitted, from photon ``p * PASS_STRIDE`` of the streams (so every pass is
+reproducible on its own and no two passes share a photon).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+
+import numpy as np
+
+from blockhash.errors import InputError
+from blockhash.photons.emission import Emitter, photon_uniforms
+from blockhash.photons.tracing import (
+    DEFAULT_CAP_FACTOR,
+    DEFAULT_MIN_CAP,
+    DIRECT,
+    FATE_NAMES,
+    MISSED,
+    OUTSIDE_SPOT,
+    OVERSHOOT,
+    ZERO_STORED_ABORT,
+    CausticPhotons,
+    TracingWarning,
+    _Batch,
+    _scene_name,
+    trace_batch,
+)
+from blockhash.scene.raycast import EmbreeGeometry
+from blockhash.validate import as_int
+
+#: Photon indices between the streams of consecutive passes of a progressive render
+#: (:meth:`PhotonSource.emit`): pass p shoots photons p * PASS_STRIDE onward.
+PASS_STRIDE = 1 << 44
+
+
+class PhotonSource:
+    """A scene's lights, emitter and embree geometry, checked and built once: caustic
+    photons from any stretch ``start ..`` of the per-photon streams (the module docstring's
+    determinism), so that the passes of a progressive render share one geometry."""
+
+    def __init__(self, scene, *, geometry: EmbreeGeometry | None = None):
+        self.t_built = time.perf_counter()
+        self.scene = scene
+        self.name = name = _scene_name(scene)
+        self.max_bounces = as_int(scene.photons.max_bounces, "photons.max_bounces", minimum=1,
+                                  hint=f"{name}: caustic paths need at least one mirror bounce")
+        self.lights = lights = tuple(scene.lights)
+        if not lights:
+            raise InputError(f"{name} has no lights; caustic photons need at least one point or "
+                             "spot light: add a [[lights]] entry")
+        self.specular = specular = tuple(scene.specular_objects)
+        self.emitter = self.geometry = None
+        if not specular:
+            return
+        emitter = Emitter(lights, specular)
+        if not emitter.cones:
+            raise InputError(
+                f"{name}: no light reaches a specular object (every spot light's cone misses "
+                f"the mirrors {[o.name for o in specular]}); aim a spot light at a mirror or widen "
+                "its cone_deg")
+        if emitter.total_brightness <= 0.0:
+            raise InputError(f"{name}: the lights that face the mirrors have zero power; "
+                             "give a light a positive power")
+        self.emitter = emitter
+        self.geometry = geometry or EmbreeGeometry(tuple(scene.objects))
+
+    def _seed(self, seed):
+        return as_int(self.scene.photons.seed if seed is None else seed, "seed", minimum=0,
+                      maximum=2**128 - 1, hint="use a non-negative integer seed")
+
+    def _no_specular(self, t0) -> CausticPhotons:
+        return CausticPhotons.empty({
+            "emitted": 0, "hit_specular": 0, "stored": 0, "stopped_by": "no_specular_objects",
+            "reason": f"{self.name} has no specular (mirror) object, so it has no caustic",
+            "seconds": time.perf_counter() - t0})
+
+    def until_stored(self, n_stored_target: int | None = None, *, seed: int | None = None,
+                     batch_size: int = 65536, max_emitted: int | None = None,
+                     progress: bool = False) -> CausticPhotons:
+        """Photons 0, 1, ... shot until ``n_stored_target`` are stored
+        (:func:`trace_caustic_photons`, which documents the parameters)."""
+        t0 = time.perf_counter()
+        target = as_int(self.scene.photons.count if n_stored_target is None else n_stored_target,
+                        "n_stored_target", minimum=1)
+        seed = self._seed(seed)
+        batch_size = as_int(batch_size, "batch_size", minimum=1)
+        cap = as_int(max(DEFAULT_CAP_FACTOR * target, DEFAULT_MIN_CAP) if max_emitted is None
+                     else max_emitted, "max_emitted", minimum=1)
+        if self.emitter is None:
+            return self._no_specular(t0)
+        run = self._shoot(seed, 0, target, cap, batch_size, progress)
+        if run.stored == 0:
+            raise InputError(
+                f"{self.name}: no caustic photon stored after {run.emitted:,} photons shot toward "
+                f"the mirrors {[o.name for o in self.specular]} (fates: "
+                f"{dict(zip(FATE_NAMES, run.fates.tolist()))}); the mirrors are not reachable "
+                "from the lights, or nothing diffuse receives their reflection: move the light, "
+                "remove the occluder or add a receiver")
+        if run.stored < target:
+            warnings.warn(
+                f"{self.name}: only {run.stored:,} of n_stored_target={target:,} caustic photons "
+                f"after max_emitted={cap:,} photons; the mirrors catch little of the light. Raise "
+                "max_emitted or lower n_stored_target", TracingWarning, stacklevel=3)
+        return run.photons(self, t0)
+
+    def emit(self, count: int, *, seed: int | None = None, start: int = 0,
+             batch_size: int = 65536) -> CausticPhotons:
+        """Exactly ``count`` photons shot, photons ``start .. start + count - 1`` of the
+        streams, keeping those that are stored (none is an answer, not an error: the pass of
+        a progressive render that catches no caustic still counts its emitted photons)."""
+        t0 = time.perf_counter()
+        count = as_int(count, "count", minimum=1)
+        start = as_int(start, "start", minimum=0)
+        if self.emitter is None:
+            return self._no_specular(t0)
+        run = self._shoot(self._seed(seed), start, None, count, as_int(batch_size, "batch_size",
+                                                                     minimum=1), False)
+        return run.photons(self, t0)
+
+    def _shoot(self, seed, first, target, cap, batch_size, progress) -> "_Run":
+        """Shoot photons ``first`` onward until ``target`` are stored (None: until ``cap``
+        photons are shot) or ``cap`` are shot."""
+        run = _Run(len(self.lights))
+        start = 0
+        bar = None
+        if progress:
+            from tqdm.auto import tqdm
+            bar = tqdm(total=target, unit="photon", desc="caustic photons")
+        try:
+            while start < cap:
+                # size the batch to what is still needed (results do not depend on it)
+                if target is None:
+                    need, guess = cap + 1, batch_size
+                else:
+                    need = target + 1 - run.stored
+                    if run.stored:
+                        guess = int(need * start / run.stored * OVERSHOOT) + 256
+                    else:
+                        guess = 4 * need + 1024 if start == 0 else batch_size
+                count = min(batch_size, cap - start, guess)
+                u = photon_uniforms(seed, first + start, count)
+                origins, dirs, weights, light = self.emitter.sample(u)
+                batch = trace_batch(self.geometry, origins, dirs, weights, self.max_bounces,
+                                    seed=seed, start=first + start)
+                run.batches += 1
+                run.traced += count
+                run.rays += batch.rays
+                done = len(batch.stored) >= need
+                if done:
+                    end = int(batch.stored[need - 1])  # the (target+1)-th photon: not kept
+                    batch = batch.cut(end)
+                    light = light[:end]
+                    count = end
+                    run.stopped_by = "target"
+                run.add(batch, light)
+                start += count
+                if bar is not None:
+                    bar.update(min(len(batch.stored), target - bar.n))
+                if done:
+                    break
+                if target is not None and run.stored == 0 and start >= ZERO_STORED_ABORT:
+                    break
+        finally:
+            if bar is not None:
+                bar.close()
+        if target is None:
+            run.stopped_by = "emitted"
+        run.emitted = start
+        return run
+
+
+class _Run:
+    """The batches of one :meth:`PhotonSource._shoot` and their counters."""
+
+    def __init__(self, lights: int):
+        self.fates = np.zeros(len(FATE_NAMES), dtype=np.int64)
+        self.light_counts = np.zeros(lights, dtype=np.int64)
+        self.chunks: list[_Batch] = []
+        self.stored = self.fallbacks = self.rays = self.batches = self.traced = self.emitted = 0
+        self.stopped_by = "cap"
+
+    def add(self, batch: _Batch, light: np.ndarray) -> None:
+        self.fates += np.bincount(batch.fate, minlength=len(FATE_NAMES))
+        self.light_counts += np.bincount(light, minlength=len(self.light_counts))
+        self.fallbacks += int(batch.fallbacks.sum())
+        self.chunks.append(batch)
+        self.stored += len(batch.stored)
+
+    def photons(self, source: PhotonSource, t0: float) -> CausticPhotons:
+        """The stored photons, powers divided by the photons emitted."""
+        if self.stored == 0:
+            z = np.zeros((0, 3))
+            return CausticPhotons(z, z.copy(), z.copy(), z.copy(), self.emitted,
+                                  self._stats(source, 0, t0))
+        chunks = self.chunks
+        powers = np.concatenate([c.weights for c in chunks]) / float(self.emitted)
+        depth = np.concatenate([c.depth for c in chunks])
+        return CausticPhotons(positions=np.concatenate([c.positions for c in chunks]),
+                              directions=np.concatenate([c.directions for c in chunks]),
+                              normals=np.concatenate([c.normals for c in chunks]),
+                              powers=powers, emitted=self.emitted,
+                              stats=self._stats(source, int(depth.max()), t0))
+
+    def _stats(self, source: PhotonSource, max_depth: int, t0: float) -> dict:
+        fates = self.fates
+        return {
+            "emitted": self.emitted,
+            "hit_specular": int(self.emitted - fates[[OUTSIDE_SPOT, MISSED, DIRECT]].sum()),
+            **{k: int(v) for k, v in zip(FATE_NAMES, fates)},
+            "max_depth_reached": max_depth,
+            "shading_normal_fallbacks": self.fallbacks,
+            "emitted_per_light": tuple(int(c) for c in self.light_counts),
+            "cones": tuple({"light": c.light, "object": c.object_name, "sampled": c.sampled,
+                            "half_angle_deg": float(np.degrees(np.arccos(c.cos_half))),
+                            "solid_angle": c.solid_angle, "pmf": float(p)}
+                           for c, p in zip(source.emitter.cones, source.emitter.pmf)),
+            "stopped_by": self.stopped_by,
+            "traced": self.traced, "rays_cast": self.rays, "batches": self.batches,
+            "seconds": time.perf_counter() - t0,
+        }
