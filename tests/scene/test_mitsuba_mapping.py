@@ -1,0 +1,230 @@
+"""Mitsuba 3 XML as its users write it: each construct is read as Mitsuba reads it (checked
+against the installed mitsuba where there is one) or refused naming file:line, the element
+and the way out."""
+
+import math
+
+import numpy as np
+import pytest
+
+from blockhash.errors import InputError
+from blockhash.reference.mitsuba import mitsuba_available
+from blockhash.scene import mitsuba_sensor
+from blockhash.scene.loader import load_scene
+from blockhash.scene.mitsuba_xml import FLAT_EMITTER_RGB, coordinate_system
+
+needs_mitsuba = pytest.mark.skipif(not mitsuba_available()[0], reason=mitsuba_available()[1])
+LIGHT = '<emitter type="point"><point name="position" x="0" y="2" z="0"/><rgb name="intensity" value="1"/></emitter>'
+FLOOR = ('<shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/><scale value="2"/>'
+         '</transform><bsdf type="diffuse"/></shape>')
+LOOKAT = '<lookat origin="0, 1, 3" target="0, 0, 0" up="0, 1, 0"/>'
+
+
+def xml(*, to_world=LOOKAT, lens='<float name="fov" value="40"/>', sensor="", film="", light=LIGHT,
+        body="", top="", scene='<scene version="3.0.0">'):
+    """The scene text; line 2 the sensor, 4 its to_world, 5 ``sensor``, 6 the film, 8 the
+    light, 10 ``body``."""
+    return "\n".join([scene + top, '<sensor type="perspective">', lens,
+                      f'<transform name="to_world">{to_world}</transform>', sensor,
+                      '<film type="hdrfilm"><integer name="width" value="64"/>'
+                      f'<integer name="height" value="32"/>{film}</film>',
+                      "</sensor>", light, FLOOR, body, "</scene>"]) + "\n"
+
+
+def load(tmp_path, text=None, **kw):
+    p = tmp_path / "s.xml"
+    p.write_text(text if text is not None else xml(**kw))
+    return load_scene(p)
+
+
+def mitsuba_scene(text):
+    from blockhash.reference.mitsuba import load_mitsuba_module
+
+    mi, _ = load_mitsuba_module()
+    return mi, mi.load_string(text)
+
+
+# ----------------------------------------------------------------- mappings
+
+
+@pytest.mark.parametrize("origin, target", [((0, 1, 3), (0, 0, 0)), ((1, 2, 3), (0, 0, 0)),
+                                            ((0, 0.5, 0), (1, 0.5, 0)), ((0, 5, 0), (0, 0, 0.01))])
+def test_a_lookat_without_up_takes_mitsubas_up(tmp_path, origin, target):
+    o, t = ", ".join(map(str, origin)), ", ".join(map(str, target))
+    scene = load(tmp_path, to_world=f'<lookat origin="{o}" target="{t}"/>')
+    d = np.subtract(target, origin) / np.linalg.norm(np.subtract(target, origin))
+    right, up, forward = scene.camera.basis()
+    np.testing.assert_allclose(forward, d, atol=1e-12)
+    s = coordinate_system(d)[0]
+    np.testing.assert_allclose(up, (s - d * (s @ d)) / np.linalg.norm(s - d * (s @ d)), atol=1e-12)
+    if origin == (0, 1, 3):  # read from Mitsuba 3.9.1: the sensor's y axis is +x here
+        np.testing.assert_allclose(up, [1, 0, 0], atol=1e-12)
+
+
+@needs_mitsuba
+@pytest.mark.parametrize("to_world", [
+    '<lookat origin="1, 2, 3" target="0, 0, 0"/>', '<lookat origin="0, 0.5, 0" target="1, 0.5, 0"/>',
+    '<rotate x="1" angle="50"/><rotate y="1" angle="180"/><translate y="3" z="2.6"/>',
+    '<lookat origin="0, 1, 3" target="0, 0, 0" up="1, 1, 0"/>'])
+def test_the_camera_frame_is_mitsubas(tmp_path, to_world):
+    text = xml(to_world=to_world)
+    mi, loaded = mitsuba_scene(text)
+    m = np.array(loaded.sensors()[0].world_transform().matrix, dtype=np.float64).reshape(4, 4)
+    right, up, forward = load(tmp_path, text).camera.basis()
+    np.testing.assert_allclose(np.stack([-right, up, forward], axis=1), m[:3, :3], atol=1e-5)
+
+
+@pytest.mark.parametrize("lens, x_deg", [  # the horizontal fov Mitsuba 3.9.1 reports (x_fov)
+    ('<float name="fov" value="40"/>', 40.0),
+    ('<float name="fov" value="40"/><string name="fov_axis" value="y"/>', 72.10477),
+    ('<float name="fov" value="40"/><string name="fov_axis" value="diagonal"/>', 36.06479),
+    ('<float name="fov" value="40"/><string name="fov_axis" value="smaller"/>', 72.10477),
+    ('<float name="fov" value="40"/><string name="fov_axis" value="larger"/>', 40.0),
+    ('<string name="focal_length" value="50mm"/>', 42.31171),
+    ('<string name="focal_length" value="35"/>', 57.87119),
+    ("", 42.31171)])
+def test_the_field_of_view_is_mitsubas(tmp_path, lens, x_deg):
+    c = load(tmp_path, lens=lens).camera
+    assert math.degrees(2 * math.atan(math.tan(math.radians(c.fov_y_deg) / 2) * 2)) == \
+        pytest.approx(x_deg, abs=1e-4)
+
+
+def test_an_emitter_spectrum_is_a_flat_spectrum_and_a_reflectance_one_grey(tmp_path):
+    light = '<emitter type="point"><point name="position" value="0, 2, 0"/><spectrum name="intensity" value="6"/></emitter>'
+    body = '<shape type="cube"><bsdf type="diffuse"><spectrum name="reflectance" value="0.3"/></bsdf></shape>'
+    scene = load(tmp_path, light=light, body=body)
+    np.testing.assert_allclose(scene.lights[0].power / (4 * math.pi), [7.22876, 5.68975, 5.45350], rtol=1e-5)
+    np.testing.assert_allclose(scene.objects[1].material.kd, 0.3)
+
+
+@needs_mitsuba
+def test_the_flat_emitter_colour_is_mitsubas():
+    mi, _ = mitsuba_scene('<scene version="3.0.0"/>')
+    np.testing.assert_allclose(np.array(mi.xyz_to_srgb(mi.Color3f(1, 1, 1))).ravel(), FLAT_EMITTER_RGB, rtol=1e-6)
+    e = mi.load_string('<emitter version="3.0.0" type="point"><spectrum name="intensity" value="6"/></emitter>')
+    np.testing.assert_allclose(np.array(mi.traverse(e)["intensity.value"]).ravel(), 6 * FLAT_EMITTER_RGB, rtol=1e-5)
+
+
+@pytest.mark.parametrize("kind, n, spp", [("independent", 16, 16), ("stratified", 10, 16),
+                                          ("stratified", 1000, 1024), ("ldsampler", 5, 16),
+                                          ("orthogonal", 8, 9), ("multijitter", 36, 36)])
+def test_sample_count_gives_the_samples_per_pixel(tmp_path, kind, n, spp):
+    s = f'<sampler type="{kind}"><integer name="sample_count" value="{n}"/><integer name="seed" value="2"/></sampler>'
+    assert load(tmp_path, sensor=s).camera.spp == spp
+    assert load(tmp_path).camera.spp is None  # no sampler: blockhash's default
+
+
+@needs_mitsuba
+@pytest.mark.parametrize("kind", ["independent", "stratified", "orthogonal", "ldsampler", "multijitter"])
+def test_each_samplers_rounding_is_mitsubas(kind):
+    mi, _ = mitsuba_scene('<scene version="3.0.0"/>')
+    for n in (1, 2, 4, 5, 9, 10, 16, 17, 36, 50, 64, 100, 1000):
+        s = mi.load_dict({"type": kind, "sample_count": n})
+        ours = mitsuba_sensor.sample_count(kind, n)
+        assert ours is None or ours == s.sample_count(), (kind, n)
+
+
+@pytest.mark.parametrize("depth, body, bounces", [(None, "", 4), (-1, "", 4), (6, "", 4), (9, "", 7),
+                                                  (10, "glass", 8), (13, "glass", 11)])
+def test_max_depth_gives_the_photon_depth(tmp_path, depth, body, bounces):
+    glass = ('<shape type="sphere"><float name="radius" value="0.2"/><bsdf type="dielectric"/></shape>'
+             if body else "")
+    top = f'<integrator type="path"><integer name="max_depth" value="{depth}"/></integrator>' if depth else ""
+    assert load(tmp_path, top=top, body=glass).photons.max_bounces == bounces
+
+
+def test_parameters_clip_planes_flip_normals_and_type_substitution(tmp_path):
+    top = '<default name="kind" value="rectangle"/><default name="w" value="0.5"/>'
+    body = '<shape type="$kind"><boolean name="flip_normals" value="true"/><bsdf type="diffuse"/></shape>'
+    sensor = '<float name="near_clip" value="$w"/><float name="far_clip" value="6"/>'
+    scene = load(tmp_path, top=top, body=body, sensor=sensor)
+    np.testing.assert_allclose(scene.objects[1].mesh.vertex_normals, np.tile([0, 0, -1], (4, 1)))
+
+
+def test_an_exported_files_settings_come_from_its_comment(tmp_path):
+    from blockhash.scene.loader import load_scene as load_any
+    from blockhash.scene.mitsuba_export import export_mitsuba
+
+    scene = load(tmp_path)
+    out = export_mitsuba(scene, tmp_path / "e")
+    assert load_any(out).camera.spp is None and load_any(out).photons.max_bounces == 4
+    out.write_text(out.read_text().replace('value="$spp"', 'value="16"'))
+    with pytest.raises(InputError, match=r"scene.xml:\d+: <integer name=\"sample_count\">: .*edited"):
+        load_any(out)
+
+
+# ----------------------------------------------------------------- refusals
+
+SCALE = '<scale value="2"/>' + LOOKAT
+CASES = [
+    (dict(to_world='<scale x="-1"/>' + LOOKAT), r"s.xml:4: <transform name=\"to_world\">: a mirror flip.*mirror the rendered image"),
+    (dict(to_world=SCALE), r"s.xml:4: <transform name=\"to_world\">: scale or shear.*Mitsuba refuses"),
+    (dict(to_world='<matrix value="1 0.6 0 0  0 0.8 0 0  0 0 1 0  0 0 0 1"/>'), r"s.xml:4: .*scale or shear"),
+    (dict(sensor='<float name="near_clip" value="4.2"/>'), r"s.xml:2: <sensor type=\"perspective\">: near_clip 4.2 may clip.*give near_clip <="),
+    (dict(sensor='<float name="far_clip" value="3"/>'), r"s.xml:2: <sensor .*far_clip 3 clips the scene.*give far_clip >="),
+    (dict(sensor='<float name="near_clip" value="0"/>'), r"s.xml:2: .*near_clip 0 must be > 0"),
+    (dict(sensor='<float name="near_clip" value="5"/><float name="far_clip" value="4"/>'), r"s.xml:2: .*below far_clip"),
+    (dict(light='<emitter type="point"><point name="position" value="0, 2, 0"/><transform name="to_world">'
+                '<translate y="1"/></transform></emitter>'), r"s.xml:8: <emitter type=\"point\">: only one of position and to_world"),
+    (dict(light='<emitter type="point"><spectrum name="intensity" filename="d65.spd"/></emitter>'),
+     r"s.xml:8: <spectrum name=\"intensity\">: a spectrum read from a file.*<rgb"),
+    (dict(light='<emitter type="point"><spectrum name="intensity" value="400:1, 700:1"/></emitter>'), r"s.xml:8: .*wavelength:value"),
+    (dict(top='<integrator type="pathh"/>'), r"s.xml:1: <integrator type=\"pathh\">: unsupported integrator; supported: path, ptracer"),
+    (dict(top='<integrator type="path"><integer name="max_dept" value="3"/></integrator>'), r"s.xml:1: <integer name=\"max_dept\">: unsupported here.*max_depth"),
+    (dict(top='<integrator type="path"><integer name="max_depth" value="3"/></integrator>'), r"s.xml:1: <integrator type=\"path\">: max_depth 3 .*give max_depth -1 or >= 6"),
+    (dict(top='<integrator type="path"><integer name="max_depth" value="-2"/></integrator>'), r"s.xml:1: .*max_depth -2"),
+    (dict(top='<integrator type="path"><float name="max_depth" value="6"/></integrator>'), r"s.xml:1: .*max_depth must be given as integer"),
+    (dict(sensor='<sampler type="independant"/>'), r"s.xml:5: <sampler type=\"independant\">: unsupported sampler; supported: independent"),
+    (dict(sensor='<sampler type="independent"><integer name="sample_count" value="10"/></sampler>'), r"s.xml:5: .*sample_count 10 is not a square.*give 9 or 16"),
+    (dict(sensor='<sampler type="multijitter"><integer name="sample_count" value="10"/></sampler>'), r"s.xml:5: .*sample_count 10 is not a square"),
+    (dict(sensor='<sampler type="orthogonal"><integer name="sample_count" value="1000"/></sampler>'), r"s.xml:5: .*1000 \(orthogonal takes 1369\)"),
+    (dict(sensor='<sampler type="stratified"><boolean name="jitter" value="false"/></sampler>'), r"s.xml:5: .*jitter = false"),
+    (dict(film='<rfilter type="gaussian"/>'), r"s.xml:6: <rfilter type=\"gaussian\">: unsupported reconstruction filter; supported: box"),
+    (dict(film='<rfilter type="gausian"/>'), r"s.xml:6: <rfilter type=\"gausian\">: unsupported reconstruction filter"),
+    (dict(film='<rfilter type="box"><float name="radius" value="1"/></rfilter>'), r"s.xml:6: <float name=\"radius\">: unsupported here"),
+    (dict(film='<integer name="crop_width" value="8"/>'), r"s.xml:6: <integer name=\"crop_width\">: unsupported here"),
+    (dict(film='<string name="pixel_format" value="luminance"/>'), r"s.xml:6: .*pixel_format 'luminance'"),
+    (dict(scene="<scene>"), r"s.xml:1: <scene>: missing version attribute.*version=\"3.0.0\""),
+    (dict(scene='<scene version="0.6.0">'), r"s.xml:1: <scene>: version 0.6.0: a file for Mitsuba 0.x"),
+    (dict(to_world='<lookat origin="0, $h, 3" target="0, 0, 0"/>'), r"s.xml:4: <lookat>: undefined parameter \$h.*<default name=\"h\""),
+    (dict(body='<shape type="$kind"/>'), r"s.xml:10: <shape type=\"\$kind\">: undefined parameter \$kind"),
+    (dict(body='<shape type="sphere"><float name="radius" value="0"/><bsdf type="diffuse"/></shape>'), r"s.xml:10: <shape type=\"sphere\">: radius 0"),
+    (dict(lens='<float name="fov" value="180"/>'), r"s.xml:2: <sensor .*horizontal field of view of 180 degrees"),
+    (dict(lens='<float name="fov" value="40"/><string name="focal_length" value="50mm"/>'), r"s.xml:2: .*either fov or focal_length"),
+    (dict(lens='<float name="fov" value="40"/><string name="fov_axis" value="z"/>'), r"s.xml:2: .*fov_axis 'z'"),
+    (dict(light=""), r"s.xml:1: <scene>: no <emitter>.*add <emitter type=\"point\">"),
+    (dict(body='<shape type="cube"><default name="x" value="1"/></shape>'), r"s.xml:10: <default name=\"x\">: a <default> must sit directly in <scene>"),
+]
+
+
+@pytest.mark.parametrize("kw, match", CASES, ids=[m.split(": ", 2)[-1][:40] for _, m in CASES])
+def test_what_blockhash_cannot_do_as_mitsuba_does_is_refused_by_line(tmp_path, kw, match):
+    with pytest.raises(InputError, match=match):
+        load(tmp_path, **kw)
+
+
+def test_a_scene_with_no_shape_is_refused(tmp_path):
+    text = xml().replace(FLOOR, "")
+    with pytest.raises(InputError, match=r"s.xml:1: <scene>: no <shape>"):
+        load(tmp_path, text)
+
+
+#: The refusals above that are Mitsuba's own (it refuses the same text).
+MITSUBAS = ("scale or shear", "must be > 0", "below far_clip", "only one of position", "pathh",
+            "max_dept\\\"", "max_depth -2", "must be given as integer", "independant", "gausian",
+            "missing version", "undefined parameter", "180 degrees", "either fov")
+
+
+@needs_mitsuba
+@pytest.mark.parametrize("kw, match", [c for c in CASES if any(k in c[1] for k in MITSUBAS)],
+                         ids=lambda v: str(v)[:40])
+def test_mitsuba_refuses_these_too(kw, match):
+    mi, _ = mitsuba_scene('<scene version="3.0.0"/>')
+    with pytest.raises(Exception):
+        mi.load_string(xml(**kw))
+
+
+@needs_mitsuba
+def test_mitsuba_renders_the_flip_that_blockhash_refuses():
+    mi, loaded = mitsuba_scene(xml(to_world=CASES[0][0]["to_world"]))
+    assert np.linalg.det(np.array(loaded.sensors()[0].world_transform().matrix).reshape(4, 4)[:3, :3]) < 0
