@@ -228,3 +228,10 @@ def test_mitsuba_refuses_these_too(kw, match):
 def test_mitsuba_renders_the_flip_that_blockhash_refuses():
     mi, loaded = mitsuba_scene(xml(to_world=CASES[0][0]["to_world"]))
     assert np.linalg.det(np.array(loaded.sensors()[0].world_transform().matrix).reshape(4, 4)[:3, :3]) < 0
+
+
+def test_the_camera_depth_max_depth_is_checked_against_is_the_renderers():
+    from blockhash.frame.shading import MAX_DIELECTRIC_EVENTS, MAX_MIRROR_BOUNCES
+    from blockhash.scene.model import DIELECTRIC_MAX_BOUNCES, MAX_BOUNCES
+
+    assert (MAX_MIRROR_BOUNCES, MAX_DIELECTRIC_EVENTS) == (MAX_BOUNCES, DIELECTRIC_MAX_BOUNCES)
