@@ -1,34 +1,37 @@
-"""Time to equal error: blockhash's default render against Mitsuba 3's particle tracer.
+"""Time to equal error, as curves: blockhash's progressive render against Mitsuba 3's ptracer.
 
-For each scene, with ks = 0 on every modified Phong material (Mitsuba has none):
+For each scene, with ks = 0 on every modified Phong material (Mitsuba has none), at
+``--size``:
 
 1. a long Mitsuba reference of the caustic layer (``ptracer`` less the specular-absorbing
-   render, blockhash/reference/mitsuba.py) at ``--ref-spp`` samples per pixel;
-2. blockhash's default render (``render_scene`` with the scene's settings): its wall time
-   (everything: trace, index, radii, G-buffer, direct light, caustic pass), flux ratio and
-   blurred relative RMS of the caustic layer against the reference, on the light tracer's
-   comparison mask (receivers seen directly);
-3. Mitsuba's ``ptracer`` at 1, 2, 4, ... samples per pixel (an independent seed), the time
-   of both renders the caustic layer needs, until its blurred relative RMS is at most
-   blockhash's; the time at equal error is interpolated log-log between the two spp that
-   bracket it.
+   render, blockhash/reference/mitsuba.py) at ``--ref-spp``, cached in ``--cache``;
+2. blockhash's progressive render (``blockhash.frame.progressive.Renderer`` with the default
+   schedule, ``--photons`` per pass): after every pass its own time (the passes' wall time;
+   the metrics are computed outside it) and the caustic layer's errors against the reference
+   on the light tracer's comparison mask (receivers seen directly; pixels seen through a
+   mirror or glass are left out, since Mitsuba's ptracer cannot reach the camera through a
+   delta surface): per-pixel relative RMS, blurred relative RMS (sigma 2 px), mean FLIP, flux
+   ratio, and the film's estimated relative standard error;
+3. the one-pass render of before (``render_scene``: 9 stratified samples per pixel), for the
+   default stopping rule's comparison;
+4. Mitsuba's ``ptracer`` at 1, 2, 4, ... spp (independent seeds), timed as one render (what
+   a user's render costs) and as the two renders of its caustic isolation, until it reaches
+   blockhash's error at the longest time on every metric (or ``--max-spp``).
 
-The ratio is Mitsuba's time at equal error over blockhash's.  Both run on this machine with
-all its threads (Dr.Jit's LLVM backend and blockhash's numba, embree and llvmpipe).
+At each of ``--times`` the table gives Mitsuba's time to reach blockhash's error there over
+that time (log-log interpolation in the ladder).  The per-pixel metric is taken less the
+reference's own noise: Mitsuba's squared error at s spp is ``a / s + a / S``, ``a`` fitted to
+the ladder, so blockhash's error less the reference's noise is ``sqrt(e^2 - a / S)``, reached
+by Mitsuba at ``a / (e^2 - a / S)`` spp (its time from a line through the ladder).
 
-The reference's own noise is in every error measured against it.  Mitsuba's is noise only
-(it is unbiased), so its squared error at s spp is ``a / s + a / S`` (S the reference's
-spp); ``a`` is fitted to the ladder by least squares.  Then blockhash's error less the
-reference's noise is ``e^2 - a / S``, Mitsuba reaches that at ``s* = a / (e^2 - a / S)``
-spp, and its time there comes from a straight line through the ladder's (spp, seconds).
-The table gives both: the crossing as measured (against the noisy reference) and the one
-with the reference's noise taken out; where blockhash's error is within the reference's
-noise, the latter is a lower bound.
+Also per scene: the power law of the blurred and per-pixel error against passes (fitted from
+pass 2 on), the estimated error beside the measured per-pixel error, and for glass the focus
+checks (the reference's brightest pixel, its 3 x 3 neighbourhood and the caustic flux).
 
-usage: python tools/time_to_error.py [--scenes ring,venus,glass,corner] [--size 512]
-                                     [--ref-spp 1024] [--spp N] [--photons N]
-                                     [--json docs/time-to-error.json]
-       python tools/time_to_error.py --from-json docs/time-to-error.json
+usage: python tools/time_to_error.py [--scenes ring,venus,glass,corner] [--size 256]
+                                     [--times 2,8,32] [--ref-spp 4096] [--photons N]
+                                     [--json docs/time-to-error-256.json]
+       python tools/time_to_error.py --from-json docs/time-to-error-256.json
 """
 
 import argparse
@@ -41,132 +44,211 @@ from pathlib import Path
 import numpy as np
 
 from blockhash.frame.pipeline import render_scene
+from blockhash.frame.progressive import Renderer
 from blockhash.reference.lighttrace import light_trace
 from blockhash.reference.mitsuba import mitsuba_reference, without_specular_lobes
 from blockhash.scene.loader import load_scene
-from blockhash.studies.measure import flux_ratio, masked_blur, rel_rms
+from blockhash.studies.measure import flip_error, flux_ratio, masked_blur, rel_rms
+
+METRICS = ("pixel", "blur", "flip")
 
 
-def blurred(image, truth, mask) -> float:
-    return rel_rms(masked_blur(image, mask), masked_blur(truth, mask), mask)
+def metrics(img, ref, mask) -> dict:
+    return {"pixel": rel_rms(img, ref, mask),
+            "blur": rel_rms(masked_blur(img, mask), masked_blur(ref, mask), mask),
+            "flip": flip_error(img, ref, mask), "flux": flux_ratio(img, ref, mask)}
 
 
-def time_at(errors, times, target):
-    """Log-log interpolated time where the falling ``errors`` reach ``target`` (None when
-    they never do)."""
-    for i in range(1, len(errors)):
-        if errors[i] <= target:
-            e0, e1, t0, t1 = errors[i - 1], errors[i], times[i - 1], times[i]
+def crossing(errs, times, target):
+    """Log-log interpolated time where the falling ``errs`` reach ``target`` (None: never)."""
+    for i in range(1, len(errs)):
+        if errs[i] <= target:
+            e0, e1, t0, t1 = errs[i - 1], errs[i], times[i - 1], times[i]
             if e0 <= target or e0 == e1:
                 return t1
             f = (math.log(e0) - math.log(target)) / (math.log(e0) - math.log(e1))
             return math.exp(math.log(t0) + f * (math.log(t1) - math.log(t0)))
-    return times[0] if errors and errors[0] <= target else None
+    return times[0] if errs and errs[0] <= target else None
 
 
-def analyse(row) -> dict:
-    """Fill ``row``'s crossings (module docstring) from its ladder."""
-    lad = row["mitsuba"]
-    spp = np.array([r["spp"] for r in lad], dtype=np.float64)
-    err2 = np.array([r["rel_rms_blur"] for r in lad]) ** 2
-    secs = np.array([r["seconds"] for r in lad])
-    e = row["blockhash_rel_rms_blur"]
-    t_eq = time_at(list(np.sqrt(err2)), list(secs), e)
-    row["mitsuba_seconds_at_equal_error"] = t_eq
-    row["ratio"] = t_eq / row["blockhash_seconds"] if t_eq is not None else None
-    basis = 1.0 / spp + 1.0 / row["ref_spp"]
-    a = float(np.sum(basis * err2) / np.sum(basis * basis))
-    floor2 = a / row["ref_spp"]
-    row["reference_noise"] = math.sqrt(floor2)
-    true2 = e * e - floor2
-    slope, icept = np.polyfit(spp, secs, 1) if len(spp) > 1 else (secs[0] / spp[0], 0.0)
-    if true2 > 0:
-        s_star = a / true2
-        row["blockhash_error_less_reference_noise"] = math.sqrt(true2)
-        row["mitsuba_spp_at_equal_true_error"] = s_star
-        row["mitsuba_seconds_at_equal_true_error"] = float(icept + slope * s_star)
-        row["ratio_true"] = row["mitsuba_seconds_at_equal_true_error"] / row["blockhash_seconds"]
-    else:
-        s_star = None
-        row["blockhash_error_less_reference_noise"] = 0.0
-        row["mitsuba_spp_at_equal_true_error"] = None
-        row["mitsuba_seconds_at_equal_true_error"] = None
-        row["ratio_true"] = None
-    return row
+def focus(img, ref) -> dict:
+    """The glass focus: blockhash over the reference at the reference's brightest pixel, in
+    the 3 x 3 pixels around it (sums), over the whole image (flux)."""
+    lum_ref = ref.sum(axis=2)
+    r, c = np.unravel_index(np.argmax(lum_ref), lum_ref.shape)
+    win = (slice(max(r - 1, 0), r + 2), slice(max(c - 1, 0), c + 2))
+    lum = img.sum(axis=2)
+    return {"pixel": (int(r), int(c)), "brightest": float(lum.max() / lum_ref.max()),
+            "at_focus": float(lum[r, c] / lum_ref[r, c]),
+            "window_3x3": float(lum[win].sum() / lum_ref[win].sum()),
+            "flux": float(lum.sum() / lum_ref.sum())}
 
 
-def measure(name, size, ref_spp, max_spp, spp=None, photons=None):
+def reference(scene, name, size, spp, cache: Path):
+    path = cache / f"{name}-{size}-{spp}.npy"
+    if path.exists():
+        return np.load(path), None
+    t = time.perf_counter()
+    ref = mitsuba_reference(scene, spp, seed=1, layers=("caustic",)).caustic
+    cache.mkdir(parents=True, exist_ok=True)
+    np.save(path, ref)
+    return ref, time.perf_counter() - t
+
+
+def progressive_curve(scene, ref, mask, until: float, photons, *, focus_checks: bool):
+    """Pass by pass: the render's own time and its errors."""
+    r = Renderer(scene, photons=photons)
+    curve, own = [], 0.0
+    while own < until:
+        t = time.perf_counter()
+        r.step()
+        own += time.perf_counter() - t
+        img = r.film.caustic.astype(np.float32)
+        row = {"passes": r.passes, "seconds": own, "estimated_error": r.film.estimated_error(),
+               **metrics(img, ref, mask)}
+        if focus_checks:
+            row["focus"] = focus(img, ref)
+        curve.append(row)
+        print(f"  pass {r.passes}: {own:.2f} s pixel {row['pixel']:.4f} blur {row['blur']:.4f} "
+              f"flip {row['flip']:.4f} flux {row['flux']:.4f} est {row['estimated_error']:.4f}",
+              flush=True)
+    return curve, dict(r.timings), r.emitted, r.stored
+
+
+def at_time(curve, t):
+    """The last pass that ended by ``t`` (the first pass if none did)."""
+    done = [row for row in curve if row["seconds"] <= t]
+    return done[-1] if done else curve[0]
+
+
+def power_law(xs, ys):
+    """(exponent, prefactor) of ys = c xs^p, least squares in logs."""
+    x, y = np.log(np.asarray(xs, float)), np.log(np.asarray(ys, float))
+    if len(x) < 2:
+        return None, None
+    p, c = np.polyfit(x, y, 1)
+    return float(p), float(math.exp(c))
+
+
+def measure(name, size, ref_spp, times, max_spp, photons, cache):
     scene = without_specular_lobes(load_scene(Path("scenes") / f"{name}.toml")).with_size(size, size)
     mask = light_trace(scene, 1000).comparison_mask(1)
-    t = time.perf_counter()
-    ref = mitsuba_reference(scene, ref_spp, seed=1, layers=("caustic",)).caustic
-    ref_s = time.perf_counter() - t
-    bh = render_scene(scene, spp=spp, photons=photons)
-    bh_s = bh.timings["total"]
-    bh_err = blurred(bh.caustic, ref, mask)
-    row = {"scene": name, "size": size, "ref_spp": ref_spp, "ref_seconds": ref_s, "spp": bh.spp,
-           "photons": bh.info.get("photons_stored"),
-           "blockhash_seconds": bh_s, "blockhash_stages": bh.timings,
-           "blockhash_flux_ratio": flux_ratio(bh.caustic, ref, mask),
-           "blockhash_rel_rms_blur": bh_err, "mitsuba": []}
+    ref, ref_s = reference(scene, name, size, ref_spp, cache)
+    render_scene(scene.with_size(32, 32), photons=20000)  # warm: compiled kernels and programs
+    one = render_scene(scene, photons=photons)
+    row = {"scene": name, "size": size, "ref_spp": ref_spp, "ref_seconds": ref_s,
+           "one_pass": {"seconds": one.timings["total"], "spp": one.spp,
+                        **metrics(one.caustic, ref, mask)}}
+    print(f"{name} {size}: one pass {one.timings['total']:.2f} s blur {row['one_pass']['blur']:.4f}",
+          flush=True)
+    curve, stages, emitted, stored = progressive_curve(scene, ref, mask, max(times) * 1.02, photons,
+                                                       focus_checks=name == "glass")
+    row.update(curve=curve, stages=stages, emitted=emitted, stored=stored)
+    target = {m: at_time(curve, max(times))[m] for m in METRICS}
+    ladder = []
     spp = 1
     while spp <= max_spp:
         m = mitsuba_reference(scene, spp, seed=1000 + spp, layers=("caustic",))
-        row["mitsuba"].append({"spp": spp, "seconds": sum(m.timings.values()),
-                               "rel_rms_blur": blurred(m.caustic, ref, mask),
-                               "flux_ratio": flux_ratio(m.caustic, ref, mask)})
-        print(f"  {name} mitsuba spp {spp}: {row['mitsuba'][-1]['seconds']:.2f} s, blurred rel "
-              f"RMS {row['mitsuba'][-1]['rel_rms_blur']:.4f} (blockhash {bh_err:.4f})", flush=True)
-        if row["mitsuba"][-1]["rel_rms_blur"] <= bh_err:
+        mm = metrics(m.caustic, ref, mask)
+        ladder.append({"spp": spp, "s1": m.timings["caustic (ptracer)"],
+                       "s2": sum(m.timings.values()), **mm})
+        print(f"  mitsuba spp {spp}: {ladder[-1]['s1']:.2f} s pixel {mm['pixel']:.4f} blur "
+              f"{mm['blur']:.4f} flip {mm['flip']:.4f}", flush=True)
+        if all(mm[k] <= target[k] for k in METRICS):
             break
         spp *= 2
-    analyse(row)
-    t_eq = row["mitsuba_seconds_at_equal_error"]
-    print(f"{name}: blockhash {bh_s:.2f} s at blurred rel RMS {bh_err:.4f} (flux "
-          f"{row['blockhash_flux_ratio']:.4f}); mitsuba ptracer "
-          + (f"{t_eq:.2f} s at equal error: ratio {row['ratio']:.2f}x" if t_eq else
-             f"does not reach it by {max_spp} spp"), flush=True)
+    row["ladder"] = ladder
+    return analyse(row, times)
+
+
+def analyse(row, times):
+    lad, curve = row["ladder"], row["curve"]
+    s = np.array([r["spp"] for r in lad], float)
+    e2 = np.array([r["pixel"] for r in lad]) ** 2
+    basis = 1 / s + 1 / row["ref_spp"]
+    a = float((basis * e2).sum() / (basis * basis).sum())
+    row["pixel_ref_noise"] = math.sqrt(a / row["ref_spp"])
+    fit1 = np.polyfit(s, [r["s1"] for r in lad], 1) if len(lad) > 1 else (lad[0]["s1"], 0.0)
+    row["at"] = []
+    for t in times:
+        b = at_time(curve, t)
+        entry = {"time": t, "passes": b["passes"], "seconds": b["seconds"]}
+        for k in METRICS:
+            tt = crossing([r[k] for r in lad], [r["s1"] for r in lad], b[k])
+            entry[k] = b[k]
+            entry[f"ratio_{k}"] = None if tt is None else tt / b["seconds"]
+        true2 = b["pixel"] ** 2 - a / row["ref_spp"]
+        entry["pixel_true"] = math.sqrt(max(true2, 0.0))
+        entry["ratio_pixel_true"] = (float(fit1[1] + fit1[0] * a / true2) / b["seconds"]
+                                     if true2 > 0 else None)
+        row["at"].append(entry)
+    late = [r for r in curve if r["passes"] >= 2]
+    for k in ("blur", "pixel"):
+        row[f"power_law_{k}"] = power_law([r["passes"] for r in late], [r[k] for r in late])[0]
     return row
 
 
-def table(rows) -> str:
-    def f(x, fmt):
+def tables(rows) -> str:
+    def f(x, fmt=".2f"):
         return "-" if x is None else format(x, fmt)
 
-    out = ["| scene | photons | spp | blockhash s | flux | blurred rel RMS (less the reference's noise) | "
-           "reference noise | Mitsuba s at equal error, measured | ratio | Mitsuba spp and s at "
-           "equal error, noise taken out | ratio |", "| --- " * 11 + "|"]
+    out = ["| scene | size | blockhash s | passes | per-pixel rel. RMS less ref. noise (Mitsuba / "
+           "blockhash) | blurred rel. RMS (ratio) | mean FLIP (ratio) |", "| --- " * 7 + "|"]
     for r in rows:
-        out.append(f"| {r['scene']} | {f(r.get('photons'), ',')} | {r.get('spp', '-')} | "
-                   f"{r['blockhash_seconds']:.2f} | "
-                   f"{r['blockhash_flux_ratio']:.3f} | {r['blockhash_rel_rms_blur']:.4f} "
-                   f"({r['blockhash_error_less_reference_noise']:.4f}) | "
-                   f"{r['reference_noise']:.4f} | {f(r['mitsuba_seconds_at_equal_error'], '.2f')} | "
-                   f"{f(r['ratio'], '.2f')}x | {f(r['mitsuba_spp_at_equal_true_error'], '.0f')}, "
-                   f"{f(r['mitsuba_seconds_at_equal_true_error'], '.2f')} | "
-                   f"{f(r['ratio_true'], '.2f')}x |")
+        for e in r["at"]:
+            out.append(f"| {r['scene']} | {r['size']} | {e['time']:g} ({e['seconds']:.1f}) | "
+                       f"{e['passes']} | {e['pixel_true']:.4f} ({f(e['ratio_pixel_true'])}x) | "
+                       f"{e['blur']:.4f} ({f(e['ratio_blur'])}x) | {e['flip']:.4f} "
+                       f"({f(e['ratio_flip'])}x) |")
+    out += ["", "| scene | size | one pass (9 spp): s, blurred rel. RMS | progressive: passes and s "
+            "to reach it | error against passes (blurred, per-pixel), power law | estimated / "
+            "measured per-pixel error at the last pass | reference noise (per pixel) |",
+            "| --- " * 6 + "|"]
+    for r in rows:
+        one = r["one_pass"]
+        reach = next((c for c in r["curve"] if c["blur"] <= one["blur"]), None)
+        last = r["curve"][-1]
+        out.append(f"| {r['scene']} | {r['size']} | {one['seconds']:.2f}, {one['blur']:.4f} | "
+                   + (f"{reach['passes']}, {reach['seconds']:.2f} | " if reach else "not reached | ")
+                   + f"n^{f(r['power_law_blur'], '.2f')}, n^{f(r['power_law_pixel'], '.2f')} | "
+                   f"{last['estimated_error']:.4f} / {last['pixel']:.4f} | {r['pixel_ref_noise']:.4f} |")
+    glass = [r for r in rows if r["scene"] == "glass"]
+    if glass:
+        out += ["", "| glass size | passes | brightest pixel / reference's | at the focus pixel | "
+                "3 x 3 around it (sums) | caustic flux |", "| --- " * 6 + "|"]
+        for r in glass:
+            for c in (r["curve"][0], r["curve"][-1]):
+                fo = c["focus"]
+                out.append(f"| {r['size']} | {c['passes']} | {fo['brightest']:.3f} | "
+                           f"{fo['at_focus']:.3f} | {fo['window_3x3']:.3f} | {fo['flux']:.3f} |")
     return "\n".join(out)
 
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--scenes", default="ring,venus,glass,corner")
-    p.add_argument("--size", type=int, default=512)
-    p.add_argument("--ref-spp", type=int, default=1024)
-    p.add_argument("--max-spp", type=int, default=256, help="the ladder's last spp")
-    p.add_argument("--spp", type=int, help="blockhash's samples per pixel (default: the scene's)")
-    p.add_argument("--photons", type=int, help="blockhash's photons (default: the scene's)")
+    p.add_argument("--size", type=int, default=256)
+    p.add_argument("--times", default=None, help="blockhash times in s (default 2,8,32 at 256 "
+                   "and below, else 8,32,128)")
+    p.add_argument("--ref-spp", type=int, default=4096)
+    p.add_argument("--max-spp", type=int, default=4096, help="the ladder's last spp")
+    p.add_argument("--photons", type=int, help="photons per pass (default: the scene's)")
+    p.add_argument("--cache", default=str(Path.home() / ".cache" / "blockhash" / "references"))
     p.add_argument("--json")
-    p.add_argument("--from-json", help="print the table of an earlier run's JSON (no rendering)")
+    p.add_argument("--from-json", help="print the tables of an earlier run's JSON (no rendering)")
     args = p.parse_args(argv)
+    times = [float(t) for t in (args.times or ("2,8,32" if args.size <= 256 else "8,32,128"))
+             .split(",")]
     if args.from_json:
-        rows = [analyse(r) for r in json.loads(Path(args.from_json).read_text())]
+        rows = json.loads(Path(args.from_json).read_text())
     else:
-        rows = [measure(s, args.size, args.ref_spp, args.max_spp, args.spp, args.photons)
-                for s in args.scenes.split(",")]
-    print(table(rows))
-    if args.json:
-        Path(args.json).write_text(json.dumps(rows, indent=2) + "\n")
+        rows = []
+        for s in args.scenes.split(","):
+            rows.append(measure(s, args.size, args.ref_spp, times, args.max_spp, args.photons,
+                                Path(args.cache)))
+            if args.json:  # after every scene: a long run keeps what it measured
+                Path(args.json).write_text(json.dumps(rows, indent=1, default=float) + "\n")
+    print(tables(rows))
     return 0
 
 

@@ -1,11 +1,14 @@
-"""``blockhash render``: render a scene's direct light and caustics to a multi-layer EXR and a
-PNG; ``--time-budget`` and ``--target-error`` choose the photons, k and A from the scene's trade
-study.
+"""``blockhash render``: render a scene's direct light and caustics in passes to a multi-layer
+EXR and a PNG, until ``--passes``, ``--time`` or ``--target-error`` says stop (a progress bar on
+a terminal, ``--preview-every`` rewriting the PNG, Ctrl-C writing the image so far);
+``--time-budget`` and ``--study-error`` choose the photons, k and A of a one-pass render from
+the scene's trade study.
 """
 
 from __future__ import annotations
 
 import sys
+import time
 import warnings
 from pathlib import Path
 
@@ -18,10 +21,14 @@ from blockhash.gl.context import BACKENDS
 from blockhash.scene.camera import DEFAULT_SPP
 from blockhash.validate import writable_path
 
+#: Exit status after Ctrl-C (128 + SIGINT), the image so far written.
+INTERRUPTED = 130
+
 
 def cmd_render(args) -> int:
-    from blockhash.frame.images import write_exr, write_png
-    from blockhash.frame.pipeline import render_scene
+    from blockhash.frame.options import LookupOptions
+    from blockhash.frame.pipeline import make_renderer
+    from blockhash.frame.stopping import TargetOutOfReach, run_passes
     from blockhash.scene.loader import load_scene
 
     out = Path(args.output or Path(args.scene).with_suffix(".exr").name)
@@ -29,28 +36,126 @@ def cmd_render(args) -> int:
         raise InputError(f"--output {out}: expected a .exr file name (the PNG preview is written "
                          "beside it)")
     writable_path(out, "--output")
+    if args.preview_every is not None and not args.preview_every > 0:
+        raise InputError(f"--preview-every {args.preview_every}: the PNG is rewritten every SECONDS "
+                         "> 0; give e.g. --preview-every 5, or leave it out")
     scene = load_scene(args.scene)
-    if args.time_budget is not None or args.target_error is not None:
+    if args.size:
+        scene = scene.with_size(*args.size)
+    study = args.time_budget is not None or args.study_error is not None
+    if study:
         _choose_settings(args, scene)
+    passes = _stopping_rule(args, one_pass=study)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        result = render_scene(scene, photons=args.photons, k=args.k, A=args.A, method=args.method,
-                              variant=args.variant, size=args.size, seed=args.seed,
-                              backend=args.backend, progress=True, options=options_from(args),
-                              spp=args.spp)
+        renderer, passes = make_renderer(
+            scene, photons=args.photons, spp=args.spp, seed=args.seed,
+            estimate=options_from(args), backend=args.backend, passes=passes,
+            lookup=LookupOptions(method=args.method, k=args.k, A=args.A, variant=args.variant))
+        progress = _Progress(renderer, passes, out, args.preview_every)
+        try:
+            run_passes(renderer, passes, on_pass=progress.update)
+        except KeyboardInterrupt:
+            progress.close()
+            return _stop_early(renderer, out, "interrupted (Ctrl-C)", INTERRUPTED)
+        except TargetOutOfReach as exc:
+            progress.close()
+            return _stop_early(renderer, out, f"error: {exc}", 2)
+        progress.close()
     for w in caught:
         print(f"WARNING: {w.message}", file=sys.stderr)
-    write_exr(out, result.layers(), {"blockhash:spp": result.spp})
-    png = out.with_suffix(".png")
-    write_png(png, result.combined)
+    result = _write(renderer, out)
     info = result.info
-    print(f"scene: {args.scene} -> {out} (+ {png.name})")
-    print(f"photons stored: {info.get('photons_stored', 0):,} of {info.get('photons_emitted', 0):,} emitted")
-    print(f"density estimate: {info.get('estimate')}; {result.spp} samples per pixel")
+    print(f"scene: {args.scene} -> {out} (+ {out.with_suffix('.png').name})")
+    print(f"passes: {result.passes} ({info.get('stopped_by')}); photons stored: "
+          f"{info['photons_stored']:,} of {info['photons_emitted']:,} emitted")
+    err = info["estimated_error"]
+    print(f"density estimate: {info.get('estimate')}; {result.spp} samples per pixel; caustic "
+          f"relative standard error {'n/a (one pass)' if err == float('inf') else f'{err:.3g}'}")
     if "index" in info:
         print(info["index"])
     print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
     return 0
+
+
+def _stopping_rule(args, *, one_pass: bool):
+    """The :class:`Passes` of ``--passes``, ``--time``, ``--target-error``, ``--alpha`` and
+    ``--footprint``: without ``--passes``, a time or target runs passes until it holds, and
+    neither the default rule (a trade-study setting: one pass)."""
+    from blockhash.frame.progressive import Schedule
+    from blockhash.frame.stopping import DEFAULT_PASSES, Passes
+
+    if args.passes is not None:
+        count = args.passes
+    elif args.time is not None or args.target_error is not None:
+        count = None
+    else:
+        count = 1 if one_pass else DEFAULT_PASSES
+    try:
+        schedule = Schedule(alpha=args.alpha, footprint=args.footprint)
+        return Passes(passes=count, seconds=args.time, target_error=args.target_error,
+                      schedule=schedule)
+    except InputError as exc:  # name the flags, as the user wrote them
+        raise InputError(str(exc).replace("passes=", "--passes ").replace("time=", "--time ")
+                         .replace("target_error=", "--target-error ").replace("alpha=", "--alpha ")
+                         .replace("footprint=", "--footprint ")) from None
+
+
+def _write(renderer, out: Path, **attributes):
+    from blockhash.frame.images import write_exr, write_png
+
+    result = renderer.image
+    info = result.info
+    write_exr(out, result.layers(), {
+        "blockhash:spp": result.spp, "blockhash:passes": result.passes,
+        "blockhash:photons_emitted": int(info["photons_emitted"]),
+        "blockhash:estimated_error": float(info["estimated_error"]), **attributes})
+    write_png(out.with_suffix(".png"), result.combined)
+    return result
+
+
+def _stop_early(renderer, out: Path, why: str, code: int) -> int:
+    """Write the image of the passes done (nothing to write before the first) and say so."""
+    if renderer.passes == 0:
+        print(f"blockhash render: {why} before the first pass ended; nothing written",
+              file=sys.stderr)
+        return code
+    _write(renderer, out, **{"blockhash:stopped": why})
+    print(f"blockhash render: {why}; wrote the image of {renderer.passes} "
+          f"pass{'es' if renderer.passes > 1 else ''} to {out} (+ {out.with_suffix('.png').name}; "
+          "its pass count in the EXR's blockhash:passes)", file=sys.stderr)
+    return code
+
+
+class _Progress:
+    """The progress bar (on a terminal: passes, photons, elapsed time, estimated error) and
+    the PNG rewritten every ``preview_every`` seconds."""
+
+    def __init__(self, renderer, passes, out: Path, preview_every):
+        self.out, self.preview_every = out, preview_every
+        self.last_preview = time.perf_counter()
+        self.bar = None
+        if sys.stderr.isatty():
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=passes.passes, unit="pass", desc="render", file=sys.stderr)
+
+    def update(self, renderer, stats, elapsed: float) -> None:
+        if self.bar is not None:
+            err = renderer.film.estimated_error()
+            self.bar.set_postfix_str(f"photons {renderer.stored:,}, error "
+                                     f"{'-' if err == float('inf') else f'{err:.3g}'}")
+            self.bar.update(1)
+        now = time.perf_counter()
+        if self.preview_every is not None and now - self.last_preview >= self.preview_every:
+            from blockhash.frame.images import write_png
+
+            write_png(self.out.with_suffix(".png"), renderer.image.combined)
+            self.last_preview = now
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
 
 
 def _choose_settings(args, scene) -> None:
@@ -62,14 +167,13 @@ def _choose_settings(args, scene) -> None:
     from blockhash.studies.budget import choose, study_for
 
     if args.photons is not None or args.k is not None or args.A is not None:
-        raise InputError("--time-budget / --target-error choose --photons, --k and --A; give "
+        raise InputError("--time-budget / --study-error choose --photons, --k and --A; give "
                          "either those or a budget, not both")
     cache = Path(args.cache) if args.cache else Path.home() / ".cache" / "blockhash"
     study = study_for(scene, cache_dir=cache, study_path=args.tradeoff, backend=args.backend,
                       progress=lambda s: print(s, file=sys.stderr))
-    w, h = args.size or (scene.camera.width, scene.camera.height)
-    choice = choose(study, pixels=w * h, time_budget=args.time_budget,
-                    target_error=args.target_error)
+    choice = choose(study, pixels=scene.camera.width * scene.camera.height,
+                    time_budget=args.time_budget, target_error=args.study_error)
     args.photons, args.k, args.A = choice.photons, choice.k, choice.A
     print(f"settings: photons {choice.photons:,}, k {choice.k}, A {choice.A}: {choice.reason}; "
           f"predicted {choice.predicted_seconds:.2f} s for trace + index + caustic pass, relative "
@@ -79,13 +183,37 @@ def _choose_settings(args, scene) -> None:
 
 def add_render(sub) -> None:
     """Add ``render`` to the subcommands ``sub``."""
+    from blockhash.frame.progressive import DEFAULT_ALPHA, DEFAULT_FOOTPRINT
+    from blockhash.frame.stopping import DEFAULT_PASSES
+
     p = sub.add_parser("render", help="render a scene's direct light and caustics to EXR and PNG",
-                       description="Trace caustic photons, build the Block Hashing index, render "
-                                   "direct light and the caustic pass; write a multi-layer EXR "
-                                   "(direct, caustic, combined) and a tone-mapped PNG.")
+                       description="Render in passes (progressive photon mapping): each pass "
+                                   "traces a fresh batch of caustic photons, indexes them, takes "
+                                   "a fresh camera sample per pixel with its direct light and "
+                                   "caustic estimate, and shrinks the photons' radii; the image "
+                                   "is the running mean.  Writes a multi-layer EXR (direct, "
+                                   "caustic, combined) and a tone-mapped PNG.  Ctrl-C writes the "
+                                   "image so far and exits with status 130.")
     p.add_argument("scene", help="scene file (TOML, or Mitsuba 3 XML), e.g. scenes/ring.toml")
     p.add_argument("-o", "--output", help="EXR path (default: SCENE-NAME.exr here)")
-    p.add_argument("--photons", type=int, help="caustic photons to store (default: the scene's)")
+    p.add_argument("--passes", type=int, metavar="N",
+                   help=f"stop after N passes (default {DEFAULT_PASSES}, or no limit when --time "
+                        "or --target-error is given)")
+    p.add_argument("--time", type=float, metavar="SECONDS",
+                   help="stop after the pass that ends past SECONDS")
+    p.add_argument("--target-error", type=float, metavar="E",
+                   help="stop once the caustic layer's estimated relative standard error (from "
+                        "the spread between passes) is <= E")
+    p.add_argument("--alpha", type=float, default=DEFAULT_ALPHA,
+                   help="share of a pass's photons kept in the next radius, in (0, 1) (Knaus "
+                        f"and Zwicker; default {DEFAULT_ALPHA:.3g})")
+    p.add_argument("--footprint", type=float, default=DEFAULT_FOOTPRINT,
+                   help="photon discs at least this many pixel footprints across where the "
+                        f"camera sees them, at pass 1 (default {DEFAULT_FOOTPRINT:g}; 0: off)")
+    p.add_argument("--preview-every", type=float, metavar="SECONDS",
+                   help="rewrite the PNG every SECONDS as the image refines")
+    p.add_argument("--photons", type=int, help="caustic photons to store per pass (default: the "
+                   "scene's)")
     p.add_argument("--k", type=int, help="photons per estimate (default: the scene's)")
     p.add_argument("--A", type=int, help="accuracy multiplier (default: the scene's)")
     p.add_argument("--method", choices=METHODS, default="auto",
@@ -95,15 +223,17 @@ def add_render(sub) -> None:
                         "reference of what auto picks")
     p.add_argument("--variant", default="default", help="BH shader variant")
     p.add_argument("--size", type=_size, help="image size WIDTHxHEIGHT (default: the camera's)")
-    p.add_argument("--spp", type=int, help="samples per pixel, a square number (stratified "
-                   "jitter, box filter; default: the scene's [camera] spp, else "
-                   f"{DEFAULT_SPP})")
+    p.add_argument("--spp", type=int, help="samples per pixel per pass, a square number "
+                   "(stratified jitter, box filter; default: the scene's [camera] spp, else "
+                   f"{DEFAULT_SPP} with --passes 1 and 1 per pass in more)")
     p.add_argument("--seed", type=int, help="photon seed (default: the scene's)")
     p.add_argument("--backend", choices=BACKENDS, default=None)
     p.add_argument("--time-budget", type=float, metavar="SECONDS",
-                   help="choose photons, k and A from the scene's trade study: least error that fits")
-    p.add_argument("--target-error", type=float, metavar="E",
-                   help="choose the fastest setting whose relative RMS against the reference is <= E")
+                   help="choose photons, k and A of a one-pass render from the scene's trade "
+                        "study: least error that fits")
+    p.add_argument("--study-error", type=float, metavar="E",
+                   help="choose the fastest one-pass setting of the scene's trade study whose "
+                        "relative RMS against the reference is <= E")
     p.add_argument("--tradeoff", help="tradeoff.json to choose from (default: the cached study of "
                    "this scene, else a short calibration run)")
     p.add_argument("--cache", help="cache directory (default ~/.cache/blockhash)")

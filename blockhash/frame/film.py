@@ -49,13 +49,15 @@ class Film:
         if emitted < 0:
             raise InputError(f"emitted={emitted}: a pass emits a non-negative count of photons")
         w = float(emitted) if emitted > 0 else 1.0
-        self.passes += 1
-        self.direct += (direct - self.direct) / self.passes
-        self.weight += w
-        self.weight2 += w * w
+        # New values first, then one assignment: an interrupt (Ctrl-C) leaves the film as it
+        # was before the pass or as it is after it, never half-updated.
+        passes, weight = self.passes + 1, self.weight + w
+        new_direct = self.direct + (direct - self.direct) / passes
         delta = caustic - self.caustic
-        self.caustic += delta * (w / self.weight)
-        self._m2 += w * delta * (caustic - self.caustic)
+        new_caustic = self.caustic + delta * (w / weight)
+        new_m2 = self._m2 + w * delta * (caustic - new_caustic)
+        (self.direct, self.caustic, self._m2, self.weight, self.weight2,
+         self.passes) = new_direct, new_caustic, new_m2, weight, self.weight2 + w * w, passes
 
     @property
     def effective_passes(self) -> float:

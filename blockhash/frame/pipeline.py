@@ -108,14 +108,23 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
     if not isinstance(passes, Passes):
         raise InputError(f"passes must be a Passes; got {type(passes).__name__} "
                          "(e.g. passes=Passes(passes=16) or Passes(passes=None, seconds=30))")
+    renderer, passes = make_renderer(scene, photons=photons, spp=spp, seed=seed,
+                                     estimate=estimate, lookup=lookup, backend=backend,
+                                     passes=passes)
+    run_passes(renderer, passes)
+    return renderer.image
+
+
+def make_renderer(scene, *, photons, spp, seed, estimate, lookup, backend, passes: Passes):
+    """The :class:`.progressive.Renderer` that :func:`render` steps, and its stopping rule
+    (one pass for a traced photon map under the default rule)."""
     traced = not (photons is None or isinstance(photons, (int, np.integer)))
     if traced and passes == Passes():
         passes = Passes(passes=1)  # a traced map is one pass's photons
     renderer = Renderer(scene, photons=photons, side=spp_side(per_pass_spp(scene, spp, passes)),
                         seed=seed, estimate=estimate, lookup=lookup, backend=backend,
                         schedule=passes.schedule)
-    run_passes(renderer, passes)
-    return renderer.image
+    return renderer, passes
 
 
 def per_pass_spp(scene, spp, passes: Passes) -> int:
