@@ -16,7 +16,7 @@ what ``auto`` picks.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -25,42 +25,12 @@ from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.gbuffer import rasterize
 from blockhash.frame.options import LookupOptions
 from blockhash.frame.progressive import NoCausticWarning, Renderer, Schedule  # noqa: F401
+from blockhash.frame.result import RenderResult  # noqa: F401 (importable from here)
 from blockhash.frame.shading import SceneRays, direct_light, shading_points
 from blockhash.frame.stopping import Passes, run_passes
 from blockhash.frame.subpixel import box_filter, raycast_gbuffer
-from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.scene.camera import DEFAULT_SPP, SPP_SEED, spp_side
 from blockhash.validate import old_keywords
-
-
-@dataclass
-class RenderResult:
-    """The layers of a render, (h, w, 3) float32 pixel means of ``spp`` samples each
-    (``passes`` passes of ``spp / passes``)."""
-
-    direct: np.ndarray
-    caustic: np.ndarray
-    timings: dict = field(default_factory=dict)
-    info: dict = field(default_factory=dict)
-    index: BlockHashIndex | None = None
-    spp: int = 1
-    passes: int = 1
-    #: The conserving estimate's radii of the last pass (a :class:`.progressive.PassRadii`,
-    #: ``radii(index, k)``), to estimate again on ``index`` as the render did; None for the
-    #: k-nearest estimates.
-    radii: object = None
-
-    @property
-    def samples(self) -> np.ndarray:
-        """(h, w) int32 samples averaged into each pixel."""
-        return np.full(self.direct.shape[:2], self.spp, dtype=np.int32)
-
-    @property
-    def combined(self) -> np.ndarray:
-        return self.direct + self.caustic
-
-    def layers(self) -> dict:
-        return {"direct": self.direct, "caustic": self.caustic, "combined": self.combined}
 
 
 def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions(),
@@ -145,7 +115,8 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
                  size=None, seed=None, backend=None, progress=False, photon_map=None,
                  options=None, spp=None, **deprecated) -> RenderResult:
     """One pass of :func:`render` with every setting a keyword (the single render with S x S
-    stratified samples per pixel), which also takes an image ``size``.  The keywords
+    stratified samples per pixel, every photon gathered: :data:`ONE_PASS`), which also takes an
+    image ``size``.  The keywords
     ``estimate``, ``filter``, ``normal_cos``, ``normal_test`` and ``disc`` still work and
     warn (DeprecationWarning): give ``options=EstimateOptions(...)``, or call
     ``blockhash.render(scene, estimate=EstimateOptions(...))``.
@@ -189,7 +160,11 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
         scene = scene.with_size(*size)
     return render(scene, photons=photons if photon_map is None else photon_map, spp=spp, seed=seed,
                   estimate=EstimateOptions.of(options), lookup=lookup, backend=backend,
-                  passes=Passes(passes=1))
+                  passes=ONE_PASS)
+
+
+#: The single render of before the passes: one pass, every photon gathered (no pixel splat).
+ONE_PASS = Passes(passes=1, schedule=Schedule(footprint=0.0))
 
 
 def camera_points(scene, rays: SceneRays, side: int, *, size=None, backend=None,

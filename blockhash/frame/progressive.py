@@ -7,7 +7,7 @@ runs one pass:
 
 1. photons: pass 0 shoots until the requested count is stored (exactly the one-pass render);
    pass p >= 1 shoots as many photons as pass 0 emitted, from photon ``p * PASS_STRIDE`` of
-   the streams (:class:`blockhash.photons.source.PhotonSource`), so passes are independent
+   the streams (:class:`blockhash.photons.tracing.PhotonSource`), so passes are independent
    and reproducible per (seed, pass);
 2. the index of that batch and, for the conserving estimate, the photons' own radii scaled by
    the pass's shrink (:class:`PassRadii`);
@@ -22,9 +22,11 @@ squared radius of pass i (1-based) is ``r_1^2 prod_{j=2..i} (j - 1 + alpha) / j`
 variance of a pass grows as ``i^(1 - alpha)`` while the bias falls as ``r_i^2``, and the mean
 of the passes converges to the unbiased image (MSE about ``N^-(2/3)`` passes at
 ``alpha = 2/3``).  Here ``r_1`` is each photon's own radius (its j-th nearest other photon in
-its own pass, :mod:`.photon_radius`), at least ``footprint`` pixel footprints across where
-the camera would see the photon directly: a focus smaller than a pixel is spread over the
-pixel, not point-sampled, and the floor shrinks with the radii.  The k-nearest estimates
+its own pass, :mod:`.photon_radius`).  A photon whose disc is under ``footprint`` pixel
+footprints across (the bound shrinking with the radii) and that the camera sees directly is
+splatted into its pixel instead (:mod:`.pixel_splat`): a focus smaller than a pixel gives the
+pixel's mean, not a point sample of it (the cover gather and its CPU reference; the other
+searches gather every photon).  The k-nearest estimates
 (``paper``, ``unbiased``) take their radius from the k-th neighbour: their passes average
 noise away, their bias stays that of one pass.
 
@@ -49,6 +51,7 @@ from blockhash.frame.film import Film
 from blockhash.frame.gbuffer import rasterize
 from blockhash.frame.options import LookupOptions, resolve_method
 from blockhash.frame.photon_radius import exact_radii2, own_radii2
+from blockhash.frame.result import RenderResult
 from blockhash.frame.shading import SceneRays, direct_light, shading_points
 from blockhash.frame.subpixel import box_filter, film_gbuffer, pass_offsets, subpixel_points
 from blockhash.gl.limits import MAX_K
@@ -59,8 +62,9 @@ from blockhash.validate import as_int
 
 #: Knaus and Zwicker's alpha: the share of a pass's photons kept in the next radius.
 DEFAULT_ALPHA = 2.0 / 3.0
-#: The photons' discs at pass 1 are at least this many pixel footprints across where the
-#: camera sees them directly.
+#: Photons whose discs are under this many pixel footprints across (at pass 1; the bound
+#: shrinks with the radii) and that the camera sees directly are splatted into their pixel
+#: (:mod:`.pixel_splat`).
 DEFAULT_FOOTPRINT = 1.0
 #: A warning follows this many passes in a row that store no photon.
 EMPTY_PASSES_WARNING = 10
@@ -83,25 +87,33 @@ def shrink(pass_index: int, alpha: float) -> float:
 @dataclass(frozen=True)
 class PassRadii:
     """The squared radii of one pass of the conserving estimate: ``base(index, k)`` (each
-    photon's own, :mod:`.photon_radius`) at least the squared pixel footprint where the camera
-    sees the photon, ``(footprint * distance * pixel_angle / 2)^2``, both times ``scale``,
-    then at least the map's position error; float32 steps as the shader reads them.  Hashable
-    and holding no index, so the caches keyed by the index let it go with the pass."""
+    photon's own, :mod:`.photon_radius`) times ``scale``, at least the map's position error;
+    float32 steps as the shader reads them.  Hashable and holding no index, so the caches
+    keyed by the index let it go with the pass."""
 
     base: object
     scale: float = 1.0
-    eye: tuple = (0.0, 0.0, 0.0)
-    pixel_angle: float = 0.0
-    footprint: float = DEFAULT_FOOTPRINT
 
     def __call__(self, index, k: int) -> np.ndarray:
         r2 = self.base(index, k)
-        if self.pixel_angle > 0 and self.footprint > 0:
-            d = np.linalg.norm(np.asarray(index.positions, np.float64) - np.asarray(self.eye), axis=1)
-            r2 = np.maximum(r2, (0.5 * self.footprint * self.pixel_angle * d) ** 2)
-        if self.scale == 1.0 and not (self.pixel_angle > 0 and self.footprint > 0):
+        if self.scale == 1.0:
             return r2
         return np.maximum(r2 * self.scale, min_r2(index)).astype(np.float32).astype(np.float64)
+
+
+@dataclass(eq=False)
+class FixedRadii:
+    """Squared radii computed before (on the pass's whole map, for the photons the gather
+    keeps after the pixel splat took the rest): ``r2`` whatever the index.  Hashed by
+    identity: one per pass."""
+
+    r2: np.ndarray
+
+    def __call__(self, index, k: int) -> np.ndarray:
+        if len(index) != len(self.r2):
+            raise InputError(f"these radii belong to a map of {len(self.r2):,} photons, not "
+                             f"{len(index):,}; estimate on the render's own index")
+        return self.r2
 
 
 @dataclass(frozen=True)
@@ -109,8 +121,9 @@ class Schedule:
     """How a progressive render's passes shrink their radii.
 
     alpha : float in (0, 1)      Knaus and Zwicker's alpha (module docstring)
-    footprint : float >= 0       photon discs at pass 1 at least this many pixel footprints
-                                 across where the camera sees them directly; 0: no floor
+    footprint : float >= 0       photons whose discs are under this many pixel footprints
+                                 across where the camera sees them directly are splatted
+                                 into their pixel (:mod:`.pixel_splat`); 0: none is
     """
 
     alpha: float = DEFAULT_ALPHA
@@ -163,7 +176,7 @@ def camera_samples(scene, rays: SceneRays, side: int, pass_index: int, *, backen
 
 class Renderer:
     """A progressive render of ``scene``: :meth:`step` runs one pass, :attr:`image` is the
-    image so far (:class:`RenderResult`); see the module docstring.
+    image so far (:class:`.result.RenderResult`); see the module docstring.
 
     ``photons``: caustic photons stored in the first pass (every later pass emits as many as
     the first did), or a traced map (``CausticPhotons``) for a one-pass render.  ``side``:
@@ -173,7 +186,7 @@ class Renderer:
     def __init__(self, scene, *, photons=None, side: int = 1, seed=None,
                  estimate: EstimateOptions = EstimateOptions(), lookup: LookupOptions = LookupOptions(),
                  backend=None, schedule: Schedule = Schedule()):
-        from blockhash.photons.source import PhotonSource
+        from blockhash.photons.tracing import PhotonSource
 
         self.scene = scene
         self.side = as_int(side, "side", minimum=1)
@@ -200,8 +213,7 @@ class Renderer:
 
         self.materials = receiver_materials(scene.objects)
         pin = Pinhole.of(scene.camera)
-        self._eye = tuple(float(x) for x in pin.eye)
-        self._pixel_angle = 2.0 * pin.tan_y / pin.height
+        self.pin = pin
         self.film = Film(pin.height, pin.width)
         self.timings: dict = {}
         self.info: dict = {"estimate": estimate.label, "spp": self.side ** 2}
@@ -225,7 +237,7 @@ class Renderer:
         stored = len(photons.positions) if photons is not None else 0
         emitted = photons.emitted if photons is not None else 0
         scale = shrink(p, self.schedule.alpha)
-        index, radii = self._index(photons, scale, timings)
+        index, radii, splat = self._index(photons, scale, timings)
         t = time.perf_counter()
         points = camera_samples(self.scene, self.rays, self.side, p, backend=self.backend)
         timings["gbuffer"] = time.perf_counter() - t
@@ -237,8 +249,10 @@ class Renderer:
             t = time.perf_counter()
             caustic = self._caustic(index, points, radii)
             timings["caustic"] = time.perf_counter() - t
-        self.film.add(box_filter(points.gather(direct), self.side),
-                      box_filter(points.gather(caustic), self.side), emitted)
+        caustic = box_filter(points.gather(caustic), self.side)
+        if splat is not None:
+            caustic = caustic + splat
+        self.film.add(box_filter(points.gather(direct), self.side), caustic, emitted)
         timings["total"] = time.perf_counter() - t0
         for name, sec in timings.items():
             self.timings[name] = self.timings.get(name, 0.0) + sec
@@ -247,7 +261,7 @@ class Renderer:
         return PassStats(p, stored, emitted, scale, timings)
 
     def _photons(self, p: int):
-        from blockhash.photons.source import PASS_STRIDE
+        from blockhash.photons.tracing import PASS_STRIDE
 
         if self.traced is not None:
             if p:
@@ -266,7 +280,7 @@ class Renderer:
         """The pass's index and the conserving estimate's radii (None, None: no photons)."""
         stored = 0 if photons is None else len(photons.positions)
         if stored == 0:
-            return None, None
+            return None, None, None
         if self.passes == 0 and stored < self.k:
             raise InputError(f"only {stored} caustic photons were stored, fewer than k={self.k}; "
                              "trace more photons (--photons) or lower --k")
@@ -283,18 +297,41 @@ class Renderer:
                 index.stats.summary() if index.tables_built else
                 f"photons {len(index):,} in Hilbert order (the cover gather's records; the "
                 "Block Hashing tables are built on first use)")
-        radii = None
+        radii = splat = None
         if self.estimate.estimate == "conserving":
             base = exact_radii2 if self.method == "kdtree" else own_radii2
-            radii = PassRadii(base, scale, self._eye, self._pixel_angle, self.schedule.footprint)
+            radii = PassRadii(base, scale)
             t = time.perf_counter()
-            radii(index, self.k)  # cached for the pass (the base radii per index)
+            r2 = radii(index, self.k)  # cached for the pass (the base radii per index)
             timings["photon radii"] = time.perf_counter() - t
-            if self.method in ("cover", "cpu"):
+            if self.schedule.footprint > 0 and self.method in ("cover", "cpu"):
+                t = time.perf_counter()
+                index, radii, splat = self._split(photons, index, r2, scale, timings)
+                timings["pixel splat"] = time.perf_counter() - t
+            if self.method in ("cover", "cpu") and index is not None:
                 t = time.perf_counter()
                 cover_gather(index, self.k, radii)  # cached for the pass
                 timings["cover gather"] = time.perf_counter() - t
-        return index, radii
+        return index, radii, splat
+
+    def _split(self, photons, index, r2, scale, timings):
+        """The pixel splat of the photons whose discs are under ``footprint`` pixel footprints
+        (:mod:`.pixel_splat`), and the index and radii of the rest."""
+        from blockhash.frame.pixel_splat import splat_subpixel
+
+        image, keep = splat_subpixel(photons, r2, self.pin, self.rays, self.materials,
+                                     footprint=self.schedule.footprint * math.sqrt(scale))
+        if keep.all():
+            return index, FixedRadii(r2), None
+        rest = np.flatnonzero(keep)
+        if not rest.size:  # every photon splatted: nothing left to gather
+            return None, None, image
+        t = time.perf_counter()
+        index = BlockHashIndex(photons.positions[rest], k=self.k, A=self.A,
+                               directions=photons.directions[rest], normals=photons.normals[rest],
+                               powers=photons.powers[rest], tables=False)
+        timings["index"] += time.perf_counter() - t
+        return index, FixedRadii(r2[rest]), image
 
     def _caustic(self, index, points, radii) -> np.ndarray:
         options, method = self.estimate, self.method
@@ -332,9 +369,7 @@ class Renderer:
 
     @property
     def image(self):
-        """The image so far (:class:`.pipeline.RenderResult`, float32 pixel means)."""
-        from blockhash.frame.pipeline import RenderResult
-
+        """The image so far (:class:`.result.RenderResult`, float32 pixel means)."""
         info = {**self.info, "passes": self.passes, "photons_stored": self.stored,
                 "photons_emitted": self.emitted, "estimated_error": self.film.estimated_error(),
                 "radius_scale": shrink(max(self.passes - 1, 0), self.schedule.alpha)}

@@ -7,7 +7,8 @@ elapsed, or the caustic layer's estimated relative standard error
 limit: the error of the mean falls about as ``n^(-alpha / 2)`` over n passes (Knaus and
 Zwicker: a pass's variance grows as ``n^(1 - alpha)``), so a target that the projection puts
 beyond ``PROJECTION_MARGIN`` times ``passes`` is refused then, naming the passes it needs,
-rather than run to the limit.
+rather than run to the limit; a target still unmet at the limit is refused there.  (The
+command line writes the image so far in both cases.)
 """
 
 from __future__ import annotations
@@ -73,16 +74,17 @@ class Passes:
         return self.passes == 1
 
     def reason(self, renderer, elapsed: float) -> str | None:
-        """Why the render stops now (None: it goes on); InputError for a target that the
-        projection puts out of reach of ``passes``."""
+        """Why the render stops now (None: it goes on); :class:`TargetOutOfReach` for a
+        target not met at the pass limit, or that the projection puts out of its reach."""
         n = renderer.passes
         if self.target_error is not None and n >= 2:
             err = renderer.film.estimated_error()
             if err <= self.target_error:
                 return f"estimated error {err:.3g} <= target {self.target_error:g}"
-            if self.passes is not None and n >= PROJECT_AFTER and math.isfinite(err):
-                need = n * (err / self.target_error) ** (2.0 / self.schedule.alpha)
-                if need > PROJECTION_MARGIN * self.passes:
+            if self.passes is not None and (n >= self.passes or n >= PROJECT_AFTER):
+                need = (n * (err / self.target_error) ** (2.0 / self.schedule.alpha)
+                        if math.isfinite(err) else math.inf)
+                if n >= self.passes or need > PROJECTION_MARGIN * self.passes:
                     raise TargetOutOfReach(
                         f"--target-error {self.target_error:g} cannot be reached within "
                         f"--passes {self.passes}: after {n} passes the estimated error is "

@@ -41,12 +41,29 @@ not depend on the batch size.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import time
+import warnings
 
 import numpy as np
 
-from blockhash.scene.optics import choice_uniforms, scatter
-from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, reflect, surface_hits
+from blockhash.errors import InputError
+from blockhash.photons.emission import Emitter, photon_uniforms
+from blockhash.photons.paths import (  # noqa: F401 (the map and its fates, importable from here)
+    ABSORBED,
+    DIRECT,
+    ESCAPED,
+    FATE_NAMES,
+    MAX_BOUNCES,
+    MISSED,
+    OUTSIDE_SPOT,
+    RAY_OFFSET,
+    STORED,
+    Batch,
+    CausticPhotons,
+    trace_batch,
+)
+from blockhash.scene.raycast import EmbreeGeometry
+from blockhash.validate import as_int
 
 #: Default safety cap on emitted photons, as a multiple of the stored target
 #: (with at least DEFAULT_MIN_CAP).  The ring scene stores ~30% of the photons
@@ -58,196 +75,14 @@ ZERO_STORED_ABORT = 1_000_000
 #: Batches are sized from the fraction stored so far, with this margin, so that the
 #: photons traced past the target (discarded) stay few.
 OVERSHOOT = 1.1
-# Photon fates (per emitted photon); index into FATE_NAMES.
-STORED, OUTSIDE_SPOT, MISSED, DIRECT, ESCAPED, ABSORBED, MAX_BOUNCES = range(7)
-FATE_NAMES = ("stored", "outside_spot_cone", "missed", "direct_diffuse", "escaped",
-              "absorbed", "exceeded_max_bounces")
-
 
 class TracingWarning(UserWarning):
     """Fewer caustic photons than asked for: the safety cap on emitted photons was reached."""
 
 
-@dataclass(frozen=True)
-class CausticPhotons:
-    """The caustic photon map: photons stored at their first diffuse hit after >= 1 mirror.
-
-    Attributes
-    ----------
-    positions : (n, 3) float64
-        Hit points on the receiving (non-specular) surface, in scene units.
-    directions : (n, 3) float64
-        Unit direction of travel when the photon arrives (pointing *into* the surface).
-    normals : (n, 3) float64
-        Unit shading normal of the receiver at the hit (barycentric interpolation of
-        the mesh's ``vertex_normals``), flipped together with the geometric normal so
-        that it lies on the side the photon came from: ``dot(geometric normal,
-        direction) < 0``, and ``dot(normals, directions) < 0`` except where smooth
-        shading normals lean past a grazing photon.
-    powers : (n, 3) float64
-        Flux carried by each photon, watts RGB; ``powers.sum(0)`` estimates the
-        caustic flux reaching diffuse surfaces.
-    emitted : int
-        Photons shot toward the specular objects (including those that were dropped).
-    stats : dict
-        Counters: ``emitted``, ``hit_specular`` (first hit a mirror), ``stored`` and the
-        fates of the rest (``outside_spot_cone``, ``missed``, ``direct_diffuse``,
-        ``escaped``, ``absorbed``, ``exceeded_max_bounces``), ``max_depth_reached``
-        (most mirror bounces of a stored photon), ``shading_normal_fallbacks``,
-        ``emitted_per_light``, ``cones``, ``stopped_by`` (``'target'``, ``'cap'``
-        or ``'no_specular_objects'``), and performance counters that do depend on
-        the batch size (``traced`` incl. the discarded overshoot, ``rays_cast``,
-        ``batches``, ``seconds``).
-    """
-
-    positions: np.ndarray
-    directions: np.ndarray
-    normals: np.ndarray
-    powers: np.ndarray
-    emitted: int
-    stats: dict = field(default_factory=dict)
-
-    def __len__(self) -> int:
-        return int(self.positions.shape[0])
-
-    @property
-    def total_power(self) -> np.ndarray:
-        """(3,) float64: the flux of all stored photons, watts RGB."""
-        return self.powers.sum(axis=0)
-
-    @classmethod
-    def empty(cls, stats: dict | None = None) -> "CausticPhotons":
-        z = np.zeros((0, 3), dtype=np.float64)
-        return cls(z, z.copy(), z.copy(), z.copy(), 0, dict(stats or {}))
-
-    def __repr__(self) -> str:
-        flux = ", ".join(f"{p:.4g}" for p in self.total_power)
-        return (f"CausticPhotons(n={len(self):,}, emitted={self.emitted:,}, "
-                f"flux=({flux}) W, stopped_by={self.stats.get('stopped_by')!r})")
-
-
-# --------------------------------------------------------------------------- numpy helpers
-
 def _scene_name(scene) -> str:
     path = getattr(scene, "path", None)
     return f"scene {str(path)!r}" if path else "scene (built in code, no path)"
-
-
-# --------------------------------------------------------------------------- tracing
-
-@dataclass
-class _Batch:
-    fate: np.ndarray        # (n,) int8
-    fallbacks: np.ndarray   # (n,) uint16 shading-normal fallbacks per photon
-    stored: np.ndarray      # (m,) local indices of stored photons, increasing
-    positions: np.ndarray
-    directions: np.ndarray
-    normals: np.ndarray
-    weights: np.ndarray
-    depth: np.ndarray       # (m,) mirror bounces
-    rays: int
-    objects: np.ndarray     # (m,) receiving object (index into the scene's objects)
-    geo_normals: np.ndarray  # (m, 3) geometric normals, on the side the photon came from
-
-    def cut(self, end: int) -> "_Batch":
-        """Keep photons with local index < end."""
-        keep = self.stored < end
-        return _Batch(self.fate[:end], self.fallbacks[:end], self.stored[keep],
-                      self.positions[keep], self.directions[keep], self.normals[keep],
-                      self.weights[keep], self.depth[keep], self.rays, self.objects[keep],
-                      self.geo_normals[keep])
-
-
-def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int, *,
-                seed: int = 0, start: int = 0) -> _Batch:
-    """Follow a batch of photons through mirrors and glass to their first diffuse hit
-    (vectorised).
-
-    Shared by the photon map (:func:`trace_caustic_photons`) and the light tracer
-    (:mod:`blockhash.reference.lighttrace`); ``weights`` are not yet divided by the photons emitted.  At a
-    dielectric a photon reflects or refracts with the Fresnel probabilities
-    (:func:`blockhash.scene.optics.scatter`), drawing its choices from :func:`blockhash.scene.optics.choice_uniforms` of
-    ``seed`` for photon ``start + i``, so a photon's path does not depend on the batch.
-    """
-    n = len(origins)
-    fate = np.full(n, -1, dtype=np.int8)
-    fallbacks = np.zeros(n, dtype=np.uint16)
-    zero = ~np.any(weights > 0.0, axis=1)
-    fate[zero] = OUTSIDE_SPOT
-    idx = np.flatnonzero(~zero)
-    o, d, w = origins[idx], dirs[idx], weights[idx]
-    choices = choice_uniforms(seed, start, n) if geom.is_dielectric.any() else None
-    events = np.zeros(n, dtype=np.int64)  # dielectric events so far, per photon
-    parts = []
-    rays = 0
-    offset = RAY_OFFSET * geom.scale
-    # Start at the offset along the ray, as after a bounce: a light lying on a surface (a
-    # lamp on the floor) would otherwise hit that surface at t = 0 with every photon.
-    o = o + d * offset
-    for bounce in range(max_bounces + 1):
-        if idx.size == 0:
-            break
-        rays += idx.size
-        hit, face, u, v = geom.intersect(o, d)
-        fate[idx[~hit]] = MISSED if bounce == 0 else ESCAPED
-        idx, d, w = idx[hit], d[hit], w[hit]
-        spec = geom.is_specular[geom.face_object[face]]
-        diffuse = ~spec
-        if bounce == 0:
-            fate[idx[diffuse]] = DIRECT  # direct light: the renderer's shadow rays do it
-        elif diffuse.any():
-            fate[idx[diffuse]] = STORED
-            p, ns, ng = surface_hits(geom, face[diffuse], u[diffuse], v[diffuse], d[diffuse])
-            parts.append((idx[diffuse], p, d[diffuse], ns, w[diffuse],
-                          np.full(len(p), bounce, dtype=np.uint8),
-                          geom.face_object[face[diffuse]], ng))
-        if bounce == max_bounces:
-            fate[idx[spec]] = MAX_BOUNCES
-            break
-        idx, d, w, face = idx[spec], d[spec], w[spec], face[spec]
-        p, ns, ng = surface_hits(geom, face, u[spec], v[spec], d)
-        obj = geom.face_object[face]
-        glass = geom.is_dielectric[obj]
-        r = np.empty_like(d)
-        side = np.ones(len(d))  # +1: leave on the incoming side, -1: pass through
-        mirror = ~glass
-        if mirror.any():
-            w[mirror] = w[mirror] * geom.reflectance[obj[mirror]]
-            rm = reflect(d[mirror], ns[mirror])
-            under = np.einsum("ij,ij->i", rm, ng[mirror]) <= 0.0  # shading normal sent it in
-            if under.any():
-                mi = np.flatnonzero(mirror)[under]
-                rm[under] = reflect(d[mi], ng[mi])
-                fallbacks[idx[mi]] += 1
-            r[mirror] = rm / np.sqrt(np.einsum("ij,ij->i", rm, rm))[:, None]
-        if glass.any():
-            gi = np.flatnonzero(glass)
-            pid = idx[gi]
-            uc = choices[pid, events[pid] % choices.shape[1]]
-            events[pid] += 1
-            og = obj[gi]
-            r[gi], through, factor = scatter(d[gi], ns[gi], ng[gi], entering(geom, face[gi], d[gi]),
-                                             geom.ior[og], geom.tint[og], uc)
-            w[gi] = w[gi] * factor
-            side[gi[through]] = -1.0
-        dead = ~np.any(w > 0.0, axis=1)
-        if dead.any():
-            fate[idx[dead]] = ABSORBED
-            live = ~dead
-            idx, r, w, p, ng, side = idx[live], r[live], w[live], p[live], ng[live], side[live]
-        d = r
-        o = p + ng * (side * offset)[:, None]
-
-    if parts:
-        cat = [np.concatenate(a) for a in zip(*parts)]
-        order = np.argsort(cat[0], kind="stable")
-        s_idx, s_p, s_d, s_n, s_w, s_depth, s_obj, s_ng = (a[order] for a in cat)
-    else:
-        s_idx = np.zeros(0, dtype=np.int64)
-        s_p = s_d = s_n = s_w = s_ng = np.zeros((0, 3))
-        s_depth = np.zeros(0, dtype=np.uint8)
-        s_obj = np.zeros(0, dtype=np.int64)
-    return _Batch(fate, fallbacks, s_idx, s_p, s_d, s_n, s_w, s_depth, rays, s_obj, s_ng)
 
 
 def trace_caustic_photons(scene, n_stored_target: int | None = None, *, seed: int | None = None,
@@ -287,8 +122,199 @@ def trace_caustic_photons(scene, n_stored_target: int | None = None, *, seed: in
         No lights; ``max_bounces`` < 1; lights with no power toward the mirrors; no
         light reaching any mirror (spot cones miss, occluders, wrong side).
     """
-    from blockhash.photons.source import PhotonSource
-
     source = PhotonSource(scene)
     return source.until_stored(n_stored_target, seed=seed, batch_size=batch_size,
                                max_emitted=max_emitted, progress=progress)
+
+
+#: Photon indices between the streams of consecutive passes of a progressive render
+#: (:meth:`PhotonSource.emit`): pass p shoots photons p * PASS_STRIDE onward.
+PASS_STRIDE = 1 << 44
+
+
+class PhotonSource:
+    """A scene's lights, emitter and embree geometry, checked and built once: caustic
+    photons from any stretch ``start ..`` of the per-photon streams (the module docstring's
+    determinism), so that the passes of a progressive render share one geometry."""
+
+    def __init__(self, scene, *, geometry: EmbreeGeometry | None = None):
+        self.t_built = time.perf_counter()
+        self.scene = scene
+        self.name = name = _scene_name(scene)
+        self.max_bounces = as_int(scene.photons.max_bounces, "photons.max_bounces", minimum=1,
+                                  hint=f"{name}: caustic paths need at least one mirror bounce")
+        self.lights = lights = tuple(scene.lights)
+        if not lights:
+            raise InputError(f"{name} has no lights; caustic photons need at least one point or "
+                             "spot light: add a [[lights]] entry")
+        self.specular = specular = tuple(scene.specular_objects)
+        self.emitter = self.geometry = None
+        if not specular:
+            return
+        emitter = Emitter(lights, specular)
+        if not emitter.cones:
+            raise InputError(
+                f"{name}: no light reaches a specular object (every spot light's cone misses "
+                f"the mirrors {[o.name for o in specular]}); aim a spot light at a mirror or widen "
+                "its cone_deg")
+        if emitter.total_brightness <= 0.0:
+            raise InputError(f"{name}: the lights that face the mirrors have zero power; "
+                             "give a light a positive power")
+        self.emitter = emitter
+        self.geometry = geometry or EmbreeGeometry(tuple(scene.objects))
+
+    def _seed(self, seed):
+        return as_int(self.scene.photons.seed if seed is None else seed, "seed", minimum=0,
+                      maximum=2**128 - 1, hint="use a non-negative integer seed")
+
+    def _no_specular(self, t0) -> CausticPhotons:
+        return CausticPhotons.empty({
+            "emitted": 0, "hit_specular": 0, "stored": 0, "stopped_by": "no_specular_objects",
+            "reason": f"{self.name} has no specular (mirror) object, so it has no caustic",
+            "seconds": time.perf_counter() - t0})
+
+    def until_stored(self, n_stored_target: int | None = None, *, seed: int | None = None,
+                     batch_size: int = 65536, max_emitted: int | None = None,
+                     progress: bool = False) -> CausticPhotons:
+        """Photons 0, 1, ... shot until ``n_stored_target`` are stored
+        (:func:`trace_caustic_photons`, which documents the parameters)."""
+        t0 = time.perf_counter()
+        target = as_int(self.scene.photons.count if n_stored_target is None else n_stored_target,
+                        "n_stored_target", minimum=1)
+        seed = self._seed(seed)
+        batch_size = as_int(batch_size, "batch_size", minimum=1)
+        cap = as_int(max(DEFAULT_CAP_FACTOR * target, DEFAULT_MIN_CAP) if max_emitted is None
+                     else max_emitted, "max_emitted", minimum=1)
+        if self.emitter is None:
+            return self._no_specular(t0)
+        run = self._shoot(seed, 0, target, cap, batch_size, progress)
+        if run.stored == 0:
+            raise InputError(
+                f"{self.name}: no caustic photon stored after {run.emitted:,} photons shot toward "
+                f"the mirrors {[o.name for o in self.specular]} (fates: "
+                f"{dict(zip(FATE_NAMES, run.fates.tolist()))}); the mirrors are not reachable "
+                "from the lights, or nothing diffuse receives their reflection: move the light, "
+                "remove the occluder or add a receiver")
+        if run.stored < target:
+            warnings.warn(
+                f"{self.name}: only {run.stored:,} of n_stored_target={target:,} caustic photons "
+                f"after max_emitted={cap:,} photons; the mirrors catch little of the light. Raise "
+                "max_emitted or lower n_stored_target", TracingWarning, stacklevel=3)
+        return run.photons(self, t0)
+
+    def emit(self, count: int, *, seed: int | None = None, start: int = 0,
+             batch_size: int = 65536) -> CausticPhotons:
+        """Exactly ``count`` photons shot, photons ``start .. start + count - 1`` of the
+        streams, keeping those that are stored (none is an answer, not an error: the pass of
+        a progressive render that catches no caustic still counts its emitted photons)."""
+        t0 = time.perf_counter()
+        count = as_int(count, "count", minimum=1)
+        start = as_int(start, "start", minimum=0)
+        if self.emitter is None:
+            return self._no_specular(t0)
+        run = self._shoot(self._seed(seed), start, None, count, as_int(batch_size, "batch_size",
+                                                                     minimum=1), False)
+        return run.photons(self, t0)
+
+    def _shoot(self, seed, first, target, cap, batch_size, progress) -> "_Run":
+        """Shoot photons ``first`` onward until ``target`` are stored (None: until ``cap``
+        photons are shot) or ``cap`` are shot."""
+        run = _Run(len(self.lights))
+        start = 0
+        bar = None
+        if progress:
+            from tqdm.auto import tqdm
+            bar = tqdm(total=target, unit="photon", desc="caustic photons")
+        try:
+            while start < cap:
+                # size the batch to what is still needed (results do not depend on it)
+                if target is None:
+                    need, guess = cap + 1, batch_size
+                else:
+                    need = target + 1 - run.stored
+                    if run.stored:
+                        guess = int(need * start / run.stored * OVERSHOOT) + 256
+                    else:
+                        guess = 4 * need + 1024 if start == 0 else batch_size
+                count = min(batch_size, cap - start, guess)
+                u = photon_uniforms(seed, first + start, count)
+                origins, dirs, weights, light = self.emitter.sample(u)
+                batch = trace_batch(self.geometry, origins, dirs, weights, self.max_bounces,
+                                    seed=seed, start=first + start)
+                run.batches += 1
+                run.traced += count
+                run.rays += batch.rays
+                done = len(batch.stored) >= need
+                if done:
+                    end = int(batch.stored[need - 1])  # the (target+1)-th photon: not kept
+                    batch = batch.cut(end)
+                    light = light[:end]
+                    count = end
+                    run.stopped_by = "target"
+                run.add(batch, light)
+                start += count
+                if bar is not None:
+                    bar.update(min(len(batch.stored), target - bar.n))
+                if done:
+                    break
+                if target is not None and run.stored == 0 and start >= ZERO_STORED_ABORT:
+                    break
+        finally:
+            if bar is not None:
+                bar.close()
+        if target is None:
+            run.stopped_by = "emitted"
+        run.emitted = start
+        return run
+
+
+class _Run:
+    """The batches of one :meth:`PhotonSource._shoot` and their counters."""
+
+    def __init__(self, lights: int):
+        self.fates = np.zeros(len(FATE_NAMES), dtype=np.int64)
+        self.light_counts = np.zeros(lights, dtype=np.int64)
+        self.chunks: list[Batch] = []
+        self.stored = self.fallbacks = self.rays = self.batches = self.traced = self.emitted = 0
+        self.stopped_by = "cap"
+
+    def add(self, batch: Batch, light: np.ndarray) -> None:
+        self.fates += np.bincount(batch.fate, minlength=len(FATE_NAMES))
+        self.light_counts += np.bincount(light, minlength=len(self.light_counts))
+        self.fallbacks += int(batch.fallbacks.sum())
+        self.chunks.append(batch)
+        self.stored += len(batch.stored)
+
+    def photons(self, source: PhotonSource, t0: float) -> CausticPhotons:
+        """The stored photons, powers divided by the photons emitted."""
+        if self.stored == 0:
+            z = np.zeros((0, 3))
+            return CausticPhotons(z, z.copy(), z.copy(), z.copy(), self.emitted,
+                                  self._stats(source, 0, t0))
+        chunks = self.chunks
+        powers = np.concatenate([c.weights for c in chunks]) / float(self.emitted)
+        depth = np.concatenate([c.depth for c in chunks])
+        return CausticPhotons(positions=np.concatenate([c.positions for c in chunks]),
+                              directions=np.concatenate([c.directions for c in chunks]),
+                              normals=np.concatenate([c.normals for c in chunks]),
+                              powers=powers, emitted=self.emitted,
+                              stats=self._stats(source, int(depth.max()), t0),
+                              objects=np.concatenate([c.objects for c in chunks]).astype(np.int64))
+
+    def _stats(self, source: PhotonSource, max_depth: int, t0: float) -> dict:
+        fates = self.fates
+        return {
+            "emitted": self.emitted,
+            "hit_specular": int(self.emitted - fates[[OUTSIDE_SPOT, MISSED, DIRECT]].sum()),
+            **{k: int(v) for k, v in zip(FATE_NAMES, fates)},
+            "max_depth_reached": max_depth,
+            "shading_normal_fallbacks": self.fallbacks,
+            "emitted_per_light": tuple(int(c) for c in self.light_counts),
+            "cones": tuple({"light": c.light, "object": c.object_name, "sampled": c.sampled,
+                            "half_angle_deg": float(np.degrees(np.arccos(c.cos_half))),
+                            "solid_angle": c.solid_angle, "pmf": float(p)}
+                           for c, p in zip(source.emitter.cones, source.emitter.pmf)),
+            "stopped_by": self.stopped_by,
+            "traced": self.traced, "rays_cast": self.rays, "batches": self.batches,
+            "seconds": time.perf_counter() - t0,
+        }

@@ -9,7 +9,7 @@ measured against it:
    same cone sampling and counter-based Philox streams, photon ``i`` of a seed has
    the same numbers whatever the batch size) and bounce off perfect mirrors and through
    glass (the same Fresnel choices) to their first diffuse hit
-   (:func:`blockhash.photons.tracing.trace_batch`); only paths L S+ D are kept.
+   (:func:`blockhash.photons.paths.trace_batch`); only paths L S+ D are kept.
    Unlike the map, a fixed number ``M`` of photons is shot, so each carries
    ``Phi_i = w_i / M`` (``w_i`` the emission weight times the mirror reflectances).
 2. Every such hit ``x`` is connected to the pinhole at ``e``: the camera must lie on
@@ -70,7 +70,7 @@ from blockhash.code_version import source_digest
 from blockhash.errors import InputError
 from blockhash.frame.shading import SceneRays
 from blockhash.photons.emission import Emitter, photon_uniforms
-from blockhash.photons.tracing import trace_batch
+from blockhash.photons.paths import trace_batch
 from blockhash.scene.camera import Pinhole
 from blockhash.scene.materials import material_arrays, phong_brdf, receiver_materials
 from blockhash.scene.raycast import EmbreeGeometry

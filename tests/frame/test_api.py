@@ -10,7 +10,7 @@ import pytest
 import blockhash
 from blockhash import EstimateOptions, InputError, LookupOptions
 from blockhash.frame.pipeline import render_scene
-from blockhash.frame.stopping import Passes
+from blockhash.frame.pipeline import ONE_PASS
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -26,7 +26,7 @@ def ring():
 def test_render_gives_the_layers_of_render_scene(ring):
     est = EstimateOptions(filter="none")
     new = blockhash.render(ring, photons=20_000, spp=1, seed=3, estimate=est,
-                           lookup=LookupOptions(k=20, A=4), passes=Passes(passes=1))
+                           lookup=LookupOptions(k=20, A=4), passes=ONE_PASS)
     old = render_scene(ring, photons=20_000, spp=1, seed=3, options=est, k=20, A=4)
     assert new.caustic.shape == (24, 24, 3) and new.caustic.sum() > 0
     np.testing.assert_array_equal(new.caustic, old.caustic)

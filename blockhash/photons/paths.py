@@ -1,0 +1,196 @@
+"""Photon paths through mirrors and glass to their first diffuse hit (vectorised), and the
+map they make: :class:`CausticPhotons`.  :mod:`.tracing` shoots them from the lights; the
+light tracer (:mod:`blockhash.reference.lighttrace`) follows the same paths.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from blockhash.scene.optics import choice_uniforms, scatter
+from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, reflect, surface_hits
+
+# Photon fates (per emitted photon); index into FATE_NAMES.
+STORED, OUTSIDE_SPOT, MISSED, DIRECT, ESCAPED, ABSORBED, MAX_BOUNCES = range(7)
+FATE_NAMES = ("stored", "outside_spot_cone", "missed", "direct_diffuse", "escaped",
+              "absorbed", "exceeded_max_bounces")
+
+
+@dataclass(frozen=True)
+class CausticPhotons:
+    """The caustic photon map: photons stored at their first diffuse hit after >= 1 mirror.
+
+    Attributes
+    ----------
+    positions : (n, 3) float64
+        Hit points on the receiving (non-specular) surface, in scene units.
+    directions : (n, 3) float64
+        Unit direction of travel when the photon arrives (pointing *into* the surface).
+    normals : (n, 3) float64
+        Unit shading normal of the receiver at the hit (barycentric interpolation of
+        the mesh's ``vertex_normals``), flipped together with the geometric normal so
+        that it lies on the side the photon came from: ``dot(geometric normal,
+        direction) < 0``, and ``dot(normals, directions) < 0`` except where smooth
+        shading normals lean past a grazing photon.
+    powers : (n, 3) float64
+        Flux carried by each photon, watts RGB; ``powers.sum(0)`` estimates the
+        caustic flux reaching diffuse surfaces.
+    emitted : int
+        Photons shot toward the specular objects (including those that were dropped).
+    stats : dict
+        Counters: ``emitted``, ``hit_specular`` (first hit a mirror), ``stored`` and the
+        fates of the rest (``outside_spot_cone``, ``missed``, ``direct_diffuse``,
+        ``escaped``, ``absorbed``, ``exceeded_max_bounces``), ``max_depth_reached``
+        (most mirror bounces of a stored photon), ``shading_normal_fallbacks``,
+        ``emitted_per_light``, ``cones``, ``stopped_by`` (``'target'``, ``'cap'``
+        or ``'no_specular_objects'``), and performance counters that do depend on
+        the batch size (``traced`` incl. the discarded overshoot, ``rays_cast``,
+        ``batches``, ``seconds``).
+    """
+
+    positions: np.ndarray
+    directions: np.ndarray
+    normals: np.ndarray
+    powers: np.ndarray
+    emitted: int
+    stats: dict = field(default_factory=dict)
+    #: (n,) int64 receiving object of each photon (index into the scene's objects), when the
+    #: tracer knows it (None for a map built elsewhere).
+    objects: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return int(self.positions.shape[0])
+
+    @property
+    def total_power(self) -> np.ndarray:
+        """(3,) float64: the flux of all stored photons, watts RGB."""
+        return self.powers.sum(axis=0)
+
+    @classmethod
+    def empty(cls, stats: dict | None = None) -> "CausticPhotons":
+        z = np.zeros((0, 3), dtype=np.float64)
+        return cls(z, z.copy(), z.copy(), z.copy(), 0, dict(stats or {}))
+
+    def __repr__(self) -> str:
+        flux = ", ".join(f"{p:.4g}" for p in self.total_power)
+        return (f"CausticPhotons(n={len(self):,}, emitted={self.emitted:,}, "
+                f"flux=({flux}) W, stopped_by={self.stats.get('stopped_by')!r})")
+
+
+# --------------------------------------------------------------------------- tracing
+
+@dataclass
+class Batch:
+    fate: np.ndarray        # (n,) int8
+    fallbacks: np.ndarray   # (n,) uint16 shading-normal fallbacks per photon
+    stored: np.ndarray      # (m,) local indices of stored photons, increasing
+    positions: np.ndarray
+    directions: np.ndarray
+    normals: np.ndarray
+    weights: np.ndarray
+    depth: np.ndarray       # (m,) mirror bounces
+    rays: int
+    objects: np.ndarray     # (m,) receiving object (index into the scene's objects)
+    geo_normals: np.ndarray  # (m, 3) geometric normals, on the side the photon came from
+
+    def cut(self, end: int) -> "Batch":
+        """Keep photons with local index < end."""
+        keep = self.stored < end
+        return Batch(self.fate[:end], self.fallbacks[:end], self.stored[keep],
+                      self.positions[keep], self.directions[keep], self.normals[keep],
+                      self.weights[keep], self.depth[keep], self.rays, self.objects[keep],
+                      self.geo_normals[keep])
+
+
+def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int, *,
+                seed: int = 0, start: int = 0) -> Batch:
+    """Follow a batch of photons through mirrors and glass to their first diffuse hit
+    (vectorised).
+
+    Shared by the photon map (:func:`trace_caustic_photons`) and the light tracer
+    (:mod:`blockhash.reference.lighttrace`); ``weights`` are not yet divided by the photons emitted.  At a
+    dielectric a photon reflects or refracts with the Fresnel probabilities
+    (:func:`blockhash.scene.optics.scatter`), drawing its choices from :func:`blockhash.scene.optics.choice_uniforms` of
+    ``seed`` for photon ``start + i``, so a photon's path does not depend on the batch.
+    """
+    n = len(origins)
+    fate = np.full(n, -1, dtype=np.int8)
+    fallbacks = np.zeros(n, dtype=np.uint16)
+    zero = ~np.any(weights > 0.0, axis=1)
+    fate[zero] = OUTSIDE_SPOT
+    idx = np.flatnonzero(~zero)
+    o, d, w = origins[idx], dirs[idx], weights[idx]
+    choices = choice_uniforms(seed, start, n) if geom.is_dielectric.any() else None
+    events = np.zeros(n, dtype=np.int64)  # dielectric events so far, per photon
+    parts = []
+    rays = 0
+    offset = RAY_OFFSET * geom.scale
+    # Start at the offset along the ray, as after a bounce: a light lying on a surface (a
+    # lamp on the floor) would otherwise hit that surface at t = 0 with every photon.
+    o = o + d * offset
+    for bounce in range(max_bounces + 1):
+        if idx.size == 0:
+            break
+        rays += idx.size
+        hit, face, u, v = geom.intersect(o, d)
+        fate[idx[~hit]] = MISSED if bounce == 0 else ESCAPED
+        idx, d, w = idx[hit], d[hit], w[hit]
+        spec = geom.is_specular[geom.face_object[face]]
+        diffuse = ~spec
+        if bounce == 0:
+            fate[idx[diffuse]] = DIRECT  # direct light: the renderer's shadow rays do it
+        elif diffuse.any():
+            fate[idx[diffuse]] = STORED
+            p, ns, ng = surface_hits(geom, face[diffuse], u[diffuse], v[diffuse], d[diffuse])
+            parts.append((idx[diffuse], p, d[diffuse], ns, w[diffuse],
+                          np.full(len(p), bounce, dtype=np.uint8),
+                          geom.face_object[face[diffuse]], ng))
+        if bounce == max_bounces:
+            fate[idx[spec]] = MAX_BOUNCES
+            break
+        idx, d, w, face = idx[spec], d[spec], w[spec], face[spec]
+        p, ns, ng = surface_hits(geom, face, u[spec], v[spec], d)
+        obj = geom.face_object[face]
+        glass = geom.is_dielectric[obj]
+        r = np.empty_like(d)
+        side = np.ones(len(d))  # +1: leave on the incoming side, -1: pass through
+        mirror = ~glass
+        if mirror.any():
+            w[mirror] = w[mirror] * geom.reflectance[obj[mirror]]
+            rm = reflect(d[mirror], ns[mirror])
+            under = np.einsum("ij,ij->i", rm, ng[mirror]) <= 0.0  # shading normal sent it in
+            if under.any():
+                mi = np.flatnonzero(mirror)[under]
+                rm[under] = reflect(d[mi], ng[mi])
+                fallbacks[idx[mi]] += 1
+            r[mirror] = rm / np.sqrt(np.einsum("ij,ij->i", rm, rm))[:, None]
+        if glass.any():
+            gi = np.flatnonzero(glass)
+            pid = idx[gi]
+            uc = choices[pid, events[pid] % choices.shape[1]]
+            events[pid] += 1
+            og = obj[gi]
+            r[gi], through, factor = scatter(d[gi], ns[gi], ng[gi], entering(geom, face[gi], d[gi]),
+                                             geom.ior[og], geom.tint[og], uc)
+            w[gi] = w[gi] * factor
+            side[gi[through]] = -1.0
+        dead = ~np.any(w > 0.0, axis=1)
+        if dead.any():
+            fate[idx[dead]] = ABSORBED
+            live = ~dead
+            idx, r, w, p, ng, side = idx[live], r[live], w[live], p[live], ng[live], side[live]
+        d = r
+        o = p + ng * (side * offset)[:, None]
+
+    if parts:
+        cat = [np.concatenate(a) for a in zip(*parts)]
+        order = np.argsort(cat[0], kind="stable")
+        s_idx, s_p, s_d, s_n, s_w, s_depth, s_obj, s_ng = (a[order] for a in cat)
+    else:
+        s_idx = np.zeros(0, dtype=np.int64)
+        s_p = s_d = s_n = s_w = s_ng = np.zeros((0, 3))
+        s_depth = np.zeros(0, dtype=np.uint8)
+        s_obj = np.zeros(0, dtype=np.int64)
+    return Batch(fate, fallbacks, s_idx, s_p, s_d, s_n, s_w, s_depth, rays, s_obj, s_ng)
