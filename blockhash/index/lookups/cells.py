@@ -175,10 +175,16 @@ def cuckoo_get(slots, mask, hi, lo):
 def _cuckoo_insert(entries, slots, buckets):
     """Insert every entry into one of the SLOTS slots of its two buckets, evicting as needed;
     False when an insertion fails after MAX_KICKS moves (the caller doubles the table)."""
+    # Rows are copied word by word: a row assignment (slots[i] = cur) would compile numba's
+    # broadcast checks and their messages, about a second of the first build.
     mask = np.uint32(buckets - 1)
     state = np.uint32(12345)
+    width = entries.shape[1]
+    cur = np.empty(width, dtype=entries.dtype)
+    victim = np.empty(width, dtype=entries.dtype)
     for e in range(entries.shape[0]):
-        cur = entries[e].copy()
+        for w in range(width):
+            cur[w] = entries[e, w]
         for kick in range(MAX_KICKS):
             placed = False
             for c in range(CHOICES):
@@ -186,7 +192,8 @@ def _cuckoo_insert(entries, slots, buckets):
                 for s in range(SLOTS):
                     i = b * SLOTS + s
                     if slots[i, 0] == EMPTY:
-                        slots[i] = cur
+                        for w in range(width):
+                            slots[i, w] = cur[w]
                         placed = True
                         break
                 if placed:
@@ -199,9 +206,10 @@ def _cuckoo_insert(entries, slots, buckets):
             c = state & np.uint32(1)
             b = cell_hash(cur[0], cur[1], SEEDS[c]) & mask
             i = b * SLOTS + ((state >> np.uint32(1)) & np.uint32(SLOTS - 1))
-            victim = slots[i].copy()
-            slots[i] = cur
-            cur = victim
+            for w in range(width):
+                victim[w] = slots[i, w]
+                slots[i, w] = cur[w]
+            cur, victim = victim, cur
         else:
             return False
     return True

@@ -230,10 +230,12 @@ def _jth(codes, pos, keys, j, cmin, step, margin, single, pair, start):
                 for c in range(m):
                     near[inside] = d2[c]  # kept only if it lies within the guess: no branch
                     inside += d2[c] < guess
+                # np.int64(): one compiled _kth, not a second for the literal 0 that m and
+                # inside start from
                 if inside > j:
-                    best = _kth(near, inside, j, order)
+                    best = _kth(near, np.int64(inside), j, order)
                 elif m > j:
-                    best = _kth(d2, m, j, order)
+                    best = _kth(d2, np.int64(m), j, order)
                 else:
                     best = np.inf  # fewer than j others in the 27 cubes: the next level up
                 cube = step * (2.0 ** (CODE_SHIFT + level))

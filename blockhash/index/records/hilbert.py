@@ -51,7 +51,7 @@ def hilbert_keys(codes, *, bits: int = KEY_BITS_PER_AXIS) -> np.ndarray:
         Position along the 3D Hilbert curve of order ``bits``; neighbouring keys
         are neighbouring cells.
     """
-    c = np.asarray(codes)
+    c = np.ascontiguousarray(codes)  # one compiled layout (a column slice is copied)
     if c.ndim != 2 or c.shape[1] != 3 or c.dtype != np.uint32:
         raise InputError(f"codes must be a (n, 3) uint32 array; got shape {c.shape}, dtype {c.dtype}")
     bits = as_int(bits, "bits", minimum=1, maximum=KEY_BITS_PER_AXIS)

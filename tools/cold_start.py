@@ -1,0 +1,90 @@
+"""The first render with numba's cache empty (cold) beside the same render with it filled (warm).
+
+Each repeat runs the command twice in turn, as a whole process: cold with ``NUMBA_CACHE_DIR``
+a new empty folder (every compiled function is compiled and written to it), then warm with a
+folder that an untimed run filled first.  Wall seconds of each, their ratio pair by pair, and
+the render's own stages (its ``time:`` line) are printed as median, min and max.
+
+    python tools/cold_start.py scenes/ring.toml --size 256x256 --repeat 5
+
+Nothing else is cleared between runs (Python's ``__pycache__``, the GL driver's shader cache):
+the cold run is the first render after an install whose modules are already byte-compiled.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run(command: list[str], cache: Path) -> tuple[float, dict[str, float]]:
+    """(wall seconds, the render's stage seconds) of one run with numba's cache in ``cache``."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
+    t = time.perf_counter()
+    done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t
+    if done.returncode != 0:
+        sys.exit(f"{' '.join(command)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
+    line = next((s for s in done.stdout.splitlines() if s.startswith("time: ")), "")
+    stages = {name: float(sec) for name, sec in re.findall(r"([\w ]+?) ([\d.]+) s", line[6:])}
+    return wall, {k.strip(): v for k, v in stages.items()}
+
+
+def spread(values: list[float]) -> str:
+    return f"{statistics.median(values):6.2f} {min(values):6.2f} {max(values):6.2f}"
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("scene", nargs="?", default="scenes/ring.toml")
+    parser.add_argument("--size", default="256x256", help="image size (default 256x256)")
+    parser.add_argument("--repeat", type=int, default=5, help="cold/warm pairs (default 5)")
+    parser.add_argument("--json", help="write every run's figures to this JSON file")
+    args = parser.parse_args()
+
+    work = Path(tempfile.mkdtemp(prefix="cold-start-"))
+    command = [sys.executable, "-m", "blockhash", "render", args.scene, "--size", args.size,
+               "-o", str(work / "out.exr")]
+    runs = {"cold": [], "warm": []}
+    try:
+        warm_cache = work / "warm"
+        run(command, warm_cache)  # fills the warm cache; untimed
+        for i in range(args.repeat):
+            cold_cache = work / f"cold-{i}"
+            runs["cold"].append(run(command, cold_cache))
+            shutil.rmtree(cold_cache, ignore_errors=True)
+            runs["warm"].append(run(command, warm_cache))
+            print(f"pair {i + 1}: cold {runs['cold'][-1][0]:.2f} s, warm {runs['warm'][-1][0]:.2f} s",
+                  file=sys.stderr)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+    print(f"blockhash render {args.scene} --size {args.size}: {args.repeat} pairs, cold then warm")
+    print(f"{'seconds':<22} {'median':>6} {'min':>6} {'max':>6}")
+    for kind in ("cold", "warm"):
+        print(f"{kind + ' (whole process)':<22} {spread([w for w, _ in runs[kind]])}")
+    ratios = [c[0] / w[0] for c, w in zip(runs["cold"], runs["warm"])]
+    print(f"{'cold / warm':<22} {spread(ratios)}")
+    stages = [s for s in runs["cold"][0][1] if all(s in r[1] for k in runs for r in runs[k])]
+    for stage in stages:
+        for kind in ("cold", "warm"):
+            print(f"{kind + ' ' + stage:<22} {spread([r[1][stage] for r in runs[kind]])}")
+    if args.json:
+        Path(args.json).write_text(json.dumps({"command": command[1:], "runs": runs,
+                                               "ratios": ratios}, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
