@@ -44,7 +44,7 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
         Caustic photons stored per pass (default: the scene's ``[photons] count``; every pass
         after the first emits as many photons as the first did), or photons already traced
         (``blockhash.photons.tracing.trace_caustic_photons``) for a one-pass render, to
-        compare lookups on one photon map (with the default ``passes``, one pass).
+        compare lookups on one photon map (with the default ``passes``, :data:`ONE_PASS`).
     spp : int, optional
         Samples per pixel per pass, a square number (default: the scene's ``[camera] spp``;
         else :data:`blockhash.scene.camera.DEFAULT_SPP` in a one-pass render and 1 per pass in
@@ -87,10 +87,10 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
 
 def make_renderer(scene, *, photons, spp, seed, estimate, lookup, backend, passes: Passes):
     """The :class:`.progressive.Renderer` that :func:`render` steps, and its stopping rule
-    (one pass for a traced photon map under the default rule)."""
+    (:data:`ONE_PASS` for a traced photon map under the default rule)."""
     traced = not (photons is None or isinstance(photons, (int, np.integer)))
     if traced and passes == Passes():
-        passes = Passes(passes=1)  # a traced map is one pass's photons
+        passes = ONE_PASS  # a traced map is one pass's photons, all gathered
     renderer = Renderer(scene, photons=photons, side=spp_side(per_pass_spp(scene, spp, passes)),
                         seed=seed, estimate=estimate, lookup=lookup, backend=backend,
                         schedule=passes.schedule)

@@ -9,8 +9,7 @@ import pytest
 
 import blockhash
 from blockhash import EstimateOptions, InputError, LookupOptions
-from blockhash.frame.pipeline import render_scene
-from blockhash.frame.pipeline import ONE_PASS
+from blockhash.frame.pipeline import ONE_PASS, render_scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
