@@ -264,6 +264,10 @@ def identity_check(scene, *, size=(128, 128), photons=50_000, spp=4, seeds=(1, 2
                          "seeds or more")
     render = render or render_scene
     view = specular_view_map(scene, size, through=through)
+    if not len(view.pixels):
+        raise InputError("no pixel sees a receiver point both through the specular objects and "
+                         "directly, so no identity applies here (a floor seen only through glass "
+                         "has no direct view to compare with)")
     out = {"pixels": int(len(view.pixels)), "footprint": view.footprint,
            "blur": list(blur_widths(view.footprint)), "layers": {}}
     for name in ("caustic", "direct"):
