@@ -6,7 +6,9 @@ base k, and the reference).  For each A the gain g_A = sum(reference) / sum(BH i
 is fitted on the first study's scene and applied to the second's images; the table
 gives the second scene's flux ratio and blurred relative RMS against its reference
 without and with the gain, so a correction counts only where it helps a scene it was
-not fitted on.  The compared pixels are recomputed from the cached reference.
+not fitted on.  The compared pixels are recomputed from the cached reference (its
+``comparison_mask``: pixels seen through a mirror or glass are left out, because the light
+tracer cannot connect a caustic to the pinhole through a delta surface).
 
     python tools/darkening_check.py docs/tradeoff/ring docs/tradeoff/venus
 """

@@ -2,7 +2,8 @@
 
 For each scene: the light tracer (``--photons`` shot) and ``blockhash reference --engine
 mitsuba``'s caustic (ptracer, albedos dimmed, ``--spp``) at ``--size``; their flux ratio
-per channel on the light tracer's comparison mask, the light tracer's flux noise (from its
+per channel on the light tracer's comparison mask (pixels seen through a mirror or glass
+left out: neither reference connects a caustic to the pinhole through a delta surface), the light tracer's flux noise (from its
 per-pixel standard errors), and the relative RMS of the two after a 5 x 5 box blur on the
 caustic's pixels (blurred light tracer above 5% of its peak).
 

@@ -5,7 +5,9 @@ one photon map is traced (the scene's seed, ``--photons`` stored), and the caust
 rendered the way ``blockhash render`` renders it (``render_scene``, the default lookup and
 estimate) at each spp.  Each image is compared with the light tracer's pixel means
 (``blockhash/reference/lighttrace.py``, ``--reference`` photons shot, cached under ``--cache``) on the
-pixels whose view ray meets a diffuse surface first (``comparison_mask``):
+pixels whose view ray meets a diffuse surface first (``comparison_mask``; pixels seen
+through a mirror or glass are left out: the light tracer cannot connect a caustic to the
+pinhole through a delta surface, so its caustic there is 0):
 
 * ``flux``: caustic flux ratio, sum(render) / sum(reference);
 * ``blur``: relative RMS after a Gaussian blur of 2 pixels (sigma), over the caustic region

@@ -162,7 +162,12 @@ def add_compare(sub) -> None:
         p.add_argument(option, type=_limit, action="append", metavar="[LAYER=]LIMIT",
                        help=f"largest {what} that passes")
     p.add_argument("--mask", metavar="LAYER_OR_IMAGE",
-                   help="compare only where this layer of A, or this image, is non-zero")
+                   help="compare only where this layer of A, or this image, is non-zero; against a "
+                        "light-traced or Mitsuba reference give the light tracer's comparison "
+                        "mask: its pixels see a diffuse surface first, and pixels seen through "
+                        "a mirror or glass are left out, because a reference that connects "
+                        "caustics to the pinhole by a shadow ray cannot render them there "
+                        "(their caustic is 0; check them with tools/mirror_identity.py)")
     p.add_argument("--json", metavar="PATH",
                    help="write the metrics, limits and failures as JSON to PATH ('-': stdout, "
                         "and the table goes to stderr); infinite values are the string \"inf\"")

@@ -8,7 +8,12 @@ What ``blockhash compare``, :func:`blockhash.evaluate.testing.assert_images_clos
    layers and size, or an :class:`~blockhash.errors.InputError` names the file
    and the mismatch.
 2. An optional mask (a layer of A, or a mask image, non-zero in any channel)
-   selects the pixels that count.
+   selects the pixels that count.  Against the unbiased references, use the light
+   tracer's comparison mask (:meth:`blockhash.reference.lighttrace.LightTraceImage.comparison_mask`):
+   pixels seen through a mirror or glass are left out, because the light tracer and
+   Mitsuba's ``ptracer`` connect each caustic hit to the pinhole by a straight shadow
+   ray, which cannot pass a delta surface (their caustic there is 0 while the render's
+   is not); ``tools/mirror_identity.py`` checks those pixels instead.
 3. Per layer, over the selected pixels and all three channels:
    ``rms`` = RMS(A - B), ``relative_rms`` = RMS(A - B) / RMS(B) (PSNR would use
    each HDR image's own peak), ``max`` and ``mean`` absolute error, and ``flip``,

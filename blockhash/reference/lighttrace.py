@@ -115,7 +115,13 @@ class LightTraceImage:
         return np.sqrt(np.maximum(var, 0.0))
 
     def comparison_mask(self, erode: int = 1) -> np.ndarray:
-        """(h, w) bool: visible pixels whose neighbours within ``erode`` pixels are visible too."""
+        """(h, w) bool: visible pixels whose neighbours within ``erode`` pixels are visible too.
+
+        Pixels seen through a mirror or glass are left out: this tracer (and Mitsuba's
+        ``ptracer``) connects each caustic hit to the pinhole by a straight shadow ray, which
+        cannot pass a delta surface, so its caustic there is 0 while the renderer's (which
+        follows camera rays through mirrors and glass) is not.  Those pixels are checked by
+        the mirror identity instead (``tools/mirror_identity.py``)."""
         m = self.visible.copy()
         h, w = m.shape
         for dy in range(-erode, erode + 1):
