@@ -16,8 +16,8 @@ coordinates), keeping the pixels where the ray from the eye toward x meets x its
 same receiver point seen unoccluded in both views).  :func:`compare_views` resamples a
 layer at those film points, both views blurred to the coarser of their two pixel footprints
 (the mapping's Jacobian: direct pixels per specular pixel), and reports the flux ratio and
-blurred relative RMS over the kept pixels.  ``tools/specular_identity.py`` (alias
-``tools/mirror_identity.py``) runs it over seeds, whose spread is the limit: the render's own
+blurred relative RMS over the kept pixels.  ``tools/mirror_identity.py`` runs it
+(:func:`identity_check`) over seeds, whose spread is the limit: the render's own
 noise in those pixels.
 """
 
