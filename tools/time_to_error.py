@@ -161,13 +161,21 @@ def measure(name, size, ref_spp, times, max_spp, photons, cache):
     return analyse(row, times)
 
 
-def analyse(row, times):
-    lad, curve = row["ladder"], row["curve"]
+def noise_fit(lad, k, ref_spp) -> float:
+    """``a`` of Mitsuba's squared error ``a (1 / s + 1 / S)`` on metric ``k`` (it is unbiased:
+    its error is its noise and the reference's), least squares over the ladder."""
     s = np.array([r["spp"] for r in lad], float)
-    e2 = np.array([r["pixel"] for r in lad]) ** 2
-    basis = 1 / s + 1 / row["ref_spp"]
-    a = float((basis * e2).sum() / (basis * basis).sum())
-    row["pixel_ref_noise"] = math.sqrt(a / row["ref_spp"])
+    e2 = np.array([r[k] for r in lad]) ** 2
+    basis = 1 / s + 1 / ref_spp
+    return float((basis * e2).sum() / (basis * basis).sum())
+
+
+def analyse(row, times):
+    lad, curve, ref_spp = row["ladder"], row["curve"], row["ref_spp"]
+    s = np.array([r["spp"] for r in lad], float)
+    fits = {k: noise_fit(lad, k, ref_spp) for k in ("pixel", "blur")}
+    row["pixel_ref_noise"] = math.sqrt(fits["pixel"] / ref_spp)
+    row["blur_ref_noise"] = math.sqrt(fits["blur"] / ref_spp)
     fit1 = np.polyfit(s, [r["s1"] for r in lad], 1) if len(lad) > 1 else (lad[0]["s1"], 0.0)
     row["at"] = []
     for t in times:
@@ -177,10 +185,13 @@ def analyse(row, times):
             tt = crossing([r[k] for r in lad], [r["s1"] for r in lad], b[k])
             entry[k] = b[k]
             entry[f"ratio_{k}"] = None if tt is None else tt / b["seconds"]
-        true2 = b["pixel"] ** 2 - a / row["ref_spp"]
-        entry["pixel_true"] = math.sqrt(max(true2, 0.0))
-        entry["ratio_pixel_true"] = (float(fit1[1] + fit1[0] * a / true2) / b["seconds"]
-                                     if true2 > 0 else None)
+            # not reached by the ladder's last render: Mitsuba needs more than it took
+            entry[f"ratio_{k}_above"] = lad[-1]["s1"] / b["seconds"] if tt is None else None
+        for k, a in fits.items():  # the error less the reference's noise, and Mitsuba's time there
+            true2 = b[k] ** 2 - a / ref_spp
+            entry[f"{k}_true"] = math.sqrt(max(true2, 0.0))
+            entry[f"ratio_{k}_true"] = (float(fit1[1] + fit1[0] * a / true2) / b["seconds"]
+                                        if true2 > 0 else None)
         row["at"].append(entry)
     late = [r for r in curve if r["passes"] >= 2]
     for k in ("blur", "pixel"):
@@ -192,17 +203,27 @@ def tables(rows) -> str:
     def f(x, fmt=".2f"):
         return "-" if x is None else format(x, fmt)
 
-    out = ["| scene | size | blockhash s | passes | per-pixel rel. RMS less ref. noise (Mitsuba / "
-           "blockhash) | blurred rel. RMS (ratio) | mean FLIP (ratio) |", "| --- " * 7 + "|"]
+    def ratio(e, k):
+        if e[f"ratio_{k}"] is not None:
+            return f"{e[f'ratio_{k}']:.2f}x"
+        return f"> {e[f'ratio_{k}_above']:.2f}x" if e.get(f"ratio_{k}_above") else "-"
+
+    def true(e, k):
+        if not e[f"{k}_true"]:
+            return f"{e[k]:.4f}: within the reference's noise"
+        return f"{e[f'{k}_true']:.4f} ({f(e[f'ratio_{k}_true'])}x)"
+
+    out = ["| scene | size | blockhash s (passes' own) | passes | per-pixel rel. RMS less the "
+           "ref.'s noise (Mitsuba's time / blockhash's) | blurred rel. RMS as measured (ratio) | "
+           "blurred, less the ref.'s noise (ratio) | mean FLIP (ratio) |", "| --- " * 8 + "|"]
     for r in rows:
         for e in r["at"]:
             out.append(f"| {r['scene']} | {r['size']} | {e['time']:g} ({e['seconds']:.1f}) | "
-                       f"{e['passes']} | {e['pixel_true']:.4f} ({f(e['ratio_pixel_true'])}x) | "
-                       f"{e['blur']:.4f} ({f(e['ratio_blur'])}x) | {e['flip']:.4f} "
-                       f"({f(e['ratio_flip'])}x) |")
+                       f"{e['passes']} | {true(e, 'pixel')} | {e['blur']:.4f} ({ratio(e, 'blur')}) "
+                       f"| {true(e, 'blur')} | {e['flip']:.4f} ({ratio(e, 'flip')}) |")
     out += ["", "| scene | size | one pass (9 spp): s, blurred rel. RMS | progressive: passes and s "
             "to reach it | error against passes (blurred, per-pixel), power law | estimated / "
-            "measured per-pixel error at the last pass | reference noise (per pixel) |",
+            "measured per-pixel error at the last pass | reference noise (per pixel, blurred) |",
             "| --- " * 6 + "|"]
     for r in rows:
         one = r["one_pass"]
@@ -211,7 +232,16 @@ def tables(rows) -> str:
         out.append(f"| {r['scene']} | {r['size']} | {one['seconds']:.2f}, {one['blur']:.4f} | "
                    + (f"{reach['passes']}, {reach['seconds']:.2f} | " if reach else "not reached | ")
                    + f"n^{f(r['power_law_blur'], '.2f')}, n^{f(r['power_law_pixel'], '.2f')} | "
-                   f"{last['estimated_error']:.4f} / {last['pixel']:.4f} | {r['pixel_ref_noise']:.4f} |")
+                   f"{last['estimated_error']:.4f} / {last['pixel']:.4f} | {r['pixel_ref_noise']:.4f}, "
+                   f"{r['blur_ref_noise']:.4f} |")
+    out += ["", "| scene | size | passes | s per pass | its stages (s per pass) | photons stored per "
+            "second of tracing |", "| --- " * 6 + "|"]
+    for r in rows:
+        n = r["curve"][-1]["passes"]
+        st = r["stages"]
+        stages = ", ".join(f"{k} {v / n:.2f}" for k, v in st.items() if k != "total")
+        out.append(f"| {r['scene']} | {r['size']} | {n} | {st['total'] / n:.2f} | {stages} | "
+                   f"{r['stored'] / st['trace']:,.0f} |")
     glass = [r for r in rows if r["scene"] == "glass"]
     if glass:
         out += ["", "| glass size | passes | brightest pixel / reference's | at the focus pixel | "
@@ -240,7 +270,8 @@ def main(argv=None):
     times = [float(t) for t in (args.times or ("2,8,32" if args.size <= 256 else "8,32,128"))
              .split(",")]
     if args.from_json:
-        rows = json.loads(Path(args.from_json).read_text())
+        rows = [analyse(r, [e["time"] for e in r["at"]])
+                for r in json.loads(Path(args.from_json).read_text())]
     else:
         rows = []
         for s in args.scenes.split(","):
