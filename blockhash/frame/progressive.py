@@ -157,6 +157,8 @@ def camera_samples(scene, rays: SceneRays, side: int, pass_index: int, *, backen
     Pass 0 is the one-pass layout: the rasterised pixel centres for one sample, else
     stratified jitter under :data:`SPP_SEED`.  Later passes take one sample per pixel from
     :func:`.subpixel.pass_offsets`, or S x S stratified jitter under a seed of their own.
+    Returns the :class:`.caustic.ShadingPoints` and a bool array of their shape: the camera
+    saw the point directly (its first hit is not a mirror or glass).
     """
     from blockhash.scene.model import MirrorMaterial
 
@@ -170,8 +172,20 @@ def camera_samples(scene, rays: SceneRays, side: int, pass_index: int, *, backen
     else:
         seed = SPP_SEED if pass_index == 0 else SPP_SEED + 7919 * pass_index
         gbuf = film_gbuffer(pin, rays, *subpixel_points(pin.width, pin.height, side, seed))
-    return shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,),
-                          both_branches=both_branches)
+    points = shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,),
+                            both_branches=both_branches)
+    specular = np.array([o.is_specular for o in scene.objects] + [False])
+    seen = ~specular[gbuf.object.reshape(-1)]  # object -1 (nothing hit): the last entry
+    if points.owner is not None:
+        seen = seen[points.owner]
+    return points, seen.reshape(points.shape)
+
+
+def _only(points, keep):
+    """``points`` with every point outside ``keep`` shading nothing (material -1)."""
+    from dataclasses import replace
+
+    return replace(points, material=np.where(keep, points.material, -1).astype(np.int32))
 
 
 class Renderer:
@@ -237,18 +251,24 @@ class Renderer:
         stored = len(photons.positions) if photons is not None else 0
         emitted = photons.emitted if photons is not None else 0
         scale = shrink(p, self.schedule.alpha)
-        index, radii, splat = self._index(photons, scale, timings)
+        index, radii, splat, whole = self._index(photons, scale, timings)
         t = time.perf_counter()
-        points = camera_samples(self.scene, self.rays, self.side, p, backend=self.backend)
+        points, seen = camera_samples(self.scene, self.rays, self.side, p, backend=self.backend)
         timings["gbuffer"] = time.perf_counter() - t
         t = time.perf_counter()
         direct = direct_light(points, self.scene.objects, self.scene.lights, self.rays)
         timings["direct"] = time.perf_counter() - t
         caustic = np.zeros_like(direct, dtype=np.float32)
-        if index is not None:
-            t = time.perf_counter()
+        t = time.perf_counter()
+        if splat is not None and not seen.all():
+            # Points seen in a mirror or through glass gather every photon: the splat reached
+            # only the pixels that see its photons directly.
+            caustic = self._caustic(whole[0], _only(points, ~seen), whole[1])
+            if index is not None:
+                caustic += self._caustic(index, _only(points, seen), radii)
+        elif index is not None:
             caustic = self._caustic(index, points, radii)
-            timings["caustic"] = time.perf_counter() - t
+        timings["caustic"] = time.perf_counter() - t
         caustic = box_filter(points.gather(caustic), self.side)
         if splat is not None:
             caustic = caustic + splat
@@ -280,7 +300,7 @@ class Renderer:
         """The pass's index and the conserving estimate's radii (None, None: no photons)."""
         stored = 0 if photons is None else len(photons.positions)
         if stored == 0:
-            return None, None, None
+            return None, None, None, None
         if self.passes == 0 and stored < self.k:
             raise InputError(f"only {stored} caustic photons were stored, fewer than k={self.k}; "
                              "trace more photons (--photons) or lower --k")
@@ -297,7 +317,7 @@ class Renderer:
                 index.stats.summary() if index.tables_built else
                 f"photons {len(index):,} in Hilbert order (the cover gather's records; the "
                 "Block Hashing tables are built on first use)")
-        radii = splat = None
+        radii = splat = whole = None
         if self.estimate.estimate == "conserving":
             base = exact_radii2 if self.method == "kdtree" else own_radii2
             radii = PassRadii(base, scale)
@@ -306,13 +326,14 @@ class Renderer:
             timings["photon radii"] = time.perf_counter() - t
             if self.schedule.footprint > 0 and self.method in ("cover", "cpu"):
                 t = time.perf_counter()
+                whole = (index, FixedRadii(r2))
                 index, radii, splat = self._split(photons, index, r2, scale, timings)
                 timings["pixel splat"] = time.perf_counter() - t
             if self.method in ("cover", "cpu") and index is not None:
                 t = time.perf_counter()
                 cover_gather(index, self.k, radii)  # cached for the pass
                 timings["cover gather"] = time.perf_counter() - t
-        return index, radii, splat
+        return index, radii, splat, whole
 
     def _split(self, photons, index, r2, scale, timings):
         """The pixel splat of the photons whose discs are under ``footprint`` pixel footprints

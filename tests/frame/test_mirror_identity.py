@@ -83,3 +83,21 @@ def test_the_view_map_keeps_only_pixels_that_see_the_same_point_in_both_views(mi
     assert set(obj[view.pixels]) == {wall}            # every kept pixel sees the wall first
     assert 0 < len(view.pixels) < (obj == wall).sum()  # and not the wall's pixels that see the ring
     assert np.all((view.film >= 0) & (view.film < [w, h]))
+
+
+def test_the_identity_holds_on_the_progressive_render(mirror):
+    """The render in passes: photons splatted into the pixels that see them directly still
+    reach the mirror's pixels, which gather every photon.  A footprint of 4 pixels splats most
+    of the floor's caustic photons at this size (with the mirror's pixels gathering only what
+    the splat left, the ratio falls to about 0.02)."""
+    from blockhash.frame.progressive import Schedule
+    from blockhash.frame.stopping import Passes
+
+    def progressive(scene, *, photons, size, spp, seed):
+        return blockhash.render(scene.with_size(*size), photons=photons, seed=seed,
+                                passes=Passes(passes=4, schedule=Schedule(footprint=4.0)))
+
+    report = identity_check(mirror, **SMALL, render=progressive)
+    layer = report["layers"]["caustic"]
+    assert layer["holds"], _summary(report)
+    assert all(abs(r["ratio"][0] - 1) < layer["limits"]["ratio"] for r in layer["runs"])
