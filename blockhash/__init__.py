@@ -10,6 +10,8 @@ from blockhash.errors import BlockHashError, CapacityError, InputError, InputTyp
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.options import LookupOptions
 from blockhash.frame.pipeline import render
+from blockhash.frame.progressive import Renderer, Schedule
+from blockhash.frame.stopping import Passes
 from blockhash.index.block_hash_index import BlockHashIndex, IndexStats, OrphanWarning
 from blockhash.index.tables.params import BlockHashParams
 
@@ -21,4 +23,4 @@ def load_scene(path):
     return load(path)
 
 
-__all__ = ["load_scene", "render", "EstimateOptions", "LookupOptions", "BlockHashIndex", "BlockHashParams", "IndexStats", "OrphanWarning", "BlockHashError", "CapacityError", "InputError", "InputTypeError", "ShaderCompileError", "__version__"]
+__all__ = ["load_scene", "render", "Renderer", "Passes", "Schedule", "EstimateOptions", "LookupOptions", "BlockHashIndex", "BlockHashParams", "IndexStats", "OrphanWarning", "BlockHashError", "CapacityError", "InputError", "InputTypeError", "ShaderCompileError", "__version__"]
