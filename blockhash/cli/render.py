@@ -208,8 +208,9 @@ def add_render(sub) -> None:
                    help="share of a pass's photons kept in the next radius, in (0, 1) (Knaus "
                         f"and Zwicker; default {DEFAULT_ALPHA:.3g})")
     p.add_argument("--footprint", type=float, default=DEFAULT_FOOTPRINT,
-                   help="photon discs at least this many pixel footprints across where the "
-                        f"camera sees them, at pass 1 (default {DEFAULT_FOOTPRINT:g}; 0: off)")
+                   help="photons whose discs are under this many pixel footprints across where "
+                        "the camera sees them directly are splatted into their pixel (at pass 1; "
+                        f"the bound shrinks with the radii; default {DEFAULT_FOOTPRINT:g}; 0: off)")
     p.add_argument("--preview-every", type=float, metavar="SECONDS",
                    help="rewrite the PNG every SECONDS as the image refines")
     p.add_argument("--photons", type=int, help="caustic photons to store per pass (default: the "

@@ -134,9 +134,9 @@ class Schedule:
             raise InputError(f"alpha={self.alpha!r} is outside (0, 1): the share of a pass's "
                              f"photons kept in the next radius; use e.g. {DEFAULT_ALPHA:.3g}")
         if not (isinstance(self.footprint, (int, float)) and 0.0 <= self.footprint < math.inf):
-            raise InputError(f"footprint={self.footprint!r}: the photon discs' floor in pixel "
-                             f"footprints must be a finite number >= 0 (0 turns it off); use "
-                             f"e.g. {DEFAULT_FOOTPRINT}")
+            raise InputError(f"footprint={self.footprint!r}: the disc size in pixel footprints "
+                             "under which photons are splatted into their pixel must be a finite "
+                             f"number >= 0 (0 turns the splat off); use e.g. {DEFAULT_FOOTPRINT}")
 
 
 @dataclass

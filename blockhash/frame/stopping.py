@@ -39,7 +39,8 @@ class Passes:
                                        each pass)
     target_error : float > 0 or None   stop once the caustic layer's estimated relative
                                        standard error is at most this (needs two passes)
-    schedule : Schedule                alpha and the pixel-footprint floor of the radii
+    schedule : Schedule                alpha, and the footprint under which photons are
+                                       splatted into their pixel
     """
 
     passes: int | None = DEFAULT_PASSES

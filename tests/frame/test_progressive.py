@@ -321,3 +321,9 @@ def test_the_render_command_runs_passes_to_its_rule(tmp_path, capsys):
                      "-o", str(out)])
         assert code == 2
         assert __import__("re").search(match, capsys.readouterr().err), flags
+
+
+@pytest.mark.parametrize("footprint", [-1.0, math.inf, math.nan, "1"])
+def test_a_footprint_that_is_not_a_finite_number_above_0_is_refused(footprint):
+    with pytest.raises(InputError, match="splatted into their pixel must be a finite number"):
+        Schedule(footprint=footprint)
