@@ -21,7 +21,7 @@ from blockhash.errors import InputError
 from blockhash.frame.progressive import Schedule
 
 #: Passes of the default render (with one sample per pixel per pass and the scene's photons
-#: per pass): chosen on the ring scene (BENCHMARKS.md, "Progressive render").
+#: per pass): chosen on the ring scene at 512 x 512 against the single render (BENCHMARKS.md, "The render in passes").
 DEFAULT_PASSES = 4
 #: A target error is projected against the pass limit from this many passes on.
 PROJECT_AFTER = 4
