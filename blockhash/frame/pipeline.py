@@ -22,13 +22,17 @@ import numpy as np
 
 from blockhash.errors import InputError
 from blockhash.frame.estimate import EstimateOptions
-from blockhash.frame.gbuffer import rasterize
 from blockhash.frame.options import LookupOptions
-from blockhash.frame.progressive import NoCausticWarning, Renderer, Schedule  # noqa: F401
+from blockhash.frame.progressive import (  # noqa: F401 (importable from here)
+    NoCausticWarning,
+    Renderer,
+    Schedule,
+    camera_points,
+)
 from blockhash.frame.result import RenderResult  # noqa: F401 (importable from here)
-from blockhash.frame.shading import SceneRays, direct_light, shading_points
+from blockhash.frame.shading import SceneRays, direct_light
 from blockhash.frame.stopping import Passes, run_passes
-from blockhash.frame.subpixel import box_filter, raycast_gbuffer
+from blockhash.frame.subpixel import box_filter
 from blockhash.scene.camera import DEFAULT_SPP, SPP_SEED, spp_side
 from blockhash.validate import old_keywords
 
@@ -112,7 +116,7 @@ _ESTIMATE_KEYWORDS = ("estimate", "filter", "normal_cos", "normal_test", "disc")
 
 
 def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant="default",
-                 size=None, seed=None, backend=None, progress=False, photon_map=None,
+                 size=None, seed=None, backend=None, photon_map=None,
                  options=None, spp=None, **deprecated) -> RenderResult:
     """One pass of :func:`render` with every setting a keyword (the single render with S x S
     stratified samples per pixel, every photon gathered: :data:`ONE_PASS`), which also takes an
@@ -144,8 +148,6 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
         grid in each pixel (a fixed pattern, :data:`blockhash.scene.camera.SPP_SEED`), and
         every sample gets its own hit, direct light and caustic estimate (one caustic pass
         over all of them) before the box filter averages them into pixels.
-    progress : bool
-        Accepted for compatibility; a one-pass render shows no progress.
     """
     old_keywords("render_scene", deprecated, _ESTIMATE_KEYWORDS,
                  "give options=EstimateOptions(...), or call "
@@ -165,22 +167,6 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
 
 #: The single render of before the passes: one pass, every photon gathered (no pixel splat).
 ONE_PASS = Passes(passes=1, schedule=Schedule(footprint=0.0))
-
-
-def camera_points(scene, rays: SceneRays, side: int, *, size=None, backend=None,
-                  both_branches: bool = True, seed: int = SPP_SEED):
-    """The camera's shading points at ``side`` x ``side`` samples per pixel: the rasterised
-    pixel centres for one, else stratified jitter cast with ``rays`` (``seed``); mirrors and
-    glass followed, glass on both branches unless ``both_branches`` is False
-    (:func:`.shading.shading_points`)."""
-    from blockhash.scene.model import MirrorMaterial
-
-    if side == 1:
-        gbuf = rasterize(scene.camera, scene.objects, size=size, backend=backend)
-    else:
-        gbuf = raycast_gbuffer(scene.camera, rays, size=size, samples=side, seed=seed)
-    return shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,),
-                          both_branches=both_branches)
 
 
 def direct_layer(scene, spp=None, *, size=None, backend=None, both_branches: bool = True,

@@ -53,11 +53,11 @@ from blockhash.frame.options import LookupOptions, resolve_method
 from blockhash.frame.photon_radius import exact_radii2, own_radii2
 from blockhash.frame.result import RenderResult
 from blockhash.frame.shading import SceneRays, direct_light, shading_points
-from blockhash.frame.subpixel import box_filter, film_gbuffer, pass_offsets, subpixel_points
+from blockhash.frame.subpixel import box_filter, film_gbuffer, pass_offsets, raycast_gbuffer
 from blockhash.gl.limits import MAX_K
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.index.records.fixedpoint import min_r2
-from blockhash.scene.camera import SPP_SEED, Pinhole
+from blockhash.scene.camera import SPP_SEED, Pinhole, jitter_seed
 from blockhash.validate import as_int
 
 #: Knaus and Zwicker's alpha: the share of a pass's photons kept in the next radius.
@@ -150,35 +150,50 @@ class PassStats:
     timings: dict = field(default_factory=dict)
 
 
-def camera_samples(scene, rays: SceneRays, side: int, pass_index: int, *, backend=None,
-                   both_branches: bool = True):
-    """The shading points of pass ``pass_index`` at ``side`` x ``side`` samples per pixel.
+def camera_points(scene, rays: SceneRays, side: int, *, size=None, backend=None,
+                  both_branches: bool = True, seed: int = SPP_SEED):
+    """The camera's shading points at ``side`` x ``side`` samples per pixel: the rasterised
+    pixel centres for one, else stratified jitter cast with ``rays`` (``seed``); mirrors and
+    glass followed, glass on both branches unless ``both_branches`` is False
+    (:func:`.shading.shading_points`)."""
+    if side == 1:
+        gbuf = rasterize(scene.camera, scene.objects, size=size, backend=backend)
+    else:
+        gbuf = raycast_gbuffer(scene.camera, rays, size=size, samples=side, seed=seed)
+    return _shade(scene, rays, gbuf, both_branches)
 
-    Pass 0 is the one-pass layout: the rasterised pixel centres for one sample, else
-    stratified jitter under :data:`SPP_SEED`.  Later passes take one sample per pixel from
-    :func:`.subpixel.pass_offsets`, or S x S stratified jitter under a seed of their own.
-    Returns the :class:`.caustic.ShadingPoints` and a bool array of their shape: the camera
-    saw the point directly (its first hit is not a mirror or glass).
+
+def camera_samples(scene, rays: SceneRays, side: int, pass_index: int, *, backend=None):
+    """The shading points of pass ``pass_index`` at ``side`` x ``side`` samples per pixel,
+    and a bool array of their shape: the camera saw the point directly (its first hit is not
+    a mirror or glass).
+
+    Pass 0 is :func:`camera_points`' layout (the one-pass render's).  Later passes take one
+    sample per pixel from :func:`.subpixel.pass_offsets`, or S x S stratified jitter under a
+    seed of their own (:func:`blockhash.scene.camera.jitter_seed`).
     """
-    from blockhash.scene.model import MirrorMaterial
-
-    pin = Pinhole.of(scene.camera)
-    if pass_index == 0 and side == 1:
+    if side == 1 and pass_index == 0:
         gbuf = rasterize(scene.camera, scene.objects, backend=backend)
     elif side == 1:
+        pin = Pinhole.of(scene.camera)
         u, v = pass_offsets(pin.width, pin.height, pass_index, SPP_SEED)
         gbuf = film_gbuffer(pin, rays, np.arange(pin.width)[None, :] + u,
                             np.arange(pin.height)[:, None] + v)
     else:
-        seed = SPP_SEED if pass_index == 0 else SPP_SEED + 7919 * pass_index
-        gbuf = film_gbuffer(pin, rays, *subpixel_points(pin.width, pin.height, side, seed))
-    points = shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,),
-                            both_branches=both_branches)
+        gbuf = raycast_gbuffer(scene.camera, rays, samples=side, seed=jitter_seed(pass_index))
+    points = _shade(scene, rays, gbuf, True)
     specular = np.array([o.is_specular for o in scene.objects] + [False])
     seen = ~specular[gbuf.object.reshape(-1)]  # object -1 (nothing hit): the last entry
     if points.owner is not None:
         seen = seen[points.owner]
     return points, seen.reshape(points.shape)
+
+
+def _shade(scene, rays, gbuf, both_branches: bool):
+    from blockhash.scene.model import MirrorMaterial
+
+    return shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,),
+                          both_branches=both_branches)
 
 
 def _only(points, keep):

@@ -138,7 +138,6 @@ class PhotonSource:
     determinism), so that the passes of a progressive render share one geometry."""
 
     def __init__(self, scene, *, geometry: EmbreeGeometry | None = None):
-        self.t_built = time.perf_counter()
         self.scene = scene
         self.name = name = _scene_name(scene)
         self.max_bounces = as_int(scene.photons.max_bounces, "photons.max_bounces", minimum=1,

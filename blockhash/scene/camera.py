@@ -27,6 +27,12 @@ MAX_SPP = 1024
 SPP_SEED = 20020901
 
 
+def jitter_seed(index: int) -> int:
+    """The stratified jitter's seed of render pass (or repeat) ``index``: :data:`SPP_SEED`
+    for the first, another of its own for each later one."""
+    return SPP_SEED if index == 0 else SPP_SEED + 7919 * int(index)
+
+
 def spp_side(spp, name: str = "spp") -> int:
     """S for ``spp = S * S`` samples per pixel (stratified in S x S cells); InputError for
     anything else."""
