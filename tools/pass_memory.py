@@ -2,30 +2,46 @@
 P passes, each in a fresh process, side by side.
 
 A render keeps one pass's photons, index, gather and GL textures at a time, and a film of
-(h, w, 3) float64 sums; its peak should not grow with the passes.
+(h, w, 3) float64 sums; its peak should not grow with the passes.  ``--marks`` prints the
+peak after those passes too; ``--env NAME=VALUE`` runs every count again under that
+environment (e.g. glibc's ``MALLOC_MMAP_THRESHOLD_``), beside the plain one.
 
 usage: python tools/pass_memory.py [--scene scenes/ring.toml] [--photons 1000000]
-                                   [--passes 2,100] [--size 512]
+                                   [--passes 2,100] [--size 512] [--marks 1,5,10]
+                                   [--method auto|cpu]
+                                   [--env MALLOC_MMAP_THRESHOLD_=131072 ...]
 """
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 
 CHILD = """
 import json, resource, sys, time
 import blockhash
+from blockhash.frame.options import LookupOptions
 from blockhash.frame.progressive import Renderer
 scene = blockhash.load_scene(sys.argv[1]).with_size(int(sys.argv[2]), int(sys.argv[2]))
-r = Renderer(scene, photons=int(sys.argv[3]))
-t = time.perf_counter()
+marks = {int(m) for m in sys.argv[5].split(",") if m}
+r = Renderer(scene, photons=int(sys.argv[3]), lookup=LookupOptions(method=sys.argv[6]))
+peaks, t = {}, time.perf_counter()
 while r.passes < int(sys.argv[4]):
     r.step()
+    if r.passes in marks:
+        peaks[r.passes] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 print(json.dumps({"passes": r.passes, "seconds": time.perf_counter() - t,
                   "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
-                  "emitted": r.emitted, "stored": r.stored}))
+                  "peaks_at": peaks, "emitted": r.emitted, "stored": r.stored}))
 """
+
+
+def run(args, n: int, env: dict) -> dict:
+    out = subprocess.run([sys.executable, "-c", CHILD, args.scene, str(args.size),
+                          str(args.photons), str(n), args.marks, args.method],
+                         capture_output=True, text=True, check=True, env={**os.environ, **env})
+    return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def main(argv=None):
@@ -34,19 +50,22 @@ def main(argv=None):
     p.add_argument("--photons", type=int, default=1_000_000)
     p.add_argument("--passes", default="2,100")
     p.add_argument("--size", type=int, default=512)
+    p.add_argument("--method", default="auto", help="the photon search (LookupOptions): auto, "
+                   "or cpu for a render with no GL caustic pass")
+    p.add_argument("--marks", default="", help="passes after which to print the peak so far")
+    p.add_argument("--env", action="append", default=[], metavar="NAME=VALUE",
+                   help="also run under this environment variable (repeatable)")
     args = p.parse_args(argv)
-    rows = []
-    for n in (int(x) for x in args.passes.split(",")):
-        out = subprocess.run([sys.executable, "-c", CHILD, args.scene, str(args.size),
-                              str(args.photons), str(n)], capture_output=True, text=True, check=True)
-        rows.append(json.loads(out.stdout.strip().splitlines()[-1]))
-        print(json.dumps(rows[-1]), flush=True)
-    base = rows[0]["peak_mib"]
-    print(f"| passes | photons per pass | peak RSS (MiB) | against {rows[0]['passes']} passes | "
-          "s per pass |\n| --- | --- | --- | --- | --- |")
-    for r in rows:
-        print(f"| {r['passes']} | {args.photons:,} | {r['peak_mib']:.0f} | {r['peak_mib'] / base:.3f} | "
-              f"{r['seconds'] / r['passes']:.2f} |")
+    settings = [("default", {})] + [(e, dict([e.split("=", 1)])) for e in args.env]
+    print(f"| environment | passes | photons per pass | peak RSS (MiB) | against the first count "
+          f"| peaks after passes {args.marks or '-'} (MiB) | s per pass |\n" + "| --- " * 7 + "|")
+    for name, env in settings:
+        rows = [run(args, int(n), env) for n in args.passes.split(",")]
+        for r in rows:
+            marks = ", ".join(f"{v:.0f}" for v in r["peaks_at"].values()) or "-"
+            print(f"| {name} | {r['passes']} | {args.photons:,} | {r['peak_mib']:.0f} | "
+                  f"{r['peak_mib'] / rows[0]['peak_mib']:.3f} | {marks} | "
+                  f"{r['seconds'] / r['passes']:.2f} |", flush=True)
     return 0
 
 
