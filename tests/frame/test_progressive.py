@@ -299,13 +299,20 @@ def test_ctrl_c_writes_the_image_so_far_with_its_pass_count(tmp_path, monkeypatc
 
 
 @pytest.mark.gl
-def test_the_render_command_runs_passes_to_its_rule(tmp_path, capsys):
+def test_the_render_command_runs_passes_to_its_rule(tmp_path, capsys, monkeypatch):
     from blockhash.cli import main
+    from blockhash.frame import images
     from blockhash.frame.images import read_attribute
 
+    written = []
+    real_png = images.write_png
+    monkeypatch.setattr(images, "write_png", lambda path, img: (written.append(path),
+                                                                real_png(path, img)))
     out = tmp_path / "ring.exr"
     assert main(["render", str(RING), "--size", "24x24", "--photons", "3000", "--passes", "3",
                  "--preview-every", "0.001", "-o", str(out)]) == 0
+    # a preview after each pass (each ends more than 1 ms after the last), then the final PNG
+    assert written == [out.with_suffix(".png")] * 4
     text = capsys.readouterr().out
     assert "passes: 3 (3 passes)" in text and "relative standard error" in text
     assert int(read_attribute(out, "blockhash:passes")) == 3
