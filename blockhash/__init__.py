@@ -9,11 +9,13 @@ code_version.configure(__version__)  # before any compiled function is defined
 from blockhash.errors import BlockHashError, CapacityError, InputError, InputTypeError, ShaderCompileError
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.options import LookupOptions
-from blockhash.frame.pipeline import render
-from blockhash.frame.progressive import Renderer, Schedule
-from blockhash.frame.stopping import Passes
 from blockhash.index.block_hash_index import BlockHashIndex, IndexStats, OrphanWarning
 from blockhash.index.tables.params import BlockHashParams
+from blockhash.passes.executors import InProcess, LocalWorkers
+from blockhash.passes.pipeline import render
+from blockhash.passes.renderer import Renderer
+from blockhash.passes.schedule import Schedule
+from blockhash.passes.stopping import Passes
 
 
 def load_scene(path):
@@ -23,4 +25,4 @@ def load_scene(path):
     return load(path)
 
 
-__all__ = ["load_scene", "render", "Renderer", "Passes", "Schedule", "EstimateOptions", "LookupOptions", "BlockHashIndex", "BlockHashParams", "IndexStats", "OrphanWarning", "BlockHashError", "CapacityError", "InputError", "InputTypeError", "ShaderCompileError", "__version__"]
+__all__ = ["load_scene", "render", "Renderer", "Passes", "Schedule", "InProcess", "LocalWorkers", "EstimateOptions", "LookupOptions", "BlockHashIndex", "BlockHashParams", "IndexStats", "OrphanWarning", "BlockHashError", "CapacityError", "InputError", "InputTypeError", "ShaderCompileError", "__version__"]

@@ -51,7 +51,7 @@ def test_bad_command_lines_get_one_line_errors(capsys, argv, match):
 
 
 def test_unwritable_output_is_refused_before_rendering(capsys, tmp_path, monkeypatch):
-    import blockhash.frame.pipeline as pipeline
+    import blockhash.passes.pipeline as pipeline
 
     monkeypatch.setattr(pipeline, "render_scene", lambda *a, **k: pytest.fail("rendered anyway"))
     folder = tmp_path / "dir.exr"

@@ -1,4 +1,4 @@
-"""The package reads as its data flows: scene -> photons -> index -> gl -> frame ->
+"""The package reads as its data flows: scene -> photons -> index -> gl -> frame -> passes ->
 reference -> evaluate -> studies -> command line.
 
 Every import between blockhash's modules (lazy ones inside functions included)
@@ -15,8 +15,8 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "blockhash"
 #: Rank of each part in the data flow; a module may import only ranks <= its own.
 RANKS = {"errors": 0, "validate": 0, "code_version": 0, "scene": 1, "photons": 2, "index": 3, "gl": 4,
-         "frame": 5, "reference": 6, "evaluate": 7, "studies": 8, "bench": 8, "cli": 9, "__init__": 9,
-         "__main__": 9}
+         "frame": 5, "passes": 6, "reference": 7, "evaluate": 8, "studies": 9, "bench": 9, "cli": 10,
+         "__init__": 10, "__main__": 10}
 #: Lines above which a module's docstring must say why it is long.
 LONG_MODULE = 420
 LONG_REASON = "Why this module is long:"
@@ -73,7 +73,7 @@ def test_module_imports_only_earlier_parts(path):
 
 
 def test_the_three_parts_are_packages():
-    for part in ("scene", "photons", "index", "gl", "frame", "reference", "evaluate", "studies", "cli"):
+    for part in ("scene", "photons", "index", "gl", "frame", "passes", "reference", "evaluate", "studies", "cli"):
         assert (PACKAGE / part / "__init__.py").is_file()
     assert not sorted(p.name for p in PACKAGE.glob("*.py")
                       if p.stem not in RANKS), "top-level modules outside the known parts"

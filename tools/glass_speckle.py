@@ -21,7 +21,7 @@ import numpy as np
 from scipy.ndimage import binary_erosion
 
 from blockhash.frame.gbuffer import rasterize
-from blockhash.frame.pipeline import direct_layer
+from blockhash.passes.pipeline import direct_layer
 from blockhash.scene.loader import load_scene
 
 

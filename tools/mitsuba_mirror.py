@@ -33,7 +33,7 @@ import blockhash
 from blockhash.evaluate.specular_identity import compare_views, specular_view_map
 from blockhash.frame.images import srgb, white_point, write_rgb8
 from blockhash.frame.shading import SceneRays
-from blockhash.frame.stopping import Passes
+from blockhash.passes.stopping import Passes
 from blockhash.reference.mitsuba import mitsuba_reference, render_mitsuba
 from blockhash.scene.camera import Pinhole
 

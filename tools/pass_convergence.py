@@ -22,7 +22,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from time_to_error import power_law, reference  # noqa: E402
 
-from blockhash.frame.progressive import Renderer  # noqa: E402
+from blockhash.passes.renderer import Renderer  # noqa: E402
 from blockhash.reference.lighttrace import light_trace  # noqa: E402
 from blockhash.reference.mitsuba import without_specular_lobes  # noqa: E402
 from blockhash.scene.loader import load_scene  # noqa: E402

@@ -22,7 +22,7 @@ CHILD = """
 import json, resource, sys, time
 import blockhash
 from blockhash.frame.options import LookupOptions
-from blockhash.frame.progressive import Renderer
+from blockhash.passes.renderer import Renderer
 scene = blockhash.load_scene(sys.argv[1]).with_size(int(sys.argv[2]), int(sys.argv[2]))
 marks = {int(m) for m in sys.argv[5].split(",") if m}
 r = Renderer(scene, photons=int(sys.argv[3]), lookup=LookupOptions(method=sys.argv[6]))

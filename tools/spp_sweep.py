@@ -33,7 +33,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from blockhash.frame.pipeline import render_scene  # noqa: E402
+from blockhash.passes.pipeline import render_scene  # noqa: E402
 from blockhash.photons.tracing import trace_caustic_photons  # noqa: E402
 from blockhash.reference.lighttrace import cached_reference, lambertian  # noqa: E402
 from blockhash.scene.loader import load_scene  # noqa: E402

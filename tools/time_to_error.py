@@ -5,7 +5,7 @@ For each scene, with ks = 0 on every modified Phong material (Mitsuba has none),
 
 1. a long Mitsuba reference of the caustic layer (``ptracer`` less the specular-absorbing
    render, blockhash/reference/mitsuba.py) at ``--ref-spp``, cached in ``--cache``;
-2. blockhash's progressive render (``blockhash.frame.progressive.Renderer`` with the default
+2. blockhash's progressive render (``blockhash.passes.renderer.Renderer`` with the default
    schedule, ``--photons`` per pass): after every pass its own time (the passes' wall time;
    the metrics are computed outside it) and the caustic layer's errors against the reference
    on the light tracer's comparison mask (receivers seen directly; pixels seen through a
@@ -43,8 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
-from blockhash.frame.pipeline import render_scene
-from blockhash.frame.progressive import Renderer
+from blockhash.passes.pipeline import render_scene
+from blockhash.passes.renderer import Renderer
 from blockhash.reference.lighttrace import light_trace
 from blockhash.reference.mitsuba import mitsuba_reference, without_specular_lobes
 from blockhash.scene.loader import load_scene

@@ -33,7 +33,7 @@ def blockhash_reference(scene, spp: int, photons: int, *, seed: int = 0):
     stratified samples per pixel."""
     import time
 
-    from blockhash.frame.pipeline import direct_layer
+    from blockhash.passes.pipeline import direct_layer
     from blockhash.reference.lighttrace import light_trace
 
     timings = {}

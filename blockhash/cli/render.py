@@ -10,6 +10,7 @@ from __future__ import annotations
 import sys
 import time
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 from blockhash.cli.args import size as _size
@@ -27,8 +28,10 @@ INTERRUPTED = 130
 
 def cmd_render(args) -> int:
     from blockhash.frame.options import LookupOptions
-    from blockhash.frame.pipeline import make_renderer
-    from blockhash.frame.stopping import TargetOutOfReach, run_passes
+    from blockhash.passes.executors import PassFailed
+    from blockhash.passes.pipeline import make_renderer
+    from blockhash.passes.run import run_passes
+    from blockhash.passes.stopping import TargetOutOfReach
     from blockhash.scene.loader import load_scene
 
     out = Path(args.output or Path(args.scene).with_suffix(".exr").name)
@@ -54,11 +57,11 @@ def cmd_render(args) -> int:
             lookup=LookupOptions(method=args.method, k=args.k, A=args.A, variant=args.variant))
         progress = _Progress(renderer, passes, out, args.preview_every)
         try:
-            run_passes(renderer, passes, on_pass=progress.update)
+            run_passes(renderer, passes, on_pass=progress.update, on_wait=progress.waiting)
         except KeyboardInterrupt:
             progress.close()
             return _stop_early(renderer, out, "interrupted (Ctrl-C)", INTERRUPTED)
-        except TargetOutOfReach as exc:
+        except (TargetOutOfReach, PassFailed) as exc:
             progress.close()
             return _stop_early(renderer, out, f"error: {exc}", 2)
         progress.close()
@@ -67,7 +70,7 @@ def cmd_render(args) -> int:
     result = _write(renderer, out)
     info = result.info
     print(f"scene: {args.scene} -> {out} (+ {out.with_suffix('.png').name})")
-    print(f"passes: {result.passes} ({info.get('stopped_by')}); photons stored: "
+    print(f"passes: {result.passes} ({info.get('stopped_by')}) {info.get('executor')}; photons stored: "
           f"{info['photons_stored']:,} of {info['photons_emitted']:,} emitted")
     err = info["estimated_error"]
     print(f"density estimate: {info.get('estimate')}; {result.spp} samples per pixel; caustic "
@@ -82,8 +85,8 @@ def _stopping_rule(args, *, one_pass: bool):
     """The :class:`Passes` of ``--passes``, ``--time``, ``--target-error``, ``--alpha`` and
     ``--footprint``: without ``--passes``, a time or target runs passes until it holds, and
     neither the default rule (a trade-study setting: one pass)."""
-    from blockhash.frame.progressive import Schedule
-    from blockhash.frame.stopping import DEFAULT_PASSES, Passes
+    from blockhash.passes.schedule import Schedule
+    from blockhash.passes.stopping import DEFAULT_PASSES, Passes
 
     if args.passes is not None:
         count = args.passes
@@ -93,12 +96,30 @@ def _stopping_rule(args, *, one_pass: bool):
         count = 1 if one_pass else DEFAULT_PASSES
     try:
         schedule = Schedule(alpha=args.alpha, footprint=args.footprint)
-        return Passes(passes=count, seconds=args.time, target_error=args.target_error,
+        rule = Passes(passes=count, seconds=args.time, target_error=args.target_error,
                       schedule=schedule)
     except InputError as exc:  # name the flags, as the user wrote them
         raise InputError(str(exc).replace("passes=", "--passes ").replace("time=", "--time ")
                          .replace("target_error=", "--target-error ").replace("alpha=", "--alpha ")
                          .replace("footprint=", "--footprint ")) from None
+    return replace(rule, executor=_executor(args))
+
+
+def _executor(args):
+    """Where the passes run: ``--workers N`` local processes, ``--scheduler ADDRESS`` a Dask
+    cluster, else this process."""
+    from blockhash.passes.executors import InProcess, LocalWorkers, worker_count
+
+    if args.workers is not None and args.scheduler is not None:
+        raise InputError(f"--workers {args.workers} and --scheduler {args.scheduler}: passes run "
+                         "either in local worker processes or on a Dask cluster; give one")
+    if args.scheduler is not None:
+        from blockhash.passes.dask_cluster import DaskCluster
+
+        return DaskCluster(args.scheduler)
+    if args.workers is not None:
+        return LocalWorkers(worker_count(args.workers, "--workers"))
+    return InProcess()
 
 
 def _write(renderer, out: Path, **attributes):
@@ -128,8 +149,8 @@ def _stop_early(renderer, out: Path, why: str, code: int) -> int:
 
 
 class _Progress:
-    """The progress bar (on a terminal: passes, photons, elapsed time, estimated error) and
-    the PNG rewritten every ``preview_every`` seconds."""
+    """The progress bar (on a terminal: passes done and in flight, workers, photons, elapsed
+    time, estimated error) and the PNG rewritten every ``preview_every`` seconds."""
 
     def __init__(self, renderer, passes, out: Path, preview_every):
         self.out, self.preview_every = out, preview_every
@@ -140,11 +161,12 @@ class _Progress:
 
             self.bar = tqdm(total=passes.passes, unit="pass", desc="render", file=sys.stderr)
 
-    def update(self, renderer, stats, elapsed: float) -> None:
+    def update(self, renderer, stats, elapsed: float, session) -> None:
         if self.bar is not None:
             err = renderer.film.estimated_error()
-            self.bar.set_postfix_str(f"photons {renderer.stored:,}, error "
-                                     f"{'-' if err == float('inf') else f'{err:.3g}'}")
+            self.bar.set_postfix_str(
+                f"in flight {session.in_flight}, workers {session.workers}, photons "
+                f"{renderer.stored:,}, error {'-' if err == float('inf') else f'{err:.3g}'}")
             self.bar.update(1)
         now = time.perf_counter()
         if self.preview_every is not None and now - self.last_preview >= self.preview_every:
@@ -152,6 +174,10 @@ class _Progress:
 
             write_png(self.out.with_suffix(".png"), renderer.image.combined)
             self.last_preview = now
+
+    def waiting(self, session) -> None:
+        if self.bar is not None:
+            self.bar.set_description_str(f"render ({session.in_flight} in flight)")
 
     def close(self) -> None:
         if self.bar is not None:
@@ -183,8 +209,8 @@ def _choose_settings(args, scene) -> None:
 
 def add_render(sub) -> None:
     """Add ``render`` to the subcommands ``sub``."""
-    from blockhash.frame.progressive import DEFAULT_ALPHA, DEFAULT_FOOTPRINT
-    from blockhash.frame.stopping import DEFAULT_PASSES
+    from blockhash.passes.schedule import DEFAULT_ALPHA, DEFAULT_FOOTPRINT
+    from blockhash.passes.stopping import DEFAULT_PASSES
 
     p = sub.add_parser("render", help="render a scene's direct light and caustics to EXR and PNG",
                        description="Render in passes (progressive photon mapping): each pass "
@@ -229,6 +255,12 @@ def add_render(sub) -> None:
                    f"{DEFAULT_SPP} with --passes 1 and 1 per pass in more)")
     p.add_argument("--seed", type=int, help="photon seed (default: the scene's)")
     p.add_argument("--backend", choices=BACKENDS, default=None)
+    p.add_argument("--workers", metavar="N",
+                   help="run the passes in N local worker processes ('auto': one per core); the "
+                        "image is the same as in one process")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="run the passes on an existing Dask cluster (dask scheduler / dask worker; "
+                        "pip install 'blockhash[distributed]'); the image is the same")
     p.add_argument("--time-budget", type=float, metavar="SECONDS",
                    help="choose photons, k and A of a one-pass render from the scene's trade "
                         "study: least error that fits")

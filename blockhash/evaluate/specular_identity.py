@@ -256,7 +256,7 @@ def identity_check(scene, *, size=(128, 128), photons=50_000, spp=4, seeds=(1, 2
     that noisy), each plus the resampling's own error (bilinear against nearest-pixel
     sampling of the direct view: the flux ratio's difference and the relative RMS between
     the two predictions, the most of the runs); ``holds`` when every run is within both."""
-    from blockhash.frame.pipeline import direct_layer, render_scene
+    from blockhash.passes.pipeline import direct_layer, render_scene
     from blockhash.scene.camera import jitter_seed
 
     if len(seeds) < 2:

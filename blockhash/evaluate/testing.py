@@ -2,7 +2,7 @@
 
 A reference-image test in five lines::
 
-    from blockhash.frame.pipeline import render_scene
+    from blockhash.passes.pipeline import render_scene
     from blockhash.scene.loader import load_scene
     from blockhash.evaluate.testing import assert_images_close
 

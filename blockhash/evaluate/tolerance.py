@@ -96,7 +96,7 @@ def seed_tolerances(scene, *, seeds: int = 4, first_seed: int = 0, photons=None,
     spp : int, optional
         Samples per pixel of every render (default: the scene's, else the renderer's).
     """
-    from blockhash.frame.pipeline import render_scene
+    from blockhash.passes.pipeline import render_scene
 
     if seeds < 2:
         raise InputError(f"--seeds {seeds}: need at least 2 seeds to measure seed-to-seed noise; "

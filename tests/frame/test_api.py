@@ -9,7 +9,7 @@ import pytest
 
 import blockhash
 from blockhash import EstimateOptions, InputError, LookupOptions
-from blockhash.frame.pipeline import ONE_PASS, render_scene
+from blockhash.passes.pipeline import ONE_PASS, render_scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -48,7 +48,7 @@ def test_render_reuses_traced_photons(ring):
 def test_render_takes_at_most_eight_arguments():
     import inspect
 
-    assert len(inspect.signature(blockhash.frame.pipeline.render).parameters) <= 8
+    assert len(inspect.signature(blockhash.passes.pipeline.render).parameters) <= 8
 
 
 @pytest.mark.slow

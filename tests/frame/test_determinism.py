@@ -7,7 +7,7 @@ from conftest import context_or_skip
 from conftest import small_ring_scene as scene
 
 from blockhash import BlockHashIndex
-from blockhash.frame.pipeline import render_scene
+from blockhash.passes.pipeline import render_scene
 from blockhash.photons.tracing import trace_caustic_photons
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)

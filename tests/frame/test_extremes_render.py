@@ -9,7 +9,7 @@ from conftest import small_ring_scene as scene
 
 from blockhash import CapacityError, InputError
 from blockhash.frame.gbuffer import rasterize
-from blockhash.frame.pipeline import NoCausticWarning, render_scene
+from blockhash.passes.pipeline import NoCausticWarning, render_scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 

@@ -11,7 +11,7 @@ import pytest
 
 from blockhash.evaluate.testing import assert_images_close
 from blockhash.frame.images import read_layers
-from blockhash.frame.pipeline import render_scene
+from blockhash.passes.pipeline import render_scene
 from blockhash.scene.loader import load_scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)

@@ -8,8 +8,8 @@ import pytest
 from conftest import context_or_skip
 
 from blockhash.errors import InputError
-from blockhash.frame.pipeline import NoCausticWarning, render_scene
 from blockhash.frame.subpixel import box_filter
+from blockhash.passes.pipeline import NoCausticWarning, render_scene
 from blockhash.scene.camera import Pinhole, spp_side
 from blockhash.scene.loader import load_scene
 

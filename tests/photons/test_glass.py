@@ -246,7 +246,7 @@ def test_the_canonical_glass_scene_has_the_normative_values():
 @pytest.mark.slow
 def test_the_glass_ball_renders_with_its_caustic_in_its_shadow():
     context_or_skip("egl")
-    from blockhash.frame.pipeline import render_scene
+    from blockhash.passes.pipeline import render_scene
 
     scene = load_scene(ROOT / "scenes" / "glass.toml")
     r = render_scene(scene, photons=40_000, size=(64, 64), spp=4)
@@ -263,7 +263,7 @@ def test_the_glass_ball_renders_with_its_caustic_in_its_shadow():
 def test_every_method_renders_glass_and_the_exact_one_agrees_with_the_cpu(tmp_path):
     context_or_skip("egl")
     from blockhash.evaluate.testing import assert_images_close
-    from blockhash.frame.pipeline import render_scene
+    from blockhash.passes.pipeline import render_scene
     from blockhash.studies.measure import flux_ratio
 
     scene = load_scene(ROOT / "scenes" / "glass.toml")

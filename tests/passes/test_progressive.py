@@ -1,4 +1,4 @@
-"""The render in passes (blockhash.frame.progressive, film, stopping): convergence on an
+"""The render in passes (blockhash.passes.renderer, film, stopping): convergence on an
 analytic plane, one pass equal to the single render, reproducibility, stopping rules, Ctrl-C
 and memory."""
 
@@ -13,17 +13,13 @@ import trimesh
 
 import blockhash
 from blockhash.errors import InputError
-from blockhash.frame.film import Film
-from blockhash.frame.pipeline import render, render_scene
-from blockhash.frame.progressive import (
-    EMPTY_PASSES_WARNING,
-    EmptyPassesWarning,
-    Renderer,
-    Schedule,
-    shrink,
-)
-from blockhash.frame.stopping import Passes, TargetOutOfReach, run_passes
 from blockhash.frame.subpixel import pass_offsets
+from blockhash.passes.film import Film
+from blockhash.passes.pipeline import render, render_scene
+from blockhash.passes.renderer import EMPTY_PASSES_WARNING, EmptyPassesWarning, Renderer
+from blockhash.passes.run import run_passes
+from blockhash.passes.schedule import Schedule, shrink
+from blockhash.passes.stopping import Passes, TargetOutOfReach
 from blockhash.scene.model import (
     Camera,
     MirrorMaterial,
@@ -216,12 +212,12 @@ def test_a_pass_that_stores_nothing_counts_and_many_warn(plane, monkeypatch):
     r.step()
     one = r.film.caustic.copy()
     empty = blockhash.photons.tracing.CausticPhotons.empty()
-    emitted = r.first_emitted
+    emitted = r.emitted_per_pass
 
     def no_photons(count, **kw):
         return type(empty)(empty.positions, empty.directions, empty.normals, empty.powers,
                            count, {})
-    monkeypatch.setattr(r.source, "emit", no_photons)
+    monkeypatch.setattr(r.setup.source, "emit", no_photons)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         for _ in range(EMPTY_PASSES_WARNING):
@@ -279,16 +275,17 @@ RING = __import__("pathlib").Path(__file__).resolve().parents[2] / "scenes" / "r
 
 @pytest.mark.gl
 def test_ctrl_c_writes_the_image_so_far_with_its_pass_count(tmp_path, monkeypatch, capsys):
+    import blockhash.passes.executors as executors
     from blockhash.cli import main
     from blockhash.frame.images import read_attribute, read_layers
 
-    real = Renderer.step
+    real = executors.run_pass
 
-    def step(self):
-        if self.passes == 2:
+    def run_pass(setup, p, emitted):
+        if p == 2:
             raise KeyboardInterrupt
-        return real(self)
-    monkeypatch.setattr(Renderer, "step", step)
+        return real(setup, p, emitted)
+    monkeypatch.setattr(executors, "run_pass", run_pass)
     out = tmp_path / "ring.exr"
     code = main(["render", str(RING), "--size", "24x24", "--photons", "3000", "--passes", "9",
                  "-o", str(out)])

@@ -1,24 +1,29 @@
-"""When a progressive render stops: :class:`Passes`, and :func:`run_passes`, the loop.
+"""When a progressive render stops, and where its passes run: :class:`Passes`.
 
 A render stops at the first of its rules that holds: ``passes`` passes run, ``seconds``
 elapsed, or the caustic layer's estimated relative standard error
-(:meth:`blockhash.frame.film.Film.estimated_error`, from the spread between passes) at most
+(:meth:`blockhash.passes.film.Film.estimated_error`, from the spread between passes) at most
 ``target_error``.  A target is checked from :data:`PROJECT_AFTER` passes on against the pass
 limit: the error of the mean falls about as ``n^(-alpha / 2)`` over n passes (Knaus and
 Zwicker: a pass's variance grows as ``n^(1 - alpha)``), so a target that the projection puts
 beyond ``PROJECTION_MARGIN`` times ``passes`` is refused then, naming the passes it needs,
 rather than run to the limit; a target still unmet at the limit is refused there.  (The
 command line writes the image so far in both cases.)
+
+With passes running in parallel (``executor``), a rule decides which passes are handed out
+(:meth:`Passes.hand_out`) and when the merged film stops (:meth:`Passes.reason`): the film
+holds passes 0..n-1 in order, so ``passes=N`` renders exactly passes 0..N-1, and a time or a
+target stops with a contiguous run of passes from 0, whatever was still in flight.
 """
 
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 
 from blockhash.errors import InputError
-from blockhash.frame.progressive import Schedule
+from blockhash.passes.executors import InProcess
+from blockhash.passes.schedule import Schedule
 
 #: Passes of the default render (with one sample per pixel per pass and the scene's photons
 #: per pass): chosen on the ring scene at 512 x 512 against the single render (BENCHMARKS.md, "The render in passes").
@@ -41,12 +46,16 @@ class Passes:
                                        standard error is at most this (needs two passes)
     schedule : Schedule                alpha, and the footprint under which photons are
                                        splatted into their pixel
+    executor : InProcess, LocalWorkers or DaskCluster
+                                       where the passes run (:mod:`.executors`; default in
+                                       this process); the image is the same
     """
 
     passes: int | None = DEFAULT_PASSES
     seconds: float | None = None
     target_error: float | None = None
     schedule: Schedule = field(default_factory=Schedule)
+    executor: object = field(default_factory=InProcess)
 
     def __post_init__(self):
         if self.passes is not None and (isinstance(self.passes, bool) or
@@ -64,6 +73,9 @@ class Passes:
         if self.passes is None and self.seconds is None and self.target_error is None:
             raise InputError("a render with no pass limit needs --time or --target-error to stop; "
                              "give --passes N, --time SECONDS or --target-error E")
+        if not hasattr(self.executor, "open"):
+            raise InputError(f"executor={self.executor!r}: give InProcess(), LocalWorkers(count) "
+                             "or DaskCluster(address) (blockhash.passes.executors)")
         if self.target_error is not None and self.passes is not None and self.passes < 2:
             raise InputError(f"--target-error {self.target_error} cannot be reached within "
                              f"--passes {self.passes}: the error is estimated from the spread "
@@ -73,6 +85,15 @@ class Passes:
     def one_pass(self) -> bool:
         """One pass and no other rule: today's single render."""
         return self.passes == 1
+
+    def hand_out(self, p: int, elapsed: float) -> bool:
+        """Whether pass ``p`` may start now: below the pass limit and within the time (pass 0
+        always: a render runs at least one pass)."""
+        if p == 0:
+            return True
+        if self.passes is not None and p >= self.passes:
+            return False
+        return self.seconds is None or elapsed < self.seconds
 
     def reason(self, renderer, elapsed: float) -> str | None:
         """Why the render stops now (None: it goes on); :class:`TargetOutOfReach` for a
@@ -105,18 +126,3 @@ class TargetOutOfReach(InputError):
 
 def _number(x) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool)
-
-
-def run_passes(renderer, stop: Passes, *, on_pass=None):
-    """Step ``renderer`` until ``stop`` says so; ``on_pass(renderer, stats, elapsed)`` after
-    every pass.  Returns the reason it stopped (also in ``renderer.info['stopped_by']``)."""
-    t0 = time.perf_counter()
-    while True:
-        stats = renderer.step()
-        elapsed = time.perf_counter() - t0
-        if on_pass is not None:
-            on_pass(renderer, stats, elapsed)
-        why = stop.reason(renderer, elapsed)
-        if why is not None:
-            renderer.info["stopped_by"] = why
-            return why

@@ -21,18 +21,16 @@ from dataclasses import replace
 import numpy as np
 
 from blockhash.errors import InputError
+from blockhash.frame.camera_samples import camera_points
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.options import LookupOptions
-from blockhash.frame.progressive import (  # noqa: F401 (importable from here)
-    NoCausticWarning,
-    Renderer,
-    Schedule,
-    camera_points,
-)
 from blockhash.frame.result import RenderResult  # noqa: F401 (importable from here)
 from blockhash.frame.shading import SceneRays, direct_light
-from blockhash.frame.stopping import Passes, run_passes
 from blockhash.frame.subpixel import box_filter
+from blockhash.passes.renderer import NoCausticWarning, Renderer  # noqa: F401 (importable from here)
+from blockhash.passes.run import run_passes
+from blockhash.passes.schedule import Schedule
+from blockhash.passes.stopping import Passes
 from blockhash.scene.camera import DEFAULT_SPP, SPP_SEED, spp_side
 from blockhash.validate import old_keywords
 
@@ -62,7 +60,7 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
     backend : {'auto', 'egl', 'osmesa'}, optional
     passes : Passes
         The stopping rule (passes, seconds, target error) and the radii's schedule
-        (:mod:`blockhash.frame.stopping`); ``Passes(passes=1)`` is the single render of
+        (:mod:`blockhash.passes.stopping`); ``Passes(passes=1)`` is the single render of
         ``render_scene``.
 
     Returns

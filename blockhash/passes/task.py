@@ -1,0 +1,307 @@
+"""A pass as a task: :func:`run_pass` is a function of what a process builds once for a render
+(:class:`RenderSetup`, from the scene and its :class:`PassSettings`) and the pass number; it
+returns what the pass adds to the film (:class:`PassContribution`).
+
+1. photons: pass 0 shoots until the requested count is stored; pass p >= 1 shoots the count
+   that pass 0 emitted (given to it), from photon ``p * PASS_STRIDE`` of the streams
+   (:class:`blockhash.photons.tracing.PhotonSource`): the same (seed, p) gives the same photons
+   in any process;
+2. the index of that batch and, for the conserving estimate, the photons' own radii scaled by
+   the pass's shrink (:mod:`.schedule`), and the pixel splat of the photons under the
+   footprint;
+3. a fresh camera sample per pixel (:func:`blockhash.frame.camera_samples.camera_samples`);
+4. direct light and the caustic estimate of those samples, box-filtered into pixel means.
+
+Which search and estimate a pass runs is chosen once, when the setup is built
+(:func:`caustic_stage`), not by names inside the pass.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from blockhash.errors import InputError
+from blockhash.frame.camera_samples import camera_samples, only
+from blockhash.frame.caustic import CausticPass, estimate_cpu, estimate_exact
+from blockhash.frame.cover_estimate import cover_gather, estimate_cover_cpu
+from blockhash.frame.estimate import EstimateOptions
+from blockhash.frame.options import LookupOptions, resolve_method
+from blockhash.frame.photon_radius import exact_radii2, own_radii2
+from blockhash.frame.shading import SceneRays, direct_light
+from blockhash.frame.subpixel import box_filter
+from blockhash.gl.limits import MAX_K
+from blockhash.index.block_hash_index import BlockHashIndex
+from blockhash.passes.schedule import FixedRadii, PassRadii, Schedule, shrink
+from blockhash.scene.camera import Pinhole
+from blockhash.validate import as_int
+
+
+@dataclass(frozen=True)
+class PassSettings:
+    """What every pass of a render shares besides the scene: photons stored in pass 0
+    (``count``; None with a traced map), S of S x S samples per pixel (``side``), the photons'
+    seed, the estimate, the resolved search (``method``, ``k``, ``A``, ``variant``), the GL
+    backend and the radius schedule."""
+
+    count: int | None
+    side: int
+    seed: int
+    estimate: EstimateOptions
+    method: str
+    k: int
+    A: int
+    variant: str = "default"
+    backend: str | None = None
+    schedule: Schedule = field(default_factory=Schedule)
+
+    @classmethod
+    def of(cls, scene, *, photons=None, side: int = 1, seed=None,
+           estimate: EstimateOptions = EstimateOptions(), lookup: LookupOptions = LookupOptions(),
+           backend=None, schedule: Schedule = Schedule()) -> "PassSettings":
+        """The settings of ``scene`` with these overrides (``photons``: photons stored per
+        pass, or None for the scene's; a traced map is given to :class:`RenderSetup`)."""
+        settings = scene.photons
+        k = settings.k if lookup.k is None else lookup.k
+        method = resolve_method(lookup.method, estimate.estimate)
+        if method == "bh" and k > MAX_K:  # refused before hours of tracing, not after
+            raise InputError(f"k={k} is above the lookup shader's limit MAX_K={MAX_K}; use "
+                             f"k <= {MAX_K}, or method='cpu' or 'kdtree', or the conserving "
+                             "estimate's cover gather (method='auto'), which has no such limit")
+        count = photons if photons is not None else settings.count
+        return cls(count=count, side=as_int(side, "side", minimum=1),
+                   seed=settings.seed if seed is None else seed, estimate=estimate,
+                   method=method, k=k, A=settings.A if lookup.A is None else lookup.A,
+                   variant=lookup.variant, backend=backend, schedule=schedule)
+
+
+@dataclass(frozen=True)
+class CausticStage:
+    """How a pass turns its photons into the caustic, chosen once per render
+    (:func:`caustic_stage`).
+
+    radii : callable or None     the photons' own squared radii, ``radii(index, k)``
+                                 (None: the k-nearest estimates' radius from the search)
+    cover : bool                 the cover gather (records only, no hash tables; the pixel
+                                 splat under the footprint, the gather built per pass)
+    estimate : callable          ``estimate(setup, index, points, radii)``: (h, w, 3) float32
+    """
+
+    radii: object
+    cover: bool
+    estimate: object
+
+
+def _gl_pass(gather: str):
+    def estimate(setup, index, points, radii):
+        cp = CausticPass(index, backend=setup.settings.backend, radii=radii, gather=gather)
+        try:
+            return cp.render(points, setup.materials, variant=setup.settings.variant,
+                             options=setup.settings.estimate)
+        finally:
+            cp.release()
+    return estimate
+
+
+def _cover_cpu(setup, index, points, radii):
+    s = setup.settings
+    return estimate_cover_cpu(cover_gather(index, s.k, radii), points, setup.materials,
+                              s.estimate).astype(np.float32)
+
+
+def _knn_cpu(setup, index, points, radii):
+    s = setup.settings
+    return estimate_cpu(index, points, setup.materials, variant=s.variant, options=s.estimate,
+                        radii=radii).astype(np.float32)
+
+
+def _exact(setup, index, points, radii):
+    s = setup.settings
+    return estimate_exact(index, points, setup.materials, backend=s.backend, options=s.estimate,
+                          radii=radii or exact_radii2).astype(np.float32)
+
+
+def caustic_stage(settings: PassSettings) -> CausticStage:
+    """The :class:`CausticStage` of ``settings``' method and estimate (the one place that reads
+    their names)."""
+    conserving = settings.estimate.estimate == "conserving"
+    radii = (exact_radii2 if settings.method == "kdtree" else own_radii2) if conserving else None
+    if settings.method == "cover":
+        return CausticStage(radii, True, _gl_pass("cover"))
+    if settings.method == "bh":
+        return CausticStage(radii, False, _gl_pass("knn"))
+    if settings.method == "cpu":
+        return CausticStage(radii, conserving, _cover_cpu if conserving else _knn_cpu)
+    return CausticStage(radii, False, _exact)
+
+
+class RenderSetup:
+    """What a process builds once for a render and reuses for every pass it runs: the photon
+    source (embree geometry, emitter), the camera's rays, the receivers' materials and the
+    chosen :class:`CausticStage` (the GL context and compiled programs are kept per process by
+    :mod:`blockhash.gl`).  ``traced``: a traced photon map, rendered as pass 0 (one pass)."""
+
+    def __init__(self, scene, settings: PassSettings, traced=None):
+        from blockhash.photons.tracing import PhotonSource
+        from blockhash.scene.materials import receiver_materials
+
+        self.scene, self.settings, self.traced = scene, settings, traced
+        if traced is None:
+            as_int(settings.count, "photons", minimum=1)
+        self.rays = SceneRays(scene.objects)
+        self.source = PhotonSource(scene, geometry=self.rays.geometry)
+        self.materials = receiver_materials(scene.objects)
+        self.pin = Pinhole.of(scene.camera)
+        self.caustic = caustic_stage(settings)
+
+    def photons(self, p: int, emitted: int | None):
+        """Pass ``p``'s photons (None: the scene has no specular object): pass 0 until
+        ``count`` are stored, pass p >= 1 ``emitted`` photons from ``p * PASS_STRIDE``."""
+        from blockhash.photons.tracing import PASS_STRIDE
+
+        if self.traced is not None:
+            if p:
+                raise InputError("a traced photon map (photons=CausticPhotons) is one pass; give "
+                                 "photons=N (photons per pass) to render more passes")
+            return self.traced
+        if self.source.emitter is None:
+            return None
+        if p == 0:
+            return self.source.until_stored(self.settings.count, seed=self.settings.seed)
+        if emitted is None:
+            raise InputError(f"pass {p} needs the photons emitted per pass, which pass 0 fixes; "
+                             "run pass 0 first and give its emitted count")
+        return self.source.emit(emitted, seed=self.settings.seed, start=p * PASS_STRIDE)
+
+
+@dataclass
+class PassContribution:
+    """What pass ``index`` adds to the film: pixel means of its samples (``direct``, and
+    ``caustic`` with powers divided by the photons it emitted), its photons emitted and stored,
+    its stage timings (seconds) and notes (``info``).  ``photon_index`` and ``radii`` are the
+    pass's index and conserving radii, kept only where the pass ran in the caller's process."""
+
+    index: int
+    direct: np.ndarray
+    caustic: np.ndarray
+    emitted: int
+    stored: int
+    scale: float
+    timings: dict = field(default_factory=dict)
+    info: dict = field(default_factory=dict)
+    photon_index: object = None
+    radii: object = None
+
+    def portable(self) -> "PassContribution":
+        """The contribution without what stays in its process (the index and radii)."""
+        from dataclasses import replace
+
+        return replace(self, photon_index=None, radii=None)
+
+
+def run_pass(setup: RenderSetup, p: int, emitted: int | None = None) -> PassContribution:
+    """Pass ``p`` of the render ``setup`` was built for (module docstring); ``emitted``: the
+    photons every pass after the first emits (pass 0's emitted count; None for pass 0)."""
+    s = setup.settings
+    timings: dict = {}
+    t0 = time.perf_counter()
+    photons = setup.photons(p, emitted)
+    timings["trace"] = time.perf_counter() - t0
+    stored = len(photons.positions) if photons is not None else 0
+    scale = shrink(p, s.schedule.alpha)
+    info: dict = {}
+    if p == 0 and photons is not None:
+        info["photon_stats"] = {k: v for k, v in photons.stats.items()
+                                if isinstance(v, (int, float, str))}
+    index, radii, splat, whole = _index(setup, photons, p, scale, timings, info)
+    t = time.perf_counter()
+    points, seen = camera_samples(setup.scene, setup.rays, s.side, p, backend=s.backend)
+    timings["gbuffer"] = time.perf_counter() - t
+    t = time.perf_counter()
+    direct = direct_light(points, setup.scene.objects, setup.scene.lights, setup.rays)
+    timings["direct"] = time.perf_counter() - t
+    caustic = np.zeros_like(direct, dtype=np.float32)
+    estimate = setup.caustic.estimate
+    t = time.perf_counter()
+    if splat is not None and not seen.all():
+        # Points seen in a mirror or through glass gather every photon: the splat reached
+        # only the pixels that see its photons directly.
+        caustic = estimate(setup, whole[0], only(points, ~seen), whole[1])
+        if index is not None:
+            caustic += estimate(setup, index, only(points, seen), radii)
+    elif index is not None:
+        caustic = estimate(setup, index, points, radii)
+    timings["caustic"] = time.perf_counter() - t
+    caustic = box_filter(points.gather(caustic), s.side)
+    if splat is not None:
+        caustic = caustic + splat
+    direct = box_filter(points.gather(direct), s.side)
+    timings["total"] = time.perf_counter() - t0
+    return PassContribution(p, direct, caustic, photons.emitted if photons is not None else 0,
+                            stored, scale, timings, info, index, radii)
+
+
+def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, info: dict):
+    """The pass's index, radii, pixel splat and (index, radii) of every photon, for the points
+    seen in mirrors; all None without photons."""
+    s, stage = setup.settings, setup.caustic
+    stored = 0 if photons is None else len(photons.positions)
+    if stored == 0:
+        return None, None, None, None
+    if p == 0 and stored < s.k:
+        raise InputError(f"only {stored} caustic photons were stored, fewer than k={s.k}; "
+                         "trace more photons (--photons) or lower --k")
+    t = time.perf_counter()
+    # The cover gather reads the records in Hilbert order only: the hash tables are built
+    # on first use (a caller's k-nearest query), not here.
+    index = BlockHashIndex(photons.positions, k=s.k, A=s.A, directions=photons.directions,
+                           normals=photons.normals, powers=photons.powers, tables=not stage.cover)
+    timings["index"] = time.perf_counter() - t
+    if p == 0:
+        info["index"] = (
+            index.stats.summary() if index.tables_built else
+            f"photons {len(index):,} in Hilbert order (the cover gather's records; the "
+            "Block Hashing tables are built on first use)")
+    if stage.radii is None:
+        return index, None, None, None
+    radii = PassRadii(stage.radii, scale)
+    t = time.perf_counter()
+    r2 = radii(index, s.k)
+    timings["photon radii"] = time.perf_counter() - t
+    if not stage.cover:
+        return index, radii, None, None
+    splat = whole = None
+    if s.schedule.footprint > 0:
+        t = time.perf_counter()
+        whole = (index, FixedRadii(r2))
+        index, radii, splat = _split(setup, photons, index, r2, scale, timings)
+        timings["pixel splat"] = time.perf_counter() - t
+    if index is not None:
+        t = time.perf_counter()
+        cover_gather(index, s.k, radii)  # built here, for this stage's timing; kept for the pass
+        timings["cover gather"] = time.perf_counter() - t
+    return index, radii, splat, whole
+
+
+def _split(setup: RenderSetup, photons, index, r2, scale, timings):
+    """The pixel splat of the photons whose discs are under the footprint
+    (:mod:`blockhash.frame.pixel_splat`), and the index and radii of the rest."""
+    from blockhash.frame.pixel_splat import splat_subpixel
+
+    s = setup.settings
+    image, keep = splat_subpixel(photons, r2, setup.pin, setup.rays, setup.materials,
+                                 footprint=s.schedule.footprint * math.sqrt(scale))
+    if keep.all():
+        return index, FixedRadii(r2), None
+    rest = np.flatnonzero(keep)
+    if not rest.size:  # every photon splatted: nothing left to gather
+        return None, None, image
+    t = time.perf_counter()
+    index = BlockHashIndex(photons.positions[rest], k=s.k, A=s.A,
+                           directions=photons.directions[rest], normals=photons.normals[rest],
+                           powers=photons.powers[rest], tables=False)
+    timings["index"] += time.perf_counter() - t
+    return index, FixedRadii(r2[rest]), image

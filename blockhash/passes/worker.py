@@ -1,0 +1,117 @@
+"""What a worker process keeps for the renders it serves: each render's
+:class:`~.task.RenderSetup`, built once from the render's spec (scene, settings, traced map;
+sent as data, pickled) and found again by the spec's digest, and the process's identity
+(blockhash version, source digest, GL backend) that a driver checks before it hands out a pass.
+
+:func:`start` and :func:`run` serve a local process pool (:class:`~.executors.LocalWorkers`);
+:func:`run_spec` and :func:`identity` a Dask worker (:mod:`.dask_cluster`).  Every pass of a
+process runs on one thread of its own (:func:`on_pass_thread`): a GL context is current on
+one thread, and a Dask worker may run tasks on any of its threads.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import pickle
+import threading
+from concurrent.futures import ThreadPoolExecutor
+
+#: Setups of the renders this process has served, by spec digest (the last few).
+_SETUPS: dict[str, object] = {}
+#: Setups kept per process: a worker serving many renders keeps only the latest.
+KEEP = 2
+#: The spec of the local pool's render (:func:`start`).
+_SPEC: dict = {}
+_THREAD: list = []
+_LOCK = threading.Lock()
+
+
+def pack(spec) -> tuple[str, bytes]:
+    """(digest, pickled spec): what travels to workers once per render."""
+    data = pickle.dumps(spec, protocol=pickle.HIGHEST_PROTOCOL)
+    return hashlib.sha256(data).hexdigest()[:16], data
+
+
+def setup_for(digest: str, data: bytes | None = None):
+    """The setup of the spec with ``digest`` in this process, built from ``data`` on first use."""
+    from blockhash.passes.task import RenderSetup
+
+    if digest not in _SETUPS:
+        if data is None:
+            raise KeyError(f"this process has no render {digest}")
+        scene, settings, traced = pickle.loads(data)
+        while len(_SETUPS) >= KEEP:
+            _SETUPS.pop(next(iter(_SETUPS)))
+        _SETUPS[digest] = RenderSetup(scene, settings, traced)
+    return _SETUPS[digest]
+
+
+def on_pass_thread(fn, *args):
+    """``fn(*args)`` on this process's pass thread (one GL context, current on one thread)."""
+    with _LOCK:
+        if not _THREAD:
+            _THREAD.append(ThreadPoolExecutor(1, thread_name_prefix="blockhash-pass"))
+    return _THREAD[0].submit(fn, *args).result()
+
+
+def share_cores(threads: int) -> None:
+    """Let this process use ``threads`` threads for llvmpipe and numba (the machine's cores
+    split among its workers); before the GL context is made."""
+    os.environ.setdefault("LP_NUM_THREADS", str(threads))
+    import numba
+
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+
+
+def start(spec: tuple[str, bytes], threads: int) -> None:
+    """A local pool's initializer: the render's spec and this process's share of the cores."""
+    share_cores(threads)
+    _SPEC["digest"], _SPEC["data"] = spec
+
+
+def run(p: int, emitted):
+    """Pass ``p`` of the local pool's render (:func:`start`), without what stays here."""
+    return run_spec(_SPEC["digest"], _SPEC["data"], p, emitted)
+
+
+def run_spec(digest: str, data: bytes, p: int, emitted):
+    """Pass ``p`` of the render of spec ``(digest, data)``: its portable contribution, with
+    the warnings it raised recorded for the driver to repeat."""
+    return on_pass_thread(_run, digest, data, p, emitted)
+
+
+def _run(digest, data, p, emitted):
+    import warnings
+
+    from blockhash.passes.task import run_pass
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        contribution = run_pass(setup_for(digest, data), p, emitted).portable()
+    contribution.info["warnings"] = [(w.category, str(w.message)) for w in caught]
+    return contribution
+
+
+def identity(backend=None) -> dict:
+    """This process's blockhash version, source digest and GL (the backend that made a
+    context, or why none could be made), on the pass thread."""
+    return on_pass_thread(_identity, backend)
+
+
+def _identity(backend):
+    import blockhash
+    from blockhash.code_version import source_digest
+
+    try:
+        from blockhash.gl.context import get_context
+
+        ctx = get_context(backend)
+        gl = f"{ctx.extra['backend']}: {ctx.info['GL_RENDERER']}"
+    except Exception as exc:  # noqa: BLE001 - reported to the driver, which refuses the worker
+        gl = None
+        why = str(exc)
+    else:
+        why = None
+    return {"version": blockhash.__version__, "digest": source_digest(), "gl": gl,
+            "gl_error": why, "pid": os.getpid()}
