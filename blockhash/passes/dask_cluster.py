@@ -22,7 +22,7 @@ from blockhash.errors import InputError
 from blockhash.passes.executors import PassFailed, Session
 
 #: Seconds to wait for the scheduler to answer.
-CONNECT_TIMEOUT = 20
+CONNECT_TIMEOUT = 10
 HOW_TO_START = ("start one with `dask scheduler` and `dask worker tcp://HOST:8786 --nthreads 1` "
                 "on each machine (pip install 'blockhash[distributed]'), or leave the address "
                 "out to render in this process")

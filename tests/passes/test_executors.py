@@ -1,0 +1,251 @@
+"""Passes as tasks on every executor: the image of passes 0..N-1 is the same in this process,
+in local worker processes and on a Dask cluster, whatever order they end in, after a worker
+dies mid-render; errors name the pass, the worker, the address or the flag."""
+
+import os
+import signal
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import blockhash
+from blockhash.errors import InputError
+from blockhash.passes import worker
+from blockhash.passes.executors import InProcess, LocalWorkers, PassFailed, worker_count
+from blockhash.passes.renderer import Renderer
+from blockhash.passes.run import run_passes
+from blockhash.passes.stopping import Passes
+from blockhash.passes.task import PassSettings, RenderSetup, run_pass
+
+pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
+
+RING = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
+PHOTONS = 4000
+PASSES = 5
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return blockhash.load_scene(RING).with_size(32, 32)
+
+
+@pytest.fixture(scope="module")
+def one_process(scene):
+    """The in-process render of passes 0..PASSES-1: the image every executor must give."""
+    r = Renderer(scene, photons=PHOTONS)
+    run_passes(r, Passes(passes=PASSES))
+    return r
+
+
+def _render(scene, executor, passes=PASSES, on_pass=None):
+    r = Renderer(scene, photons=PHOTONS)
+    why = run_passes(r, Passes(passes=passes, executor=executor), on_pass=on_pass)
+    return r, why
+
+
+def assert_same_image(r, ref):
+    assert r.passes == ref.passes
+    assert r.emitted == ref.emitted and r.stored == ref.stored
+    image, want = r.image, ref.image
+    for name in ("direct", "caustic"):
+        np.testing.assert_array_equal(getattr(image, name), getattr(want, name), err_msg=name)
+    np.testing.assert_array_equal(r.film.caustic_variance, ref.film.caustic_variance)
+
+
+def test_a_pass_is_a_function_of_setup_and_pass_number(scene):
+    """The same (seed, p) gives the same contribution, whichever setup runs it and in which
+    order: pass 3 before pass 1 in a fresh setup equals pass 3 after passes 0..2."""
+    settings = PassSettings.of(scene, photons=PHOTONS)
+    a, b = RenderSetup(scene, settings), RenderSetup(scene, settings)
+    first = run_pass(a, 0)
+    in_order = [run_pass(a, p, first.emitted) for p in (1, 2, 3)]
+    late = run_pass(b, 3, first.emitted)
+    np.testing.assert_array_equal(late.caustic, in_order[2].caustic)
+    np.testing.assert_array_equal(late.direct, in_order[2].direct)
+    assert late.emitted == first.emitted and late.stored == in_order[2].stored
+
+
+def test_passes_merge_in_pass_order_whatever_order_they_end(scene, one_process):
+    settings = PassSettings.of(scene, photons=PHOTONS)
+    setup = RenderSetup(scene, settings)
+    first = run_pass(setup, 0)
+    rest = [run_pass(setup, p, first.emitted).portable() for p in range(1, PASSES)]
+    r = Renderer(scene, photons=PHOTONS)
+    assert [s.index for s in r.merge(first)] == [0]
+    assert r.merge(rest[3]) == [] and r.merge(rest[1]) == [] and r.passes == 1
+    assert [s.index for s in r.merge(rest[0])] == [1, 2]
+    assert [s.index for s in r.merge(rest[2])] == [3, 4]
+    assert_same_image(r, one_process)
+    with pytest.raises(ValueError, match="pass 2 is already in the film"):
+        r.merge(rest[1])
+
+
+def test_local_workers_give_the_one_process_image(scene, one_process):
+    r, why = _render(scene, LocalWorkers(2))
+    assert why == f"{PASSES} passes" and r.info["workers"] == 2
+    assert_same_image(r, one_process)
+
+
+def test_a_local_worker_killed_mid_render_costs_time_not_the_image(scene, one_process):
+    killed = []
+
+    def kill_one(renderer, stats, elapsed, session):
+        if stats.index == 1 and not killed:
+            pid = next(iter(session.pool._processes))  # one of the pool's worker processes
+            os.kill(pid, signal.SIGKILL)
+            killed.append(pid)
+    r, _ = _render(scene, LocalWorkers(2), on_pass=kill_one)
+    assert killed
+    assert_same_image(r, one_process)
+
+
+def test_worker_counts_are_checked():
+    assert worker_count("auto") >= 1 and worker_count("3") == 3
+    for bad in (0, -1, "0", "two", 1.5, True):
+        with pytest.raises(InputError, match="workers=.*count >= 1 or 'auto'"):
+            LocalWorkers(bad)
+    with pytest.raises(InputError, match=r"--workers -2: local worker processes"):
+        worker_count("-2", "--workers")
+    with pytest.raises(InputError, match="executor="):
+        Passes(executor="dask")
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["--workers", "0"], r"--workers 0: local worker processes are a count >= 1"),
+    (["--workers", "-3"], r"--workers -3: local worker processes are a count >= 1"),
+    (["--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], r"--workers 2 and --scheduler"),
+])
+def test_the_render_command_refuses_bad_executor_flags(tmp_path, capsys, argv, match):
+    from blockhash.cli import main
+
+    out = tmp_path / "ring.exr"
+    assert main(["render", str(RING), "--size", "16x16", "--photons", "1000", "-o", str(out),
+                 *argv]) == 2
+    assert pytest.importorskip("re").search(match, capsys.readouterr().err)
+    assert not out.exists()
+
+
+def test_the_render_command_with_workers_writes_the_one_process_image(tmp_path, capsys):
+    from blockhash.cli import main
+    from blockhash.frame.images import read_attribute, read_layers
+
+    images = {}
+    for name, extra in (("one", []), ("two", ["--workers", "2"])):
+        out = tmp_path / f"{name}.exr"
+        assert main(["render", str(RING), "--size", "24x24", "--photons", "3000", "--passes", "4",
+                     "-o", str(out), *extra]) == 0
+        images[name] = read_layers(out)
+        assert read_attribute(out, "blockhash:passes") == 4
+    assert "2 local worker processes" in capsys.readouterr().out
+    for layer in images["one"]:
+        np.testing.assert_array_equal(images["one"][layer], images["two"][layer])
+
+
+# --- Dask ---------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=":0") as c:
+        yield c
+
+
+@pytest.fixture
+def threads_cluster():
+    """A cluster of worker threads in this process: what a test patches reaches its tasks."""
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=":0") as c:
+        yield c
+
+
+def test_a_dask_cluster_gives_the_one_process_image(scene, one_process, cluster):
+    from blockhash.passes.dask_cluster import DaskCluster
+
+    r, why = _render(scene, DaskCluster(cluster.scheduler_address))
+    assert why == f"{PASSES} passes" and r.info["workers"] == 2
+    assert_same_image(r, one_process)
+
+
+def test_a_dask_worker_killed_mid_render_costs_time_not_the_image(scene, one_process, cluster):
+    from distributed import Client
+
+    from blockhash.passes.dask_cluster import DaskCluster
+
+    with Client(cluster.scheduler_address, set_as_default=False) as client:
+        pids = list(client.run(os.getpid).values())
+    killed = []
+
+    def kill_one(renderer, stats, elapsed, session):
+        if stats.index == 1 and not killed:
+            os.kill(pids[0], signal.SIGKILL)  # a worker process; its nanny starts another
+            killed.append(pids[0])
+    r, _ = _render(scene, DaskCluster(cluster.scheduler_address), passes=PASSES + 3,
+                   on_pass=kill_one)
+    assert killed
+    ref = Renderer(scene, photons=PHOTONS)
+    run_passes(ref, Passes(passes=PASSES + 3))
+    assert_same_image(r, ref)
+
+
+def test_a_pass_that_raises_on_a_worker_stops_the_render_with_its_number(scene, threads_cluster,
+                                                                          monkeypatch):
+    from blockhash.passes import task
+    from blockhash.passes.dask_cluster import DaskCluster
+
+    real = task.run_pass
+
+    def failing(setup, p, emitted=None):
+        if p == 2:
+            raise RuntimeError("the GPU fell off the bus")
+        return real(setup, p, emitted)
+    monkeypatch.setattr(task, "run_pass", failing)
+    worker._SETUPS.clear()
+    r = Renderer(scene, photons=PHOTONS)
+    with pytest.raises(PassFailed, match=r"pass 2 failed on the Dask cluster at .*GPU fell off"):
+        run_passes(r, Passes(passes=PASSES, executor=DaskCluster(threads_cluster.scheduler_address)))
+    assert r.passes == 2  # the image of the passes done: 0 and 1
+
+
+@pytest.mark.parametrize("field, value, match", [
+    ("version", "0.0.1", r"runs blockhash 0\.0\.1 .* install the same blockhash on every worker"),
+    ("gl", None, r"has no OpenGL 4\.5 context \(no EGL here\); install Mesa"),
+])
+def test_a_dask_worker_of_another_version_or_without_gl_is_refused(scene, threads_cluster,
+                                                                   monkeypatch, field, value, match):
+    from blockhash.passes.dask_cluster import DaskCluster
+
+    real = worker._identity
+
+    def other(backend):
+        return {**real(backend), field: value, "gl_error": "no EGL here"}
+    monkeypatch.setattr(worker, "_identity", other)
+    with pytest.raises(InputError, match=r"Dask worker (tcp|inproc)://\S+ " + match):
+        blockhash.render(scene, photons=PHOTONS, passes=Passes(
+            passes=2, executor=DaskCluster(threads_cluster.scheduler_address)))
+
+
+def test_a_scheduler_that_does_not_answer_is_named_within_30_s(tmp_path, capsys):
+    pytest.importorskip("distributed")
+    from blockhash.cli import main
+
+    out = tmp_path / "ring.exr"
+    t0 = time.perf_counter()
+    code = main(["render", str(RING), "--size", "16x16", "--photons", "1000", "-o", str(out),
+                 "--scheduler", "tcp://127.0.0.1:9"])
+    assert code == 2 and time.perf_counter() - t0 < 30
+    err = capsys.readouterr().err
+    assert "the Dask scheduler at tcp://127.0.0.1:9 did not answer" in err
+    assert "dask scheduler" in err and "dask worker" in err
+    assert not out.exists()
+
+
+def test_in_process_is_the_default(scene, one_process):
+    assert isinstance(Passes().executor, InProcess)
+    r, _ = _render(scene, InProcess())
+    assert r.info["workers"] == 1 and r.info["executor"] == "in this process"
+    assert_same_image(r, one_process)
