@@ -7,9 +7,10 @@ GPU; a worker's passes run on one thread of its own whatever ``--nthreads`` says
 dask-jobqueue on a batch system, or ``distributed.LocalCluster`` in Python.  blockhash starts
 and manages no machine.
 
-Before the first pass, every worker is asked for its blockhash version, source digest and GL
-context (:func:`.worker.identity`); a worker that differs from this process or has no GL is
-refused, by name.  The render's spec (scene, settings) is scattered to the workers once; a pass
+Before the first pass, every worker is asked for its machine, then for its blockhash version,
+source digest and GL context (:func:`.worker.identity`), given its share of its machine's cores
+for llvmpipe's and numba's threads (unless its environment sets ``LP_NUM_THREADS``); a worker
+that differs from this process or has no GL is refused, by name.  The render's spec (scene, settings) is scattered to the workers once; a pass
 is one task, ``retries=0`` so that a pass that raises ends the render, while a pass whose
 worker dies is run again elsewhere by the scheduler (Dask's ``allowed-failures``).
 """
@@ -71,7 +72,8 @@ class _DaskSession(Session):
 
         self.client = connect(address)
         try:
-            self.workers = self.slots = check_workers(self.client, renderer.settings.backend)
+            self.workers = check_workers(self.client, renderer.settings.backend)
+            self.slots = 2 * self.workers  # each worker's next pass queued
             digest, data = worker.pack(renderer.spec)
             [self.spec] = self.client.scatter([data], broadcast=True, hash=False)
             self.digest = digest
@@ -120,8 +122,15 @@ def check_workers(client, backend=None) -> int:
     if not names:
         raise InputError(f"the Dask cluster at {client.scheduler.address} has no workers; start "
                          f"some with `dask worker {client.scheduler.address} --nthreads 1`")
-    futures = {name: client.submit(worker.identity, backend, workers=[name],
-                                   allow_other_workers=False, pure=False) for name in names}
+    def on_each(fn, args):
+        return {name: client.submit(fn, *args(name), workers=[name], allow_other_workers=False,
+                                    pure=False) for name in names}
+    hosts = {name: f.result() for name, f in on_each(worker.host, lambda _: ()).items()}
+    sharing = {}
+    for h in hosts.values():
+        sharing[h["host"]] = sharing.get(h["host"], 0) + 1
+    futures = on_each(worker.identity, lambda name: (
+        backend, max(1, hosts[name]["cores"] // sharing[hosts[name]["host"]])))
     ours = (blockhash.__version__, source_digest())
     for name, future in futures.items():
         who = future.result()

@@ -145,7 +145,8 @@ class _PoolSession(Session):
         super().__init__()
         from blockhash.passes import worker
 
-        self.workers = self.slots = count
+        self.workers = count
+        self.slots = 2 * count  # each worker's next pass queued: none waits on the driver
         self.spec = worker.pack(renderer.spec)
         self.threads = max(1, cores() // count)
         self.deaths: dict[int, int] = {}
@@ -207,5 +208,9 @@ class _PoolSession(Session):
         for future in self.flight.values():
             future.cancel()
         super().close()
+        processes = list(getattr(self.pool, "_processes", {}).values())  # the pool's own
         self.pool.shutdown(wait=False, cancel_futures=True)
-        # Workers running a pass finish it and exit; nothing waits on them.
+        for process in processes:  # a pass still running is not wanted: stop it now
+            process.terminate()
+        for process in processes:
+            process.join(5)

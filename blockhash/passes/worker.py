@@ -4,7 +4,7 @@ sent as data, pickled) and found again by the spec's digest, and the process's i
 (blockhash version, source digest, GL backend) that a driver checks before it hands out a pass.
 
 :func:`start` and :func:`run` serve a local process pool (:class:`~.executors.LocalWorkers`);
-:func:`run_spec` and :func:`identity` a Dask worker (:mod:`.dask_cluster`).  Every pass of a
+:func:`run_spec`, :func:`host` and :func:`identity` a Dask worker (:mod:`.dask_cluster`).  Every pass of a
 process runs on one thread of its own (:func:`on_pass_thread`): a GL context is current on
 one thread, and a Dask worker may run tasks on any of its threads.
 """
@@ -51,17 +51,25 @@ def on_pass_thread(fn, *args):
     """``fn(*args)`` on this process's pass thread (one GL context, current on one thread)."""
     with _LOCK:
         if not _THREAD:
-            _THREAD.append(ThreadPoolExecutor(1, thread_name_prefix="blockhash-pass"))
+            _THREAD.append(ThreadPoolExecutor(1, thread_name_prefix="blockhash-pass",
+                                              initializer=_pass_thread_start))
     return _THREAD[0].submit(fn, *args).result()
 
 
 def share_cores(threads: int) -> None:
     """Let this process use ``threads`` threads for llvmpipe and numba (the machine's cores
-    split among its workers); before the GL context is made."""
+    split among its workers); before the GL context is made.  numba's count is per thread:
+    the pass thread takes it when it starts (:func:`_pass_thread_start`)."""
     os.environ.setdefault("LP_NUM_THREADS", str(threads))
-    import numba
+    _SPEC["threads"] = threads
 
-    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+
+def _pass_thread_start() -> None:
+    threads = _SPEC.get("threads")
+    if threads is not None:
+        from numba import config, set_num_threads
+
+        set_num_threads(min(threads, config.NUMBA_NUM_THREADS))
 
 
 def start(spec: tuple[str, bytes], threads: int) -> None:
@@ -93,9 +101,21 @@ def _run(digest, data, p, emitted):
     return contribution
 
 
-def identity(backend=None) -> dict:
+def host() -> dict:
+    """This process's machine (name and cores) and pid."""
+    import socket
+
+    from blockhash.passes.executors import cores
+
+    return {"host": socket.gethostname(), "cores": cores(), "pid": os.getpid()}
+
+
+def identity(backend=None, threads: int | None = None) -> dict:
     """This process's blockhash version, source digest and GL (the backend that made a
-    context, or why none could be made), on the pass thread."""
+    context, or why none could be made), on the pass thread; ``threads``: its share of the
+    machine's cores (:func:`share_cores`), set first."""
+    if threads is not None:
+        share_cores(threads)
     return on_pass_thread(_identity, backend)
 
 
@@ -114,4 +134,4 @@ def _identity(backend):
     else:
         why = None
     return {"version": blockhash.__version__, "digest": source_digest(), "gl": gl,
-            "gl_error": why, "pid": os.getpid()}
+            "gl_error": why, **host()}
