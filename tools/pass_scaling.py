@@ -6,7 +6,8 @@ Warm throughput leaves out the first ``--warm`` passes (a process's start, its G
 compiled programs and numba's cache loading, pass 0 alone): stored photons of passes
 ``warm..N-1`` over the time from the end of pass ``warm - 1`` to the end of pass ``N - 1``.
 ``--baseline DIR`` adds the in-process render of another checkout (e.g. a ``git worktree``
-of an earlier commit), stepped the same way, as the row the ratios are against.
+of an earlier commit), a pass at a time (``Renderer.step``, which every commit with passes
+has), as the row the ratios are against.
 
 usage: python tools/pass_scaling.py [--scenes ring,venus] [--sizes 256,512]
            [--photons 200000] [--passes 12] [--warm 2] [--workers 1,2] [--dask 2]
@@ -35,7 +36,7 @@ scene = blockhash.load_scene(scene_path).with_size(size, size)
 ends, stored = [], []
 t0 = time.perf_counter()
 cluster = None
-if kind == "inprocess":
+if kind == "step":  # any commit's API: one pass at a time, in this process
     r = blockhash.Renderer(scene, photons=photons)
     while r.passes < passes:
         s = r.step()
@@ -43,7 +44,10 @@ if kind == "inprocess":
         stored.append(s.stored)
 else:
     from blockhash.passes.run import run_passes
-    if kind == "workers":
+    if kind == "inprocess":
+        from blockhash.passes.executors import InProcess
+        executor = InProcess()
+    elif kind == "workers":
         from blockhash.passes.executors import LocalWorkers
         executor = LocalWorkers(count)
     else:
@@ -115,7 +119,7 @@ def main(argv=None):
             for size in (int(s) for s in args.sizes.split(",")):
                 runs = []
                 if args.baseline:
-                    runs.append(("baseline in process", args.baseline, "inprocess", 1))
+                    runs.append(("baseline in process", args.baseline, "step", 1))
                 runs += [(_label(kind, n), ROOT, kind, n) for kind, n in configs]
                 base_rate, ref = None, None
                 for label, checkout, kind, n in runs:

@@ -23,7 +23,7 @@ import os
 from dataclasses import dataclass
 
 from blockhash.errors import BlockHashError, InputError
-from blockhash.passes.task import run_pass
+from blockhash.passes.task import run_pass, trace_pass
 
 #: A pass whose worker died this many times ends the render (it is not the worker's fault).
 MAX_WORKER_DEATHS = 3
@@ -65,12 +65,15 @@ def worker_count(value, name: str = "workers") -> int:
 
 @dataclass(frozen=True)
 class InProcess:
-    """Every pass in this process, one at a time (no extra dependency)."""
+    """Every pass in this process, one after another (no extra dependency); with ``overlap``,
+    the next pass's photons are traced on a second thread while this pass runs (embree and
+    numba's kernels release the GIL, and the GL pass waits on llvmpipe's threads)."""
 
+    overlap: bool = True
     workers: int = 1
 
     def open(self, renderer) -> "Session":
-        return _InProcessSession(renderer)
+        return _InProcessSession(renderer, self.overlap)
 
     def describe(self) -> str:
         return "in this process"
@@ -121,9 +124,16 @@ class Session:
 
 
 class _InProcessSession(Session):
-    def __init__(self, renderer):
+    def __init__(self, renderer, overlap: bool):
         super().__init__()
         self.renderer = renderer
+        self.slots = 2 if overlap else 1  # the next pass known while this one runs
+        self.ahead = None  # (pass, future of its trace_pass)
+        self.tracer = None
+        if overlap:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self.tracer = ThreadPoolExecutor(1, thread_name_prefix="blockhash-trace")
 
     def submit(self, p: int, emitted) -> None:
         self.flight[p] = emitted
@@ -132,9 +142,22 @@ class _InProcessSession(Session):
         p = min(self.flight)
         emitted = self.flight[p]
         self.renderer.index = self.renderer.radii = None  # the last pass's go first
-        contribution = run_pass(self.renderer.setup, p, emitted)
+        setup = self.renderer.setup
+        traced = self.ahead[1].result() if self.ahead and self.ahead[0] == p else None
+        self.ahead = None
+        later = [q for q in self.flight if q > p]
+        if self.tracer is not None and later and self.flight[min(later)] is not None:
+            q = min(later)
+            self.ahead = (q, self.tracer.submit(trace_pass, setup, q, self.flight[q]))
+        contribution = run_pass(setup, p, emitted, traced=traced)
         del self.flight[p]
         yield p, contribution
+
+    def close(self) -> None:
+        super().close()
+        if self.tracer is not None:
+            self.tracer.shutdown(wait=True, cancel_futures=True)
+        self.ahead = None
 
 
 class _PoolSession(Session):

@@ -202,14 +202,23 @@ class PassContribution:
         return replace(self, photon_index=None, radii=None)
 
 
-def run_pass(setup: RenderSetup, p: int, emitted: int | None = None) -> PassContribution:
+def trace_pass(setup: RenderSetup, p: int, emitted: int | None = None):
+    """Pass ``p``'s photons and the seconds they took (:meth:`RenderSetup.photons`): the first
+    stage of :func:`run_pass`, which a caller may run ahead, on another thread."""
+    t0 = time.perf_counter()
+    photons = setup.photons(p, emitted)
+    return photons, time.perf_counter() - t0
+
+
+def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
+             traced=None) -> PassContribution:
     """Pass ``p`` of the render ``setup`` was built for (module docstring); ``emitted``: the
-    photons every pass after the first emits (pass 0's emitted count; None for pass 0)."""
+    photons every pass after the first emits (pass 0's emitted count; None for pass 0);
+    ``traced``: the pass's :func:`trace_pass`, when it ran ahead."""
     s = setup.settings
     timings: dict = {}
     t0 = time.perf_counter()
-    photons = setup.photons(p, emitted)
-    timings["trace"] = time.perf_counter() - t0
+    photons, timings["trace"] = traced or trace_pass(setup, p, emitted)
     stored = len(photons.positions) if photons is not None else 0
     scale = shrink(p, s.schedule.alpha)
     info: dict = {}

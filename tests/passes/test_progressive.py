@@ -281,10 +281,10 @@ def test_ctrl_c_writes_the_image_so_far_with_its_pass_count(tmp_path, monkeypatc
 
     real = executors.run_pass
 
-    def run_pass(setup, p, emitted):
+    def run_pass(setup, p, emitted, **kw):
         if p == 2:
             raise KeyboardInterrupt
-        return real(setup, p, emitted)
+        return real(setup, p, emitted, **kw)
     monkeypatch.setattr(executors, "run_pass", run_pass)
     out = tmp_path / "ring.exr"
     code = main(["render", str(RING), "--size", "24x24", "--photons", "3000", "--passes", "9",
