@@ -1,14 +1,16 @@
 """Memory of a progressive render against its pass count: the peak resident set of a render of
-P passes, each in a fresh process, side by side.
+P passes, each in a fresh process, side by side; in this process or in local worker processes
+(``--workers N``: the peak of the largest worker beside the driver's own).
 
-A render keeps one pass's photons, index, gather and GL textures at a time, and a film of
-(h, w, 3) float64 sums; its peak should not grow with the passes.  ``--marks`` prints the
-peak after those passes too; ``--env NAME=VALUE`` runs every count again under that
-environment (e.g. glibc's ``MALLOC_MMAP_THRESHOLD_``), beside the plain one.
+A render keeps one pass's photons, index, gather and GL textures at a time (its textures
+reused from pass to pass, ``blockhash.gl.pool``), and a film of (h, w, 3) float64 means; its
+peak should not grow with the passes.  ``--marks`` prints the peak after those passes too
+(in this process only); ``--env NAME=VALUE`` runs every count again under that environment
+(e.g. glibc's ``MALLOC_MMAP_THRESHOLD_``), beside the plain one.
 
 usage: python tools/pass_memory.py [--scene scenes/ring.toml] [--photons 1000000]
                                    [--passes 2,100] [--size 512] [--marks 1,5,10]
-                                   [--method auto|cpu]
+                                   [--method auto|cpu] [--workers 0|N]
                                    [--env MALLOC_MMAP_THRESHOLD_=131072 ...]
 """
 
@@ -22,24 +24,29 @@ CHILD = """
 import json, resource, sys, time
 import blockhash
 from blockhash.frame.options import LookupOptions
+from blockhash.passes.executors import InProcess, LocalWorkers
 from blockhash.passes.renderer import Renderer
+from blockhash.passes.run import run_passes
 scene = blockhash.load_scene(sys.argv[1]).with_size(int(sys.argv[2]), int(sys.argv[2]))
 marks = {int(m) for m in sys.argv[5].split(",") if m}
+workers = int(sys.argv[7])
 r = Renderer(scene, photons=int(sys.argv[3]), lookup=LookupOptions(method=sys.argv[6]))
 peaks, t = {}, time.perf_counter()
-while r.passes < int(sys.argv[4]):
-    r.step()
-    if r.passes in marks:
-        peaks[r.passes] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+def on_pass(renderer, stats, elapsed, session):
+    if renderer.passes in marks:
+        peaks[renderer.passes] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+executor = LocalWorkers(workers) if workers else InProcess()
+run_passes(r, blockhash.Passes(passes=int(sys.argv[4]), executor=executor), on_pass=on_pass)
 print(json.dumps({"passes": r.passes, "seconds": time.perf_counter() - t,
                   "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+                  "worker_peak_mib": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024,
                   "peaks_at": peaks, "emitted": r.emitted, "stored": r.stored}))
 """
 
 
 def run(args, n: int, env: dict) -> dict:
     out = subprocess.run([sys.executable, "-c", CHILD, args.scene, str(args.size),
-                          str(args.photons), str(n), args.marks, args.method],
+                          str(args.photons), str(n), args.marks, args.method, str(args.workers)],
                          capture_output=True, text=True, check=True, env={**os.environ, **env})
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -52,19 +59,25 @@ def main(argv=None):
     p.add_argument("--size", type=int, default=512)
     p.add_argument("--method", default="auto", help="the photon search (LookupOptions): auto, "
                    "or cpu for a render with no GL caustic pass")
+    p.add_argument("--workers", type=int, default=0, help="local worker processes (0: the "
+                   "render in this process)")
     p.add_argument("--marks", default="", help="passes after which to print the peak so far")
     p.add_argument("--env", action="append", default=[], metavar="NAME=VALUE",
                    help="also run under this environment variable (repeatable)")
     args = p.parse_args(argv)
     settings = [("default", {})] + [(e, dict([e.split("=", 1)])) for e in args.env]
-    print(f"| environment | passes | photons per pass | peak RSS (MiB) | against the first count "
-          f"| peaks after passes {args.marks or '-'} (MiB) | s per pass |\n" + "| --- " * 7 + "|")
+    where = f"{args.workers} local workers" if args.workers else "in process"
+    print(f"| environment | passes | photons per pass | peak RSS (MiB), {where} | against the first "
+          f"count | largest worker's peak (MiB) | peaks after passes {args.marks or '-'} (MiB) | "
+          "s per pass |\n" + "| --- " * 8 + "|")
     for name, env in settings:
         rows = [run(args, int(n), env) for n in args.passes.split(",")]
+        key = "worker_peak_mib" if args.workers else "peak_mib"
         for r in rows:
             marks = ", ".join(f"{v:.0f}" for v in r["peaks_at"].values()) or "-"
+            worker = f"{r['worker_peak_mib']:.0f}" if args.workers else "-"
             print(f"| {name} | {r['passes']} | {args.photons:,} | {r['peak_mib']:.0f} | "
-                  f"{r['peak_mib'] / rows[0]['peak_mib']:.3f} | {marks} | "
+                  f"{r[key] / rows[0][key]:.3f} | {worker} | {marks} | "
                   f"{r['seconds'] / r['passes']:.2f} |", flush=True)
     return 0
 

@@ -33,6 +33,7 @@ from blockhash.gl.context import (
 )
 from blockhash.gl.limits import check_lookup
 from blockhash.gl.lookup import GLLookup, query_slot_bits
+from blockhash.gl.pool import give_back, pooled_texture
 from blockhash.gl.shaderlib import Variant
 from blockhash.index.records.codec import decode_directions, decode_powers, unpack_records
 from blockhash.index.records.fixedpoint import min_r2
@@ -220,8 +221,12 @@ def point_textures(ctx, points: ShadingPoints) -> list:
     pos = np.concatenate([points.position, points.material[..., None].astype(np.float32)], axis=2)
     nrm = np.concatenate([points.normal, np.ones((h, w, 1), np.float32)], axis=2)
     view = np.concatenate([points.view, np.zeros((h, w, 1), np.float32)], axis=2)
-    return [ctx.texture((w, h), 4, np.ascontiguousarray(a[::-1], dtype=np.float32).tobytes(),
-                        dtype="f4") for a in (pos, nrm, view)]
+    out = []
+    for role, a in (("cp_position", pos), ("cp_normal", nrm), ("cp_view", view)):
+        tex = pooled_texture(ctx, role, w, h, 4, "f4", exact=True)
+        tex.write(np.ascontiguousarray(a[::-1], dtype=np.float32).tobytes(), viewport=(0, 0, w, h))
+        out.append(tex)
+    return out
 
 
 def material_table(materials):
@@ -304,7 +309,7 @@ class CausticPass:
             for cover in self._covers.values():
                 cover.release()
             for tex, _ in self._own.values():
-                tex.release()
+                give_back(tex)
         self._covers.clear()
         self._own.clear()
         if self.lookup is not None:
@@ -328,7 +333,7 @@ class CausticPass:
         if k not in self._own:
             with self.ctx:
                 self._own[k] = upload(self.ctx, slot_radii2(self.index, k, self.radii), 1,
-                                      "photon radius", dtype="f4")
+                                      "photon radius", dtype="f4", pooled=True)
         return self._own[k]
 
     @contextmanager
@@ -364,7 +369,7 @@ class CausticPass:
             prog = compile_program(ctx, "caustic_pass.frag", defines)
             # Textures are bottom-up in GL: flip rows on the way in and out.
             texs = point_textures(ctx, points)
-            out_tex = ctx.texture((w, h), 4, dtype="f4")
+            out_tex = pooled_texture(ctx, "caustic pass output", w, h, 4, "f4", exact=True)
             fbo = ctx.framebuffer(color_attachments=[out_tex])
             try:
                 check_gl(ctx, f"allocating the {w} x {h} caustic pass")
@@ -385,4 +390,4 @@ class CausticPass:
             finally:
                 home_framebuffer(ctx).use()
                 for obj in (*texs, fbo, out_tex):
-                    obj.release()
+                    give_back(obj)

@@ -19,6 +19,7 @@ from blockhash.errors import CapacityError
 from blockhash.gl.context import get_context
 from blockhash.gl.limits import LOOP_LIMIT, is_llvmpipe
 from blockhash.gl.packing import set_photon_box, upload
+from blockhash.gl.pool import give_back
 from blockhash.index.lookups.cover import MAX_OCTAVES
 
 
@@ -30,11 +31,13 @@ class GLCover:
         self.ctx = get_context(backend)
         with self.ctx:
             records = gather.records if len(gather) else np.zeros((1, 8), np.uint32)
-            self.records, self.rec_w = upload(self.ctx, records.reshape(-1, 4), 4, "cover record")
+            self.records, self.rec_w = upload(self.ctx, records.reshape(-1, 4), 4, "cover record",
+                                              pooled=True)
             try:
-                self.cells, self.cell_w = upload(self.ctx, gather.slots, 4, "cover cell")
+                self.cells, self.cell_w = upload(self.ctx, gather.slots, 4, "cover cell",
+                                                 pooled=True)
             except CapacityError:
-                self.records.release()
+                give_back(self.records)
                 raise
 
     def check(self) -> None:
@@ -71,5 +74,7 @@ class GLCover:
             program["bh_cover_octave"].write(padded[:rows].astype(np.uint32).tobytes())
 
     def release(self) -> None:
-        self.records.release()
-        self.cells.release()
+        """Hand the textures back to the context's pool (:mod:`blockhash.gl.pool`)."""
+        with self.ctx:
+            give_back(self.records)
+            give_back(self.cells)

@@ -49,14 +49,23 @@ def texture_shape(elements: int, max_size: int) -> tuple[int, int, int]:
     return width, height, wlog2
 
 
-def upload(ctx, data: np.ndarray, components: int, what: str, *, dtype: str = "u4"):
-    """Upload ``data`` ((n, components) or (n,)) as a wrapped 2D texture; returns (texture, log2 W)."""
+def upload(ctx, data: np.ndarray, components: int, what: str, *, dtype: str = "u4",
+           pooled: bool = False):
+    """Upload ``data`` ((n, components) or (n,)) as a wrapped 2D texture; returns (texture, log2 W).
+    ``pooled``: into a texture of the context's pool (:mod:`.pool`; hand it back with
+    :func:`.pool.give_back`), with at least the rows needed."""
     max_size = ctx.info["GL_MAX_TEXTURE_SIZE"]
     flat = np.ascontiguousarray(data).reshape(-1, components)
     width, height, wlog2 = texture_shape(len(flat), max_size)
     padded = np.zeros((width * height, components), dtype=flat.dtype)
     padded[:len(flat)] = flat
-    tex = ctx.texture((width, height), components, padded.tobytes(), dtype=dtype)
+    if pooled:
+        from blockhash.gl.pool import pooled_texture
+
+        tex = pooled_texture(ctx, what, width, height, components, dtype)
+        tex.write(padded.tobytes(), viewport=(0, 0, width, height))
+    else:
+        tex = ctx.texture((width, height), components, padded.tobytes(), dtype=dtype)
     check_gl(ctx, f"allocating the {what} texture ({width} x {height} x {components} x 4 bytes)")
     tex.filter = (ctx.NEAREST, ctx.NEAREST)
     tex.repeat_x = tex.repeat_y = False
