@@ -11,6 +11,7 @@ from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.options import LookupOptions
 from blockhash.index.block_hash_index import BlockHashIndex, IndexStats, OrphanWarning
 from blockhash.index.tables.params import BlockHashParams
+from blockhash.passes.dask_cluster import DaskCluster
 from blockhash.passes.executors import InProcess, LocalWorkers
 from blockhash.passes.pipeline import render
 from blockhash.passes.renderer import Renderer
@@ -25,4 +26,4 @@ def load_scene(path):
     return load(path)
 
 
-__all__ = ["load_scene", "render", "Renderer", "Passes", "Schedule", "InProcess", "LocalWorkers", "EstimateOptions", "LookupOptions", "BlockHashIndex", "BlockHashParams", "IndexStats", "OrphanWarning", "BlockHashError", "CapacityError", "InputError", "InputTypeError", "ShaderCompileError", "__version__"]
+__all__ = ["load_scene", "render", "Renderer", "Passes", "Schedule", "InProcess", "LocalWorkers", "DaskCluster", "EstimateOptions", "LookupOptions", "BlockHashIndex", "BlockHashParams", "IndexStats", "OrphanWarning", "BlockHashError", "CapacityError", "InputError", "InputTypeError", "ShaderCompileError", "__version__"]

@@ -6,8 +6,9 @@ For each scene, with ks = 0 on every modified Phong material (Mitsuba has none),
 1. a long Mitsuba reference of the caustic layer (``ptracer`` less the specular-absorbing
    render, blockhash/reference/mitsuba.py) at ``--ref-spp``, cached in ``--cache``;
 2. blockhash's progressive render (``blockhash.passes.renderer.Renderer`` with the default
-   schedule, ``--photons`` per pass): after every pass its own time (the passes' wall time;
-   the metrics are computed outside it) and the caustic layer's errors against the reference
+   schedule, ``--photons`` per pass, in this process or ``--workers N`` local worker
+   processes): after every pass its own time (from the start of the render's loop, the
+   workers' start included; the metrics are computed after it) and the caustic layer's errors against the reference
    on the light tracer's comparison mask (receivers seen directly; pixels seen through a
    mirror or glass are left out, since Mitsuba's ptracer cannot reach the camera through a
    delta surface): per-pixel relative RMS, blurred relative RMS (sigma 2 px), mean FLIP, flux
@@ -43,8 +44,11 @@ from pathlib import Path
 
 import numpy as np
 
+from blockhash.passes.executors import InProcess, LocalWorkers
 from blockhash.passes.pipeline import render_scene
 from blockhash.passes.renderer import Renderer
+from blockhash.passes.run import run_passes
+from blockhash.passes.stopping import Passes
 from blockhash.reference.lighttrace import light_trace
 from blockhash.reference.mitsuba import mitsuba_reference, without_specular_lobes
 from blockhash.scene.loader import load_scene
@@ -95,23 +99,29 @@ def reference(scene, name, size, spp, cache: Path):
     return ref, time.perf_counter() - t
 
 
-def progressive_curve(scene, ref, mask, until: float, photons, *, focus_checks: bool):
-    """Pass by pass: the render's own time and its errors."""
+def progressive_curve(scene, ref, mask, until: float, photons, *, focus_checks: bool,
+                      executor=None):
+    """Pass by pass: the render's own time (from the start of its loop, workers' start
+    included; the copies of the film taken here left out) and its errors, computed after."""
     r = Renderer(scene, photons=photons)
-    curve, own = [], 0.0
-    while own < until:
+    films, aside = [], 0.0
+
+    def keep(renderer, stats, elapsed, session):
+        nonlocal aside
         t = time.perf_counter()
-        r.step()
-        own += time.perf_counter() - t
-        img = r.film.caustic.astype(np.float32)
-        row = {"passes": r.passes, "seconds": own, "estimated_error": r.film.estimated_error(),
-               **metrics(img, ref, mask)}
+        films.append((renderer.passes, elapsed - aside, renderer.film.caustic.astype(np.float32),
+                      renderer.film.estimated_error()))
+        aside += time.perf_counter() - t
+    run_passes(r, Passes(passes=None, seconds=until, executor=executor or InProcess()),
+               on_pass=keep)
+    curve = []
+    for passes, own, img, est in films:
+        row = {"passes": passes, "seconds": own, "estimated_error": est, **metrics(img, ref, mask)}
         if focus_checks:
             row["focus"] = focus(img, ref)
         curve.append(row)
-        print(f"  pass {r.passes}: {own:.2f} s pixel {row['pixel']:.4f} blur {row['blur']:.4f} "
-              f"flip {row['flip']:.4f} flux {row['flux']:.4f} est {row['estimated_error']:.4f}",
-              flush=True)
+        print(f"  pass {passes}: {own:.2f} s pixel {row['pixel']:.4f} blur {row['blur']:.4f} "
+              f"flip {row['flip']:.4f} flux {row['flux']:.4f} est {est:.4f}", flush=True)
     return curve, dict(r.timings), r.emitted, r.stored
 
 
@@ -130,7 +140,7 @@ def power_law(xs, ys):
     return float(p), float(math.exp(c))
 
 
-def measure(name, size, ref_spp, times, max_spp, photons, cache):
+def measure(name, size, ref_spp, times, max_spp, photons, cache, executor=None):
     scene = without_specular_lobes(load_scene(Path("scenes") / f"{name}.toml")).with_size(size, size)
     mask = light_trace(scene, 1000).comparison_mask(1)
     ref, ref_s = reference(scene, name, size, ref_spp, cache)
@@ -142,7 +152,8 @@ def measure(name, size, ref_spp, times, max_spp, photons, cache):
     print(f"{name} {size}: one pass {one.timings['total']:.2f} s blur {row['one_pass']['blur']:.4f}",
           flush=True)
     curve, stages, emitted, stored = progressive_curve(scene, ref, mask, max(times) * 1.02, photons,
-                                                       focus_checks=name == "glass")
+                                                       focus_checks=name == "glass",
+                                                       executor=executor)
     row.update(curve=curve, stages=stages, emitted=emitted, stored=stored)
     target = {m: at_time(curve, max(times))[m] for m in METRICS}
     ladder = []
@@ -264,6 +275,8 @@ def main(argv=None):
     p.add_argument("--max-spp", type=int, default=4096, help="the ladder's last spp")
     p.add_argument("--photons", type=int, help="photons per pass (default: the scene's)")
     p.add_argument("--cache", default=str(Path.home() / ".cache" / "blockhash" / "references"))
+    p.add_argument("--workers", type=int, default=0, help="local worker processes for the passes "
+                   "(0: in this process)")
     p.add_argument("--json")
     p.add_argument("--from-json", help="print the tables of an earlier run's JSON (no rendering)")
     args = p.parse_args(argv)
@@ -276,7 +289,8 @@ def main(argv=None):
         rows = []
         for s in args.scenes.split(","):
             rows.append(measure(s, args.size, args.ref_spp, times, args.max_spp, args.photons,
-                                Path(args.cache)))
+                                Path(args.cache),
+                                LocalWorkers(args.workers) if args.workers else InProcess()))
             if args.json:  # after every scene: a long run keeps what it measured
                 Path(args.json).write_text(json.dumps(rows, indent=1, default=float) + "\n")
     print(tables(rows))

@@ -19,11 +19,12 @@ dies costs the passes it held: they are handed out again, so no pass is lost or 
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
 from blockhash.errors import BlockHashError, InputError
+from blockhash.passes import worker
 from blockhash.passes.task import run_pass, trace_pass
+from blockhash.passes.worker import cores
 
 #: A pass whose worker died this many times ends the render (it is not the worker's fault).
 MAX_WORKER_DEATHS = 3
@@ -35,14 +36,6 @@ class PassFailed(BlockHashError, RuntimeError):
     def __init__(self, pass_index: int, where: str, cause: BaseException):
         super().__init__(f"pass {pass_index} failed {where}: {type(cause).__name__}: {cause}")
         self.pass_index, self.where, self.cause = pass_index, where, cause
-
-
-def cores() -> int:
-    """The cores this process may use."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not Linux
-        return os.cpu_count() or 1
 
 
 def worker_count(value, name: str = "workers") -> int:
@@ -166,8 +159,6 @@ class _PoolSession(Session):
 
     def __init__(self, renderer, count: int):
         super().__init__()
-        from blockhash.passes import worker
-
         self.workers = count
         self.slots = 2 * count  # each worker's next pass queued: none waits on the driver
         self.spec = worker.pack(renderer.spec)
@@ -179,14 +170,10 @@ class _PoolSession(Session):
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        from blockhash.passes import worker
-
         return ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
                                    initializer=worker.start, initargs=(self.spec, self.threads))
 
     def submit(self, p: int, emitted) -> None:
-        from blockhash.passes import worker
-
         future = self.pool.submit(worker.run, p, emitted)
         future.emitted = emitted
         self.flight[p] = future

@@ -101,11 +101,17 @@ def _run(digest, data, p, emitted):
     return contribution
 
 
+def cores() -> int:
+    """The cores this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
 def host() -> dict:
     """This process's machine (name and cores) and pid."""
     import socket
-
-    from blockhash.passes.executors import cores
 
     return {"host": socket.gethostname(), "cores": cores(), "pid": os.getpid()}
 
