@@ -22,7 +22,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from time_to_error import power_law, reference  # noqa: E402
 
+from blockhash.passes.executors import InProcess, LocalWorkers  # noqa: E402
 from blockhash.passes.renderer import Renderer  # noqa: E402
+from blockhash.passes.run import run_passes  # noqa: E402
+from blockhash.passes.stopping import Passes  # noqa: E402
 from blockhash.reference.lighttrace import light_trace  # noqa: E402
 from blockhash.reference.mitsuba import without_specular_lobes  # noqa: E402
 from blockhash.scene.loader import load_scene  # noqa: E402
@@ -33,7 +36,7 @@ def blurred(img, ref, mask):
     return rel_rms(masked_blur(img, mask), masked_blur(ref, mask), mask)
 
 
-def measure(name, size, seeds, passes, ref_spp, cache):
+def measure(name, size, seeds, passes, ref_spp, cache, executor):
     scene = without_specular_lobes(load_scene(Path("scenes") / f"{name}.toml")).with_size(size, size)
     mask = light_trace(scene, 1000).comparison_mask(1)
     ref, _ = reference(scene, name, size, ref_spp, cache)
@@ -41,10 +44,11 @@ def measure(name, size, seeds, passes, ref_spp, cache):
     images = {p: [] for p in marks}
     for seed in range(1, seeds + 1):
         r = Renderer(scene, seed=seed)
-        while r.passes < passes:
-            r.step()
-            if r.passes in images:
-                images[r.passes].append(r.film.caustic.copy())
+
+        def keep(renderer, stats, elapsed, session):
+            if renderer.passes in images:
+                images[renderer.passes].append(renderer.film.caustic.copy())
+        run_passes(r, Passes(passes=passes, executor=executor), on_pass=keep)
         print(f"  {name} seed {seed}: {r.passes} passes", flush=True)
     rows = []
     for p in marks:
@@ -77,9 +81,12 @@ def main(argv=None):
     p.add_argument("--passes", type=int, default=16)
     p.add_argument("--ref-spp", type=int, default=4096)
     p.add_argument("--cache", default=str(Path.home() / ".cache" / "blockhash" / "references"))
+    p.add_argument("--workers", type=int, default=0, help="local worker processes for each "
+                   "render's passes (0: in this process)")
     p.add_argument("--json")
     args = p.parse_args(argv)
-    results = [measure(s, args.size, args.seeds, args.passes, args.ref_spp, Path(args.cache))
+    executor = LocalWorkers(args.workers) if args.workers else InProcess()
+    results = [measure(s, args.size, args.seeds, args.passes, args.ref_spp, Path(args.cache), executor)
                for s in args.scenes.split(",")]
     print(table(results))
     if args.json:
