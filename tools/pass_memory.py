@@ -29,13 +29,13 @@ from blockhash.passes.renderer import Renderer
 from blockhash.passes.run import run_passes
 scene = blockhash.load_scene(sys.argv[1]).with_size(int(sys.argv[2]), int(sys.argv[2]))
 marks = {int(m) for m in sys.argv[5].split(",") if m}
-workers = int(sys.argv[7])
+workers, overlap = int(sys.argv[7]), sys.argv[8] == "on"
 r = Renderer(scene, photons=int(sys.argv[3]), lookup=LookupOptions(method=sys.argv[6]))
 peaks, t = {}, time.perf_counter()
 def on_pass(renderer, stats, elapsed, session):
     if renderer.passes in marks:
         peaks[renderer.passes] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-executor = LocalWorkers(workers) if workers else InProcess()
+executor = LocalWorkers(workers) if workers else InProcess(overlap=overlap)
 run_passes(r, blockhash.Passes(passes=int(sys.argv[4]), executor=executor), on_pass=on_pass)
 print(json.dumps({"passes": r.passes, "seconds": time.perf_counter() - t,
                   "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
@@ -46,7 +46,7 @@ print(json.dumps({"passes": r.passes, "seconds": time.perf_counter() - t,
 
 def run(args, n: int, env: dict) -> dict:
     out = subprocess.run([sys.executable, "-c", CHILD, args.scene, str(args.size),
-                          str(args.photons), str(n), args.marks, args.method, str(args.workers)],
+                          str(args.photons), str(n), args.marks, args.method, str(args.workers), args.overlap],
                          capture_output=True, text=True, check=True, env={**os.environ, **env})
     return json.loads(out.stdout.strip().splitlines()[-1])
 
@@ -61,6 +61,8 @@ def main(argv=None):
                    "or cpu for a render with no GL caustic pass")
     p.add_argument("--workers", type=int, default=0, help="local worker processes (0: the "
                    "render in this process)")
+    p.add_argument("--overlap", choices=("on", "off"), default="on", help="in this process: the "
+                   "next pass's photons traced while this pass renders (on, the default) or not")
     p.add_argument("--marks", default="", help="passes after which to print the peak so far")
     p.add_argument("--env", action="append", default=[], metavar="NAME=VALUE",
                    help="also run under this environment variable (repeatable)")

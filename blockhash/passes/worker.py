@@ -73,7 +73,11 @@ def _pass_thread_start() -> None:
 
 
 def start(spec: tuple[str, bytes], threads: int) -> None:
-    """A local pool's initializer: the render's spec and this process's share of the cores."""
+    """A local pool's initializer: the render's spec and this process's share of the cores.
+    Ctrl-C is the driver's to handle (it writes the image so far and stops the workers)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     share_cores(threads)
     _SPEC["digest"], _SPEC["data"] = spec
 

@@ -249,3 +249,34 @@ def test_in_process_is_the_default(scene, one_process):
     r, _ = _render(scene, InProcess())
     assert r.info["workers"] == 1 and r.info["executor"] == "in this process"
     assert_same_image(r, one_process)
+
+
+def test_ctrl_c_with_local_workers_writes_the_passes_so_far_and_stops_them(tmp_path):
+    """SIGINT to the whole process group, as a terminal sends it: the driver writes the image of
+    the passes merged and exits 130 at once; the workers ignore it and are stopped."""
+    import signal
+    import subprocess
+    import sys
+
+    from blockhash.frame.images import read_attribute
+
+    out = tmp_path / "ring.exr"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "blockhash", "render", str(RING), "--size", "24x24", "--photons",
+         "3000", "--passes", "100000", "--workers", "2", "-o", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    deadline = time.time() + 120
+    while time.time() < deadline and not out.with_suffix(".png").exists():
+        time.sleep(0.2)  # (the PNG is written only at the end: wait for some passes instead)
+        if proc.poll() is not None:
+            break
+        if time.time() > deadline - 110:
+            break
+    time.sleep(4)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    passes = read_attribute(out, "blockhash:passes")
+    assert passes >= 1 and f"wrote the image of {passes} pass" in err
+    assert read_attribute(out, "blockhash:stopped") == "interrupted (Ctrl-C)"
