@@ -5,11 +5,24 @@ see; a photon's power is the light's power times the cone's share of the light's
 emission solid angle, over the photons shot into it, so the caustic estimate
 stays unbiased (see blockhash/photons/tracing.py).  Random numbers are counter-based:
 photon i of a seed always gets the same ones, whatever the batch size.
+
+Given the scene's geometry, each cone also gets a projection map (Jensen 1996, "Global
+illumination using photon maps", section 3.1): its directions split into
+``MAP_CELLS`` x ``MAP_CELLS`` cells of equal solid angle (cos theta by phi), ``MAP_PILOTS``
+x ``MAP_PILOTS`` pilot rays a cell, and a cell live when a pilot ray of it or of a
+neighbouring cell first meets a specular object.  Photons are shot into live cells only,
+their density raised by the cone's live fraction, so the photons that would miss the mirrors
+or first meet a diffuse surface (the light's direct light, which the renderer's shadow rays
+compute) are not traced at all.  A direction that reaches a mirror through a dead cell would
+be lost: the dilation by a cell keeps every mirror edge a pilot ray saw; a mirror feature
+thinner than a cell and missed by every pilot ray of three cells is the limit
+(:func:`projection_map`).  The light tracer (:mod:`blockhash.reference.lighttrace`) samples
+the plain cones, so it checks the map independently.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -19,9 +32,13 @@ CONE_MARGIN = 1e-9
 #: least cos(half-angle) - CONE_TEST_EPS: cone sampling rounds in the last bits.
 CONE_TEST_EPS = 1e-12
 
-#: Random numbers per photon: cone choice, two for the direction, one spare
-#: (one Philox counter step gives four).
+#: Random numbers per photon: cone choice, two for the direction, one for the projection
+#: map's cell (one Philox counter step gives four).
 UNIFORMS_PER_PHOTON = 4
+#: Cells per side of a cone's projection map (cos theta by phi, each of equal solid angle).
+MAP_CELLS = 128
+#: Pilot rays per cell side of a projection map (stratified, at the sub-cells' centres).
+MAP_PILOTS = 2
 
 
 def cone_solid_angle(cos_half: float | np.ndarray):
@@ -95,16 +112,65 @@ class Cone:
     t2: np.ndarray
     cos_half: float
     sampled: str  # 'object' or 'spot'
+    #: (MAP_CELLS, MAP_CELLS) bool live cells of its projection map (None: every cell)
+    live: np.ndarray | None = None
 
     @property
     def solid_angle(self) -> float:
         return float(cone_solid_angle(self.cos_half))
 
+    @property
+    def live_fraction(self) -> float:
+        return 1.0 if self.live is None else float(self.live.mean())
+
+    @property
+    def live_cells(self) -> np.ndarray:
+        return np.flatnonzero(self.live) if self.live is not None else np.zeros(0, np.int64)
+
+    def cells_of(self, dirs: np.ndarray) -> np.ndarray:
+        """(n,) flat map cell of each unit direction (inside the cone)."""
+        g = MAP_CELLS
+        u1 = (1.0 - dirs @ self.axis) / max(1.0 - self.cos_half, 1e-300)
+        phi = np.arctan2(dirs @ self.t2, dirs @ self.t1) % (2.0 * np.pi)
+        i = np.clip((u1 * g).astype(np.int64), 0, g - 1)
+        j = np.clip((phi / (2.0 * np.pi) * g).astype(np.int64), 0, g - 1)
+        return i * g + j
+
+
+def projection_map(cone: Cone, origin: np.ndarray, geometry) -> np.ndarray:
+    """(MAP_CELLS, MAP_CELLS) bool: the cells of ``cone`` (from the light at ``origin``)
+    whose pilot rays, or a neighbouring cell's, first meet a specular object of
+    ``geometry`` (:class:`blockhash.scene.raycast.EmbreeGeometry`)."""
+    from blockhash.scene.raycast import RAY_OFFSET
+
+    g, s = MAP_CELLS, MAP_PILOTS
+    sub = (np.arange(g * s) + 0.5) / (g * s)
+    u1, u2 = (a.reshape(-1) for a in np.meshgrid(sub, sub, indexing="ij"))
+    n = len(u1)
+    d = sample_cones(np.tile(cone.axis, (n, 1)), np.tile(cone.t1, (n, 1)),
+                     np.tile(cone.t2, (n, 1)), np.full(n, cone.cos_half), u1, u2)
+    o = origin + d * (RAY_OFFSET * geometry.scale)
+    hit, face, _, _ = geometry.intersect(o, d)
+    first = np.zeros(n, dtype=bool)
+    first[np.flatnonzero(hit)] = geometry.is_specular[geometry.face_object[face]]
+    live = first.reshape(g, s, g, s).any(axis=(1, 3))
+    grown = live.copy()  # one cell around: theta clamped at the cone's axis and rim, phi wraps
+    for di in (-1, 0, 1):
+        rows = np.roll(live, di, axis=0)
+        if di == 1:
+            rows[0] = False
+        elif di == -1:
+            rows[-1] = False
+        for dj in (-1, 0, 1):
+            grown |= np.roll(rows, dj, axis=1)
+    return grown
+
 
 class Emitter:
-    """Cone sampling toward the specular objects for every light."""
+    """Cone sampling toward the specular objects for every light; with ``geometry``, into
+    each cone's projection map's live cells (module docstring)."""
 
-    def __init__(self, lights, specular_objects):
+    def __init__(self, lights, specular_objects, geometry=None):
         self.positions, self.intensity, self.spot_axis, self.spot_cos = [], [], [], []
         cones: list[Cone] = []
         for li, light in enumerate(lights):
@@ -134,11 +200,18 @@ class Emitter:
                 axis, cos_h, which = chosen
                 t1, t2 = orthonormal_basis(axis)
                 cones.append(Cone(li, str(obj.name), axis, t1, t2, cos_h, which))
+        if geometry is not None:
+            mapped = [replace(c, live=projection_map(c, self.positions[c.light], geometry))
+                      for c in cones]
+            # Cones none of whose directions reach a mirror first go; when none is left, the
+            # plain cones stay, and the tracer finds (and reports) what their photons meet.
+            mapped = [c for c in mapped if c.live.any()]
+            cones = mapped or cones
         self.cones = tuple(cones)
         self.n_lights = len(lights)
         # pmf over cones: power of the light falling into each cone
         brightness = np.array([float(np.mean(self.intensity[c.light])) * c.solid_angle
-                               for c in cones])
+                               * c.live_fraction for c in cones])
         total = brightness.sum() if len(cones) else 0.0
         self.pmf = brightness / total if total > 0 else brightness
         self.cdf = np.cumsum(self.pmf)
@@ -170,16 +243,23 @@ class Emitter:
         t1 = np.array([c.t1 for c in self.cones])
         t2 = np.array([c.t2 for c in self.cones])
         cos_h = np.array([c.cos_half for c in self.cones])
-        dirs = sample_cones(axes[k], t1[k], t2[k], cos_h[k], u[:, 1], u[:, 2])
+        u1, u2 = self._cells(k, u)
+        dirs = sample_cones(axes[k], t1[k], t2[k], cos_h[k], u1, u2)
         light = np.array([c.light for c in self.cones], dtype=np.int64)[k]
         origins = np.array(self.positions)[light]
-        # mixture density q(w) = sum over cones c containing w of pmf_c / solid_angle_c
-        q = (self.pmf / np.array([c.solid_angle for c in self.cones]))[k]
+        # mixture density q(w) = sum over cones c whose live cells hold w of
+        # pmf_c / (solid_angle_c live_fraction_c)
+        density = self.pmf / np.array([c.solid_angle * c.live_fraction for c in self.cones])
+        q = density[k]
         for j, c in enumerate(self.cones):
             other = (k != j) & (light == c.light)
             if other.any():
-                inside = dirs[other] @ c.axis >= c.cos_half - CONE_TEST_EPS
-                q[np.flatnonzero(other)[inside]] += self.pmf[j] / c.solid_angle
+                rows = np.flatnonzero(other)
+                inside = dirs[rows] @ c.axis >= c.cos_half - CONE_TEST_EPS
+                rows = rows[inside]
+                if c.live is not None:
+                    rows = rows[c.live.reshape(-1)[c.cells_of(dirs[rows])]]
+                q[rows] += density[j]
         weights = np.array(self.intensity)[light] / q[:, None]
         for li in range(self.n_lights):
             if self.spot_axis[li] is None:
@@ -188,3 +268,18 @@ class Emitter:
             outside = dirs[sel] @ self.spot_axis[li] < self.spot_cos[li] - CONE_TEST_EPS
             weights[np.flatnonzero(sel)[outside]] = 0.0
         return origins, dirs, weights, light
+
+    def _cells(self, k: np.ndarray, u: np.ndarray):
+        """The direction uniforms (u1, u2) of each photon, moved into a live cell of its cone's
+        projection map chosen by ``u[:, 3]`` (unchanged for a cone without a map)."""
+        u1, u2 = u[:, 1].copy(), u[:, 2].copy()
+        for j, c in enumerate(self.cones):
+            if c.live is None:
+                continue
+            rows = np.flatnonzero(k == j)
+            cells = c.live_cells
+            pick = cells[np.minimum((u[rows, 3] * len(cells)).astype(np.int64), len(cells) - 1)]
+            i, jj = np.divmod(pick, MAP_CELLS)
+            u1[rows] = (i + u1[rows]) / MAP_CELLS
+            u2[rows] = (jj + u2[rows]) / MAP_CELLS
+        return u1, u2

@@ -150,7 +150,8 @@ class PhotonSource:
         self.emitter = self.geometry = None
         if not specular:
             return
-        emitter = Emitter(lights, specular)
+        self.geometry = geometry or EmbreeGeometry(tuple(scene.objects))
+        emitter = Emitter(lights, specular, geometry=self.geometry)
         if not emitter.cones:
             raise InputError(
                 f"{name}: no light reaches a specular object (every spot light's cone misses "
@@ -160,7 +161,6 @@ class PhotonSource:
             raise InputError(f"{name}: the lights that face the mirrors have zero power; "
                              "give a light a positive power")
         self.emitter = emitter
-        self.geometry = geometry or EmbreeGeometry(tuple(scene.objects))
 
     def _seed(self, seed):
         return as_int(self.scene.photons.seed if seed is None else seed, "seed", minimum=0,
