@@ -1,0 +1,109 @@
+"""Seconds per warm pass, stage by stage, of this checkout beside another commit's (a
+``git worktree``), in the same run: each (checkout, scene, size, photons) a fresh process that
+steps one pass at a time in one process (``Renderer.step``: one pass in flight, no overlap),
+leaves out ``--warm`` passes and averages the next ``--passes``.
+
+Per row: seconds a pass by stage (trace, index, photon radii, pixel splat, cover gather,
+G-buffer + direct, caustic), photons stored per second of tracing, and stored photons per
+second end to end (stored photons over the pass's total), with this checkout's ratio to the
+baseline's on the line below each baseline row.
+
+usage: python tools/pass_stages.py --baseline /tmp/blockhash-6c34444
+           [--scenes ring,venus,glass,corner] [--sizes 256,512] [--photons 200000,1000000]
+           [--warm 1] [--passes 3] [--json docs/pass-stages.json]
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+STAGES = ("trace", "index", "photon radii", "pixel splat", "cover gather", "gbuffer", "direct",
+          "caustic", "total")
+
+CHILD = r"""
+import json, sys
+import blockhash
+scene_path, size, photons, warm, passes = sys.argv[1:6]
+scene = blockhash.load_scene(scene_path).with_size(int(size), int(size))
+r = blockhash.Renderer(scene, photons=int(photons))
+rows = []
+for p in range(int(warm) + int(passes)):
+    s = r.step()
+    if p >= int(warm):
+        rows.append({"stored": s.stored, "emitted": s.emitted, "timings": s.timings})
+print(json.dumps(rows))
+"""
+
+
+def run(checkout: Path, scene: str, size: int, photons: int, warm: int, passes: int) -> dict:
+    env = {**os.environ, "PYTHONPATH": str(checkout)}
+    proc = subprocess.run([sys.executable, "-c", CHILD, scene, str(size), str(photons), str(warm),
+                           str(passes)], capture_output=True, text=True, env=env,
+                          cwd=tempfile.gettempdir())
+    if proc.returncode:
+        raise SystemExit(f"{checkout} on {scene} failed:\n{proc.stderr[-3000:]}")
+    rows = json.loads(proc.stdout.strip().splitlines()[-1])
+    n = len(rows)
+    sec = {k: sum(r["timings"].get(k, 0.0) for r in rows) / n for k in STAGES}
+    stored = sum(r["stored"] for r in rows) / n
+    return {"seconds": sec, "stored": stored,
+            "emitted": sum(r["emitted"] for r in rows) / n,
+            "stored_per_trace_s": stored / sec["trace"] if sec["trace"] else None,
+            "stored_per_s": stored / sec["total"]}
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--baseline", type=Path, required=True, help="a checkout of the commit to "
+                   "compare with (git worktree add /tmp/blockhash-6c34444 6c34444)")
+    p.add_argument("--scenes", default="ring,venus,glass,corner")
+    p.add_argument("--sizes", default="256,512")
+    p.add_argument("--photons", default="200000,1000000")
+    p.add_argument("--warm", type=int, default=1)
+    p.add_argument("--passes", type=int, default=3)
+    p.add_argument("--json", type=Path)
+    args = p.parse_args(argv)
+    cols = ("trace", "index", "photon radii", "pixel splat", "cover gather", "gbuffer + direct",
+            "caustic")
+    print("| scene | size | photons | commit | s per pass | " + " | ".join(cols)
+          + " | stored per s of tracing | stored per s end to end |")
+    print("| --- " * (6 + len(cols) + 1) + "|")
+    out = []
+    for name in args.scenes.split(","):
+        scene = name if name.endswith(".toml") else str(ROOT / "scenes" / f"{name}.toml")
+        for size in (int(s) for s in args.sizes.split(",")):
+            for photons in (int(float(n)) for n in args.photons.split(",")):
+                res = {}
+                for label, checkout in (("baseline", args.baseline), ("this", ROOT)):
+                    res[label] = run(checkout, scene, size, photons, args.warm, args.passes)
+                    s = res[label]["seconds"]
+                    vals = (s["trace"], s["index"], s["photon radii"], s["pixel splat"],
+                            s["cover gather"], s["gbuffer"] + s["direct"], s["caustic"])
+                    print(f"| {name} | {size} | {photons:,} | {label} | {s['total']:.3f} | "
+                          + " | ".join(f"{v:.3f}" for v in vals)
+                          + f" | {res[label]['stored_per_trace_s']:,.0f} | "
+                            f"{res[label]['stored_per_s']:,.0f} |", flush=True)
+                b, t = res["baseline"], res["this"]
+                ratio = [b["seconds"][k] / t["seconds"][k] if t["seconds"][k] else float("nan")
+                         for k in ("trace", "index", "photon radii", "pixel splat", "cover gather")]
+                gd = ((b["seconds"]["gbuffer"] + b["seconds"]["direct"])
+                      / (t["seconds"]["gbuffer"] + t["seconds"]["direct"]))
+                ratio += [gd, b["seconds"]["caustic"] / t["seconds"]["caustic"]]
+                print(f"| {name} | {size} | {photons:,} | speed-up | "
+                      f"{b['seconds']['total'] / t['seconds']['total']:.2f}x | "
+                      + " | ".join(f"{r:.2f}x" for r in ratio)
+                      + f" | {t['stored_per_trace_s'] / b['stored_per_trace_s']:.2f}x | "
+                        f"{t['stored_per_s'] / b['stored_per_s']:.2f}x |", flush=True)
+                out.append({"scene": name, "size": size, "photons": photons, **res})
+    if args.json:
+        args.json.write_text(json.dumps({"args": {k: str(v) for k, v in vars(args).items()},
+                                         "rows": out}, indent=1))
+
+
+if __name__ == "__main__":
+    main()
