@@ -286,7 +286,7 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
     if s.schedule.footprint > 0:
         t = time.perf_counter()
         whole = (index, FixedRadii(r2))
-        index, radii, splat = _split(setup, photons, index, r2, scale, timings)
+        index, radii, splat = _split(setup, photons, index, r2, scale)
         timings["pixel splat"] = time.perf_counter() - t
     if index is not None:
         t = time.perf_counter()
@@ -295,9 +295,11 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
     return index, radii, splat, whole
 
 
-def _split(setup: RenderSetup, photons, index, r2, scale, timings):
+def _split(setup: RenderSetup, photons, index, r2, scale):
     """The pixel splat of the photons whose discs are under the footprint
-    (:mod:`blockhash.frame.pixel_splat`), and the index and radii of the rest."""
+    (:mod:`blockhash.frame.pixel_splat`), and the index and radii the gather keeps for the
+    rest: the same index, the splatted photons' radii infinite (the cover gather leaves out a
+    photon of infinite radius, :meth:`blockhash.index.lookups.cover.CoverGather.build`)."""
     from blockhash.frame.pixel_splat import splat_subpixel
 
     s = setup.settings
@@ -305,12 +307,6 @@ def _split(setup: RenderSetup, photons, index, r2, scale, timings):
                                  footprint=s.schedule.footprint * math.sqrt(scale))
     if keep.all():
         return index, FixedRadii(r2), None
-    rest = np.flatnonzero(keep)
-    if not rest.size:  # every photon splatted: nothing left to gather
+    if not keep.any():  # every photon splatted: nothing left to gather
         return None, None, image
-    t = time.perf_counter()
-    index = BlockHashIndex(photons.positions[rest], k=s.k, A=s.A,
-                           directions=photons.directions[rest], normals=photons.normals[rest],
-                           powers=photons.powers[rest], tables=False)
-    timings["index"] += time.perf_counter() - t
-    return index, FixedRadii(r2[rest]), image
+    return index, FixedRadii(np.where(keep, r2, np.inf)), image
