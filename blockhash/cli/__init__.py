@@ -9,7 +9,8 @@
 - :mod:`~blockhash.cli.export`: ``blockhash export`` and ``blockhash reference``
 
 :func:`build_parser` puts the commands together in the order ``blockhash --help`` lists them;
-:func:`main` runs one and turns an input error into one line and exit status 2.
+:func:`main` runs one and turns an input error into one line and exit status 2, its
+parameters spelled as the flags that set them (:data:`.args.FLAGS`).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import sys
 
 from blockhash import __version__
 from blockhash.cli import bench, export, images, index, render, tradeoff
+from blockhash.cli.args import FLAGS
 from blockhash.errors import BlockHashError
 
 #: Each command's parser, in the order of ``blockhash --help``.
@@ -42,7 +44,7 @@ def main(argv=None) -> int:
     try:
         return args.func(args)
     except BlockHashError as exc:
-        print(f"blockhash {args.command}: error: {exc}", file=sys.stderr)
+        print(f"blockhash {args.command}: error: {exc.spelled(FLAGS)}", file=sys.stderr)
         return 2
     except OSError as exc:  # a file the checks above did not foresee: one line, no traceback
         where = f" {exc.filename}" if exc.filename else ""

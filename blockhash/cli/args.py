@@ -1,8 +1,17 @@
-"""Argument types that several commands share: ``--size WIDTHxHEIGHT``."""
+"""What several commands share: the argument type of ``--size WIDTHxHEIGHT``, and
+:data:`FLAGS`, the command line's names for the library's parameters, with which
+:func:`blockhash.cli.main` spells a library error's message (:meth:`blockhash.errors.BlockHashError.spelled`)."""
 
 from __future__ import annotations
 
 import argparse
+
+#: The flag that sets each library parameter an error may name (the one place the command line
+#: maps its flags onto the library's keywords).
+FLAGS = {"passes": "--passes ", "seconds": "--time ", "target_error": "--target-error ",
+         "alpha": "--alpha ", "footprint": "--footprint ", "photons": "--photons ", "k": "--k ",
+         "A": "--A ", "workers": "--workers ", "size": "--size", "spp": "--spp ",
+         "seed": "--seed "}
 
 
 def size(text: str) -> tuple[int, int]:

@@ -13,6 +13,7 @@ import warnings
 from dataclasses import replace
 from pathlib import Path
 
+from blockhash.cli.args import FLAGS
 from blockhash.cli.args import size as _size
 from blockhash.cli.estimate import add_arguments as add_estimate_arguments
 from blockhash.cli.estimate import options_from
@@ -63,7 +64,7 @@ def cmd_render(args) -> int:
             return _stop_early(renderer, out, "interrupted (Ctrl-C)", INTERRUPTED)
         except (TargetOutOfReach, PassFailed) as exc:
             progress.close()
-            return _stop_early(renderer, out, f"error: {exc}", 2)
+            return _stop_early(renderer, out, f"error: {exc.spelled(FLAGS)}", 2)
         progress.close()
     for w in caught:
         print(f"WARNING: {w.message}", file=sys.stderr)
@@ -94,14 +95,9 @@ def _stopping_rule(args, *, one_pass: bool):
         count = None
     else:
         count = 1 if one_pass else DEFAULT_PASSES
-    try:
-        schedule = Schedule(alpha=args.alpha, footprint=args.footprint)
-        rule = Passes(passes=count, seconds=args.time, target_error=args.target_error,
-                      schedule=schedule)
-    except InputError as exc:  # name the flags, as the user wrote them
-        raise InputError(str(exc).replace("passes=", "--passes ").replace("time=", "--time ")
-                         .replace("target_error=", "--target-error ").replace("alpha=", "--alpha ")
-                         .replace("footprint=", "--footprint ")) from None
+    schedule = Schedule(alpha=args.alpha, footprint=args.footprint)
+    rule = Passes(passes=count, seconds=args.time, target_error=args.target_error,
+                  schedule=schedule)
     return replace(rule, executor=_executor(args))
 
 
@@ -118,7 +114,7 @@ def _executor(args):
 
         return DaskCluster(args.scheduler)
     if args.workers is not None:
-        return LocalWorkers(worker_count(args.workers, "--workers"))
+        return LocalWorkers(worker_count(args.workers))
     return InProcess()
 
 

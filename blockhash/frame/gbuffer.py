@@ -75,9 +75,10 @@ def rasterize(camera, objects, *, size=None, backend=None) -> GBuffer:
     ctx = get_context(backend)
     limit = min(ctx.info["GL_MAX_TEXTURE_SIZE"], *ctx.info["GL_MAX_VIEWPORT_DIMS"])
     if not (0 < width <= limit and 0 < height <= limit):
-        raise CapacityError(f"image size {width} x {height} is outside 1..{limit:,} per side "
-                            f"(GL_MAX_TEXTURE_SIZE / GL_MAX_VIEWPORT_DIMS of this device); "
-                            "render a smaller image (--size)")
+        raise CapacityError.about("image size {width} x {height} is outside 1..{limit:,} per "
+                                  "side (GL_MAX_TEXTURE_SIZE / GL_MAX_VIEWPORT_DIMS of this "
+                                  "device); render a smaller image ({size})", width=width,
+                                  height=height, limit=limit)
     tris = scene_triangles(objects)
     radius = float(np.linalg.norm(tris[:, :3] - np.asarray(camera.eye, dtype=np.float32), axis=1).max())
     # The camera's own matrices, at the rendered size (the aspect may differ from the file's).

@@ -38,9 +38,8 @@ class PassFailed(BlockHashError, RuntimeError):
         self.pass_index, self.where, self.cause = pass_index, where, cause
 
 
-def worker_count(value, name: str = "workers") -> int:
-    """``value`` as a count of local worker processes: an int >= 1, or 'auto' (one per core);
-    ``name``: the parameter (or command-line flag, ``--workers``) the error names."""
+def worker_count(value) -> int:
+    """``value`` as a count of local worker processes: an int >= 1, or 'auto' (one per core)."""
     if value == "auto":
         return cores()
     count = value
@@ -50,9 +49,9 @@ def worker_count(value, name: str = "workers") -> int:
         except ValueError:
             count = None
     if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-        given = f"{name} {value}" if name.startswith("--") else f"{name}={value!r}"
-        raise InputError(f"{given}: local worker processes are a count >= 1 or 'auto' "
-                         f"(one per core, {cores()} here); leave it out to render in this process")
+        raise InputError.about("{workers}{value}: local worker processes are a count >= 1 or "
+                               "'auto' (one per core, {cores} here); leave it out to render in "
+                               "this process", value=value, cores=cores())
     return count
 
 

@@ -84,9 +84,12 @@ class Schedule:
 
     def __post_init__(self):
         if not (isinstance(self.alpha, (int, float)) and 0.0 < self.alpha < 1.0):
-            raise InputError(f"alpha={self.alpha!r} is outside (0, 1): the share of a pass's "
-                             f"photons kept in the next radius; use e.g. {DEFAULT_ALPHA:.3g}")
+            raise InputError.about("{alpha}{value!r} is outside (0, 1): the share of a pass's "
+                                   "photons kept in the next radius; use e.g. {alpha}{default:.3g}",
+                                   value=self.alpha, default=DEFAULT_ALPHA)
         if not (isinstance(self.footprint, (int, float)) and 0.0 <= self.footprint < math.inf):
-            raise InputError(f"footprint={self.footprint!r}: the disc size in pixel footprints "
-                             "under which photons are splatted into their pixel must be a finite "
-                             f"number >= 0 (0 turns the splat off); use e.g. {DEFAULT_FOOTPRINT}")
+            raise InputError.about("{footprint}{value!r}: the disc size in pixel footprints "
+                                   "under which photons are splatted into their pixel must be a "
+                                   "finite number >= 0 (0 turns the splat off); use e.g. "
+                                   "{footprint}{default}", value=self.footprint,
+                                   default=DEFAULT_FOOTPRINT)

@@ -60,30 +60,35 @@ class Passes:
     def __post_init__(self):
         if self.passes is not None and (isinstance(self.passes, bool) or
                                         not isinstance(self.passes, int) or self.passes < 1):
-            raise InputError(f"passes={self.passes!r}: a render runs at least one pass; give "
-                             "--passes N with N >= 1 (or leave it out to stop by --time or "
-                             "--target-error)")
+            raise InputError.about("{passes}{value!r}: a render runs at least one pass; give "
+                                   "{passes}N with N >= 1 (or leave it out to stop by {seconds} "
+                                   "or {target_error})", value=self.passes)
         if self.seconds is not None and not (_number(self.seconds) and 0 < self.seconds < math.inf):
-            raise InputError(f"time={self.seconds!r} s: the time limit must be a positive, finite "
-                             "number of seconds; give e.g. --time 30")
+            raise InputError.about("{seconds}{value!r}: the time limit must be a positive, "
+                                   "finite number of seconds; give e.g. {seconds}30",
+                                   value=self.seconds)
         if self.target_error is not None and not (_number(self.target_error)
                                                   and 0 < self.target_error < math.inf):
-            raise InputError(f"target_error={self.target_error!r}: the caustic layer's relative "
-                             "standard error to stop at must be > 0; give e.g. --target-error 0.05")
+            raise InputError.about("{target_error}{value!r}: the caustic layer's relative "
+                                   "standard error to stop at must be > 0; give e.g. "
+                                   "{target_error}0.05", value=self.target_error)
         if self.passes is None and self.seconds is None and self.target_error is None:
-            raise InputError("a render with no pass limit needs --time or --target-error to stop; "
-                             "give --passes N, --time SECONDS or --target-error E")
+            raise InputError.about("a render with no pass limit needs {seconds} or {target_error} "
+                                   "to stop; give {passes}N, {seconds}SECONDS or "
+                                   "{target_error}E")
         if not hasattr(self.executor, "open"):
             raise InputError(f"executor={self.executor!r}: give InProcess(), LocalWorkers(count) "
                              "or DaskCluster(address) (blockhash.passes.executors)")
         if self.target_error is not None and self.passes is not None and self.passes < 2:
-            raise InputError(f"--target-error {self.target_error} cannot be reached within "
-                             f"--passes {self.passes}: the error is estimated from the spread "
-                             "between passes, so it needs at least 2; raise --passes or drop it")
+            raise InputError.about("{target_error}{target} cannot be reached within "
+                                   "{passes}{passes_value}: the error is estimated from the spread "
+                                   "between passes, so it needs at least 2; raise {passes} or drop "
+                                   "{target_error}", target=self.target_error,
+                                   passes_value=self.passes)
 
     @property
     def one_pass(self) -> bool:
-        """One pass and no other rule: today's single render."""
+        """One pass and no other rule: the single render (``render_scene``'s)."""
         return self.passes == 1
 
     def hand_out(self, p: int, elapsed: float) -> bool:
@@ -107,12 +112,12 @@ class Passes:
                 need = (n * (err / self.target_error) ** (2.0 / self.schedule.alpha)
                         if math.isfinite(err) else math.inf)
                 if n >= self.passes or need > PROJECTION_MARGIN * self.passes:
-                    raise TargetOutOfReach(
-                        f"--target-error {self.target_error:g} cannot be reached within "
-                        f"--passes {self.passes}: after {n} passes the estimated error is "
-                        f"{err:.3g}, which needs about {need:,.0f} passes at alpha "
-                        f"{self.schedule.alpha:.3g}; raise --passes, raise the target, or give "
-                        "more --photons per pass")
+                    raise TargetOutOfReach.about(
+                        "{target_error}{target:g} cannot be reached within {passes}{limit}: "
+                        "after {n} passes the estimated error is {err:.3g}, which needs about "
+                        "{need:,.0f} passes at alpha {alpha:.3g}; raise {passes}, raise the "
+                        "target, or give more {photons}per pass", target=self.target_error,
+                        limit=self.passes, n=n, err=err, need=need, alpha=self.schedule.alpha)
         if self.passes is not None and n >= self.passes:
             return f"{n} pass{'es' if n > 1 else ''}"
         if self.seconds is not None and elapsed >= self.seconds:

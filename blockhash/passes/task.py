@@ -261,8 +261,9 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
     if stored == 0:
         return None, None, None, None
     if p == 0 and stored < s.k:
-        raise InputError(f"only {stored} caustic photons were stored, fewer than k={s.k}; "
-                         "trace more photons (--photons) or lower --k")
+        raise InputError.about("only {stored} caustic photons were stored, fewer than {k}{value}; "
+                               "trace more photons ({photons}) or lower {k}", stored=stored,
+                               value=s.k)
     t = time.perf_counter()
     # The cover gather reads the records in Hilbert order only: the hash tables are built
     # on first use (a caller's k-nearest query), not here.

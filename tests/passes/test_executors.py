@@ -106,8 +106,9 @@ def test_worker_counts_are_checked():
     for bad in (0, -1, "0", "two", 1.5, True):
         with pytest.raises(InputError, match="workers=.*count >= 1 or 'auto'"):
             LocalWorkers(bad)
-    with pytest.raises(InputError, match=r"--workers -2: local worker processes"):
-        worker_count("-2", "--workers")
+    with pytest.raises(InputError, match=r"workers=-2: local worker processes") as caught:
+        worker_count("-2")
+    assert caught.value.spelled({"workers": "--workers "}).startswith("--workers -2: local")
     with pytest.raises(InputError, match="executor="):
         Passes(executor="dask")
 
