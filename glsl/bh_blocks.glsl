@@ -42,7 +42,7 @@ float bh_block_gap2(uvec4 h, vec3 q) {
 }
 
 // Decoded float32 position of photon j: lo + float(u) * step, one rounding per
-// operation (blockhash/fixedpoint.py Quantizer.decode).  Its words 6j .. 6j+2
+// operation (blockhash/index/records/fixedpoint.py Quantizer.decode).  Its words 6j .. 6j+2
 // start at a texel boundary (even j) or half way (odd j): one or two fetches.
 vec3 bh_photon_position(uint b, uint j) {
     uint texel = b * uint(BH_BLOCK_TEXELS) + ((6u * j) >> 2u);

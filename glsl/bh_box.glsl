@@ -1,4 +1,4 @@
-// bh_box.glsl: the photon map's fixed-point box (paper 3.2, blockhash/fixedpoint.py).
+// bh_box.glsl: the photon map's fixed-point box (paper 3.2, blockhash/index/records/fixedpoint.py).
 // Takes: nothing.  Returns: the uniforms both hashing and photon decoding use:
 // lower corner, code step and its float32 reciprocal, each exactly the float32
 // values of the Python Quantizer; bh_quantize, a query's codes (Quantizer.quantize_query).

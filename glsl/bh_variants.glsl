@@ -2,7 +2,7 @@
 // Takes: nothing.  Returns: the id constants that the selector defines
 // (BH_THRESHOLD_SEARCH, BH_DEDUP, BH_PRIORITY, BH_SELECT, BH_CULL) are compared with.
 // Python (blockhash/gl/shaderlib.py, class Variant) emits the selectors; the ids
-// here and there must agree (tests/test_shaderlib.py checks it).
+// here and there must agree (tests/gl/test_shaderlib.py checks it).
 #ifndef BH_VARIANTS_GLSL
 #define BH_VARIANTS_GLSL
 

@@ -3,20 +3,27 @@
 // for none; a NaN or infinite position gets no caustic), cp_normal (RGBA32F: unit normal, scalar weight), cp_view (RGBA32F:
 // unit direction toward the viewer); a table of up to 16 modified Phong
 // materials.  Returns: caustic radiance times the path weight (RGBA32F).
-// Defines: BH_COVER (1: the cover gather, caustic_cover.glsl, and what bh_cover.glsl takes),
-// BH_CELLS (1: the cells lookup), else everything bh_lookup.glsl takes (the variant), and
-// CP_LOOKUP_ONLY (1: run the lookup alone and write a value that depends on its result,
-// for timing the pass's stages; with BH_FETCH_ONLY, the lookup's fetches alone).
-#if BH_COVER
+// Defines: CP_GATHER, the gather: CP_COVER (the cover gather, caustic_cover.glsl, and what
+// bh_cover.glsl takes), CP_CELLS (the cells lookup, and what bh_cells.glsl takes) or CP_KNN
+// (the k nearest by the hash tables or the walk: everything bh_lookup.glsl takes, the
+// variant); any other value, or none, fails to compile.  CP_LOOKUP_ONLY (1: run the lookup
+// alone and write a value that depends on its result, for timing the pass's stages; with
+// BH_FETCH_ONLY, the lookup's fetches alone).
+#define CP_COVER 1
+#define CP_CELLS 2
+#define CP_KNN 3
+#if CP_GATHER == CP_COVER
 #include "caustic_cover.glsl"
-#elif BH_CELLS
+#elif CP_GATHER == CP_CELLS
 void caustic_visit(uint s, uint bits);  // caustic_estimate.glsl
 #define BH_CELLS_VISIT(s, bits) caustic_visit(s, bits)
 #include "bh_cells.glsl"
-#else
+#elif CP_GATHER == CP_KNN
 #include "bh_lookup.glsl"
+#else
+#error caustic_pass.frag: CP_GATHER must be CP_COVER (1), CP_CELLS (2) or CP_KNN (3)
 #endif
-#if !BH_COVER
+#if CP_GATHER != CP_COVER
 #include "caustic_estimate.glsl"
 #endif
 
@@ -39,11 +46,11 @@ void main() {
     vec4 nw = texelFetch(cp_normal, px, 0);
     vec3 wo = texelFetch(cp_view, px, 0).xyz;
     int m = int(pos.w);
-#if BH_COVER && CP_LOOKUP_ONLY
+#if CP_GATHER == CP_COVER && CP_LOOKUP_ONLY
     uvec2 rc = bh_cover_gather(pos.xyz);  // the gather (the floor: its reads) alone
     frag_color = vec4(float(rc.y), float(rc.x), float(bh_cover_sink & 1u), nw.w + wo.x);
     return;
-#elif BH_CELLS && CP_LOOKUP_ONLY && BH_FETCH_ONLY
+#elif CP_GATHER == CP_CELLS && CP_LOOKUP_ONLY && BH_FETCH_ONLY
     bh_cells_choose(pos.xyz);  // the floor: the candidates read once
     bh_max_bits = 0u;
     bh_max_slot = 0u;
@@ -51,7 +58,7 @@ void main() {
     uint examined = bh_cells_pass(BH_PASS_COUNT, pos.xyz, 0u);
     frag_color = vec4(uintBitsToFloat(bh_max_bits), float(examined), 0.0, nw.w + wo.x);
     return;
-#elif BH_CELLS && CP_LOOKUP_ONLY
+#elif CP_GATHER == CP_CELLS && CP_LOOKUP_ONLY
     uint examined = bh_cells_select(pos.xyz);
     frag_color = vec4(uintBitsToFloat(bh_top_bits), float(examined), 0.0, nw.w + wo.x);
     return;
@@ -61,7 +68,7 @@ void main() {
                       float(bh_fetch_sink & 1u), nw.w + wo.x);
     return;
 #endif
-#if !BH_CELLS && !BH_COVER
+#if CP_GATHER == CP_KNN
     bh_lookup(pos.xyz);
 #endif
     vec3 l = caustic_radiance(pos.xyz, nw.xyz, wo, cp_kd[m], cp_ks[m], cp_exponent[m]);

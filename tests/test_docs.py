@@ -113,3 +113,23 @@ def test_each_benchmark_claim_has_its_section_a_command_that_exists_and_a_date()
 def test_benchmarks_reads_as_the_current_state_outside_its_history(phrase):
     body = BENCHMARKS.split("\n## History", 1)[0]
     assert phrase not in body.lower(), f"BENCHMARKS.md says {phrase!r} outside its History section"
+
+
+#: A path a source file cites: a folder of the repository, then a module or a shader (the
+#: wheel's ``blockhash/glsl/`` is the installed name of ``glsl/``).
+CITED = re.compile(r"(?<![\w./-])((?:blockhash/(?!glsl/)|glsl/|tools/|tests/)[\w/.-]*\w\.(?:py|glsl|frag))")
+
+
+def test_every_path_a_source_file_cites_exists():
+    """Comments and docstrings of .py and .glsl files point at files that are there (a moved
+    module leaves no citation of its old path behind)."""
+    missing = []
+    for path in project_files("*.py", "*.glsl", "*.frag"):
+        rel = path.relative_to(ROOT).as_posix()
+        if not rel.startswith(("blockhash/", "glsl/", "tools/", "tests/")):
+            continue
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            for cited in CITED.findall(line):
+                if not (ROOT / cited).exists():
+                    missing.append(f"{rel}:{n}: {cited}")
+    assert not missing, "cited paths that do not exist:\n" + "\n".join(missing)

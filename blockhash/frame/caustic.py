@@ -43,6 +43,9 @@ from blockhash.scene.materials import material_arrays, phong_brdf
 MAX_MATERIALS = 16
 #: How a caustic pass finds photons: the k nearest (the index's lookup) or the cover gather.
 GATHERS = ("knn", "cover")
+#: caustic_pass.frag's CP_GATHER for each gather it compiles (the k nearest's cells lookup
+#: is its own).
+CP_GATHER = {"cover": 1, "cells": 2, "knn": 3}
 
 
 @dataclass(frozen=True)
@@ -364,7 +367,10 @@ class CausticPass:
             if options.estimate == "conserving":
                 own_tex, defines["CAUSTIC_OWN_W"] = self._own_radii(k)
                 own = {"caustic_own_r2": own_tex}
-        defines = {**defines, "CP_LOOKUP_ONLY": int(stage != STAGES[-1]), **options.defines()}
+        gather = (CP_GATHER["cover"] if self.gather == "cover"
+                  else CP_GATHER["cells"] if defines.get("BH_CELLS") else CP_GATHER["knn"])
+        defines = {**defines, "CP_GATHER": gather, "CP_LOOKUP_ONLY": int(stage != STAGES[-1]),
+                   **options.defines()}
         with ctx:
             prog = compile_program(ctx, "caustic_pass.frag", defines)
             # Textures are bottom-up in GL: flip rows on the way in and out.

@@ -163,7 +163,7 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
                   passes=ONE_PASS)
 
 
-#: The single render of before the passes: one pass, every photon gathered (no pixel splat).
+#: The single render: one pass, every photon gathered (no pixel splat).
 ONE_PASS = Passes(passes=1, schedule=Schedule(footprint=0.0))
 
 

@@ -211,3 +211,15 @@ def test_tiny_radius_and_missing_photons_give_finite_pixels(watts):
     peak = 8 * watts * (0.5 / np.pi + 0.3 * 102 / (2 * np.pi)) / (np.pi * min_radius(index) ** 2)
     np.testing.assert_allclose(cpu[0, :2, 0], peak, rtol=1e-2)  # polar-coded direction, float16 power
     np.testing.assert_allclose(gl, cpu, rtol=1e-4, atol=0)
+
+
+@pytest.mark.parametrize("gather", [None, 0, 7])
+def test_the_caustic_pass_refuses_to_compile_without_a_known_gather(gather):
+    """caustic_pass.frag picks its gather by CP_GATHER; an unknown value (or none) stops the
+    compile with the values it knows, not a silent fall into one of them."""
+    ctx = context_or_skip("egl")
+    defines = {} if gather is None else {"CP_GATHER": gather}
+    with pytest.raises(ShaderCompileError, match=r"(?s)caustic_pass\.frag.*CP_GATHER must be "
+                                                 r"CP_COVER \(1\), CP_CELLS \(2\) or CP_KNN \(3\)"):
+        with ctx:
+            compile_program(ctx, "caustic_pass.frag", defines)
