@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "blockhash"
 #: Rank of each part in the data flow; a module may import only ranks <= its own.
 RANKS = {"errors": 0, "validate": 0, "code_version": 0, "scene": 1, "photons": 2, "index": 3, "gl": 4,
-         "frame": 5, "passes": 6, "reference": 7, "evaluate": 8, "studies": 9, "bench": 9, "cli": 10,
+         "frame": 5, "passes": 6, "reference": 7, "evaluate": 8, "studies": 9, "cli": 10,
          "__init__": 10, "__main__": 10}
 #: Lines above which a module's docstring must say why it is long.
 LONG_MODULE = 420

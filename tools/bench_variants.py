@@ -19,9 +19,9 @@ import statistics
 import numpy as np
 
 from blockhash import BlockHashIndex
-from blockhash.bench import device_info, make_queries
 from blockhash.evaluate.datasets import DISTRIBUTIONS
 from blockhash.gl.lookup import GLLookup
+from blockhash.studies.bench import device_info, make_queries
 
 
 def main() -> None:

@@ -259,7 +259,7 @@ def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_00
             out[f"caustic {name}: {stage}"] = _largest(got)
     if "splat" in lookups:
         from blockhash.frame.cover_estimate import cover_gather
-        from blockhash.frame.splat import SplatPass
+        from blockhash.studies.splat_pass import SplatPass
 
         with recording() as got:
             SplatPass(cover_gather(index, k), backend=backend).render(

@@ -1,20 +1,20 @@
 """``blockhash bench``: time Block Hashing shader variants against exact kNN, and the stages of
-a scene's caustic pass (``--caustic``); the measuring itself is :mod:`blockhash.bench`.
+a scene's caustic pass (``--caustic``); the measuring itself is :mod:`blockhash.studies.bench`.
 """
 
 from __future__ import annotations
 
 import sys
 
-from blockhash.bench import GATHERS as CAUSTIC_GATHERS
-from blockhash.bench import QUERY_SETS
 from blockhash.errors import InputError
 from blockhash.evaluate.datasets import DISTRIBUTIONS
 from blockhash.gl.context import BACKENDS
+from blockhash.studies.bench import PEERS as CAUSTIC_PEERS
+from blockhash.studies.bench import QUERY_SETS
 
 
 def cmd_bench(args) -> int:
-    from blockhash.bench import format_table, run_benchmark, run_caustic_benchmark, write_results
+    from blockhash.studies.bench import format_table, run_benchmark, run_caustic_benchmark, write_results
 
     if args.repeat < 1 or args.warmup < 0:
         raise InputError(f"--repeat {args.repeat} / --warmup {args.warmup}: need at least one "
@@ -78,9 +78,9 @@ def add_bench(sub) -> None:
     p.add_argument("--caustic-estimates", default="", metavar="LIST",
                    help="also time the whole --caustic pass with each of these estimate forms "
                         "(e.g. unbiased,conserving), side by side in the same run")
-    p.add_argument("--caustic-gathers", default=",".join(CAUSTIC_GATHERS), metavar="LIST",
+    p.add_argument("--caustic-gathers", default=",".join(CAUSTIC_PEERS), metavar="LIST",
                    help="the --caustic pass's peers, timed side by side (default: all of "
-                        f"{','.join(CAUSTIC_GATHERS)}; cover is the default render's gather)")
+                        f"{','.join(CAUSTIC_PEERS)}; cover is the default render's gather)")
     p.add_argument("--backend", choices=BACKENDS, default=None)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--no-kdtree", action="store_true", help="skip the exact kd-tree shader")

@@ -187,7 +187,7 @@ class Neighbours:
         last = np.where(found.any(axis=1), found.sum(axis=1) - 1, 0)
         r2 = np.where(found.any(axis=1), np.maximum(d2[np.arange(nq), last], min_r2(index)), 0.0)
         own_r2 = None
-        if any(o.estimate == "conserving" for o in own):
+        if any(o.conserving for o in own):
             per_photon = (radii or own_radii2)(index, k)
             own_r2 = np.where(found, per_photon[np.where(found, idx, 0)], np.inf)
         return cls(points, live, d2, found, r2, wi, normal,
@@ -364,7 +364,7 @@ class CausticPass:
             check_lookup(ctx, prm, Variant.parse(variant), k, A)
             defines = self.lookup.defines(Variant.parse(variant), k, self.lookup.cap(k, A),
                                           fetch_only=stage == STAGES[0])
-            if options.estimate == "conserving":
+            if options.conserving:
                 own_tex, defines["CAUSTIC_OWN_W"] = self._own_radii(k)
                 own = {"caustic_own_r2": own_tex}
         gather = (CP_GATHER["cover"] if self.gather == "cover"

@@ -42,7 +42,7 @@ def cover_gather(index, k: int, radii=None, *, steps: int = OCTAVE_STEPS) -> Cov
 
 
 def require_conserving(options: EstimateOptions) -> None:
-    if options.estimate != "conserving":
+    if not options.conserving:
         raise InputError(f"the cover gather sums the conserving estimate only; estimate="
                          f"{options.estimate!r} needs the k nearest photons: use method='bh' "
                          "(the walk), 'kdtree' or the k-nearest CPU reference")

@@ -83,6 +83,11 @@ class EstimateOptions:
     normal_cos: float | None = NORMAL_COS
     disc: float | None = None
 
+    @property
+    def conserving(self) -> bool:
+        """The power-conserving form (each photon's own radius), which the cover gather sums."""
+        return self.estimate == "conserving"
+
     def __post_init__(self):
         if self.estimate not in ESTIMATES:
             raise InputError(f"estimate={self.estimate!r} is not known; choose one of "
@@ -166,7 +171,7 @@ def photon_weights(options: EstimateOptions, d2, r2, found, wi, n_photon, n_shad
     ``w(d / h) r2 / h^2``.
     """
     q, k = found.shape
-    if options.estimate == "conserving":
+    if options.conserving:
         if own_r2 is None:
             raise InputError("the conserving estimate needs each photon's own radius; pass "
                              "own_r2 (blockhash.frame.photon_radius.own_radii2)")

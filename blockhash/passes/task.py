@@ -127,7 +127,7 @@ def _exact(setup, index, points, radii):
 def caustic_stage(settings: PassSettings) -> CausticStage:
     """The :class:`CausticStage` of ``settings``' method and estimate (the one place that reads
     their names)."""
-    conserving = settings.estimate.estimate == "conserving"
+    conserving = settings.estimate.conserving
     radii = (exact_radii2 if settings.method == "kdtree" else own_radii2) if conserving else None
     if settings.method == "cover":
         return CausticStage(radii, True, _gl_pass("cover"))

@@ -5,6 +5,10 @@ study (:mod:`.estimates`, :mod:`.sampling`, ``tools/estimate_study.py``).
 :mod:`.sweep` runs the settings and measures them, :mod:`.measure` holds the error
 measures, :mod:`.report` writes ``tradeoff.json``, the plots and ``report.md``, and
 :mod:`.budget` picks settings for a time budget or a target error from a study.
+:mod:`.bench` is the measuring behind ``blockhash bench`` (the lookups against exact kNN,
+and the caustic pass's peers, photon splatting among them: :mod:`.splat_pass`, the GL splat
+that only the benchmarks and ``tools/shader_stats.py`` use); :mod:`.claims` writes the trade
+study's claims.
 """
 
 from blockhash.studies.sweep import QUICK, SweepPlan, run_sweep

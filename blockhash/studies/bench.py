@@ -219,14 +219,14 @@ def _kdtree_row(index, q, k, repeat, warmup, backend, clock, device) -> dict:
 #: The caustic pass's peers that ``run_caustic_benchmark`` times side by side: the cover
 #: gather (the default), the k-nearest walk and cells lookups, the exact kd-tree shader, the
 #: CPU reference of the default, and photon splatting (the default's estimate scattered).
-GATHERS = ("cover", "walk", "cells", "kdtree", "cpu", "splat")
+PEERS = ("cover", "walk", "cells", "kdtree", "cpu", "splat")
 
 
 def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default", repeat=10,
-                          warmup=2, backend=None, clock="auto", estimates=(), gathers=GATHERS,
+                          warmup=2, backend=None, clock="auto", estimates=(), gathers=PEERS,
                           progress=print):
     """Time a scene's caustic pass on its own pixels, one peer of ``gathers`` after another
-    (:data:`GATHERS`): the shader gathers per stage (blockhash.frame.caustic.STAGES), the
+    (:data:`PEERS`): the shader gathers per stage (blockhash.frame.caustic.STAGES), the
     kd-tree, CPU and splatting methods whole; then the walk's whole pass once more with each
     of ``estimates`` (forms of :class:`~blockhash.frame.estimate.EstimateOptions`, the other
     fields the default's).  Each row names its ``gather`` and ``stage``, with ``seconds``; the
@@ -245,11 +245,11 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
     from blockhash.scene.model import MirrorMaterial
 
     forms = [EstimateOptions(estimate=form) for form in estimates]  # unknown names fail first
-    unknown = [g for g in gathers if g not in GATHERS]
+    unknown = [g for g in gathers if g not in PEERS]
     if unknown:
         from blockhash.errors import InputError
 
-        raise InputError(f"gathers {unknown} are not known; choose from {', '.join(GATHERS)}")
+        raise InputError(f"gathers {unknown} are not known; choose from {', '.join(PEERS)}")
     scene = load_scene(scene_path)
     settings = scene.photons
     pm = trace_caustic_photons(scene, photons or settings.count, seed=settings.seed)
@@ -295,7 +295,7 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
                 add(gather, stage, times, device, clk)
             continue
         if gather == "splat":
-            from blockhash.frame.splat import SplatPass
+            from blockhash.studies.splat_pass import SplatPass
 
             gathered = cover_gather(index, settings.k)
             image, walls = SplatPass(gathered, backend=backend).render(

@@ -1,6 +1,6 @@
 """Photon splatting: the conserving estimate scattered from the photons onto the shading points
 the camera sees directly (image-space photon mapping: McGuire & Luebke, HPG 2009; Mara, Luebke
-& McGuire, I3D 2013), a peer of the cover gather (:mod:`.cover_estimate`) in ``blockhash bench
+& McGuire, I3D 2013), a peer of the cover gather (:mod:`blockhash.frame.cover_estimate`) in ``blockhash bench
 --caustic``.
 
 Each photon of the cover gather's records is one instanced quad, the screen rectangle of its
