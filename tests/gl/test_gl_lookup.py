@@ -287,7 +287,7 @@ def test_a_candidate_cap_beyond_the_register_set_is_refused_with_the_way_out():
 
 
 def two_patches_and_far_points():
-    """tests/index/test_best_first.py's two patches and far shading points, smaller, with a NaN and
+    """tests/index/lookups/test_best_first.py's two patches and far shading points, smaller, with a NaN and
     an infinite point: the walk prunes, pops many nodes and fills its queue."""
     from conftest import two_patches_and_far_points as patches
 

@@ -10,7 +10,7 @@ from blockhash.cli import main
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
-SCENES = Path(__file__).resolve().parents[1] / "scenes"
+SCENES = Path(__file__).resolve().parents[2] / "scenes"
 
 
 def test_index_command_builds_and_reports_accuracy(capsys):
