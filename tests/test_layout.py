@@ -154,7 +154,11 @@ def test_tests_are_laid_out_by_package():
     assert rooms, "no test rooms"
     assert rooms <= {p.name for p in PACKAGE.iterdir() if (p / "__init__.py").is_file()}, rooms
     for room in rooms:
-        assert any((tests / room).glob("test_*.py")), f"tests/{room}/ holds no tests"
+        assert any((tests / room).rglob("test_*.py")), f"tests/{room}/ holds no tests"
+    # deeper too: every folder of tests mirrors a package (tests/index/records/ ...)
+    for folder in sorted(p for p in tests.rglob("*") if p.is_dir() and any(p.glob("test_*.py"))):
+        rel = folder.relative_to(tests)
+        assert (PACKAGE / rel / "__init__.py").is_file(), f"tests/{rel}/ mirrors no blockhash/{rel}/"
 
 
 def test_the_circle_and_private_name_checks_can_fail():
