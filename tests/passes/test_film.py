@@ -25,8 +25,8 @@ def test_film_means_weigh_passes_by_emitted_photons_and_estimate_their_spread():
     np.testing.assert_allclose(film.direct, 0.5)
     # the variance of the mean: about sigma^2 / n
     assert np.mean(film.caustic_variance) == pytest.approx(0.25 / 50, rel=0.15)
-    assert film.estimatederror_against() == pytest.approx(math.sqrt(0.25 / 50) / 2.0, rel=0.15)
+    assert film.estimated_error() == pytest.approx(math.sqrt(0.25 / 50) / 2.0, rel=0.15)
     with pytest.raises(InputError, match="does not fit the film"):
         film.add(np.zeros((2, 2, 3)), np.zeros((2, 2, 3)), 1)
-    assert Film(2, 2).estimatederror_against() == math.inf
+    assert Film(2, 2).estimated_error() == math.inf
 

@@ -33,7 +33,7 @@ def test_passes_converge_on_an_analytic_plane(plane):
     assert errors[1] > errors[4] > errors[24], errors
     assert errors[24] < 0.7 * errors[1], errors
     assert abs(flux[24] - 1) < 0.03, flux
-    est = r.film.estimatederror_against()
+    est = r.film.estimated_error()
     assert 0 < est < errors[24] * 1.5  # noise only: at most the measured error and its noise
 
 

@@ -18,7 +18,7 @@ def test_stopping_rules(plane):
     assert r.passes == 1
     r = Renderer(plane)
     why = run_passes(r, Passes(passes=50, target_error=0.5))
-    assert why.startswith("estimated error") and r.film.estimatederror_against() <= 0.5
+    assert why.startswith("estimated error") and r.film.estimated_error() <= 0.5
     assert r.passes < 50
     with pytest.raises(TargetOutOfReach, match="target_error=1e-06 cannot be reached within "
                                                "passes=5"):
