@@ -168,11 +168,12 @@ class Renderer:
 
 
 def _no_caustic(stats: dict) -> str:
-    """What pass 0 found when it stored nothing (its photon stats)."""
-    try:
-        from blockhash.photons.tracing import no_caustic_reason
-    except ImportError:
-        no_caustic_reason = None
-    if no_caustic_reason is not None and stats:
-        return no_caustic_reason(stats)
-    return "no caustic photon reached a receiver"
+    """What pass 0 found when it stored nothing, from its photons' stats (their fates)."""
+    from blockhash.photons.paths import FATE_NAMES
+
+    fates = ", ".join(f"{name.replace('_', ' ')} {stats[name]:,}" for name in FATE_NAMES
+                      if stats.get(name))
+    shot = stats.get("emitted")
+    if not shot:
+        return "no caustic photon reached a receiver"
+    return f"no caustic photon stored of {shot:,} shot toward the mirrors ({fates})"
