@@ -1,12 +1,13 @@
-"""The frame: takes a scene, its photons and their index; gives the image and its layers.
+"""The frame: takes a scene, its photons and their index; gives a pass's image and its layers.
 
-In the order a frame is made: the G-buffer and the camera's samples
-(:mod:`.gbuffer`, :mod:`.subpixel`), shading points and direct light
-(:mod:`.shading`), the photon radii and the density estimate (:mod:`.photon_radius`,
-:mod:`.estimate`), the caustic pass in the fragment shader (:mod:`.caustic`: the cover gather's
-or the k nearest's; :mod:`.cover_estimate` the cover gather's CPU reference, :mod:`.splat` its
-splatting peer), the pipeline that runs them (:mod:`.pipeline`) and image files (:mod:`.images`).
+In the order a frame is made: the G-buffer and the camera's samples (:mod:`.gbuffer`,
+:mod:`.subpixel`, :mod:`.camera_samples`), shading points and direct light (:mod:`.shading`),
+the photon radii and the density estimate (:mod:`.photon_radius`, :mod:`.estimate`), the
+search it uses (:mod:`.options`), the caustic pass in the fragment shader (:mod:`.caustic`: the
+cover gather's or the k nearest's; :mod:`.cover_estimate` the cover gather's CPU reference),
+the splat of photons under a pixel footprint into their pixel (:mod:`.pixel_splat`), what a
+render returns (:mod:`.result`) and image files (:mod:`.images`).
 
-The render call itself is the function ``blockhash.render`` (:func:`.pipeline.render`), as
-``mitsuba.render`` is.
+The render, a sequence of such frames, is :mod:`blockhash.passes`; its call is the function
+``blockhash.render`` (:func:`blockhash.passes.pipeline.render`), as ``mitsuba.render`` is.
 """

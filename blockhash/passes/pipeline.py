@@ -36,7 +36,7 @@ from blockhash.validate import old_keywords
 
 
 def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions(),
-           lookup=LookupOptions(), backend=None, passes=Passes()) -> RenderResult:
+           lookup=LookupOptions(), backend=None, passes: Passes | None = None) -> RenderResult:
     """Render ``scene`` (:func:`blockhash.load_scene`) in passes until ``passes`` says stop:
     its direct and caustic layers.
 
@@ -58,9 +58,10 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
     lookup : LookupOptions
         The photon search: method, k, A, shader variant.
     backend : {'auto', 'egl', 'osmesa'}, optional
-    passes : Passes
-        The stopping rule (passes, seconds, target error) and the radii's schedule
-        (:mod:`blockhash.passes.stopping`); ``Passes(passes=1)`` is the single render of
+    passes : Passes, optional
+        The stopping rule (passes, seconds, target error), the radii's schedule and where the
+        passes run (:mod:`blockhash.passes.stopping`); default ``Passes()``, or one pass with
+        every photon gathered for a traced map; ``Passes(passes=1)`` is the single render of
         ``render_scene``.
 
     Returns
@@ -77,7 +78,7 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
     if not isinstance(lookup, LookupOptions):
         raise InputError(f"lookup must be a LookupOptions; got {type(lookup).__name__} "
                          "(e.g. lookup=LookupOptions(method='kdtree', k=50))")
-    if not isinstance(passes, Passes):
+    if passes is not None and not isinstance(passes, Passes):
         raise InputError(f"passes must be a Passes; got {type(passes).__name__} "
                          "(e.g. passes=Passes(passes=16) or Passes(passes=None, seconds=30))")
     renderer, passes = make_renderer(scene, photons=photons, spp=spp, seed=seed,
@@ -87,12 +88,14 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
     return renderer.image
 
 
-def make_renderer(scene, *, photons, spp, seed, estimate, lookup, backend, passes: Passes):
-    """The :class:`.progressive.Renderer` that :func:`render` steps, and its stopping rule
-    (:data:`ONE_PASS` for a traced photon map under the default rule)."""
+def make_renderer(scene, *, photons, spp, seed, estimate, lookup, backend,
+                  passes: Passes | None):
+    """The :class:`.renderer.Renderer` that :func:`render` steps, and its stopping rule
+    (``passes``; None: :class:`.stopping.Passes`' defaults, or :data:`ONE_PASS` for a traced
+    photon map, one pass's photons all gathered)."""
     traced = not (photons is None or isinstance(photons, (int, np.integer)))
-    if traced and passes == Passes():
-        passes = ONE_PASS  # a traced map is one pass's photons, all gathered
+    if passes is None:
+        passes = ONE_PASS if traced else Passes()
     renderer = Renderer(scene, photons=photons, side=spp_side(per_pass_spp(scene, spp, passes)),
                         seed=seed, estimate=estimate, lookup=lookup, backend=backend,
                         schedule=passes.schedule)
