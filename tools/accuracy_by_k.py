@@ -16,9 +16,9 @@ import json
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from blockhash.evaluate import accuracy_runs as ea
 
-import eval_accuracy as ea  # noqa: E402
+SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
 KS = (1, 2, 4, 8, 16, 32, 50, 100, 128)
 LOOKUPS = ("walk", "hash", "cells")
@@ -71,7 +71,7 @@ def main(argv=None) -> int:
             for name in a.maps.split(","):
                 rows += ea.evaluate(name, int(a.photons), a.queries, k,
                                     [int(x) for x in a.A.split(",")], ("default",),
-                                    lookup=lookup)
+                                    lookup=lookup, scenes=SCENES)
     print(tables(rows))
     if a.json:
         Path(a.json).write_text(json.dumps({"command": "python tools/accuracy_by_k.py "

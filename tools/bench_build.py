@@ -13,7 +13,6 @@ input first.
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 from statistics import median
@@ -22,10 +21,9 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
-from blockhash import BlockHashIndex  # noqa: E402
-from blockhash.evaluate.photon_maps import MAPS  # noqa: E402
+from blockhash import BlockHashIndex
+from blockhash.evaluate.photon_maps import MAPS
 
 
 def main(argv=None) -> int:

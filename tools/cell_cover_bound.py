@@ -25,16 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
+from blockhash.evaluate.accuracy_runs import REPORT, TUNE, photon_map
+from blockhash.evaluate.metrics import exact_knn, far_queries
+from blockhash.evaluate.photon_maps import queries
+from blockhash.index.lookups.cells import CODE_SHIFT, LEVEL_MIN, LEVEL_TOP
+from blockhash.index.records.fixedpoint import Quantizer
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tools"))
-
-from eval_accuracy import REPORT, TUNE, photon_map  # noqa: E402
-
-from blockhash.evaluate.metrics import exact_knn, far_queries  # noqa: E402
-from blockhash.evaluate.photon_maps import queries  # noqa: E402
-from blockhash.index.lookups.cells import CODE_SHIFT, LEVEL_MIN, LEVEL_TOP  # noqa: E402
-from blockhash.index.records.fixedpoint import Quantizer  # noqa: E402
 
 
 def level_counts(codes: np.ndarray, level: int):
@@ -70,7 +67,7 @@ def cover_bound(q_codes: np.ndarray, r_codes: np.ndarray, tables, max_cells: int
 
 
 def study(name: str, n: int, m: int, k: int, As, cells) -> list[dict]:
-    pm = photon_map(name)
+    pm = photon_map(name, ROOT / "scenes")
     pts = pm.photons(n, np.random.default_rng(0))
     q = queries(pm, m, np.random.default_rng(1)).astype(np.float32)
     # The index's fixed point (its cells are octree cells of these codes) and the positions

@@ -26,13 +26,11 @@ is the estimate's own excess at the edge or fold.
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 WINDOW = (-0.2, 0.5, 0.25, 0.75)
 

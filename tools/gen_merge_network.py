@@ -26,9 +26,8 @@ WIRES = 16
 SIZES = (16, 32, 64, 128)
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "glsl" / "bh_merge_net.glsl"
-sys.path.insert(0, str(ROOT))
 
-from blockhash.index.tables.probe import odd_even_merge_sort  # noqa: E402
+from blockhash.index.tables.probe import odd_even_merge_sort
 
 
 def batch_network() -> tuple[list[tuple[int, int]], list[int]]:

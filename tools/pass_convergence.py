@@ -19,17 +19,16 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from time_to_error import power_law, reference  # noqa: E402
+from blockhash.passes.executors import InProcess, LocalWorkers
+from blockhash.passes.renderer import Renderer
+from blockhash.passes.run import run_passes
+from blockhash.passes.stopping import Passes
+from blockhash.reference.lighttrace import light_trace
+from blockhash.reference.mitsuba import cached_caustic, without_specular_lobes
+from blockhash.scene.loader import load_scene
+from blockhash.studies.measure import flux_ratio, masked_blur, power_law, rel_rms
 
-from blockhash.passes.executors import InProcess, LocalWorkers  # noqa: E402
-from blockhash.passes.renderer import Renderer  # noqa: E402
-from blockhash.passes.run import run_passes  # noqa: E402
-from blockhash.passes.stopping import Passes  # noqa: E402
-from blockhash.reference.lighttrace import light_trace  # noqa: E402
-from blockhash.reference.mitsuba import without_specular_lobes  # noqa: E402
-from blockhash.scene.loader import load_scene  # noqa: E402
-from blockhash.studies.measure import flux_ratio, masked_blur, rel_rms  # noqa: E402
+SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
 
 def blurred(img, ref, mask):
@@ -37,9 +36,9 @@ def blurred(img, ref, mask):
 
 
 def measure(name, size, seeds, passes, ref_spp, cache, executor):
-    scene = without_specular_lobes(load_scene(Path("scenes") / f"{name}.toml")).with_size(size, size)
+    scene = without_specular_lobes(load_scene(SCENES / f"{name}.toml")).with_size(size, size)
     mask = light_trace(scene, 1000).comparison_mask(1)
-    ref, _ = reference(scene, name, size, ref_spp, cache)
+    ref, _ = cached_caustic(scene, name, size, ref_spp, cache)
     marks = [p for p in (1, 2, 4, 8, 16, 32, 64, 128) if p <= passes]
     images = {p: [] for p in marks}
     for seed in range(1, seeds + 1):

@@ -25,21 +25,20 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
-from blockhash import BlockHashIndex  # noqa: E402
-from blockhash.frame.caustic import CausticPass  # noqa: E402
-from blockhash.frame.photon_radius import exact_radii2, own_radii2  # noqa: E402
-from blockhash.frame.shading import SceneRays, shading_points  # noqa: E402
-from blockhash.frame.subpixel import box_filter, raycast_gbuffer  # noqa: E402
-from blockhash.photons.tracing import trace_caustic_photons  # noqa: E402
-from blockhash.reference.lighttrace import cached_reference, lambertian  # noqa: E402
-from blockhash.scene.camera import SPP_SEED, spp_side  # noqa: E402
-from blockhash.scene.loader import load_scene  # noqa: E402
-from blockhash.scene.materials import receiver_materials  # noqa: E402
-from blockhash.scene.model import MirrorMaterial  # noqa: E402
-from blockhash.studies.estimates import caustic_region, measure  # noqa: E402
-from blockhash.studies.measure import rel_rms  # noqa: E402
+from blockhash import BlockHashIndex
+from blockhash.frame.caustic import CausticPass
+from blockhash.frame.photon_radius import exact_radii2, own_radii2
+from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.subpixel import box_filter, raycast_gbuffer
+from blockhash.photons.tracing import trace_caustic_photons
+from blockhash.reference.lighttrace import cached_reference, lambertian
+from blockhash.scene.camera import SPP_SEED, spp_side
+from blockhash.scene.loader import load_scene
+from blockhash.scene.materials import receiver_materials
+from blockhash.scene.model import MirrorMaterial
+from blockhash.studies.estimates import caustic_region, measure
+from blockhash.studies.measure import rel_rms
 
 
 def timed(fn):

@@ -12,13 +12,11 @@ change, measure the photon noise again and update the test's limits::
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # render with the checkout this script belongs to
 
-from blockhash.cli import main  # noqa: E402
+from blockhash.cli import main
 
 #: reference file -> blockhash render arguments (the test's SETTINGS).
 REFERENCES = {

@@ -19,12 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+from blockhash import BlockHashIndex
+from blockhash.evaluate import accuracy_runs as ea
+from blockhash.evaluate.metrics import exact_knn, false_negatives
 
-import eval_accuracy as ea  # noqa: E402
-
-from blockhash import BlockHashIndex  # noqa: E402
-from blockhash.evaluate.metrics import exact_knn, false_negatives  # noqa: E402
+SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
 
 def main(argv=None) -> int:
@@ -42,7 +41,7 @@ def main(argv=None) -> int:
           f"{a.queries:,} queries")
     print(f"{'map':<12} {'floor':>5} {'tables':>6} " + " ".join(f"{'k=' + str(k):>7}" for k in ks))
     for name in a.maps.split(","):
-        pm = ea.photon_map(name)
+        pm = ea.photon_map(name, SCENES)
         pts = pm.photons(int(a.photons), np.random.default_rng(0))
         q = ea.queries(pm, a.queries, np.random.default_rng(1)).astype(np.float32)
         indexes = {k: BlockHashIndex(pts, k=k, A=a.A) for k in ks}

@@ -20,11 +20,10 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
-from blockhash.photons.tracing import trace_caustic_photons  # noqa: E402
-from blockhash.scene import meshes  # noqa: E402
-from blockhash.scene.loader import load_scene  # noqa: E402
+from blockhash.photons.tracing import trace_caustic_photons
+from blockhash.scene import meshes
+from blockhash.scene.loader import load_scene
 
 
 def with_subdivisions(scene, s: int):

@@ -31,13 +31,12 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
-from blockhash.passes.pipeline import render_scene  # noqa: E402
-from blockhash.photons.tracing import trace_caustic_photons  # noqa: E402
-from blockhash.reference.lighttrace import cached_reference, lambertian  # noqa: E402
-from blockhash.scene.loader import load_scene  # noqa: E402
-from blockhash.studies.estimates import caustic_region, measure  # noqa: E402
+from blockhash.passes.pipeline import render_scene
+from blockhash.photons.tracing import trace_caustic_photons
+from blockhash.reference.lighttrace import cached_reference, lambertian
+from blockhash.scene.loader import load_scene
+from blockhash.studies.estimates import caustic_region, measure
 
 #: Light-tracer photons of the reference: its blurred relative noise in the caustic region
 #: is printed beside every row.

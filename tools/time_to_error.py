@@ -50,11 +50,12 @@ from blockhash.passes.renderer import Renderer
 from blockhash.passes.run import run_passes
 from blockhash.passes.stopping import Passes
 from blockhash.reference.lighttrace import light_trace
-from blockhash.reference.mitsuba import mitsuba_reference, without_specular_lobes
+from blockhash.reference.mitsuba import cached_caustic, mitsuba_reference, without_specular_lobes
 from blockhash.scene.loader import load_scene
-from blockhash.studies.measure import flip_error, flux_ratio, masked_blur, rel_rms
+from blockhash.studies.measure import flip_error, flux_ratio, masked_blur, power_law, rel_rms
 
 METRICS = ("pixel", "blur", "flip")
+SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
 
 def metrics(img, ref, mask) -> dict:
@@ -86,17 +87,6 @@ def focus(img, ref) -> dict:
             "at_focus": float(lum[r, c] / lum_ref[r, c]),
             "window_3x3": float(lum[win].sum() / lum_ref[win].sum()),
             "flux": float(lum.sum() / lum_ref.sum())}
-
-
-def reference(scene, name, size, spp, cache: Path):
-    path = cache / f"{name}-{size}-{spp}.npy"
-    if path.exists():
-        return np.load(path), None
-    t = time.perf_counter()
-    ref = mitsuba_reference(scene, spp, seed=1, layers=("caustic",)).caustic
-    cache.mkdir(parents=True, exist_ok=True)
-    np.save(path, ref)
-    return ref, time.perf_counter() - t
 
 
 def progressive_curve(scene, ref, mask, until: float, photons, *, focus_checks: bool,
@@ -131,19 +121,10 @@ def at_time(curve, t):
     return done[-1] if done else curve[0]
 
 
-def power_law(xs, ys):
-    """(exponent, prefactor) of ys = c xs^p, least squares in logs."""
-    x, y = np.log(np.asarray(xs, float)), np.log(np.asarray(ys, float))
-    if len(x) < 2:
-        return None, None
-    p, c = np.polyfit(x, y, 1)
-    return float(p), float(math.exp(c))
-
-
 def measure(name, size, ref_spp, times, max_spp, photons, cache, executor=None):
-    scene = without_specular_lobes(load_scene(Path("scenes") / f"{name}.toml")).with_size(size, size)
+    scene = without_specular_lobes(load_scene(SCENES / f"{name}.toml")).with_size(size, size)
     mask = light_trace(scene, 1000).comparison_mask(1)
-    ref, ref_s = reference(scene, name, size, ref_spp, cache)
+    ref, ref_s = cached_caustic(scene, name, size, ref_spp, cache)
     render_scene(scene.with_size(32, 32), photons=20000)  # warm: compiled kernels and programs
     one = render_scene(scene, photons=photons)
     row = {"scene": name, "size": size, "ref_spp": ref_spp, "ref_seconds": ref_s,

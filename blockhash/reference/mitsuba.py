@@ -195,3 +195,19 @@ def mitsuba_reference(scene, spp: int, *, seed: int = 0, size=None,
 
 __all__ = ["mitsuba_reference", "render_mitsuba", "dimmed", "ALBEDO_SCALE", "mitsuba_available", "MitsubaReference",
            "absorbing", "without_specular_lobes", "load_mitsuba_module"]
+
+
+def cached_caustic(scene, name: str, size: int, spp: int, cache):
+    """(the caustic layer of :func:`mitsuba_reference` at ``spp`` (seed 1), seconds it took or
+    None when read from ``cache``): kept as ``cache/NAME-SIZE-SPP.npy`` for the tools that
+    measure against one reference many times."""
+    from pathlib import Path
+
+    path = Path(cache) / f"{name}-{size}-{spp}.npy"
+    if path.exists():
+        return np.load(path), None
+    t = time.perf_counter()
+    ref = mitsuba_reference(scene, spp, seed=1, layers=("caustic",)).caustic
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.save(path, ref)
+    return ref, time.perf_counter() - t

@@ -64,3 +64,13 @@ def errors_against(image, truth, mask, prefix: str) -> dict:
     if flip is not None:
         out[f"flip_{prefix}"] = flip
     return out
+
+
+def power_law(xs, ys):
+    """(exponent, prefactor) of ys = c xs^p, least squares in logs ((None, None) below two
+    points)."""
+    x, y = np.log(np.asarray(xs, float)), np.log(np.asarray(ys, float))
+    if len(x) < 2:
+        return None, None
+    p, c = np.polyfit(x, y, 1)
+    return float(p), float(np.exp(c))
