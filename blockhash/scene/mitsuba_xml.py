@@ -83,7 +83,11 @@ def parse(path: Path):
     try:
         root = builder.parse(path.read_bytes())
     except expat.ExpatError as exc:
-        raise InputError(f"{path}: XML syntax error: {exc}; fix the file") from None
+        # file:line:col (expat's column is 0-based), as editors and terminals link it
+        what = expat.ErrorString(exc.code) if exc.code else str(exc)
+        raise InputError(f"{path}:{exc.lineno}:{exc.offset + 1}: XML syntax error: {what}; fix "
+                         "the file there (an unclosed or mismatched tag, a stray '<' or '&', "
+                         "or an empty file)") from None
     except OSError as exc:
         raise InputError(f"{path}: cannot read the file: {exc}") from None
     return root, builder.lines

@@ -138,11 +138,20 @@ def test_unsupported_input_names_the_element_and_its_line(tmp_path, body, match)
         load_scene(write(tmp_path, body))
 
 
-def test_an_xml_syntax_error_names_the_file(tmp_path):
+@pytest.mark.parametrize("text, where, what", [
+    ("<scene><sensor></scene>", "1:18", "mismatched tag"),
+    ('<scene version="3.0.0">\n  <shape type="rectangle">\n</scene>\n', "3:3", "mismatched tag"),
+    ('<scene version="3.0.0">\n  <bsdf type="diffuse">\n', "3:1", "no element found|unclosed token"),
+    ("", "1:1", "no element found"),
+])
+def test_an_xml_syntax_error_names_file_line_and_column(tmp_path, text, where, what):
+    """file:line:col, as every other import error names file:line, so that editors and
+    terminals turn it into a link."""
     p = tmp_path / "bad.xml"
-    p.write_text("<scene><sensor></scene>")
-    with pytest.raises(InputError, match="bad.xml: XML syntax error"):
+    p.write_text(text)
+    with pytest.raises(InputError, match=rf"bad\.xml:{where}: XML syntax error: ({what})") as e:
         load_scene(p)
+    assert "fix the file there" in str(e.value)
 
 
 def test_spot_lights_keep_power_cone_and_direction(tmp_path):
