@@ -123,8 +123,17 @@ def trace_caustic_photons(scene, n_stored_target: int | None = None, *, seed: in
         light reaching any mirror (spot cones miss, occluders, wrong side).
     """
     source = PhotonSource(scene)
-    return source.until_stored(n_stored_target, seed=seed, batch_size=batch_size,
-                               max_emitted=max_emitted, progress=progress)
+    photons = source.until_stored(n_stored_target, seed=seed, batch_size=batch_size,
+                                  max_emitted=max_emitted, progress=progress)
+    if photons.stats.get("stopped_by") == "nothing_stored":  # a map was asked for: none is
+        fates = {name: photons.stats[name] for name in FATE_NAMES}
+        raise InputError(
+            f"{source.name}: no caustic photon stored after {photons.emitted:,} photons shot "
+            f"toward the mirrors {[o.name for o in source.specular]} (fates: {fates}); the "
+            "mirrors are not reachable from the lights, or nothing diffuse receives their "
+            "reflection: move the light, remove the occluder or add a receiver (a render goes "
+            "on with direct light only)")
+    return photons
 
 
 #: Photon indices between the streams of consecutive passes of a progressive render
@@ -176,7 +185,9 @@ class PhotonSource:
                      batch_size: int = 65536, max_emitted: int | None = None,
                      progress: bool = False) -> CausticPhotons:
         """Photons 0, 1, ... shot until ``n_stored_target`` are stored
-        (:func:`trace_caustic_photons`, which documents the parameters)."""
+        (:func:`trace_caustic_photons`, which documents the parameters).  None stored within
+        the cap is an empty map whose ``stats['stopped_by']`` is ``'nothing_stored'`` (with the
+        photons shot and their fates), not an error: a render goes on with direct light."""
         t0 = time.perf_counter()
         target = as_int(self.scene.photons.count if n_stored_target is None else n_stored_target,
                         "n_stored_target", minimum=1)
@@ -187,13 +198,9 @@ class PhotonSource:
         if self.emitter is None:
             return self._no_specular(t0)
         run = self._shoot(seed, 0, target, cap, batch_size, progress)
-        if run.stored == 0:
-            raise InputError(
-                f"{self.name}: no caustic photon stored after {run.emitted:,} photons shot toward "
-                f"the mirrors {[o.name for o in self.specular]} (fates: "
-                f"{dict(zip(FATE_NAMES, run.fates.tolist()))}); the mirrors are not reachable "
-                "from the lights, or nothing diffuse receives their reflection: move the light, "
-                "remove the occluder or add a receiver")
+        if run.stored == 0:  # an answer, not an error: a render goes on with direct light
+            run.stopped_by = "nothing_stored"
+            return run.photons(self, t0)
         if run.stored < target:
             warnings.warn(
                 f"{self.name}: only {run.stored:,} of n_stored_target={target:,} caustic photons "

@@ -96,3 +96,30 @@ def test_images_at_the_largest_viewport_and_one_pixel_more():
         rasterize(s.camera, s.objects, size=(limit + 1, 1), backend="egl")
     with pytest.raises(CapacityError, match=r"image size 0 x 4 is outside"):
         rasterize(s.camera, s.objects, size=(0, 4), backend="egl")
+
+
+def test_a_scene_whose_light_reaches_no_mirror_renders_its_direct_light_with_one_warning(tmp_path,
+                                                                                       capsys):
+    """The ring's light under the floor: no caustic path, a well-defined (dark) image.  The
+    render goes on with direct light and caustic 0, warns once with what pass 0 found, and
+    counts the photons it shot; the command exits 0."""
+    from blockhash.cli import main
+
+    context_or_skip("egl")
+    dark = scene(light="[-2.0, -1.0, 0.0]")
+    with pytest.warns(NoCausticWarning) as caught:
+        result = render_scene(dark, size=(12, 12), photons=1000)
+    notes = [str(w.message) for w in caught if issubclass(w.category, NoCausticWarning)]
+    assert len(notes) == 1 and "no caustic photon stored of" in notes[0], notes
+    assert "missed" in notes[0] or "direct diffuse" in notes[0]
+    assert_sane(result, caustic=False)
+    assert np.all(result.caustic == 0) and result.info["photons_emitted"] > 0
+    from conftest import RING_OBJECT, RING_TEMPLATE
+
+    path = tmp_path / "dark.toml"
+    path.write_text(RING_TEMPLATE.format(eye="[0.0, 1.9, 1.6]", target="[0.0, 0.0, 0.05]",
+                                         light="[-2.0, -1.0, 0.0]", ring=RING_OBJECT))
+    assert main(["render", str(path), "--size", "12x12", "--photons", "1000", "--passes", "2",
+                 "-o", str(tmp_path / "dark.exr")]) == 0
+    err = capsys.readouterr().err
+    assert err.count("rendering direct light only") == 1, err
