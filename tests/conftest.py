@@ -5,6 +5,7 @@ import sys
 
 import numpy as np
 import pytest
+from plane_scene import plane  # noqa: F401 (the analytic plane scene, a fixture of the render's tests)
 
 from blockhash.evaluate.datasets import DISTRIBUTIONS
 

@@ -112,8 +112,10 @@ def test_a_scene_whose_light_reaches_no_mirror_renders_its_direct_light_with_one
     notes = [str(w.message) for w in caught if issubclass(w.category, NoCausticWarning)]
     assert len(notes) == 1 and "no caustic photon stored of" in notes[0], notes
     assert "missed" in notes[0] or "direct diffuse" in notes[0]
-    assert_sane(result, caustic=False)
-    assert np.all(result.caustic == 0) and result.info["photons_emitted"] > 0
+    # dark, as Mitsuba renders it: the floor hides the light from everything the camera sees
+    for name, layer in result.layers().items():
+        assert np.isfinite(layer).all() and np.all(layer == 0), name
+    assert result.info["photons_emitted"] > 0
     from conftest import RING_OBJECT, RING_TEMPLATE
 
     path = tmp_path / "dark.toml"

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from blockhash.cli import main
+from blockhash.cli.args import FLAGS
 from blockhash.evaluate.imagediff import compare_layers
 from blockhash.evaluate.testing import assert_images_close
 from blockhash.frame.caustic import estimate_exact
@@ -157,8 +158,10 @@ def test_render_command_reports_a_missing_scene(capsys):
 def test_image_beyond_the_gl_limits_is_refused(ring, capsys):
     from blockhash.errors import CapacityError
 
-    with pytest.raises(CapacityError, match=r"image size 40000 x 8 is outside 1\.\.16,384.*--size"):
+    with pytest.raises(CapacityError, match=r"image size 40000 x 8 is outside 1\.\.16,384.*"
+                                             r"render a smaller image \(size=\)") as caught:
         rasterize(ring.camera, ring.objects, size=(40000, 8))
+    assert caught.value.spelled(FLAGS).endswith("render a smaller image (--size)")
     with pytest.raises(SystemExit):
         main(["render", str(RING), "--size", "0x8"])
     assert "width and height must be positive" in capsys.readouterr().err
