@@ -19,6 +19,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 CHILD = """
 import json, resource, sys, time
@@ -53,7 +54,7 @@ def run(args, n: int, env: dict) -> dict:
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--scene", default="scenes/ring.toml")
+    p.add_argument("--scene", default=str(Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"))
     p.add_argument("--photons", type=int, default=1_000_000)
     p.add_argument("--passes", default="2,100")
     p.add_argument("--size", type=int, default=512)
