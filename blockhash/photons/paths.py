@@ -44,7 +44,8 @@ class CausticPhotons:
         fates of the rest (``outside_spot_cone``, ``missed``, ``direct_diffuse``,
         ``escaped``, ``absorbed``, ``exceeded_max_bounces``), ``max_depth_reached``
         (most mirror bounces of a stored photon), ``shading_normal_fallbacks``,
-        ``emitted_per_light``, ``cones``, ``stopped_by`` (``'target'``, ``'cap'``, ``'nothing_stored'``
+        ``emitted_per_light``, ``cones``, ``specular_objects`` (the names of the objects
+        photons were shot toward), ``stopped_by`` (``'target'``, ``'cap'``, ``'nothing_stored'``
         or ``'no_specular_objects'``), and performance counters that do depend on
         the batch size (``traced`` incl. the discarded overshoot, ``rays_cast``,
         ``batches``, ``seconds``).

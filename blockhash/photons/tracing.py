@@ -120,20 +120,38 @@ def trace_caustic_photons(scene, n_stored_target: int | None = None, *, seed: in
     ------
     InputError
         No lights; ``max_bounces`` < 1; lights with no power toward the mirrors; no
-        light reaching any mirror (spot cones miss, occluders, wrong side).
+        light reaching any mirror (spot cones miss, occluders, wrong side), or no photon
+        stored within the cap (the message says why, :func:`no_caustic_reason`).  Its
+        callers (the studies, the tools, the accuracy runs) ask for a map to index and
+        measure, which an empty one cannot give; a render, which goes on without a caustic,
+        calls :meth:`PhotonSource.until_stored` instead.
     """
     source = PhotonSource(scene)
     photons = source.until_stored(n_stored_target, seed=seed, batch_size=batch_size,
                                   max_emitted=max_emitted, progress=progress)
     if photons.stats.get("stopped_by") == "nothing_stored":  # a map was asked for: none is
-        fates = {name: photons.stats[name] for name in FATE_NAMES}
         raise InputError(
-            f"{source.name}: no caustic photon stored after {photons.emitted:,} photons shot "
-            f"toward the mirrors {[o.name for o in source.specular]} (fates: {fates}); the "
-            "mirrors are not reachable from the lights, or nothing diffuse receives their "
-            "reflection: move the light, remove the occluder or add a receiver (a render goes "
-            "on with direct light only)")
+            f"{source.name}: {no_caustic_reason(photons.stats)}; the mirrors are not reachable "
+            "from the lights, or nothing diffuse receives their reflection: move the light, "
+            "remove the occluder or add a receiver (a render goes on with direct light only)")
     return photons
+
+
+def no_caustic_reason(stats: dict) -> str:
+    """What a trace that stored no caustic photon found, in one sentence for a warning, from
+    its map's ``stats`` (:class:`CausticPhotons`): the photons shot, toward which specular
+    objects, and the fates of those shot (those that occurred), e.g. ``no caustic photon
+    stored of 1,048,576 shot toward the mirrors ['ring'] (missed 1,016,250, direct diffuse
+    32,326)``.  A scene without a specular object says so instead."""
+    if stats.get("stopped_by") == "no_specular_objects":
+        return "the scene has no specular (mirror or glass) object, so it has no caustic"
+    toward = list(stats.get("specular_objects") or
+                  dict.fromkeys(c["object"] for c in stats.get("cones", ())))
+    fates = ", ".join(f"{name.replace('_', ' ')} {stats[name]:,}" for name in FATE_NAMES
+                      if name != "stored" and stats.get(name))
+    shot = stats.get("emitted") or 0
+    return (f"no caustic photon stored of {shot:,} shot toward the mirrors {toward}"
+            + (f" ({fates})" if fates else ""))
 
 
 #: Photon indices between the streams of consecutive passes of a progressive render
@@ -187,7 +205,9 @@ class PhotonSource:
         """Photons 0, 1, ... shot until ``n_stored_target`` are stored
         (:func:`trace_caustic_photons`, which documents the parameters).  None stored within
         the cap is an empty map whose ``stats['stopped_by']`` is ``'nothing_stored'`` (with the
-        photons shot and their fates), not an error: a render goes on with direct light."""
+        photons shot and their fates, and ``emitted`` the photons shot), not an error and not
+        a warning: a render goes on with direct light and warns once, with
+        :func:`no_caustic_reason`."""
         t0 = time.perf_counter()
         target = as_int(self.scene.photons.count if n_stored_target is None else n_stored_target,
                         "n_stored_target", minimum=1)
@@ -320,6 +340,7 @@ class _Run:
                             "half_angle_deg": float(np.degrees(np.arccos(c.cos_half))),
                             "solid_angle": c.solid_angle, "pmf": float(p)}
                            for c, p in zip(source.emitter.cones, source.emitter.pmf)),
+            "specular_objects": tuple(o.name for o in source.specular),
             "stopped_by": self.stopped_by,
             "traced": self.traced, "rays_cast": self.rays, "batches": self.batches,
             "seconds": time.perf_counter() - t0,

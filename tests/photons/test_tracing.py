@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import re
+import warnings
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -11,7 +13,15 @@ import pytest
 import trimesh
 
 from blockhash.errors import InputError
-from blockhash.photons.tracing import RAY_OFFSET, CausticPhotons, TracingWarning, trace_caustic_photons
+from blockhash.photons.tracing import (
+    FATE_NAMES,
+    RAY_OFFSET,
+    CausticPhotons,
+    PhotonSource,
+    TracingWarning,
+    no_caustic_reason,
+    trace_caustic_photons,
+)
 from blockhash.scene.model import (
     Camera,
     MirrorMaterial,
@@ -319,11 +329,59 @@ def test_scene_without_lights_is_an_error():
         trace_caustic_photons(scene)
 
 
-def test_occluded_mirror_is_an_error():
+def occluded_mirror_scene():
     objs = mirror_and_ceiling() + [SceneObject("blocker", horizontal(0.5, 2.0, 2.0), GREY)]
-    scene = make_scene(objs, [PointLight((0.0, D_LIGHT, 0.0), (1.0, 1.0, 1.0))])
-    with pytest.raises(InputError, match=r"no caustic photon stored after 50,000 photons.*not reachable"):
-        trace_caustic_photons(scene, 100, max_emitted=50_000)
+    return make_scene(objs, [PointLight((0.0, D_LIGHT, 0.0), (1.0, 1.0, 1.0))])
+
+
+def test_occluded_mirror_is_an_error_when_a_map_is_asked_for():
+    with pytest.raises(InputError, match=r"scene 'test.toml': no caustic photon stored of 50,000 "
+                                         r"shot toward the mirrors \['mirror'\] \(direct diffuse "
+                                         r"50,000\); the mirrors are not reachable.*move the light"):
+        trace_caustic_photons(occluded_mirror_scene(), 100, max_emitted=50_000)
+
+
+def test_a_source_that_stores_nothing_answers_an_empty_map_without_a_warning():
+    """PhotonSource.until_stored, the render's pass 0: no photon stored within the budget is
+    an empty map that counts the photons shot and their fates; the render warns, not the
+    tracer."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = PhotonSource(occluded_mirror_scene()).until_stored(100, max_emitted=50_000)
+    assert isinstance(res, CausticPhotons) and len(res) == 0
+    assert res.positions.shape == res.powers.shape == (0, 3)
+    assert res.emitted == res.stats["emitted"] == 50_000
+    s = res.stats
+    assert s["stopped_by"] == "nothing_stored" and s["stored"] == 0
+    assert s["direct_diffuse"] == 50_000  # the blocker takes every photon shot at the mirror
+    assert sum(s[f] for f in FATE_NAMES) == 50_000
+    assert s["specular_objects"] == ("mirror",)
+
+
+def test_the_reason_names_the_photons_shot_the_mirrors_and_the_fates():
+    res = PhotonSource(occluded_mirror_scene()).until_stored(100, max_emitted=20_000)
+    assert no_caustic_reason(res.stats) == ("no caustic photon stored of 20,000 shot toward the "
+                                            "mirrors ['mirror'] (direct diffuse 20,000)")
+    stats = {"emitted": 1_048_576, "stored": 0, "missed": 1000, "direct_diffuse": 48_576,
+             "escaped": 1_000_000, "absorbed": 0, "specular_objects": ("ring", "ball"),
+             "stopped_by": "nothing_stored"}
+    assert no_caustic_reason(stats) == ("no caustic photon stored of 1,048,576 shot toward the "
+                                        "mirrors ['ring', 'ball'] (missed 1,000, direct diffuse "
+                                        "48,576, escaped 1,000,000)")
+    floor_only = make_scene([SceneObject("floor", horizontal(0.0, 1.0, 1.0), GREY)],
+                            [PointLight((0.0, 1.0, 0.0), (1.0, 1.0, 1.0))])
+    assert "no specular" in no_caustic_reason(PhotonSource(floor_only).until_stored(10).stats)
+
+
+def test_a_light_whose_photons_escape_past_the_mirror_says_so():
+    """A mirror facing away from every receiver: the photons reach it and leave the scene."""
+    mirror = SceneObject("mirror", horizontal(0.0, A_HALF, B_HALF), MirrorMaterial(REFL))
+    floor = SceneObject("floor", horizontal(-1.0, 3.0, 3.0), GREY)  # under the mirror only
+    scene = make_scene([mirror, floor], [PointLight((0.0, D_LIGHT, 0.0), (1.0, 1.0, 1.0))])
+    res = PhotonSource(scene).until_stored(100, max_emitted=20_000)
+    assert len(res) == 0 and res.stats["escaped"] > 0
+    assert re.fullmatch(r"no caustic photon stored of 20,000 shot toward the mirrors "
+                        r"\['mirror'\] \(.*escaped [\d,]+.*\)", no_caustic_reason(res.stats))
 
 
 def test_spot_light_aimed_away_from_mirror_is_an_error():
