@@ -2,8 +2,9 @@
 
 One draw of every scene triangle (per-corner shading normals, so smooth ring
 walls stay smooth) into two RGBA32F targets: world position with the object id
-(-1 where nothing is hit) and the unit shading normal turned toward the camera.
-Rows are returned top to bottom.
+(-1 where nothing is hit) and the unit shading normal turned toward the camera, with
+which face of its triangle the camera sees (for one-sided receivers).  Rows are returned
+top to bottom.
 """
 
 from __future__ import annotations
@@ -44,18 +45,24 @@ void main() {
         n = -n;  // two-sided: the side the camera sees
     }
     out_position = vec4(v_position, v_object);
-    out_normal = vec4(n, 0.0);
+    // w: 1 where the camera sees the triangle's front face (counter-clockwise on screen,
+    // the side its face normal points to), 0 on its back; the clear colour's -1 elsewhere
+    out_normal = vec4(n, gl_FrontFacing ? 1.0 : 0.0);
 }
 """
 
 
 @dataclass(frozen=True)
 class GBuffer:
-    """position (h, w, 3) float32; normal (h, w, 3) float32; object (h, w) int32, -1 for none."""
+    """position (h, w, 3) float32; normal (h, w, 3) float32; object (h, w) int32, -1 for none;
+    front (h, w) bool: the camera sees the front face of the triangle (the side its face
+    normal points to), or None where the G-buffer's maker did not say (the shading points
+    then cast the camera ray again where they need it, :func:`.shading.shading_points`)."""
 
     position: np.ndarray
     normal: np.ndarray
     object: np.ndarray
+    front: np.ndarray | None = None
 
 
 def scene_triangles(objects) -> np.ndarray:
@@ -110,4 +117,5 @@ def rasterize(camera, objects, *, size=None, backend=None) -> GBuffer:
                 obj.release()
     obj_id = np.where(pos[..., 3] >= 0, np.rint(pos[..., 3]), -1).astype(np.int32)
     return GBuffer(position=np.ascontiguousarray(pos[..., :3]),
-                   normal=np.ascontiguousarray(nrm[..., :3]), object=obj_id)
+                   normal=np.ascontiguousarray(nrm[..., :3]), object=obj_id,
+                   front=nrm[..., 3] > 0.5)

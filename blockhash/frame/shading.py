@@ -5,7 +5,9 @@ Ray queries go through the photon tracer's embree scene
 reflection: the pixel's shading point moves to what the mirror reflects, with the
 mirror's reflectance as path weight (up to ``MAX_MIRROR_BOUNCES``); glass reflects or
 refracts each shading point's ray by the Fresnel probabilities (up to
-``MAX_DIELECTRIC_EVENTS``).  Direct light
+``MAX_DIELECTRIC_EVENTS``).  A one-sided receiver seen from behind shades nothing (black,
+as Mitsuba's ``diffuse``), and one seen from the front takes light from its front only
+(the normals face the camera, and the lights are shaded on the normal's side).  Direct light
 is point and spot lights with shadow rays, through the modified Phong BRDF.
 """
 
@@ -15,6 +17,7 @@ import numba
 import numpy as np
 
 from blockhash.frame.caustic import ShadingPoints
+from blockhash.scene.materials import one_sided
 from blockhash.scene.optics import choice_uniforms, scatter
 from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, surface_hits
 
@@ -75,7 +78,9 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     stream of uniforms per point, :data:`CAMERA_CHOICE_SEED`), its weight unchanged in
     expectation; a refraction multiplies it by the glass's tint.  With several samples per
     pixel (:mod:`.subpixel`) the pixel mean averages the branches.  A ray still on a
-    specular surface after the last event, or leaving the scene, shades nothing.
+    specular surface after the last event, or leaving the scene, shades nothing, and so does
+    one that meets the back face of a one-sided receiver
+    (:attr:`blockhash.scene.materials.PhongMaterial.sided`): black, as Mitsuba's ``diffuse``.
 
     With ``both_branches`` (the renderer's choice) a ray at glass follows both branches
     instead, the reflection weighted by the Fresnel reflectance F and the refraction by
@@ -90,7 +95,9 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
 
     h, w = gbuffer.object.shape
     glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types)
-    pos, nrm, obj, view, outer = _camera_start(camera, gbuffer, glass, rays)
+    backs = one_sided(objects)
+    pos, nrm, obj, view, outer = _camera_start(camera, gbuffer, glass | backs, rays)
+    _no_back(obj, outer, backs)
     weight = np.ones((h * w, 3))
     choices = choice_uniforms(CAMERA_CHOICE_SEED, 0, h * w) if glass.any() else None
     events = MAX_DIELECTRIC_EVENTS if glass.any() else MAX_MIRROR_BOUNCES
@@ -115,6 +122,7 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
             weight[gi] *= factor
             side[np.flatnonzero(g)[through]] = -1.0
         pos[idx], nrm[idx], obj[idx], outer[idx] = _follow(rays, pos[idx], n, r, side)
+        obj[idx] = _no_back(obj[idx], outer[idx], backs)
         view[idx] = -r
     obj[specular[obj]] = -1  # still on a specular surface after the last event: nothing to shade
     return ShadingPoints(position=pos.reshape(h, w, 3).astype(np.float32),
@@ -124,21 +132,31 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
                          weight=weight.reshape(h, w, 3).astype(np.float32))
 
 
-def _camera_start(camera, gbuffer, glass, rays: SceneRays):
+def _camera_start(camera, gbuffer, sided, rays: SceneRays):
     """The G-buffer's samples as flat float64 arrays: positions, normals, objects, unit
-    directions toward the eye, and whether each glass hit met its face's outer side (the
-    camera ray cast again; False elsewhere)."""
+    directions toward the eye, and whether each hit on an object of ``sided`` (glass and
+    one-sided receivers: (objects + 1,) bool) met its face's outer side (the G-buffer's
+    ``front``, or where it has none the camera ray cast again; False elsewhere)."""
     pos = gbuffer.position.reshape(-1, 3).astype(np.float64)
     nrm = gbuffer.normal.reshape(-1, 3).astype(np.float64)
     obj = gbuffer.object.reshape(-1).copy()
     view = np.asarray(camera.eye, dtype=np.float64) - pos
     view /= np.maximum(np.linalg.norm(view, axis=1, keepdims=True), 1e-30)
     outer = np.zeros(len(obj), dtype=bool)
-    first = np.flatnonzero(glass[obj])
-    if len(first):
+    first = np.flatnonzero(sided[obj])
+    if gbuffer.front is not None:
+        outer[first] = gbuffer.front.reshape(-1)[first]
+    elif len(first):
         eye = np.broadcast_to(np.asarray(camera.eye, np.float64), (len(first), 3)).copy()
         outer[first] = rays.first_hit(eye, -view[first], sides=True)[5]
     return pos, nrm, obj, view, outer
+
+
+def _no_back(obj, outer, backs):
+    """``obj`` (changed in place, and returned) with -1, nothing to shade, where a point lies
+    on the back face (not ``outer``) of a one-sided receiver (``backs[obj]``)."""
+    obj[backs[obj] & ~outer] = -1
+    return obj
 
 
 def _follow(rays: SceneRays, pos, nrm, dirs, side):
@@ -176,12 +194,15 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> Sh
     reflect as in :func:`shading_points`.  Only the points that shade a surface are kept
     (a branch that leaves the scene, or is still on a specular surface after the last event,
     adds nothing), laid out in rows of the G-buffer's width in the order they left the
-    specular chain, padded with points that shade nothing."""
+    specular chain, padded with points that shade nothing; a one-sided receiver's back face
+    shades nothing, as in :func:`shading_points`."""
     from blockhash.scene.optics import fresnel
 
     h, w = gbuffer.object.shape
     glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types)
-    pos, nrm, obj, view, outer = _camera_start(camera, gbuffer, glass, rays)
+    backs = one_sided(objects)
+    pos, nrm, obj, view, outer = _camera_start(camera, gbuffer, glass | backs, rays)
+    _no_back(obj, outer, backs)
     owner = np.arange(h * w)
     weight = np.ones((h * w, 3))
     done = []  # (owner, pos, nrm, view, obj, weight) of points that left the specular chain
@@ -212,6 +233,7 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> Sh
         live = wts.max(axis=1) >= BRANCH_CUTOFF
         parent, dirs, wts, side = parent[live], dirs[live], wts[live], side[live]
         pos, nrm, obj, outer = _follow(rays, pos[parent], nrm[parent], dirs, side)
+        _no_back(obj, outer, backs)
         owner, view, weight = owner[parent], -dirs, wts
     # Rays still on a specular surface after the last event, and those that left the scene,
     # shade nothing: only the points that shade something are kept.

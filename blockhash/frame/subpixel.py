@@ -90,13 +90,15 @@ def film_gbuffer(pin: Pinhole, rays, x: np.ndarray, y: np.ndarray) -> GBuffer:
     """The G-buffer of the rays through film points ``(x, y)`` (pixels from the top left,
     any shape), by ray casting."""
     d = pin.film_rays(x, y)
-    hit, p, n, obj, _ = rays.first_hit(np.broadcast_to(pin.eye, d.shape).copy(), d)
+    hit, p, n, obj, _, outer = rays.first_hit(np.broadcast_to(pin.eye, d.shape).copy(), d,
+                                              sides=True)
     flip = np.einsum("ij,ij->i", n, pin.eye - p) < 0
     n[flip] *= -1.0
     shape = x.shape
     return GBuffer(position=p.reshape(*shape, 3).astype(np.float32),
                    normal=n.reshape(*shape, 3).astype(np.float32),
-                   object=np.where(hit, obj, -1).reshape(shape).astype(np.int32))
+                   object=np.where(hit, obj, -1).reshape(shape).astype(np.int32),
+                   front=outer.reshape(shape))
 
 
 #: The R2 sequence's steps (Roberts 2018): 1 / g and 1 / g^2 for the plastic number g, the

@@ -108,7 +108,9 @@ class Batch:
 def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int, *,
                 seed: int = 0, start: int = 0) -> Batch:
     """Follow a batch of photons through mirrors and glass to their first diffuse hit
-    (vectorised).
+    (vectorised); a photon that meets a one-sided receiver's back face
+    (:attr:`blockhash.scene.materials.PhongMaterial.sided`) after a specular event is absorbed
+    there, not stored.
 
     Shared by the photon map (:func:`trace_caustic_photons`) and the light tracer
     (:mod:`blockhash.reference.lighttrace`); ``weights`` are not yet divided by the photons emitted.  At a
@@ -143,6 +145,11 @@ def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int, 
         if bounce == 0:
             fate[idx[diffuse]] = DIRECT  # direct light: the renderer's shadow rays do it
         elif diffuse.any():
+            back = diffuse & geom.one_sided[geom.face_object[face]]
+            if back.any():  # a one-sided receiver met from behind reflects nothing
+                back[back] = ~entering(geom, face[back], d[back])
+                fate[idx[back]] = ABSORBED
+                diffuse &= ~back
             fate[idx[diffuse]] = STORED
             p, ns, ng = surface_hits(geom, face[diffuse], u[diffuse], v[diffuse], d[diffuse])
             parts.append((idx[diffuse], p, d[diffuse], ns, w[diffuse],

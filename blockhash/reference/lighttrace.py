@@ -252,7 +252,7 @@ def lambertian(scene):
     for o in scene.objects:
         m = o.material
         if isinstance(m, PhongMaterial):
-            o = replace(o, material=PhongMaterial(kd=m.kd, ks=np.zeros(3), n=m.n))
+            o = replace(o, material=replace(m, ks=np.zeros(3)))
         objects.append(o)
     return replace(scene, objects=tuple(objects))
 
@@ -273,7 +273,7 @@ def scene_digest(scene) -> str:
         m = o.material
         h.update(repr((o.name, type(m).__name__,
                        *(np.asarray(getattr(m, a)).tolist()
-                         for a in ("kd", "ks", "n", "reflectance", "ior", "tint")
+                         for a in ("kd", "ks", "n", "sided", "reflectance", "ior", "tint")
                          if hasattr(m, a)))).encode())
         for arr in (o.mesh.vertices, o.mesh.faces, o.mesh.vertex_normals):
             h.update(np.ascontiguousarray(arr).tobytes())

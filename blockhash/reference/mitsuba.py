@@ -137,9 +137,11 @@ def absorbing(scene):
 
 
 def dimmed(scene, factor: float):
-    """``scene`` with every modified Phong albedo kd multiplied by ``factor`` (ks dropped)."""
+    """``scene`` with every modified Phong albedo kd multiplied by ``factor`` (ks dropped,
+    the faces it reflects on kept)."""
     objects = tuple(SceneObject(name=o.name, mesh=o.mesh, material=PhongMaterial(
-        kd=o.material.kd * factor, ks=0.0, n=0.0)) if isinstance(o.material, PhongMaterial) else o
+        kd=o.material.kd * factor, ks=0.0, n=0.0, sided=o.material.sided))
+        if isinstance(o.material, PhongMaterial) else o
         for o in scene.objects)
     return replace(scene, objects=objects)
 

@@ -24,6 +24,10 @@ typo is never silently ignored)::
                                     #   kd + ks <= 1 per channel (energy conservation)
     n = 20                          #   exponent >= 0; required when ks > 0, else default 0
     #   f = kd / pi + ks (n + 2) / (2 pi) cos^n(alpha), alpha from the mirror direction
+    sided = "two"                   #   default "two": reflects on both faces; "one": on the
+                                    #   front face only (where the face normal points,
+                                    #   counter-clockwise winding), black from the back, as
+                                    #   Mitsuba's bare diffuse (the export writes it so)
 
     [materials.OTHER]
     kind = "mirror"                 # perfect specular reflector
@@ -201,12 +205,13 @@ def _parse_materials(t) -> dict:
         kind = _choice(m["kind"], f"{key}.kind", ("phong", "mirror", "dielectric"))
         with _under(key):
             if kind == "phong":
-                _keys(m, "", ("kind", "kd"), ("ks", "n"), what="a phong material")
+                _keys(m, "", ("kind", "kd"), ("ks", "n", "sided"), what="a phong material")
                 ks = _rgb(m.get("ks", 0.0), "ks", what="ks")
                 if "n" not in m and ks.any():
                     raise _FieldError("n", "missing required key; a phong material with ks > 0 needs "
                                       "the exponent n (e.g. n = 20)")
-                out[name] = PhongMaterial(kd=m["kd"], ks=ks, n=m.get("n", 0.0))
+                out[name] = PhongMaterial(kd=m["kd"], ks=ks, n=m.get("n", 0.0),
+                                          sided=m.get("sided", "two"))
             elif kind == "mirror":
                 _keys(m, "", ("kind", "reflectance"), what="a mirror material")
                 out[name] = MirrorMaterial(reflectance=m["reflectance"])

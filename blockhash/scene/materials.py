@@ -17,6 +17,9 @@ from blockhash.scene.values import number as _number
 from blockhash.scene.values import owned as _owned
 from blockhash.scene.values import rgb as _rgb
 
+#: The faces a receiver reflects on (:attr:`PhongMaterial.sided`).
+SIDES = ("one", "two")
+
 
 @dataclass(frozen=True, eq=False)
 class PhongMaterial:
@@ -24,14 +27,24 @@ class PhongMaterial:
     ``f = kd / pi + ks (n + 2) / (2 pi) cos^n(alpha)``, alpha the angle between
     the outgoing direction and the mirror direction of the incoming one.
     ``kd``, ``ks`` : (3,) float64 >= 0 with ``kd + ks <= 1`` per channel
-    (energy conservation); ``n`` >= 0."""
+    (energy conservation); ``n`` >= 0.
+
+    ``sided``: ``"two"`` (the default) reflects on both faces of a surface; ``"one"`` only on
+    its front face, the side its face normal points to (counter-clockwise winding), as
+    Mitsuba's ``diffuse`` BSDF: seen or lit from the back it reflects nothing (no direct
+    light, no stored photon, no caustic; black to the camera, and it still casts its shadow)."""
 
     kd: np.ndarray
     ks: np.ndarray
     n: float
+    sided: str = "two"
 
     def __post_init__(self):
         with _owned("PhongMaterial"):
+            if self.sided not in SIDES:
+                raise _FieldError("sided", f"expected one of {', '.join(map(repr, SIDES))}; got "
+                                  f"{self.sided!r}; \"one\" reflects on the front face only "
+                                  "(Mitsuba's diffuse), \"two\" on both")
             kd = _rgb(self.kd, "kd", what="kd")
             ks = _rgb(self.ks, "ks", what="ks")
             n = _number(self.n, "n", lo=0.0, hint="the Phong exponent is >= 0")
@@ -44,8 +57,14 @@ class PhongMaterial:
             object.__setattr__(self, "ks", ks)
             object.__setattr__(self, "n", n)
 
+    @property
+    def one_sided(self) -> bool:
+        """Reflects on its front face only (``sided == "one"``)."""
+        return self.sided == "one"
+
     def __repr__(self) -> str:
-        return f"PhongMaterial(kd={_fmt(self.kd)}, ks={_fmt(self.ks)}, n={self.n:g})"
+        return (f"PhongMaterial(kd={_fmt(self.kd)}, ks={_fmt(self.ks)}, n={self.n:g}"
+                + (", sided='one')" if self.one_sided else ")"))
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,6 +133,13 @@ def receiver_materials(objects) -> list[tuple]:
         else:
             table.append(((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 1.0))
     return table
+
+
+def one_sided(objects) -> np.ndarray:
+    """(len(objects) + 1,) bool: each object's material reflects on its front face only
+    (:attr:`PhongMaterial.sided`), and False for the last entry, which index -1 ("nothing
+    hit") reads."""
+    return np.array([bool(getattr(o.material, "one_sided", False)) for o in objects] + [False])
 
 
 def material_arrays(table) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

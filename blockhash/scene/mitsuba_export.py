@@ -10,7 +10,9 @@ What is written, into ``DIR``:
 * ``meshes/NAME.ply``: each object's mesh in world coordinates with its vertex normals
   (binary PLY, trimesh).
 
-Materials: ``phong`` with ks = 0 becomes ``diffuse`` (reflectance kd); ``mirror`` becomes
+Materials: ``phong`` with ks = 0 becomes ``diffuse`` (reflectance kd), inside a ``twosided``
+when it reflects on both faces (``sided = "two"``, the TOML default) and bare when on its
+front face only (``sided = "one"``), as Mitsuba reads them; ``mirror`` becomes
 ``conductor`` with ``material = none`` and its reflectance as ``specular_reflectance``;
 ``dielectric`` becomes ``dielectric`` (``int_ior`` its ior, ``ext_ior`` 1, the outside being
 vacuum as in blockhash, ``specular_transmittance`` its tint).  Mitsuba has no modified Phong:
@@ -94,8 +96,11 @@ def _bsdf(material, bsdf_id: str, drop_specular: bool, owner: str) -> list[str]:
         lines.append(f"<!-- {escape(owner)}: the modified Phong lobe ks = "
                      f"{np.round(material.ks, 6).tolist()}, n = {material.n:g} is dropped "
                      "(Mitsuba has no modified Phong); diffuse kd only -->")
-    return lines + [f'<bsdf type="diffuse" id={quoteattr(bsdf_id)}>',
-                    "    " + _rgb("reflectance", material.kd), "</bsdf>"]
+    diffuse = ['<bsdf type="diffuse">', "    " + _rgb("reflectance", material.kd), "</bsdf>"]
+    if material.one_sided:  # Mitsuba's diffuse is one-sided
+        return lines + [diffuse[0][:-1] + f" id={quoteattr(bsdf_id)}>", *diffuse[1:]]
+    return lines + [f'<bsdf type="twosided" id={quoteattr(bsdf_id)}>',
+                    *("    " + line for line in diffuse), "</bsdf>"]
 
 
 def _emitter(light) -> list[str]:

@@ -18,7 +18,12 @@ Mapped:
   optional ``to_world`` and ``flip_normals`` and a BSDF inline or by ``<ref id>``;
 * BSDFs ``diffuse`` (``reflectance``), ``conductor`` with ``material = none``
   (``specular_reflectance``) and ``dielectric`` (``int_ior`` a number, ``ext_ior`` 1, air
-  or vacuum, ``specular_transmittance``), possibly inside ``twosided``;
+  or vacuum, ``specular_transmittance``), possibly inside ``twosided`` (one BSDF for both
+  faces).  A bare ``diffuse`` is one-sided, as in Mitsuba (``sided = "one"``: black seen or
+  lit from the back, the side opposite its face normal, which ``flip_normals`` turns over);
+  inside ``twosided`` it reflects on both faces.  Mirrors and glass are two-sided in
+  blockhash, bare or wrapped (Mitsuba's bare ``conductor`` is black from behind: wrap it in
+  ``twosided`` where its back face is seen or lit);
 * emitters ``point`` (``position`` or ``to_world``, not both, as in Mitsuba;
   ``intensity``) and ``spot`` (``to_world``, ``intensity``, ``cutoff_angle``;
   ``beam_width`` must equal it, as blockhash's spot is uniform inside its cone).  An
@@ -73,17 +78,22 @@ AIR = ("air", "vacuum")
 
 
 class _Reader(XmlReader):
-    def bsdf(self, el, key: str):
+    def bsdf(self, el, key: str, *, twosided: bool = False):
         kind = el.get("type")
         if kind == "twosided":
             inner = [k for k in el if isinstance(k.tag, str)]
             if len(inner) != 1 or inner[0].tag != "bsdf":
-                self.fail(el, "expected exactly one <bsdf> inside")
-            return self.bsdf(inner[0], key)
+                self.fail(el, "expected exactly one <bsdf> inside (the same BSDF on both faces; "
+                          "a different BSDF per face is not supported)")
+            if twosided:
+                self.fail(el, "a twosided inside a twosided; keep one")
+            return self.bsdf(inner[0], key, twosided=True)
         if kind == "diffuse":
             p = self.props(el, {"reflectance": ("rgb", "spectrum", "float")})
             kd = p.get("reflectance", 0.5)
-            return self.build(el, PhongMaterial, kd=np.broadcast_to(kd, (3,)), ks=0.0, n=0.0)
+            # Mitsuba's diffuse reflects on the front face only; twosided on both
+            return self.build(el, PhongMaterial, kd=np.broadcast_to(kd, (3,)), ks=0.0, n=0.0,
+                              sided="two" if twosided else "one")
         if kind == "conductor":
             p = self.props(el, {"material": ("string",), "specular_reflectance": ("rgb", "spectrum", "float")})
             if p.get("material") != "none":

@@ -337,7 +337,8 @@ class Scene:
             mat = (f"mirror, reflectance {_fmt(m.reflectance)}" if isinstance(m, MirrorMaterial)
                    else f"dielectric, ior {m.ior:g}, tint {_fmt(m.tint)}"
                    if isinstance(m, DielectricMaterial)
-                   else f"phong, kd {_fmt(m.kd)}, ks {_fmt(m.ks)}, n {m.n:g}")
+                   else f"phong, kd {_fmt(m.kd)}, ks {_fmt(m.ks)}, n {m.n:g}"
+                   + (", one-sided" if m.one_sided else ""))
             lines.append(f"  object  {o.name:<{width}}  {len(o.mesh.faces):>9,} triangles  {mat}")
         p = self.photons
         lines.append(f"  photons {p.count:,} stored, k {p.k}, A {p.A}, seed {p.seed}, "

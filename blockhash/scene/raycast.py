@@ -44,6 +44,9 @@ class EmbreeGeometry:
         self.tint = np.array([getattr(o.material, "tint", np.ones(3)) for o in objects],
                              dtype=np.float64).reshape(len(objects), 3)
         self.reflectance = np.zeros((len(objects), 3))
+        #: per object: a receiver that reflects on its front face only (PhongMaterial.sided)
+        self.one_sided = np.array([bool(getattr(o.material, "one_sided", False)) for o in objects],
+                                  dtype=bool)
         all_vertices = []
         for i, obj in enumerate(objects):
             if self.is_specular[i] and not self.is_dielectric[i]:
@@ -101,7 +104,8 @@ def surface_hits(geom: EmbreeGeometry, face, u, v, d):
 
     Points and shading normals interpolate with embree's barycentrics
     (``p = (1-u-v) v0 + u v1 + v v2``); both normals are flipped to face the side
-    the photon came from (mirrors and receivers are two-sided); a shading normal that
+    the photon came from (which face was met is :func:`entering`'s question; a one-sided
+    receiver's back face is its callers' to refuse); a shading normal that
     cancels falls back to the face normal.  One pass per hit (numba), no temporaries.
     """
     face = np.ascontiguousarray(face, dtype=np.int64)

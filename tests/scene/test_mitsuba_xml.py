@@ -40,6 +40,7 @@ def assert_same_scene(a, b):
         if isinstance(ma, PhongMaterial):
             np.testing.assert_array_equal(ma.kd, mb.kd)
             np.testing.assert_array_equal(ma.ks, mb.ks)
+            assert ma.sided == mb.sided, oa.name
         elif isinstance(ma, MirrorMaterial):
             np.testing.assert_array_equal(ma.reflectance, mb.reflectance)
         else:
