@@ -42,7 +42,7 @@ layout(location = 1) out vec4 out_normal;
 void main() {
     vec3 n = normalize(v_normal);
     if (dot(n, eye - v_position) < 0.0) {
-        n = -n;  // two-sided: the side the camera sees
+        n = -n;  // the side the camera sees (front or back: out_normal.w)
     }
     out_position = vec4(v_position, v_object);
     // w: 1 where the camera sees the triangle's front face (counter-clockwise on screen,
