@@ -28,6 +28,7 @@ from blockhash.frame.result import RenderResult
 from blockhash.passes.film import Film
 from blockhash.passes.schedule import Schedule, shrink
 from blockhash.passes.task import PassContribution, PassSettings, RenderSetup, run_pass
+from blockhash.photons.tracing import no_caustic_reason
 from blockhash.scene.camera import Pinhole
 
 #: A warning follows this many passes in a row that store no photon.
@@ -143,7 +144,7 @@ class Renderer:
         self.emitted += c.emitted
         if c.index == 0 and c.stored == 0:
             why = ("the scene has no specular object" if not self.scene.specular_objects
-                   else _no_caustic(c.info.get("photon_stats", {})))
+                   else no_caustic_reason(c.info.get("photon_stats", {})))
             warnings.warn(f"rendering direct light only: {why}", NoCausticWarning, stacklevel=4)
         if self.scene.specular_objects:
             self.empty_run = self.empty_run + 1 if c.stored == 0 else 0
@@ -165,15 +166,3 @@ class Renderer:
                             timings=dict(self.timings), info=info, index=self.index,
                             spp=self.settings.side ** 2 * self.passes, passes=self.passes,
                             radii=self.radii)
-
-
-def _no_caustic(stats: dict) -> str:
-    """What pass 0 found when it stored nothing, from its photons' stats (their fates)."""
-    from blockhash.photons.paths import FATE_NAMES
-
-    fates = ", ".join(f"{name.replace('_', ' ')} {stats[name]:,}" for name in FATE_NAMES
-                      if stats.get(name))
-    shot = stats.get("emitted")
-    if not shot:
-        return "no caustic photon reached a receiver"
-    return f"no caustic photon stored of {shot:,} shot toward the mirrors ({fates})"

@@ -224,7 +224,8 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
     info: dict = {}
     if p == 0 and photons is not None:
         info["photon_stats"] = {k: v for k, v in photons.stats.items()
-                                if isinstance(v, (int, float, str))}
+                                if isinstance(v, (int, float, str))
+                                or k == "specular_objects"}
     index, radii, splat, whole = _index(setup, photons, p, scale, timings, info)
     t = time.perf_counter()
     points, seen = camera_samples(setup.scene, setup.rays, s.side, p, backend=s.backend)

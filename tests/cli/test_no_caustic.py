@@ -9,7 +9,6 @@ from conftest import RING_OBJECT, RING_TEMPLATE, context_or_skip
 pytestmark = pytest.mark.gl
 
 
-@pytest.mark.xfail(reason="needs the render loop's NoCausticWarning with the fates", strict=False)
 def test_the_ring_with_its_light_under_the_floor_renders_dark_with_one_warning(tmp_path, capsys):
     from blockhash.cli import main
     from blockhash.frame.images import read_layers
