@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from blockhash.frame.images import read_layers
+from blockhash.evaluate.images import read_layers
 from blockhash.reference.lighttrace import cached_reference, lambertian
 from blockhash.scene.loader import load_scene
 from blockhash.studies.measure import errors_against

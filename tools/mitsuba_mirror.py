@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 import blockhash
+from blockhash.evaluate.images import srgb, white_point, write_rgb8
 from blockhash.evaluate.specular_identity import compare_views, specular_view_map
-from blockhash.frame.images import srgb, white_point, write_rgb8
 from blockhash.frame.shading import SceneRays
 from blockhash.passes.stopping import Passes
 from blockhash.reference.mitsuba import mitsuba_reference, render_mitsuba

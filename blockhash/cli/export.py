@@ -15,7 +15,7 @@ from blockhash.validate import writable_path
 
 def cmd_export(args) -> int:
     from blockhash.scene.loader import load_scene
-    from blockhash.scene.mitsuba_export import export_mitsuba
+    from blockhash.scene.mitsuba.exporter import export_mitsuba
 
     out = Path(args.output)
     if out.exists() and not out.is_dir():
@@ -47,7 +47,7 @@ def blockhash_reference(scene, spp: int, photons: int, *, seed: int = 0):
 
 
 def cmd_reference(args) -> int:
-    from blockhash.frame.images import write_exr, write_png
+    from blockhash.evaluate.images import write_exr, write_png
     from blockhash.scene.loader import load_scene
 
     out = Path(args.output or Path(args.scene).with_suffix(".reference.exr").name)

@@ -64,7 +64,7 @@ def _emit_json(dest: str, data: dict) -> None:
 
 def cmd_compare(args) -> int:
     from blockhash.evaluate.imagediff import compare_layers, write_pictures
-    from blockhash.frame.images import write_exr
+    from blockhash.evaluate.images import write_exr
 
     result = compare_layers(args.a, args.b, max_rms=_limits(args.max_rms),
                             max_rel_rms=_limits(args.max_rel_rms), max_flip=_limits(args.max_flip),
@@ -130,7 +130,7 @@ def cmd_info(args) -> int:
 
 
 def cmd_preview(args) -> int:
-    from blockhash.frame.images import write_rgb8
+    from blockhash.evaluate.images import write_rgb8
     from blockhash.scene.loader import load_scene
     from blockhash.scene.preview import preview
 

@@ -119,7 +119,7 @@ def _executor(args):
 
 
 def _write(renderer, out: Path, **attributes):
-    from blockhash.frame.images import write_exr, write_png
+    from blockhash.evaluate.images import write_exr, write_png
 
     result = renderer.image
     info = result.info
@@ -166,7 +166,7 @@ class _Progress:
             self.bar.update(1)
         now = time.perf_counter()
         if self.preview_every is not None and now - self.last_preview >= self.preview_every:
-            from blockhash.frame.images import write_png
+            from blockhash.evaluate.images import write_png
 
             write_png(self.out.with_suffix(".png"), renderer.image.combined)
             self.last_preview = now

@@ -1,6 +1,12 @@
-"""Image evaluation: takes rendered images (EXR files or arrays); gives their differences.
+"""Evaluation: takes rendered images and photon lookups; gives their errors.
 
+Images: :mod:`.images` reads and writes them (EXR layers and PNG through OpenImageIO),
 :mod:`.imagediff` compares two renders layer by layer (RMS, FLIP), :mod:`.plots` draws
-difference maps and strips, :mod:`.tolerance` measures how far a render moves from seed
-to seed, and :mod:`.testing` is the pytest helper that holds renders to a reference.
+difference maps and strips, :mod:`.tolerance` measures how far a render moves from seed to
+seed, :mod:`.testing` is the pytest helper that holds renders to a reference and
+:mod:`.specular_identity` compares what a mirror shows with the same point seen directly.
+
+Lookups: :mod:`.metrics` the exact k nearest (cKDTree) and the paper's section 6 metrics, on
+photon sets from :mod:`.datasets` and photon maps from :mod:`.photon_maps`;
+:mod:`.accuracy_runs` the accuracy runs on named maps that the tools tabulate.
 """

@@ -19,7 +19,7 @@ What ``blockhash compare``, :func:`blockhash.evaluate.testing.assert_images_clos
    each HDR image's own peak), ``max`` and ``mean`` absolute error, and ``flip``,
    the mean of NVIDIA's FLIP map (``flip-evaluator``, LDR mode, 67 pixels per
    degree) between the layers tone-mapped with one exposure, B's 99.5th
-   luminance percentile as white (:func:`blockhash.frame.images.tone_map`).
+   luminance percentile as white (:func:`blockhash.evaluate.images.tone_map`).
    FLIP is a perceptual difference in [0, 1]: about 0.01 is hard to see when
    flipping between the two images, 0.1 is plain to see.
 4. Limits (``rms``, ``relative_rms``, ``flip``) are a single number for every
@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.frame.images import read_layers, srgb, white_point, write_exr
+from blockhash.evaluate.images import read_layers, srgb, white_point, write_exr
 
 #: Metrics that take a limit, and the command-line option that sets each.
 LIMITED = {"rms": "--max-rms", "relative_rms": "--max-rel-rms", "flip": "--max-flip"}

@@ -1,7 +1,7 @@
 """A reference from Mitsuba 3 under blockhash's layer names (``blockhash reference --engine
 mitsuba``; the optional extra ``blockhash[mitsuba]``).
 
-The scene goes to Mitsuba through :mod:`blockhash.scene.mitsuba_export` (modified Phong lobes
+The scene goes to Mitsuba through :mod:`blockhash.scene.mitsuba.exporter` (modified Phong lobes
 dropped: Mitsuba has none, so compare with a render of the scene with ks = 0), and each layer
 is one or two Mitsuba renders at ``spp`` samples per pixel:
 
@@ -155,9 +155,9 @@ def render_mitsuba(scene, integrator: str, spp: int, *, seed: int = 0, size=None
                    max_depth: int | None = None) -> tuple:
     """(image (h, w, 3) float32, seconds) of one Mitsuba render of ``scene`` with
     ``integrator`` (``ptracer`` or ``path``) at ``spp`` samples per pixel and ``max_depth``
-    (default :func:`blockhash.scene.mitsuba_export.scene_xml`'s); the seconds count the
+    (default :func:`blockhash.scene.mitsuba.exporter.scene_xml`'s); the seconds count the
     render only, not the export and load."""
-    from blockhash.scene.mitsuba_export import export_mitsuba
+    from blockhash.scene.mitsuba.exporter import export_mitsuba
 
     mi, _ = load_mitsuba_module()
     if size is not None:

@@ -7,5 +7,6 @@ material table (Phong, mirror, dielectric, and the receivers' BRDF parameters),
 :mod:`.optics` the laws of reflection and refraction, :mod:`.camera` the pinhole
 and the samples per pixel, :mod:`.model` the scene itself, :mod:`.meshes` the
 meshes a scene file names, :mod:`.loader` the TOML format, :mod:`.raycast` ray
-casting against the scene (embree) and :mod:`.preview` a pyrender preview.
+casting against the scene (embree), :mod:`.preview` a pyrender preview and
+:mod:`.mitsuba` Mitsuba 3 XML (read and written).
 """

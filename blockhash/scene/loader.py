@@ -366,7 +366,7 @@ def parse_scene(text: str, *, path: Path | str | None = None) -> Scene:
 
 def load_scene(path: Path | str) -> Scene:
     """Load the scene file at ``path``: TOML (the module docstring), or a Mitsuba 3 XML file
-    (``.xml``, the subset :mod:`.mitsuba_import` reads)."""
+    (``.xml``, the subset :mod:`.importer` reads)."""
     p = Path(path)
     if not p.is_file():
         where = f" (resolved to {str(p.resolve())!r})" if not p.is_absolute() else ""
@@ -374,7 +374,7 @@ def load_scene(path: Path | str) -> Scene:
         raise InputError(f"{path}: {what}{where}; give the path of a .toml scene "
                          "(or a Mitsuba 3 .xml), e.g. scenes/ring.toml")
     if p.suffix.lower() == ".xml":
-        from blockhash.scene.mitsuba_import import load_mitsuba
+        from blockhash.scene.mitsuba.importer import load_mitsuba
         return load_mitsuba(p)
     try:
         text = p.read_text(encoding="utf-8")

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from blockhash.frame.images import write_exr
+from blockhash.evaluate.images import write_exr
 from blockhash.studies.claims import report_markdown
 
 #: The error the report reads: relative RMS after a 2-pixel blur, against the reference
@@ -89,7 +89,7 @@ def write_study(study: dict, out_dir) -> Path:
 
 def rewrite_report(out_dir) -> Path:
     """Redraw the plots and ``report.md`` of a study directory from its JSON and images."""
-    from blockhash.frame.images import read_layers
+    from blockhash.evaluate.images import read_layers
 
     out = Path(out_dir)
     path = out / "tradeoff.json"

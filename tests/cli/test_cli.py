@@ -172,7 +172,7 @@ def test_tradeoff_runs_its_sweep_on_the_engine_of_the_method(monkeypatch, tmp_pa
 
 
 def test_reference_command_with_the_light_tracer(tmp_path, capsys):
-    from blockhash.frame.images import read_layers
+    from blockhash.evaluate.images import read_layers
 
     out = tmp_path / "glass.exr"
     assert main(["reference", str(SCENES / "glass.toml"), "--photons", "20000", "--spp", "1",

@@ -7,7 +7,7 @@ import OpenImageIO as oiio
 import pytest
 
 from blockhash.cli import main
-from blockhash.frame.images import write_exr
+from blockhash.evaluate.images import write_exr
 
 
 @pytest.fixture

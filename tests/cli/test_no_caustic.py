@@ -11,7 +11,7 @@ pytestmark = pytest.mark.gl
 
 def test_the_ring_with_its_light_under_the_floor_renders_dark_with_one_warning(tmp_path, capsys):
     from blockhash.cli import main
-    from blockhash.frame.images import read_layers
+    from blockhash.evaluate.images import read_layers
     from blockhash.photons.tracing import PhotonSource, no_caustic_reason
     from blockhash.reference.lighttrace import light_trace
     from blockhash.scene.loader import load_scene

@@ -10,7 +10,7 @@ RING = __import__("pathlib").Path(__file__).resolve().parents[2] / "scenes" / "r
 def test_ctrl_c_writes_the_image_so_far_with_its_pass_count(tmp_path, monkeypatch, capsys):
     import blockhash.passes.executors as executors
     from blockhash.cli import main
-    from blockhash.frame.images import read_attribute, read_layers
+    from blockhash.evaluate.images import read_attribute, read_layers
 
     real = executors.run_pass
 
@@ -31,8 +31,8 @@ def test_ctrl_c_writes_the_image_so_far_with_its_pass_count(tmp_path, monkeypatc
 @pytest.mark.gl
 def test_the_render_command_runs_passes_to_its_rule(tmp_path, capsys, monkeypatch):
     from blockhash.cli import main
-    from blockhash.frame import images
-    from blockhash.frame.images import read_attribute
+    from blockhash.evaluate import images
+    from blockhash.evaluate.images import read_attribute
 
     written = []
     real_png = images.write_png

@@ -6,7 +6,7 @@ import pytest
 
 from blockhash.errors import InputError
 from blockhash.evaluate.imagediff import compare_images, compare_layers, flip_map
-from blockhash.frame.images import read_layers, write_exr, write_rgb8
+from blockhash.evaluate.images import read_layers, write_exr, write_rgb8
 
 
 def layers(h=24, w=32, seed=0):

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from blockhash.errors import InputError
+from blockhash.evaluate.images import write_exr
 from blockhash.evaluate.testing import assert_images_close
-from blockhash.frame.images import write_exr
 
 
 def image(seed=0, shape=(16, 16, 3)):

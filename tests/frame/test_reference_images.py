@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from blockhash.evaluate.images import read_layers
 from blockhash.evaluate.testing import assert_images_close
-from blockhash.frame.images import read_layers
 from blockhash.passes.pipeline import render_scene
 from blockhash.scene.loader import load_scene
 

@@ -65,8 +65,8 @@ def test_a_caustic_seen_only_through_glass_renders_without_a_no_caustic_warning(
 
 @pytest.mark.parametrize("name", SCENES)
 def test_the_mitsuba_export_keeps_every_object(name, tmp_path):
-    from blockhash.scene.mitsuba_export import export_mitsuba
-    from blockhash.scene.mitsuba_import import load_mitsuba
+    from blockhash.scene.mitsuba.exporter import export_mitsuba
+    from blockhash.scene.mitsuba.importer import load_mitsuba
 
     scene = blockhash.load_scene(ROOT / "scenes" / name)
     xml = export_mitsuba(scene, tmp_path, drop_specular=True)

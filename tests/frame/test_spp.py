@@ -138,7 +138,7 @@ def test_spp_images_are_the_same_in_every_run(tmp_path):
 def test_render_command_records_spp_in_the_exr(tmp_path, capsys):
     context_or_skip("egl")
     from blockhash.cli import main
-    from blockhash.frame.images import read_attribute
+    from blockhash.evaluate.images import read_attribute
 
     out = tmp_path / "ring.exr"
     assert main(["render", str(ROOT / "scenes" / "ring.toml"), "--size", "16x16", "--photons",

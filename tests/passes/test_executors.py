@@ -130,7 +130,7 @@ def test_the_render_command_refuses_bad_executor_flags(tmp_path, capsys, argv, m
 
 def test_the_render_command_with_workers_writes_the_one_process_image(tmp_path, capsys):
     from blockhash.cli import main
-    from blockhash.frame.images import read_attribute, read_layers
+    from blockhash.evaluate.images import read_attribute, read_layers
 
     images = {}
     for name, extra in (("one", []), ("two", ["--workers", "2"])):
@@ -259,7 +259,7 @@ def test_ctrl_c_with_local_workers_writes_the_passes_so_far_and_stops_them(tmp_p
     import subprocess
     import sys
 
-    from blockhash.frame.images import read_attribute
+    from blockhash.evaluate.images import read_attribute
 
     out = tmp_path / "ring.exr"
     proc = subprocess.Popen(

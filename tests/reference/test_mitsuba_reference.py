@@ -49,7 +49,7 @@ def test_the_light_tracer_and_mitsuba_agree_on_the_caustic(name, photons, spp):
 
 def test_the_reference_command_writes_blockhash_layers(tmp_path, capsys):
     from blockhash.cli import main
-    from blockhash.frame.images import read_layers
+    from blockhash.evaluate.images import read_layers
 
     out = tmp_path / "ring.exr"
     assert main(["reference", str(SCENES / "ring.toml"), "--engine", "mitsuba", "--spp", "16",

@@ -10,7 +10,7 @@ import pytest
 from blockhash.errors import InputError
 from blockhash.scene.loader import load_scene
 from blockhash.scene.materials import PhongMaterial, one_sided
-from blockhash.scene.mitsuba_export import export_mitsuba, scene_xml
+from blockhash.scene.mitsuba.exporter import export_mitsuba, scene_xml
 
 SCENE = """
 [camera]

@@ -25,7 +25,7 @@ P / (2 pi (1 - cos c)) with ``cutoff_angle`` = ``beam_width`` = c (uniform insid
 as blockhash's).
 
 What Mitsuba has no field for (the photon settings, the scene's samples per pixel and its
-description) is kept in one XML comment that :mod:`.mitsuba_import` reads back, so that
+description) is kept in one XML comment that :mod:`.importer` reads back, so that
 export then import gives back the same scene.
 """
 

@@ -1,5 +1,5 @@
 """Mitsuba 3 XML's values, transforms and parameters, read as Mitsuba reads them (the base of
-:mod:`.mitsuba_import`; every error names the file, the line, the element and the way out).
+:mod:`.importer`; every error names the file, the line, the element and the way out).
 
 * Parameters: ``<default name value>`` at the top of the scene, ``$name`` substituted in every
   attribute of every element after it (``type`` included); a ``$name`` with no default before

@@ -8,10 +8,10 @@ Mapped:
 
 * ``<scene version>`` (required, as in Mitsuba; 2.x and 3.x; older files use Mitsuba 0.x's
   names and are refused) with ``<default name value>`` parameters (``$name`` in any
-  attribute), values and transforms as :mod:`.mitsuba_xml` reads them;
+  attribute), values and transforms as :mod:`.xml_values` reads them;
 * the ``perspective`` sensor, ``hdrfilm``, ``box`` rfilter, sampler (``sample_count`` to
   samples per pixel) and ``path`` / ``ptracer`` integrator (``max_depth`` to the specular
-  depth), as :mod:`.mitsuba_sensor` maps them, clip planes included;
+  depth), as :mod:`.sensor` maps them, clip planes included;
 * shapes ``ply``, ``obj`` (``filename`` relative to the XML's folder, ``face_normals``),
   ``rectangle`` ([-1, 1]^2 in z = 0, facing +z), ``sphere`` (``center``, ``radius`` > 0; an
   icosphere, :func:`blockhash.scene.meshes.sphere`) and ``cube`` ([-1, 1]^3), each with
@@ -28,7 +28,7 @@ Mapped:
   ``intensity``) and ``spot`` (``to_world``, ``intensity``, ``cutoff_angle``;
   ``beam_width`` must equal it, as blockhash's spot is uniform inside its cone).  An
   emitter's ``<spectrum value="v"/>`` is a flat spectrum, v * (1.2048, 0.9483, 0.9089) in
-  RGB as in Mitsuba's RGB variants (:data:`.mitsuba_xml.FLAT_EMITTER_RGB`).
+  RGB as in Mitsuba's RGB variants (:data:`.xml_values.FLAT_EMITTER_RGB`).
 
 Refused: every other element, plugin type and property (area lights, textures, media, rough
 or measured BSDFs, other sensors and integrators, Gaussian and other filters, spectra of
@@ -37,7 +37,7 @@ clip planes that would clip the scene, sample counts blockhash cannot stratify, 
 camera rays cannot follow), and a scene with no emitter or no shape (blockhash renders
 light on surfaces).
 
-A file written by :mod:`.mitsuba_export` carries the photon settings, the samples per pixel
+A file written by :mod:`.exporter` carries the photon settings, the samples per pixel
 and the description in a comment; they are read back from it (the file's ``sample_count``
 and ``max_depth`` are then those the export wrote for Mitsuba's own render, and an edited
 one is refused).
@@ -55,9 +55,10 @@ import numpy as np
 import trimesh
 
 from blockhash.errors import InputError
-from blockhash.scene import meshes, mitsuba_sensor
-from blockhash.scene.mitsuba_export import METADATA_MARK
-from blockhash.scene.mitsuba_xml import XmlReader, parse
+from blockhash.scene import meshes
+from blockhash.scene.mitsuba import sensor as mitsuba_sensor
+from blockhash.scene.mitsuba.exporter import METADATA_MARK
+from blockhash.scene.mitsuba.xml_values import XmlReader, parse
 from blockhash.scene.model import (
     DielectricMaterial,
     MirrorMaterial,

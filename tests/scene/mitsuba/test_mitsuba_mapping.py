@@ -9,9 +9,9 @@ import pytest
 
 from blockhash.errors import InputError
 from blockhash.reference.mitsuba import mitsuba_available
-from blockhash.scene import mitsuba_sensor
 from blockhash.scene.loader import load_scene
-from blockhash.scene.mitsuba_xml import FLAT_EMITTER_RGB, coordinate_system
+from blockhash.scene.mitsuba import sensor as mitsuba_sensor
+from blockhash.scene.mitsuba.xml_values import FLAT_EMITTER_RGB, coordinate_system
 
 needs_mitsuba = pytest.mark.skipif(not mitsuba_available()[0], reason=mitsuba_available()[1])
 LIGHT = '<emitter type="point"><point name="position" x="0" y="2" z="0"/><rgb name="intensity" value="1"/></emitter>'
@@ -143,7 +143,7 @@ def test_parameters_clip_planes_flip_normals_and_type_substitution(tmp_path):
 
 def test_an_exported_files_settings_come_from_its_comment(tmp_path):
     from blockhash.scene.loader import load_scene as load_any
-    from blockhash.scene.mitsuba_export import export_mitsuba
+    from blockhash.scene.mitsuba.exporter import export_mitsuba
 
     scene = load(tmp_path)
     out = export_mitsuba(scene, tmp_path / "e")

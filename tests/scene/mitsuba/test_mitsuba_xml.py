@@ -11,10 +11,10 @@ from blockhash.cli import main
 from blockhash.errors import InputError
 from blockhash.reference.mitsuba import mitsuba_available, without_specular_lobes
 from blockhash.scene.loader import load_scene
-from blockhash.scene.mitsuba_export import export_mitsuba, scene_xml
+from blockhash.scene.mitsuba.exporter import export_mitsuba, scene_xml
 from blockhash.scene.model import DielectricMaterial, MirrorMaterial, PhongMaterial, SpotLight
 
-SCENES = Path(__file__).resolve().parents[2] / "scenes"
+SCENES = Path(__file__).resolve().parents[3] / "scenes"
 SHIPPED = sorted(SCENES.glob("*.toml"))
 
 

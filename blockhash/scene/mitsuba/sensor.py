@@ -1,5 +1,5 @@
 """Mitsuba 3's sensor, film, sampler, reconstruction filter and integrator, mapped onto
-blockhash's camera, samples per pixel and specular depth (for :mod:`.mitsuba_import`).
+blockhash's camera, samples per pixel and specular depth (for :mod:`.importer`).
 
 What is mapped, each as Mitsuba 3.9 does it:
 
@@ -7,7 +7,7 @@ What is mapped, each as Mitsuba 3.9 does it:
   ``diagonal``, ``smaller`` or ``larger``, or ``focal_length`` (``"50mm"``, the default when
   neither is given: the diagonal of a 36 x 24 mm film); the horizontal angle must lie in
   (0, 180).  ``to_world``: eye, view direction and up; a ``lookat`` without ``up`` takes
-  Mitsuba's (:func:`.mitsuba_xml.coordinate_system`).  ``near_clip`` (default 0.01) and
+  Mitsuba's (:func:`.xml_values.coordinate_system`).  ``near_clip`` (default 0.01) and
   ``far_clip`` (default 10000) are honoured when they clip nothing of the scene the camera
   sees, and refused otherwise (blockhash's camera does not clip).
 * ``hdrfilm``: ``width``, ``height`` (768 x 576 by default); ``pixel_format`` ``rgb`` or
@@ -42,7 +42,7 @@ import numpy as np
 import trimesh
 
 from blockhash.scene.camera import MAX_SPP
-from blockhash.scene.mitsuba_xml import ORTHONORMAL_TOLERANCE, XmlReader
+from blockhash.scene.mitsuba.xml_values import ORTHONORMAL_TOLERANCE, XmlReader
 from blockhash.scene.model import DIELECTRIC_MAX_BOUNCES, MAX_BOUNCES, Camera
 
 #: Mitsuba's defaults: film size, clip planes, focal length (mm) and its film's diagonal.
