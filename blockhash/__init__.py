@@ -14,9 +14,9 @@ from blockhash.index.tables.params import BlockHashParams
 from blockhash.passes.dask_cluster import DaskCluster
 from blockhash.passes.executors import InProcess, LocalWorkers
 from blockhash.passes.pipeline import render
+from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import Renderer
 from blockhash.passes.schedule import Schedule
-from blockhash.passes.stopping import Passes
 
 
 def load_scene(path):
@@ -26,4 +26,4 @@ def load_scene(path):
     return load(path)
 
 
-__all__ = ["load_scene", "render", "Renderer", "Passes", "Schedule", "InProcess", "LocalWorkers", "DaskCluster", "EstimateOptions", "LookupOptions", "BlockHashIndex", "BlockHashParams", "IndexStats", "OrphanWarning", "BlockHashError", "CapacityError", "InputError", "InputTypeError", "ShaderCompileError", "__version__"]
+__all__ = ["load_scene", "render", "Renderer", "RenderPlan", "Schedule", "InProcess", "LocalWorkers", "DaskCluster", "EstimateOptions", "LookupOptions", "BlockHashIndex", "BlockHashParams", "IndexStats", "OrphanWarning", "BlockHashError", "CapacityError", "InputError", "InputTypeError", "ShaderCompileError", "__version__"]

@@ -33,7 +33,7 @@ import blockhash
 from blockhash.evaluate.images import srgb, white_point, write_rgb8
 from blockhash.evaluate.specular_identity import compare_views, specular_view_map
 from blockhash.frame.shading import SceneRays
-from blockhash.passes.stopping import Passes
+from blockhash.passes.plan import RenderPlan
 from blockhash.reference.mitsuba import mitsuba_reference, render_mitsuba
 from blockhash.scene.camera import Pinhole
 
@@ -61,7 +61,7 @@ def main(argv=None):
         if not o.is_specular:
             floor |= (obj == i).reshape(size[1], size[0])
     t = time.perf_counter()
-    bh = blockhash.render(scene, photons=int(args.photons), passes=Passes(passes=args.passes))
+    bh = blockhash.render(scene, photons=int(args.photons), plan=RenderPlan(passes=args.passes))
     bh_s = time.perf_counter() - t
     ptracer, pt_s = render_mitsuba(scene, "ptracer", args.spp)
     path, path_s = render_mitsuba(scene, "path", args.spp)

@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 
 from blockhash.passes.executors import InProcess, LocalWorkers
+from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import Renderer
 from blockhash.passes.run import run_passes
-from blockhash.passes.stopping import Passes
 from blockhash.reference.lighttrace import light_trace
 from blockhash.reference.mitsuba import cached_caustic, without_specular_lobes
 from blockhash.scene.loader import load_scene
@@ -47,7 +47,7 @@ def measure(name, size, seeds, passes, ref_spp, cache, executor):
         def keep(renderer, stats, elapsed, session):
             if renderer.passes in images:
                 images[renderer.passes].append(renderer.film.caustic.copy())
-        run_passes(r, Passes(passes=passes, executor=executor), on_pass=keep)
+        run_passes(r, RenderPlan(passes=passes, executor=executor), on_pass=keep)
         print(f"  {name} seed {seed}: {r.passes} passes", flush=True)
     rows = []
     for p in marks:

@@ -37,7 +37,7 @@ def on_pass(renderer, stats, elapsed, session):
     if renderer.passes in marks:
         peaks[renderer.passes] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 executor = LocalWorkers(workers) if workers else InProcess(overlap=overlap)
-run_passes(r, blockhash.Passes(passes=int(sys.argv[4]), executor=executor), on_pass=on_pass)
+run_passes(r, blockhash.RenderPlan(passes=int(sys.argv[4]), executor=executor), on_pass=on_pass)
 print(json.dumps({"passes": r.passes, "seconds": time.perf_counter() - t,
                   "peak_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
                   "worker_peak_mib": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024,

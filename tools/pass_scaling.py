@@ -61,7 +61,7 @@ else:
     def on_pass(renderer, stats, elapsed, session):
         ends.append(time.perf_counter() - t0)
         stored.append(stats.stored)
-    run_passes(r, blockhash.Passes(passes=passes, executor=executor), on_pass=on_pass)
+    run_passes(r, blockhash.RenderPlan(passes=passes, executor=executor), on_pass=on_pass)
 img = r.image
 np.savez(out, direct=img.direct, caustic=img.caustic)
 if cluster is not None:

@@ -46,9 +46,9 @@ import numpy as np
 
 from blockhash.passes.executors import InProcess, LocalWorkers
 from blockhash.passes.pipeline import render_scene
+from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import Renderer
 from blockhash.passes.run import run_passes
-from blockhash.passes.stopping import Passes
 from blockhash.reference.lighttrace import light_trace
 from blockhash.reference.mitsuba import cached_caustic, mitsuba_reference, without_specular_lobes
 from blockhash.scene.loader import load_scene
@@ -102,7 +102,7 @@ def progressive_curve(scene, ref, mask, until: float, photons, *, focus_checks: 
         films.append((renderer.passes, elapsed - aside, renderer.film.caustic.astype(np.float32),
                       renderer.film.estimated_error()))
         aside += time.perf_counter() - t
-    run_passes(r, Passes(passes=None, seconds=until, executor=executor or InProcess()),
+    run_passes(r, RenderPlan(passes=None, seconds=until, executor=executor or InProcess()),
                on_pass=keep)
     curve = []
     for passes, own, img, est in films:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import sys
 import time
 import warnings
-from dataclasses import replace
 from pathlib import Path
 
 from blockhash.cli.args import FLAGS
@@ -31,8 +30,8 @@ def cmd_render(args) -> int:
     from blockhash.frame.options import LookupOptions
     from blockhash.passes.executors import PassFailed
     from blockhash.passes.pipeline import make_renderer
+    from blockhash.passes.plan import TargetOutOfReach
     from blockhash.passes.run import run_passes
-    from blockhash.passes.stopping import TargetOutOfReach
     from blockhash.scene.loader import load_scene
 
     out = Path(args.output or Path(args.scene).with_suffix(".exr").name)
@@ -49,16 +48,16 @@ def cmd_render(args) -> int:
     study = args.time_budget is not None or args.study_error is not None
     if study:
         _choose_settings(args, scene)
-    passes = _stopping_rule(args, one_pass=study)
+    plan = _plan(args, one_pass=study)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        renderer, passes = make_renderer(
+        renderer, plan = make_renderer(
             scene, photons=args.photons, spp=args.spp, seed=args.seed,
-            estimate=options_from(args), backend=args.backend, passes=passes,
+            estimate=options_from(args), backend=args.backend, plan=plan,
             lookup=LookupOptions(method=args.method, k=args.k, A=args.A, variant=args.variant))
-        progress = _Progress(renderer, passes, out, args.preview_every)
+        progress = _Progress(renderer, plan, out, args.preview_every)
         try:
-            run_passes(renderer, passes, on_pass=progress.update, on_wait=progress.waiting)
+            run_passes(renderer, plan, on_pass=progress.update, on_wait=progress.waiting)
         except KeyboardInterrupt:
             progress.close()
             return _stop_early(renderer, out, "interrupted (Ctrl-C)", INTERRUPTED)
@@ -82,12 +81,12 @@ def cmd_render(args) -> int:
     return 0
 
 
-def _stopping_rule(args, *, one_pass: bool):
-    """The :class:`Passes` of ``--passes``, ``--time``, ``--target-error``, ``--alpha`` and
+def _plan(args, *, one_pass: bool):
+    """The :class:`RenderPlan` of ``--passes``, ``--time``, ``--target-error``, ``--alpha`` and
     ``--footprint``: without ``--passes``, a time or target runs passes until it holds, and
     neither the default rule (a trade-study setting: one pass)."""
+    from blockhash.passes.plan import DEFAULT_PASSES, RenderPlan
     from blockhash.passes.schedule import Schedule
-    from blockhash.passes.stopping import DEFAULT_PASSES, Passes
 
     if args.passes is not None:
         count = args.passes
@@ -96,9 +95,8 @@ def _stopping_rule(args, *, one_pass: bool):
     else:
         count = 1 if one_pass else DEFAULT_PASSES
     schedule = Schedule(alpha=args.alpha, footprint=args.footprint)
-    rule = Passes(passes=count, seconds=args.time, target_error=args.target_error,
-                  schedule=schedule)
-    return replace(rule, executor=_executor(args))
+    return RenderPlan(passes=count, seconds=args.time, target_error=args.target_error,
+                      schedule=schedule, executor=_executor(args))
 
 
 def _executor(args):
@@ -148,14 +146,14 @@ class _Progress:
     """The progress bar (on a terminal: passes done and in flight, workers, photons, elapsed
     time, estimated error) and the PNG rewritten every ``preview_every`` seconds."""
 
-    def __init__(self, renderer, passes, out: Path, preview_every):
+    def __init__(self, renderer, plan, out: Path, preview_every):
         self.out, self.preview_every = out, preview_every
         self.last_preview = time.perf_counter()
         self.bar = None
         if sys.stderr.isatty():
             from tqdm.auto import tqdm
 
-            self.bar = tqdm(total=passes.passes, unit="pass", desc="render", file=sys.stderr)
+            self.bar = tqdm(total=plan.passes, unit="pass", desc="render", file=sys.stderr)
 
     def update(self, renderer, stats, elapsed: float, session) -> None:
         if self.bar is not None:
@@ -205,8 +203,8 @@ def _choose_settings(args, scene) -> None:
 
 def add_render(sub) -> None:
     """Add ``render`` to the subcommands ``sub``."""
+    from blockhash.passes.plan import DEFAULT_PASSES
     from blockhash.passes.schedule import DEFAULT_ALPHA, DEFAULT_FOOTPRINT
-    from blockhash.passes.stopping import DEFAULT_PASSES
 
     p = sub.add_parser("render", help="render a scene's direct light and caustics to EXR and PNG",
                        description="Render in passes (progressive photon mapping): each pass "

@@ -6,7 +6,7 @@
 - :mod:`.film`: the per-pixel means and their spread, merged in pass order;
 - :mod:`.renderer`: one render's state, :class:`~.renderer.Renderer` (the film, the totals,
   passes merged in order, a pass at a time with ``step``);
-- :mod:`.stopping`: when a render stops and where its passes run, :class:`~.stopping.Passes`;
+- :mod:`.plan`: when a render stops and where its passes run, :class:`~.plan.RenderPlan`;
 - :mod:`.executors`: in this process, local worker processes; :mod:`.dask_cluster`: an
   existing Dask cluster; :mod:`.worker`: what a worker process keeps;
 - :mod:`.run`: the loop, :func:`~.run.run_passes`;

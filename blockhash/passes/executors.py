@@ -2,7 +2,7 @@
 worker processes (:class:`LocalWorkers`), or on an existing Dask cluster
 (:class:`~.dask_cluster.DaskCluster`, the ``blockhash[distributed]`` extra).
 
-Each is a small frozen description (it travels in :class:`~.stopping.Passes`' ``executor``);
+Each is a small frozen description (it travels in :class:`~.plan.RenderPlan`' ``executor``);
 :meth:`open` starts it for one render and gives a :class:`Session`:
 
 - ``submit(p, emitted)`` hands out pass p (``emitted``: the photons every pass after the

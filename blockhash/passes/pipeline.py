@@ -3,7 +3,7 @@ in passes.
 
 ``render`` (``blockhash.render``) runs a progressive render (:mod:`.progressive`: a fresh
 photon batch and camera sample per pass, shrinking radii, running means) to a stopping rule
-(:class:`.stopping.Passes`); ``render_scene`` (every setting a keyword) is one pass of it,
+(:class:`.plan.RenderPlan`); ``render_scene`` (every setting a keyword) is one pass of it,
 the single render with S x S stratified samples per pixel.  Both return the three layers
 (direct, caustic, combined) and a summary of every phase; ``blockhash render`` writes them to
 a multi-layer EXR and a tone-mapped PNG.  The default ``method='auto'`` gathers, for the
@@ -27,17 +27,17 @@ from blockhash.frame.options import LookupOptions
 from blockhash.frame.result import RenderResult  # noqa: F401 (importable from here)
 from blockhash.frame.shading import SceneRays, direct_light
 from blockhash.frame.subpixel import box_filter
+from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import NoCausticWarning, Renderer  # noqa: F401 (importable from here)
 from blockhash.passes.run import run_passes
 from blockhash.passes.schedule import Schedule
-from blockhash.passes.stopping import Passes
 from blockhash.scene.camera import DEFAULT_SPP, SPP_SEED, spp_side
 from blockhash.validate import old_keywords
 
 
 def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions(),
-           lookup=LookupOptions(), backend=None, passes: Passes | None = None) -> RenderResult:
-    """Render ``scene`` (:func:`blockhash.load_scene`) in passes until ``passes`` says stop:
+           lookup=LookupOptions(), backend=None, plan: RenderPlan | None = None) -> RenderResult:
+    """Render ``scene`` (:func:`blockhash.load_scene`) in passes until ``plan`` says stop:
     its direct and caustic layers.
 
     Parameters
@@ -46,7 +46,7 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
         Caustic photons stored per pass (default: the scene's ``[photons] count``; every pass
         after the first emits as many photons as the first did), or photons already traced
         (``blockhash.photons.tracing.trace_caustic_photons``) for a one-pass render, to
-        compare lookups on one photon map (with the default ``passes``, :data:`ONE_PASS`).
+        compare lookups on one photon map (with the default ``plan``, :data:`ONE_PASS`).
     spp : int, optional
         Samples per pixel per pass, a square number (default: the scene's ``[camera] spp``;
         else :data:`blockhash.scene.camera.DEFAULT_SPP` in a one-pass render and 1 per pass in
@@ -58,10 +58,11 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
     lookup : LookupOptions
         The photon search: method, k, A, shader variant.
     backend : {'auto', 'egl', 'osmesa'}, optional
-    passes : Passes, optional
-        The stopping rule (passes, seconds, target error), the radii's schedule and where the
-        passes run (:mod:`blockhash.passes.stopping`); default ``Passes()``, or one pass with
-        every photon gathered for a traced map; ``Passes(passes=1)`` is the single render of
+    plan : RenderPlan, optional
+        How the render proceeds: its stopping rule (most passes, seconds, target error), the
+        radii's schedule and where the passes run (:mod:`blockhash.passes.plan`); default
+        ``RenderPlan()``, or one pass with every photon gathered for a traced map;
+        ``RenderPlan(passes=1)`` is the single render of
         ``render_scene``.
 
     Returns
@@ -78,38 +79,37 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
     if not isinstance(lookup, LookupOptions):
         raise InputError(f"lookup must be a LookupOptions; got {type(lookup).__name__} "
                          "(e.g. lookup=LookupOptions(method='kdtree', k=50))")
-    if passes is not None and not isinstance(passes, Passes):
-        raise InputError(f"passes must be a Passes; got {type(passes).__name__} "
-                         "(e.g. passes=Passes(passes=16) or Passes(passes=None, seconds=30))")
-    renderer, passes = make_renderer(scene, photons=photons, spp=spp, seed=seed,
-                                     estimate=estimate, lookup=lookup, backend=backend,
-                                     passes=passes)
-    run_passes(renderer, passes)
+    if plan is not None and not isinstance(plan, RenderPlan):
+        raise InputError(f"plan must be a RenderPlan; got {type(plan).__name__} "
+                         "(e.g. plan=RenderPlan(passes=16) or RenderPlan(passes=None, seconds=30))")
+    renderer, plan = make_renderer(scene, photons=photons, spp=spp, seed=seed,
+                                   estimate=estimate, lookup=lookup, backend=backend, plan=plan)
+    run_passes(renderer, plan)
     return renderer.image
 
 
 def make_renderer(scene, *, photons, spp, seed, estimate, lookup, backend,
-                  passes: Passes | None):
-    """The :class:`.renderer.Renderer` that :func:`render` steps, and its stopping rule
-    (``passes``; None: :class:`.stopping.Passes`' defaults, or :data:`ONE_PASS` for a traced
-    photon map, one pass's photons all gathered)."""
+                  plan: RenderPlan | None):
+    """The :class:`.renderer.Renderer` that :func:`render` steps, and its plan (None:
+    :class:`.plan.RenderPlan`'s defaults, or :data:`ONE_PASS` for a traced photon map, one
+    pass's photons all gathered)."""
     traced = not (photons is None or isinstance(photons, (int, np.integer)))
-    if passes is None:
-        passes = ONE_PASS if traced else Passes()
-    renderer = Renderer(scene, photons=photons, side=spp_side(per_pass_spp(scene, spp, passes)),
+    if plan is None:
+        plan = ONE_PASS if traced else RenderPlan()
+    renderer = Renderer(scene, photons=photons, side=spp_side(per_pass_spp(scene, spp, plan)),
                         seed=seed, estimate=estimate, lookup=lookup, backend=backend,
-                        schedule=passes.schedule)
-    return renderer, passes
+                        schedule=plan.schedule)
+    return renderer, plan
 
 
-def per_pass_spp(scene, spp, passes: Passes) -> int:
+def per_pass_spp(scene, spp, plan: RenderPlan) -> int:
     """Samples per pixel per pass: ``spp``, else the scene's ``[camera] spp``, else
     :data:`DEFAULT_SPP` for one pass and 1 per pass for a progressive render."""
     if spp is not None:
         return spp
     if scene.camera.spp:
         return scene.camera.spp
-    return DEFAULT_SPP if passes.one_pass else 1
+    return DEFAULT_SPP if plan.one_pass else 1
 
 
 #: render_scene's keywords that repeat fields of EstimateOptions.
@@ -163,11 +163,11 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
         scene = scene.with_size(*size)
     return render(scene, photons=photons if photon_map is None else photon_map, spp=spp, seed=seed,
                   estimate=EstimateOptions.of(options), lookup=lookup, backend=backend,
-                  passes=ONE_PASS)
+                  plan=ONE_PASS)
 
 
 #: The single render: one pass, every photon gathered (no pixel splat).
-ONE_PASS = Passes(passes=1, schedule=Schedule(footprint=0.0))
+ONE_PASS = RenderPlan(passes=1, schedule=Schedule(footprint=0.0))
 
 
 def direct_layer(scene, spp=None, *, size=None, backend=None, both_branches: bool = True,

@@ -9,29 +9,29 @@ from __future__ import annotations
 
 import time
 
-from blockhash.passes.stopping import Passes
+from blockhash.passes.plan import RenderPlan
 
 
-def run_passes(renderer, rule: Passes, *, on_pass=None, on_wait=None):
-    """Run ``renderer``'s passes on ``rule.executor`` until ``rule`` says stop;
+def run_passes(renderer, plan: RenderPlan, *, on_pass=None, on_wait=None):
+    """Run ``renderer``'s passes on ``plan.executor`` until ``plan`` says stop;
     ``on_pass(renderer, stats, elapsed, session)`` after every pass merged, ``on_wait(session)``
     after passes are handed out.  Returns the reason it stopped (also in
     ``renderer.info['stopped_by']``); Ctrl-C and a pass that raised leave the film with the
     passes merged so far."""
     t0 = time.perf_counter()
-    with rule.executor.open(renderer) as session:
+    with plan.executor.open(renderer) as session:
         renderer.info["workers"] = session.workers
-        renderer.info["executor"] = rule.executor.describe()
+        renderer.info["executor"] = plan.executor.describe()
         nxt = renderer.passes
         while True:
             elapsed = time.perf_counter() - t0
             first = renderer.emitted_per_pass is None and renderer.passes == 0
             while (session.in_flight < (1 if first else session.slots)
-                   and rule.hand_out(nxt, elapsed) and not (first and nxt > 0)):
+                   and plan.hand_out(nxt, elapsed) and not (first and nxt > 0)):
                 session.submit(nxt, renderer.emitted_per_pass)
                 nxt += 1
-            if not session.in_flight:  # nothing may start: the rule must say why
-                why = rule.reason(renderer, elapsed) or "nothing left to hand out"
+            if not session.in_flight:  # nothing may start: the plan must say why
+                why = plan.reason(renderer, elapsed) or "nothing left to hand out"
                 renderer.info["stopped_by"] = why
                 return why
             if on_wait is not None:
@@ -41,7 +41,7 @@ def run_passes(renderer, rule: Passes, *, on_pass=None, on_wait=None):
                     elapsed = time.perf_counter() - t0
                     if on_pass is not None:
                         on_pass(renderer, stats, elapsed, session)
-                    why = rule.reason(renderer, elapsed)
+                    why = plan.reason(renderer, elapsed)
                     if why is not None:
                         renderer.info["stopped_by"] = why
                         return why

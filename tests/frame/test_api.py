@@ -25,7 +25,7 @@ def ring():
 def test_render_gives_the_layers_of_render_scene(ring):
     est = EstimateOptions(filter="none")
     new = blockhash.render(ring, photons=20_000, spp=1, seed=3, estimate=est,
-                           lookup=LookupOptions(k=20, A=4), passes=ONE_PASS)
+                           lookup=LookupOptions(k=20, A=4), plan=ONE_PASS)
     old = render_scene(ring, photons=20_000, spp=1, seed=3, options=est, k=20, A=4)
     assert new.caustic.shape == (24, 24, 3) and new.caustic.sum() > 0
     np.testing.assert_array_equal(new.caustic, old.caustic)
@@ -92,5 +92,5 @@ def test_render_is_a_plain_function_with_its_real_parameters():
     assert isinstance(blockhash.render, types.FunctionType)
     params = inspect.signature(blockhash.render).parameters
     assert list(params) == ["scene", "photons", "spp", "seed", "estimate", "lookup", "backend",
-                            "passes"]
+                            "plan"]
     assert "Render ``scene``" in blockhash.render.__doc__

@@ -90,12 +90,12 @@ def test_the_identity_holds_on_the_progressive_render(mirror):
     reach the mirror's pixels, which gather every photon.  A footprint of 4 pixels splats most
     of the floor's caustic photons at this size (with the mirror's pixels gathering only what
     the splat left, the ratio falls to about 0.02)."""
+    from blockhash.passes.plan import RenderPlan
     from blockhash.passes.schedule import Schedule
-    from blockhash.passes.stopping import Passes
 
     def progressive(scene, *, photons, size, spp, seed):
         return blockhash.render(scene.with_size(*size), photons=photons, seed=seed,
-                                passes=Passes(passes=4, schedule=Schedule(footprint=4.0)))
+                                plan=RenderPlan(passes=4, schedule=Schedule(footprint=4.0)))
 
     report = identity_check(mirror, **SMALL, render=progressive)
     layer = report["layers"]["caustic"]

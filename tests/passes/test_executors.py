@@ -14,9 +14,9 @@ import blockhash
 from blockhash.errors import InputError
 from blockhash.passes import worker
 from blockhash.passes.executors import InProcess, LocalWorkers, PassFailed, worker_count
+from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import Renderer
 from blockhash.passes.run import run_passes
-from blockhash.passes.stopping import Passes
 from blockhash.passes.task import PassSettings, RenderSetup, run_pass
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
@@ -35,13 +35,13 @@ def scene():
 def one_process(scene):
     """The in-process render of passes 0..PASSES-1: the image every executor must give."""
     r = Renderer(scene, photons=PHOTONS)
-    run_passes(r, Passes(passes=PASSES))
+    run_passes(r, RenderPlan(passes=PASSES))
     return r
 
 
 def _render(scene, executor, passes=PASSES, on_pass=None):
     r = Renderer(scene, photons=PHOTONS)
-    why = run_passes(r, Passes(passes=passes, executor=executor), on_pass=on_pass)
+    why = run_passes(r, RenderPlan(passes=passes, executor=executor), on_pass=on_pass)
     return r, why
 
 
@@ -110,7 +110,7 @@ def test_worker_counts_are_checked():
         worker_count("-2")
     assert caught.value.spelled({"workers": "--workers "}).startswith("--workers -2: local")
     with pytest.raises(InputError, match="executor="):
-        Passes(executor="dask")
+        RenderPlan(executor="dask")
 
 
 @pytest.mark.parametrize("argv, match", [
@@ -189,7 +189,7 @@ def test_a_dask_worker_killed_mid_render_costs_time_not_the_image(scene, one_pro
                    on_pass=kill_one)
     assert killed
     ref = Renderer(scene, photons=PHOTONS)
-    run_passes(ref, Passes(passes=PASSES + 3))
+    run_passes(ref, RenderPlan(passes=PASSES + 3))
     assert_same_image(r, ref)
 
 
@@ -208,7 +208,7 @@ def test_a_pass_that_raises_on_a_worker_stops_the_render_with_its_number(scene, 
     worker._SETUPS.clear()
     r = Renderer(scene, photons=PHOTONS)
     with pytest.raises(PassFailed, match=r"pass 2 failed on the Dask cluster at .*GPU fell off"):
-        run_passes(r, Passes(passes=PASSES, executor=DaskCluster(threads_cluster.scheduler_address)))
+        run_passes(r, RenderPlan(passes=PASSES, executor=DaskCluster(threads_cluster.scheduler_address)))
     assert r.passes == 2  # the image of the passes done: 0 and 1
 
 
@@ -226,7 +226,7 @@ def test_a_dask_worker_of_another_version_or_without_gl_is_refused(scene, thread
         return {**real(backend), field: value, "gl_error": "no EGL here"}
     monkeypatch.setattr(worker, "_identity", other)
     with pytest.raises(InputError, match=r"Dask worker (tcp|inproc)://\S+ " + match):
-        blockhash.render(scene, photons=PHOTONS, passes=Passes(
+        blockhash.render(scene, photons=PHOTONS, plan=RenderPlan(
             passes=2, executor=DaskCluster(threads_cluster.scheduler_address)))
 
 
@@ -246,7 +246,7 @@ def test_a_scheduler_that_does_not_answer_is_named_within_30_s(tmp_path, capsys)
 
 
 def test_in_process_is_the_default(scene, one_process):
-    assert isinstance(Passes().executor, InProcess)
+    assert isinstance(RenderPlan().executor, InProcess)
     r, _ = _render(scene, InProcess())
     assert r.info["workers"] == 1 and r.info["executor"] == "in this process"
     assert_same_image(r, one_process)

@@ -12,9 +12,9 @@ from plane_scene import SIZE, analytic_caustic, error_against
 
 import blockhash
 from blockhash.passes.pipeline import render, render_scene
+from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import EMPTY_PASSES_WARNING, EmptyPassesWarning, Renderer
 from blockhash.passes.schedule import Schedule, shrink
-from blockhash.passes.stopping import Passes
 
 
 @pytest.mark.gl
@@ -39,7 +39,7 @@ def test_passes_converge_on_an_analytic_plane(plane):
 
 @pytest.mark.gl
 def test_a_one_pass_render_is_the_single_render(plane):
-    a = render(plane, spp=4, passes=Passes(passes=1, schedule=Schedule(footprint=0)))
+    a = render(plane, spp=4, plan=RenderPlan(passes=1, schedule=Schedule(footprint=0)))
     b = render_scene(plane, spp=4)
     np.testing.assert_array_equal(a.caustic, b.caustic)
     np.testing.assert_array_equal(a.direct, b.direct)
@@ -48,9 +48,9 @@ def test_a_one_pass_render_is_the_single_render(plane):
 
 @pytest.mark.gl
 def test_renders_are_reproducible_per_seed_and_pass_count(plane):
-    a = render(plane, passes=Passes(passes=3))
-    b = render(plane, passes=Passes(passes=3))
-    c = render(plane, seed=9, passes=Passes(passes=3))
+    a = render(plane, plan=RenderPlan(passes=3))
+    b = render(plane, plan=RenderPlan(passes=3))
+    c = render(plane, seed=9, plan=RenderPlan(passes=3))
     np.testing.assert_array_equal(a.caustic, b.caustic)
     np.testing.assert_array_equal(a.direct, b.direct)
     assert not np.array_equal(a.caustic, c.caustic)

@@ -4,25 +4,25 @@ terms."""
 import pytest
 
 from blockhash.errors import InputError
+from blockhash.passes.plan import RenderPlan, TargetOutOfReach
 from blockhash.passes.renderer import Renderer
 from blockhash.passes.run import run_passes
-from blockhash.passes.stopping import Passes, TargetOutOfReach
 
 
 @pytest.mark.gl
-def test_stopping_rules(plane):
+def test_plan_rules(plane):
     r = Renderer(plane)
-    assert run_passes(r, Passes(passes=2)) == "2 passes" and r.passes == 2
+    assert run_passes(r, RenderPlan(passes=2)) == "2 passes" and r.passes == 2
     r = Renderer(plane)
-    assert run_passes(r, Passes(passes=None, seconds=1e-9)).startswith("time limit")
+    assert run_passes(r, RenderPlan(passes=None, seconds=1e-9)).startswith("time limit")
     assert r.passes == 1
     r = Renderer(plane)
-    why = run_passes(r, Passes(passes=50, target_error=0.5))
+    why = run_passes(r, RenderPlan(passes=50, target_error=0.5))
     assert why.startswith("estimated error") and r.film.estimated_error() <= 0.5
     assert r.passes < 50
     with pytest.raises(TargetOutOfReach, match="target_error=1e-06 cannot be reached within "
                                                "passes=5"):
-        run_passes(Renderer(plane), Passes(passes=5, target_error=1e-6))
+        run_passes(Renderer(plane), RenderPlan(passes=5, target_error=1e-6))
 
 
 @pytest.mark.parametrize("kwargs, match", [
@@ -36,6 +36,6 @@ def test_stopping_rules(plane):
 def test_bad_stopping_rules_name_the_setting_and_the_way_out(kwargs, match):
     """In the library's terms (its keywords), never the command line's flags."""
     with pytest.raises(InputError, match=match) as caught:
-        Passes(**kwargs)
+        RenderPlan(**kwargs)
     assert "--" not in str(caught.value)
 

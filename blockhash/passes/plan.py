@@ -1,4 +1,6 @@
-"""When a progressive render stops, and where its passes run: :class:`Passes`.
+"""How a progressive render proceeds: :class:`RenderPlan`, its stopping rule, its radius
+schedule and where its passes run.  ("passes" is always a count: the most a plan runs,
+``RenderPlan.passes``, or those merged, ``Renderer.passes``.)
 
 A render stops at the first of its rules that holds: ``passes`` passes run, ``seconds``
 elapsed, or the caustic layer's estimated relative standard error
@@ -10,8 +12,8 @@ beyond ``PROJECTION_MARGIN`` times ``passes`` is refused then, naming the passes
 rather than run to the limit; a target still unmet at the limit is refused there.  (The
 command line writes the image so far in both cases.)
 
-With passes running in parallel (``executor``), a rule decides which passes are handed out
-(:meth:`Passes.hand_out`) and when the merged film stops (:meth:`Passes.reason`): the film
+With passes running in parallel (``executor``), the plan decides which passes are handed out
+(:meth:`RenderPlan.hand_out`) and when the merged film stops (:meth:`RenderPlan.reason`): the film
 holds passes 0..n-1 in order, so ``passes=N`` renders exactly passes 0..N-1, and a time or a
 target stops with a contiguous run of passes from 0, whatever was still in flight.
 """
@@ -35,8 +37,9 @@ PROJECTION_MARGIN = 2.0
 
 
 @dataclass(frozen=True)
-class Passes:
-    """The stopping rule of a render and its radius schedule (module docstring).
+class RenderPlan:
+    """How a render proceeds: its stopping rule, its radius schedule and where its passes run
+    (module docstring).
 
     passes : int >= 1 or None          most passes (None: no limit; then ``seconds`` or
                                        ``target_error`` must stop the render)
