@@ -82,8 +82,8 @@ def cmd_render(args) -> int:
 
 
 def _plan(args, *, one_pass: bool):
-    """The :class:`RenderPlan` of ``--passes``, ``--time``, ``--target-error``, ``--alpha`` and
-    ``--footprint``: without ``--passes``, a time or target runs passes until it holds, and
+    """The :class:`RenderPlan` of ``--passes``, ``--time``, ``--target-error``, ``--alpha``,
+    ``--footprint``, ``--workers`` and ``--scheduler``: without ``--passes``, a time or target runs passes until it holds, and
     neither the default rule (a trade-study setting: one pass)."""
     from blockhash.passes.plan import DEFAULT_PASSES, RenderPlan
     from blockhash.passes.schedule import Schedule
@@ -228,9 +228,9 @@ def add_render(sub) -> None:
                    help="share of a pass's photons kept in the next radius, in (0, 1) (Knaus "
                         f"and Zwicker; default {DEFAULT_ALPHA:.3g})")
     p.add_argument("--footprint", type=float, default=DEFAULT_FOOTPRINT,
-                   help="photons whose discs are under this many pixel footprints across where "
-                        "the camera sees them directly are splatted into their pixel (at pass 1; "
-                        f"the bound shrinks with the radii; default {DEFAULT_FOOTPRINT:g}; 0: off)")
+                   help="splat into their pixel the photons whose discs are under this many "
+                        "pixel footprints (blockhash/passes/schedule.py; default "
+                        f"{DEFAULT_FOOTPRINT:g}; 0: off)")
     p.add_argument("--preview-every", type=float, metavar="SECONDS",
                    help="rewrite the PNG every SECONDS as the image refines")
     p.add_argument("--photons", type=int, help="caustic photons to store per pass (default: the "

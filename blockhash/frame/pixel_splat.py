@@ -11,10 +11,10 @@ tracer's camera connection estimates (:mod:`blockhash.reference.lighttrace`):
     L_pixel += Phi f_r(wi, wo) cos(theta_x) / (A_pixel cos^3(theta_c) d^2)
 
 for a photon at distance d, seen at cos(theta_x) from its surface and cos(theta_c) off the
-camera's axis (A_pixel the pixel's area on the image plane at distance 1).  So a photon whose
-own disc is under ``footprint`` pixel footprints across (``2 r < footprint * d * pixel angle``)
-and that the camera sees directly (in the image, on the side it faces, nothing between) is
-splatted into its pixel this way; every other photon stays in the gather.  Each photon's
+camera's axis (A_pixel the pixel's area on the image plane at distance 1).  A photon under the
+footprint (:mod:`blockhash.passes.schedule` says which) that the camera sees directly (in the
+image, on the side it faces, nothing between) is splatted into its pixel this way; every other
+photon stays in the gather.  Each photon's
 power goes to one estimate, so the flux is kept.  A photon seen only in a mirror or through
 glass stays in the gather: its pixel is not where it projects.
 """

@@ -47,8 +47,7 @@ class RenderPlan:
                                        each pass)
     target_error : float > 0 or None   stop once the caustic layer's estimated relative
                                        standard error is at most this (needs two passes)
-    schedule : Schedule                alpha, and the footprint under which photons are
-                                       splatted into their pixel
+    schedule : Schedule                alpha and the footprint (:mod:`.schedule`)
     executor : InProcess, LocalWorkers or DaskCluster
                                        where the passes run (:mod:`.executors`; default in
                                        this process); the image is the same

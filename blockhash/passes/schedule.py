@@ -8,11 +8,12 @@ It is a function of the pass number alone: passes are independent, whichever pro
 ``r_1`` is each photon's own radius (its j-th nearest other photon in its own pass,
 :mod:`blockhash.frame.photon_radius`).
 
-The footprint: a photon whose disc is under ``footprint`` pixel footprints across (the bound
-shrinking with the radii, as ``sqrt(shrink)``) and that the camera sees directly is splatted
-into its pixel (:mod:`blockhash.frame.pixel_splat`), so a focus smaller than a pixel gives the
-pixel's mean, not a point sample of it.  Only the cover gather and its CPU reference splat; the
-other searches gather every photon.
+The footprint (explained here once; elsewhere referred to): a photon whose disc is under
+``footprint`` pixel footprints across (``2 r < footprint * d * pixel angle`` at distance d;
+the bound shrinking with the radii, as ``sqrt(shrink)``) and that the camera sees directly is
+splatted into its pixel (:mod:`blockhash.frame.pixel_splat`, which derives the splat), so a
+focus smaller than a pixel gives the pixel's mean, not a point sample of it.  Only the cover
+gather and its CPU reference splat; the other searches gather every photon.  0 splats none.
 """
 
 from __future__ import annotations
@@ -74,9 +75,7 @@ class Schedule:
     """How a progressive render's passes shrink their radii.
 
     alpha : float in (0, 1)      Knaus and Zwicker's alpha (module docstring)
-    footprint : float >= 0       photons whose discs are under this many pixel footprints
-                                 across where the camera sees them directly are splatted
-                                 into their pixel (:mod:`.pixel_splat`); 0: none is
+    footprint : float >= 0       the footprint at pass 1 (module docstring); 0: no splat
     """
 
     alpha: float = DEFAULT_ALPHA
