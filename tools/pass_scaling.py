@@ -14,13 +14,16 @@ usage: python tools/pass_scaling.py [--scenes ring,venus] [--sizes 256,512]
            [--baseline /tmp/blockhash-6c34444] [--json docs/pass-scaling.json]
 """
 
-import argparse
 import json
 import os
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+import numpy as np
+
+from blockhash.studies.command import ToolParser, count, listing, write_json
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -93,30 +96,32 @@ def warm_rates(result: dict, warm: int) -> tuple[float, float]:
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--scenes", default="ring,venus", help="scene names under scenes/ or paths")
-    p.add_argument("--sizes", default="256,512")
-    p.add_argument("--photons", type=int, default=200_000, help="photons stored per pass")
-    p.add_argument("--passes", type=int, default=12)
-    p.add_argument("--warm", type=int, default=2, help="passes left out of the warm rates")
-    p.add_argument("--workers", default="1,2", help="local worker counts ('' for none)")
-    p.add_argument("--dask", default="2", help="Dask LocalCluster worker counts ('' for none)")
+    p = ToolParser(__doc__, __file__)
+    p.scenes("ring,venus")
+    p.size([256, 512], many=True, flag="--sizes")
+    p.photons(200_000, help="photons stored per pass")
+    p.add_argument("--passes", type=count, default=12)
+    p.add_argument("--warm", type=count, default=2, help="passes left out of the warm rates")
+    p.add_argument("--workers", type=listing(count), default=[1, 2],
+                   help="local worker counts ('' for none)")
+    p.add_argument("--dask", type=listing(count), default=[2],
+                   help="Dask LocalCluster worker counts ('' for none)")
     p.add_argument("--baseline", type=Path, help="a checkout of another commit: its in-process "
                    "render is the row the ratios are against")
-    p.add_argument("--json", type=Path, help="write every measurement here")
+    p.json_output()
     args = p.parse_args(argv)
     if not 1 <= args.warm < args.passes:
         p.error(f"--warm {args.warm}: leave out at least 1 and fewer than --passes {args.passes}")
-    configs = [("inprocess", 1)] + [("workers", int(n)) for n in args.workers.split(",") if n] \
-        + [("dask", int(n)) for n in args.dask.split(",") if n]
+    configs = ([("inprocess", 1)] + [("workers", n) for n in args.workers]
+               + [("dask", n) for n in args.dask])
     rows = []
     print("| scene | size | executor | process s | CPU s | warm passes/s | warm stored photons/s "
           "| against the baseline | largest difference to in-process |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     with tempfile.TemporaryDirectory() as tmp:
-        for name in args.scenes.split(","):
-            scene = name if name.endswith(".toml") else str(ROOT / "scenes" / f"{name}.toml")
-            for size in (int(s) for s in args.sizes.split(",")):
+        for path in args.scenes:
+            scene, name = str(path), path.stem
+            for size in args.sizes:
                 runs = []
                 if args.baseline:
                     runs.append(("baseline in process", args.baseline, "step", 1))
@@ -126,8 +131,6 @@ def main(argv=None):
                     out = Path(tmp) / f"{len(rows)}.npz"
                     result = run_child(checkout, scene, size, args.photons, args.passes, kind, n, out)
                     pps, photons_s = warm_rates(result, args.warm)
-                    import numpy as np
-
                     image = np.load(out)
                     if kind == "inprocess" and checkout == ROOT:
                         ref = image
@@ -143,8 +146,7 @@ def main(argv=None):
                           f"{photons_s / base_rate:.2f}x | "
                           f"{'-' if diff is None else f'{diff:.3g}'} |", flush=True)
     if args.json:
-        args.json.write_text(json.dumps({"args": {k: str(v) for k, v in vars(args).items()},
-                                         "rows": rows}, indent=1))
+        write_json(args.json, {"args": {k: str(v) for k, v in vars(args).items()}, "rows": rows})
 
 
 def _label(kind: str, n: int) -> str:
