@@ -1,7 +1,9 @@
 """Shared fixtures: seeded generators, small photon sets, GL contexts."""
 
 import os
+import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -174,3 +176,15 @@ def small_ring_scene(*, eye="[0.0, 1.9, 1.6]", target="[0.0, 0.0, 0.05]", light=
     from blockhash.scene.loader import parse_scene
 
     return parse_scene(RING_TEMPLATE.format(eye=eye, target=target, light=light, ring=ring))
+
+
+TOOLS_DIR = Path(__file__).resolve().parents[1] / "tools"
+
+
+def run_tool(name: str, args, cwd, *, timeout=600) -> str:
+    """``tools/NAME`` run with ``args`` from ``cwd`` (a folder outside the checkout: tools find
+    the scenes beside themselves); its stdout, after asserting it exited 0."""
+    run = subprocess.run([sys.executable, str(TOOLS_DIR / name), *map(str, args)], cwd=cwd,
+                         capture_output=True, text=True, timeout=timeout)
+    assert run.returncode == 0, f"{name} exited {run.returncode}:\n{run.stderr[-3000:]}"
+    return run.stdout

@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from conftest import run_tool
 
 ROOT = Path(__file__).resolve().parents[1]
 TOOLS = sorted((ROOT / "tools").glob("*.py"))
@@ -20,18 +21,10 @@ def test_each_tool_imports_and_prints_its_usage(tool):
     assert "usage:" in run.stdout, run.stdout[-500:]
 
 
-def _run(args, tmp_path):
-    """A tool run from a folder outside the checkout (tools find the scenes beside themselves)."""
-    run = subprocess.run([sys.executable, *map(str, args)], cwd=tmp_path, capture_output=True,
-                         text=True, timeout=600)
-    assert run.returncode == 0, run.stderr[-3000:]
-    return run.stdout
-
-
 @pytest.mark.gl
 def test_pass_scaling_writes_the_executors_rows_and_their_images_agree(tmp_path):
     out = tmp_path / "scaling.json"
-    text = _run([ROOT / "tools" / "pass_scaling.py", "--scenes", "ring", "--sizes", "24",
+    text = run_tool("pass_scaling.py", ["--scenes", "ring", "--sizes", "24",
                  "--photons", "2000", "--passes", "3", "--warm", "1", "--workers", "1",
                  "--dask", "", "--json", out], tmp_path)
     rows = __import__("json").loads(out.read_text())["rows"]
@@ -44,7 +37,7 @@ def test_pass_scaling_writes_the_executors_rows_and_their_images_agree(tmp_path)
 @pytest.mark.gl
 def test_pass_stages_writes_each_stage_beside_a_baseline(tmp_path):
     out = tmp_path / "stages.json"
-    text = _run([ROOT / "tools" / "pass_stages.py", "--baseline", ROOT, "--scenes", "ring",
+    text = run_tool("pass_stages.py", ["--baseline", ROOT, "--scenes", "ring",
                  "--sizes", "24", "--photons", "2000", "--passes", "1", "--json", out], tmp_path)
     [row] = __import__("json").loads(out.read_text())["rows"]
     for side in ("baseline", "this"):
@@ -57,7 +50,7 @@ def test_pass_stages_writes_each_stage_beside_a_baseline(tmp_path):
 
 @pytest.mark.gl
 def test_pass_memory_writes_the_peaks_of_each_pass_count(tmp_path):
-    text = _run([ROOT / "tools" / "pass_memory.py", "--photons", "2000", "--passes", "1,3",
+    text = run_tool("pass_memory.py", ["--photons", "2000", "--passes", "1,3",
                  "--size", "24", "--marks", "1,3"], tmp_path)
     rows = [line for line in text.splitlines() if line.startswith("| default |")]
     assert [line.split("|")[2].strip() for line in rows] == ["1", "3"]
