@@ -13,8 +13,6 @@ the cold run is the first render after an install whose modules are already byte
 
 from __future__ import annotations
 
-import argparse
-import json
 import os
 import re
 import shutil
@@ -22,8 +20,9 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
+
+from blockhash.studies.command import ToolParser, count, timed, write_json
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -31,9 +30,8 @@ ROOT = Path(__file__).resolve().parents[1]
 def run(command: list[str], cache: Path) -> tuple[float, dict[str, float]]:
     """(wall seconds, the render's stage seconds) of one run with numba's cache in ``cache``."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
-    t = time.perf_counter()
-    done = subprocess.run(command, cwd=ROOT, env=env, capture_output=True, text=True)
-    wall = time.perf_counter() - t
+    done, wall = timed(subprocess.run, command, cwd=cache.parent, env=env, capture_output=True,
+                       text=True)
     if done.returncode != 0:
         sys.exit(f"{' '.join(command)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
     line = next((s for s in done.stdout.splitlines() if s.startswith("time: ")), "")
@@ -45,17 +43,27 @@ def spread(values: list[float]) -> str:
     return f"{statistics.median(values):6.2f} {min(values):6.2f} {max(values):6.2f}"
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("scene", nargs="?", default="scenes/ring.toml")
-    parser.add_argument("--size", default="256x256", help="image size (default 256x256)")
-    parser.add_argument("--repeat", type=int, default=5, help="cold/warm pairs (default 5)")
-    parser.add_argument("--json", help="write every run's figures to this JSON file")
-    args = parser.parse_args()
+def shown(path: Path) -> str:
+    """``path`` relative to the checkout when it lies in it (scenes/ring.toml), else whole."""
+    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
+
+
+def main(argv=None) -> int:
+    parser = ToolParser(__doc__, __file__)
+    parser.add_argument("scene", nargs="?", type=parser.scene, default="scenes/ring.toml",
+                        help="scene file or name under scenes/ (default scenes/ring.toml)")
+    parser.size("256x256", square=False)
+    parser.add_argument("--photons", type=count,
+                        help="photons per pass, passed to blockhash render (default: the scene's)")
+    parser.add_argument("--repeat", type=count, default=5, help="cold/warm pairs (default 5)")
+    parser.json_output("write every run's figures to this JSON file")
+    args = parser.parse_args(argv)
+    size = f"{args.size[0]}x{args.size[1]}"
+    scene = shown(args.scene)
 
     work = Path(tempfile.mkdtemp(prefix="cold-start-"))
-    command = [sys.executable, "-m", "blockhash", "render", args.scene, "--size", args.size,
-               "-o", str(work / "out.exr")]
+    command = [sys.executable, "-m", "blockhash", "render", str(args.scene), "--size", size,
+               "-o", str(work / "out.exr")] + (["--photons", str(args.photons)] if args.photons else [])
     runs = {"cold": [], "warm": []}
     try:
         warm_cache = work / "warm"
@@ -70,7 +78,8 @@ def main() -> int:
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
-    print(f"blockhash render {args.scene} --size {args.size}: {args.repeat} pairs, cold then warm")
+    photons = f" --photons {args.photons}" if args.photons else ""
+    print(f"blockhash render {scene} --size {size}{photons}: {args.repeat} pairs, cold then warm")
     print(f"{'seconds':<22} {'median':>6} {'min':>6} {'max':>6}")
     for kind in ("cold", "warm"):
         print(f"{kind + ' (whole process)':<22} {spread([w for w, _ in runs[kind]])}")
@@ -81,8 +90,7 @@ def main() -> int:
         for kind in ("cold", "warm"):
             print(f"{kind + ' ' + stage:<22} {spread([r[1][stage] for r in runs[kind]])}")
     if args.json:
-        Path(args.json).write_text(json.dumps({"command": command[1:], "runs": runs,
-                                               "ratios": ratios}, indent=1) + "\n")
+        write_json(args.json, {"command": command[1:], "runs": runs, "ratios": ratios})
     return 0
 
 

@@ -16,7 +16,6 @@ and that every network sorts):
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import sys
 from pathlib import Path
@@ -28,6 +27,7 @@ ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "glsl" / "bh_merge_net.glsl"
 
 from blockhash.index.tables.probe import odd_even_merge_sort
+from blockhash.studies.command import ToolParser
 
 
 def batch_network() -> tuple[list[tuple[int, int]], list[int]]:
@@ -114,13 +114,24 @@ def check() -> None:
         assert sorts(bitonic_merge(n), n, bitonic)
 
 
-if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--check", action="store_true", help="exit 1 if the file is not current")
-    args = ap.parse_args()
+def main(argv=None) -> int:
+    parser = ToolParser(__doc__, __file__)
+    parser.add_argument("--check", action="store_true",
+                        help="write nothing; exit 1 if the file is not current")
+    parser.add_argument("--out", type=Path, default=OUT,
+                        help="the file to write or check (default: the checkout's "
+                             "glsl/bh_merge_net.glsl)")
+    args = parser.parse_args(argv)
     check()
     text = render()
     if args.check:
-        sys.exit(0 if OUT.read_text() == text else 1)
-    OUT.write_text(text)
-    print(f"wrote {OUT}")
+        current = args.out.is_file() and args.out.read_text() == text
+        print(f"{args.out} is {'current' if current else 'not current: rerun without --check'}")
+        return 0 if current else 1
+    args.out.write_text(text)
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -15,6 +15,8 @@
 # tests.txt (the GL lookup tests: every variant equals the CPU reference on this device).
 # Figures: min and median of REPEAT back-to-back draws after WARMUP draws of the same program,
 # GPU time (GL timer queries) beside wall time, with the renderer and driver in every row.
+# STEPS (default device,A,k,1m,caustic,tests) names the steps to run; every step runs even
+# when one before it failed, and the exit status is 1 when any failed.
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd); cd "$root"
 OUT=$(mkdir -p "${OUT:-out/gpu_bench}" && cd "${OUT:-out/gpu_bench}" && pwd)
@@ -26,6 +28,9 @@ else
   CAUSTIC=${CAUSTIC:-1000000} REPEAT=${REPEAT:-15} AS=${AS:-1,2,4,8,16} KS=${KS:-8,16,32,50}
 fi
 WARMUP=${WARMUP:-3}
+STEPS=",${STEPS:-device,A,k,1m,caustic,tests},"
+failed=0
+trap 'failed=1' ERR
 if [ -f .whl/run.sh ] && command -v nvidia-smi >/dev/null; then
   bh() { bash .whl/run.sh "$@"; }                     # the installed wheel, NVIDIA's EGL
   tests() { bash .whl/run.sh pytest -q "$root/tests/gl/test_gl_lookup.py" "$root/tests/frame/test_caustic.py"; }
@@ -37,20 +42,35 @@ else
 fi
 common=(--photons "$PHOTONS" --repeat "$REPEAT" --warmup "$WARMUP")
 step() { echo "== $1 ($(date -u +%H:%M:%S))" >&2; }
+wanted() { [[ $STEPS == *",$1,"* ]]; }
+if wanted device; then
 step "device"; bh info >> "$OUT/device.txt" 2>&1; cat "$OUT/device.txt"
+fi
+if wanted A; then
 step "A sweep: $QUERIES queries, A=$AS"
 bh bench "${common[@]}" --queries "$QUERIES" --A "$AS" --variants default,binary-set-on-merge-box,binary-set-on-packed,binary-branch-on-packed,paper \
    --json "$OUT/bench_A.json" | tee "$OUT/bench_A.txt"
+fi
+if wanted k; then
+: > "$OUT/bench_k.txt"
 step "k sweep at A=8: k=$KS"
 for k in ${KS//,/ }; do
   bh bench "${common[@]}" --queries "$QUERIES" --A 8 --k "$k" --no-kdtree --variants default,binary-set-on-merge-box \
      --json "$OUT/bench_k$k.json" | tee -a "$OUT/bench_k.txt"
 done
+fi
+if wanted 1m; then
 step "$BIG queries at A=8"
 bh bench "${common[@]}" --queries "$BIG" --A 8 --hashing --json "$OUT/bench_1m.json" | tee "$OUT/bench_1m.txt"
+fi
+if wanted caustic; then
 step "caustic pass: scenes/ring.toml at $CAUSTIC photons"
 bh bench --queries 0 --caustic "$root/scenes/ring.toml" --caustic-photons "$CAUSTIC" \
    --caustic-estimates unbiased --repeat "$REPEAT" --warmup "$WARMUP" --json "$OUT/caustic.json" | tee "$OUT/caustic.txt"
+fi
+if wanted tests; then
 step "GL lookup tests"
 tests > "$OUT/tests.txt" 2>&1; tail -n 3 "$OUT/tests.txt"
-step "done: $OUT"
+fi
+if [ "$failed" = 0 ]; then step "done: $OUT"; else step "done, with failed steps: $OUT"; fi
+exit "$failed"

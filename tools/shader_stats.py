@@ -24,6 +24,7 @@ import copy
 import hashlib
 import json
 import os
+import shlex
 import shutil
 import subprocess
 import sys
@@ -33,6 +34,8 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+
+from blockhash.studies.command import ToolParser, count, listing, write_json
 
 HERE = Path(__file__).resolve().parent
 C_SOURCE = HERE / "gpu_compiler" / "pipeline_stats.c"
@@ -268,10 +271,11 @@ def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_00
     return out
 
 
-def gather(families=FAMILIES, *, scene=None, k=50, A=8, every_variant=False, wave32=False,
-           backend=None, progress=print) -> list[dict]:
+def gather(families=FAMILIES, *, scene=None, k=50, A=8, lookups=LOOKUPS, kdtree=True,
+           every_variant=False, wave32=False, backend=None, progress=print) -> list[dict]:
     """One row per shader and family: its name, family and :func:`compile_stats`."""
-    shaders = lookup_shaders(k, A, every_variant=every_variant, backend=backend)
+    shaders = lookup_shaders(k, A, lookups=lookups, kdtree=kdtree, every_variant=every_variant,
+                             backend=backend)
     if scene:
         shaders.update(caustic_shaders(scene, k=k, A=A, backend=backend))
     rows = []
@@ -338,24 +342,36 @@ def variant_summary(rows: list[dict]) -> str:
     return "\n".join(out)
 
 
+def lookup_name(text: str) -> str:
+    if text not in LOOKUPS:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected one of {', '.join(LOOKUPS)}")
+    return text
+
+
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--family", default=",".join(FAMILIES),
-                    help="RADV_FORCE_FAMILY names, comma-separated (default %(default)s)")
-    ap.add_argument("--scene", default=str(HERE.parent / "scenes" / "ring.toml"),
-                    help="scene whose caustic pass is compiled ('' for none)")
-    ap.add_argument("--k", type=int, default=50)
-    ap.add_argument("--A", type=int, default=8)
+    ap = ToolParser(__doc__, __file__)
+    ap.add_argument("--family", type=listing(str), default=list(FAMILIES),
+                    help=f"RADV_FORCE_FAMILY names, comma-separated (default {','.join(FAMILIES)})")
+    ap.add_argument("--scene", type=lambda text: ap.scene(text) if text else None,
+                    default="scenes/ring.toml", help="scene (a path or a name under scenes/) "
+                    "whose caustic pass is compiled ('' for none; default scenes/ring.toml)")
+    ap.add_argument("--k", type=count, default=50)
+    ap.add_argument("--A", type=count, default=8)
+    ap.add_argument("--lookups", type=listing(lookup_name), default=list(LOOKUPS),
+                    help=f"the lookups compiled, each with its fetch-only floor (default "
+                    f"{','.join(LOOKUPS)})")
+    ap.add_argument("--no-kdtree", dest="kdtree", action="store_false",
+                    help="leave out the exact kd-tree shader")
     ap.add_argument("--variants", action="store_true",
                     help="also every named shader variant of the walk and of the hashing")
     ap.add_argument("--wave32", action="store_true", help="RDNA fragment shaders in wave32")
     ap.add_argument("--backend", choices=("egl", "osmesa"), default=None)
-    ap.add_argument("--json", help="write the rows to this JSON file")
-    ap.add_argument("--table", metavar="JSON", help="print the markdown table of a JSON file "
-                    "this tool wrote, and nothing else")
+    ap.json_output("write the rows to this JSON file")
+    ap.add_argument("--table", metavar="JSON", type=Path, help="print the markdown table of a "
+                    "JSON file this tool wrote, and nothing else")
     a = ap.parse_args(argv)
     if a.table:
-        rows = json.loads(Path(a.table).read_text())["rows"]
+        rows = json.loads(a.table.read_text())["rows"]
         print(variant_summary(rows) if any(" variant " in r["shader"] for r in rows)
               else markdown(rows))
         return 0
@@ -364,12 +380,11 @@ def main(argv=None) -> int:
         print(f"shader_stats: {missing}", file=sys.stderr)
         return 2
     print(" ".join(fmt.format(h) for h, (_, fmt) in zip(HEADER, COLUMNS)))
-    rows = gather(a.family.split(","), scene=a.scene or None, k=a.k, A=a.A,
+    rows = gather(a.family, scene=a.scene, k=a.k, A=a.A, lookups=a.lookups, kdtree=a.kdtree,
                   every_variant=a.variants, wave32=a.wave32, backend=a.backend)
     if a.json:
-        Path(a.json).write_text(json.dumps({"command": " ".join(["python tools/shader_stats.py",
-                                                                  *(argv or sys.argv[1:])]),
-                                            "rows": rows}, indent=1) + "\n")
+        command = shlex.join(["python", "tools/shader_stats.py", *(argv or sys.argv[1:])])
+        write_json(a.json, {"command": command, "rows": rows})
     return 0
 
 
