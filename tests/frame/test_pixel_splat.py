@@ -3,7 +3,7 @@ what each adds to its pixel, on hand-placed photons under the analytic plane's c
 
 import numpy as np
 import pytest
-from plane_scene import H, KD
+from plane_scene import KD, H
 
 from blockhash.frame.pixel_splat import splat_subpixel
 from blockhash.frame.shading import SceneRays
