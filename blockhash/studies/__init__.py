@@ -8,7 +8,8 @@ measures, :mod:`.report` writes ``tradeoff.json``, the plots and ``report.md``, 
 :mod:`.bench` is the measuring behind ``blockhash bench`` (the lookups against exact kNN,
 and the caustic pass's peers, photon splatting among them: :mod:`.splat_pass`, the GL splat
 that only the benchmarks and ``tools/shader_stats.py`` use); :mod:`.claims` writes the trade
-study's claims.  :mod:`.command` is what the commands in ``tools/`` share: their argument
+study's claims.  :mod:`.gpu_compiler` is a GPU compiler's view of the shaders (registers, scratch,
+occupancy on Mesa RADV's null device).  :mod:`.command` is what the commands in ``tools/`` share: their argument
 types (photon counts, sizes, scenes), the scenes of the checkout, timing and JSON output.
 """
 

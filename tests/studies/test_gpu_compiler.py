@@ -1,26 +1,24 @@
-"""The GPU compiler check (tools/shader_stats.py): Mesa RADV's ACO backend compiles the
-shaders blockhash runs on a null RDNA2 device, and the GPU-shaped lookup fits its budget
+"""The GPU compiler check (blockhash/studies/gpu_compiler.py, tools/shader_stats.py): Mesa
+RADV's ACO backend compiles the shaders blockhash runs on a null RDNA2 device, and the GPU-shaped lookup fits its budget
 (no scratch memory, no spills, at most 64 VGPRs in wave64); shaders that do not fit fail.
 
 Skipped where the toolchain (glslang, cc, Vulkan headers, RADV) is missing, unless
 BLOCKHASH_REQUIRE_GPU_COMPILER is set (CI sets it, so there it fails instead)."""
 
 import os
-import sys
 from pathlib import Path
 
 import pytest
 from conftest import context_or_skip
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
-import shader_stats  # noqa: E402
+from blockhash.studies import gpu_compiler
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
 
 @pytest.fixture(scope="module", autouse=True)
 def toolchain():
-    missing = shader_stats.available()
+    missing = gpu_compiler.available()
     if missing:
         if os.environ.get("BLOCKHASH_REQUIRE_GPU_COMPILER"):
             pytest.fail(f"BLOCKHASH_REQUIRE_GPU_COMPILER is set but {missing}")
@@ -53,35 +51,35 @@ void main() { c = texelFetch(t, ivec2(gl_FragCoord.xy), 0) * 2.0; }
 
 @pytest.mark.slow
 def test_a_local_array_indexed_by_a_variable_breaks_the_budget():
-    stats = shader_stats.compile_stats(INDEXED_ARRAY, "navi21")
+    stats = gpu_compiler.compile_stats(INDEXED_ARRAY, "navi21")
     assert stats["scratch_lane"] >= 384 and stats["wave"] == 64
-    assert any("scratch" in b for b in shader_stats.over_budget(stats))
+    assert any("scratch" in b for b in gpu_compiler.over_budget(stats))
 
 
 @pytest.mark.slow
 def test_many_live_values_break_the_register_budget():
-    stats = shader_stats.compile_stats(LIVE_VALUES, "navi21")
+    stats = gpu_compiler.compile_stats(LIVE_VALUES, "navi21")
     assert stats["scratch_lane"] == 0 and stats["preVGPRs"] > 64
-    assert [b for b in shader_stats.over_budget(stats) if "VGPRs demanded" in b]
+    assert [b for b in gpu_compiler.over_budget(stats) if "VGPRs demanded" in b]
 
 
 @pytest.mark.slow
 def test_a_small_shader_fits_on_every_family():
-    for family in shader_stats.FAMILIES:
-        stats = shader_stats.compile_stats(SMALL, family)
-        assert shader_stats.over_budget(stats) == [], (family, stats)
+    for family in gpu_compiler.FAMILIES:
+        stats = gpu_compiler.compile_stats(SMALL, family)
+        assert gpu_compiler.over_budget(stats) == [], (family, stats)
         assert 0 < stats["preVGPRs"] <= 8 and stats["instructions"] > 0
 
 
 def test_a_shader_glslang_rejects_names_the_error():
     with pytest.raises(RuntimeError, match="glslang rejected the frag shader"):
-        shader_stats.compile_stats(SMALL.replace("* 2.0", "* undeclared"), "navi21")
+        gpu_compiler.compile_stats(SMALL.replace("* 2.0", "* undeclared"), "navi21")
 
 
 @pytest.fixture(scope="module")
 def lookups():
     context_or_skip("egl")
-    return shader_stats.lookup_shaders(50, 8, lookups=("walk", "cells"), kdtree=False,
+    return gpu_compiler.lookup_shaders(50, 8, lookups=("walk", "cells"), kdtree=False,
                                        backend="egl")
 
 
@@ -89,34 +87,34 @@ def lookups():
 def test_the_cells_lookup_fits_the_gpu_budget(lookups):
     """k = 50, A = 8, RDNA2 wave64: the lookup and its fetch-only floor."""
     for name in ("lookup cells", "lookup cells fetch-only"):
-        stats = shader_stats.compile_stats(lookups[name], "navi21")
-        assert shader_stats.over_budget(stats) == [], (name, stats)
+        stats = gpu_compiler.compile_stats(lookups[name], "navi21")
+        assert gpu_compiler.over_budget(stats) == [], (name, stats)
 
 
 @pytest.mark.slow
 def test_the_check_catches_the_walks_scratch_queues(lookups):
     """The walk's 192-entry queues are local arrays indexed by variables."""
-    stats = shader_stats.compile_stats(lookups["lookup walk"], "navi21")
+    stats = gpu_compiler.compile_stats(lookups["lookup walk"], "navi21")
     assert stats["scratch_lane"] >= 1536
-    assert shader_stats.over_budget(stats)
+    assert gpu_compiler.over_budget(stats)
 
 
 @pytest.mark.slow
 def test_the_cells_caustic_pass_fits_the_gpu_budget():
     context_or_skip("egl")
     scene = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
-    shaders = shader_stats.caustic_shaders(str(scene), lookups=("cells",), backend="egl")
+    shaders = gpu_compiler.caustic_shaders(str(scene), lookups=("cells",), backend="egl")
     assert len(shaders) == 3
     for name, text in shaders.items():
-        stats = shader_stats.compile_stats(text, "navi21")
-        assert shader_stats.over_budget(stats) == [], (name, stats)
+        stats = gpu_compiler.compile_stats(text, "navi21")
+        assert gpu_compiler.over_budget(stats) == [], (name, stats)
 
 
 @pytest.fixture(scope="module")
 def ring_caustic_passes():
     context_or_skip("egl")
     scene = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
-    return shader_stats.caustic_shaders(str(scene), lookups=("cover", "walk"), backend="egl")
+    return gpu_compiler.caustic_shaders(str(scene), lookups=("cover", "walk"), backend="egl")
 
 
 def test_the_default_caustic_pass_fits_its_gpu_budget(ring_caustic_passes):
@@ -125,13 +123,13 @@ def test_the_default_caustic_pass_fits_its_gpu_budget(ring_caustic_passes):
     cover = {n: t for n, t in ring_caustic_passes.items() if n.startswith("caustic cover")}
     assert len(cover) == 3
     for name, text in cover.items():
-        stats = shader_stats.compile_stats(text, "navi21")
-        assert shader_stats.over_budget(stats, shader_stats.COVER_VGPR_BUDGET) == [], (name, stats)
+        stats = gpu_compiler.compile_stats(text, "navi21")
+        assert gpu_compiler.over_budget(stats, gpu_compiler.COVER_VGPR_BUDGET) == [], (name, stats)
 
 
 def test_the_default_passes_budget_fails_a_pass_that_breaks_it(ring_caustic_passes):
     """The walk's caustic pass (its queues in scratch, 100+ VGPRs) fails the same check."""
-    stats = shader_stats.compile_stats(ring_caustic_passes["caustic walk: lookup + estimate"],
+    stats = gpu_compiler.compile_stats(ring_caustic_passes["caustic walk: lookup + estimate"],
                                        "navi21")
-    broken = shader_stats.over_budget(stats, shader_stats.COVER_VGPR_BUDGET)
+    broken = gpu_compiler.over_budget(stats, gpu_compiler.COVER_VGPR_BUDGET)
     assert any("scratch" in b for b in broken) and any("VGPRs demanded" in b for b in broken)
