@@ -111,15 +111,9 @@ def test_unknown_choice_value_names_the_choice():
 
 def test_merge_networks_sort_and_the_generated_file_is_current():
     """select=merge's networks (0-1 principle over every input) and glsl/bh_merge_net.glsl
-    as tools/gen_merge_network.py writes it."""
-    import importlib.util
+    as blockhash.gl.merge_network renders it (tools/gen_merge_network.py writes it)."""
+    from blockhash.gl import merge_network as gen
 
-    path = glsl_dir().parent / "tools" / "gen_merge_network.py"
-    if not path.is_file():
-        pytest.skip("tools/ is not beside this glsl/ (installed wheel)")
-    spec = importlib.util.spec_from_file_location("gen_merge_network", path)
-    gen = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(gen)
     gen.check()
     assert (glsl_dir() / "bh_merge_net.glsl").read_text() == gen.render()
     net, order = gen.batch_network()
