@@ -20,83 +20,47 @@ over the window x in (-0.2, 0.5), y in (0.25, 0.75) with stratified jittered poi
 (``--points`` per axis along x, half as many along y), and divided by the power of the
 photons inside the window: 1 for an estimate that conserved the photons' power.  The
 window's x-edge at 0.5 and its y-edges cross smooth density only, so what is left over
-is the estimate's own excess at the edge or fold.
+is the estimate's own excess at the edge or fold (blockhash.studies.fold_bias).
 """
 
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-import numpy as np
-
-ROOT = Path(__file__).resolve().parents[1]
-
-WINDOW = (-0.2, 0.5, 0.25, 0.75)
+from blockhash.frame.estimate import FILTERS
+from blockhash.studies.command import ToolParser, count, listing
+from blockhash.studies.fold_bias import ESTIMATES, SHAPES, flux_ratio
 
 
-def photons(shape: str, n: int, rng) -> np.ndarray:
-    u = rng.random(n)
-    x = {"fold": lambda: u ** 2, "step": lambda: u,
-         "smooth": lambda: rng.normal(0.3, 0.1, n)}[shape]()
-    return np.stack([x, rng.random(n)], axis=1)
-
-
-def flux_ratio(shape: str, n: int, k: int, filters, *, points: int = 1500, seed: int = 0,
-               estimate: str = "unbiased") -> dict:
-    """{filter: estimated flux over the window / photon power inside it}."""
-    from scipy.spatial import cKDTree
-
-    from blockhash.frame.estimate import kernel
-    from blockhash.frame.photon_radius import neighbours_for
-
-    rng = np.random.default_rng(seed)
-    p = photons(shape, n, rng)
-    x0, x1, y0, y1 = WINDOW
-    ny = points // 2
-    gx = x0 + (np.arange(points)[None, :] + rng.random((ny, points))) / points * (x1 - x0)
-    gy = y0 + (np.arange(ny)[:, None] + rng.random((ny, points))) / ny * (y1 - y0)
-    tree = cKDTree(p)
-    d, idx = tree.query(np.stack([gx.ravel(), gy.ravel()], axis=1), k=k, workers=-1)
-    inside = np.mean((p[:, 0] > x0) & (p[:, 0] < x1) & (p[:, 1] > y0) & (p[:, 1] < y1))
-    if estimate == "conserving":
-        j = neighbours_for(k)
-        own2 = tree.query(p, k=[j + 1], workers=-1)[0][:, 0][idx] ** 2
-    out = {}
-    for f in filters:
-        if estimate == "conserving":
-            t2 = d ** 2 / own2
-            radiance = (np.where(t2 < 1, kernel(f, t2), 0.0) / (np.pi * own2)).sum(axis=1) / n
-        else:
-            r2 = d[:, -1] ** 2
-            w = kernel(f, d[:, :-1] ** 2 / r2[:, None]).sum(axis=1)  # the k-th photon left out
-            radiance = w / (n * np.pi * r2)
-        out[f] = float(radiance.mean() * (x1 - x0) * (y1 - y0) / inside)
-    return out
-
-
-def main() -> int:
-    from blockhash.frame.estimate import FILTERS
-
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--shapes", default="fold,step", help="fold, step, smooth (comma-separated)")
-    p.add_argument("--photons", default="100000,400000,1600000")
-    p.add_argument("--ks", default="25,50,100")
-    p.add_argument("--points", type=int, default=1500, help="jittered points along x")
+def main(argv=None) -> int:
+    p = ToolParser(__doc__, __file__)
+    p.add_argument("--shapes", type=listing(_shape), default=["fold", "step"],
+                   help=f"{', '.join(SHAPES)} (comma-separated; default fold,step)")
+    p.photons([100_000, 400_000, 1_600_000], many=True, help="photon counts")
+    p.add_argument("--ks", type=listing(count), default=[25, 50, 100],
+                   help="k (comma-separated; default 25,50,100)")
+    p.add_argument("--points", type=count, default=1500,
+                   help="jittered points along x (default 1500)")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--estimate", choices=("unbiased", "conserving"), default="unbiased")
-    args = p.parse_args()
+    p.add_argument("--estimate", choices=ESTIMATES, default="unbiased")
+    args = p.parse_args(argv)
     filters = list(FILTERS)
     print("| shape | N | k | " + " | ".join(filters) + " |")
     print("|---|---|---|" + "---|" * len(filters))
-    for shape in args.shapes.split(","):
-        for n in (int(float(x)) for x in args.photons.split(",")):
-            for k in (int(x) for x in args.ks.split(",")):
+    for shape in args.shapes:
+        for n in args.photons:
+            for k in args.ks:
                 r = flux_ratio(shape, n, k, filters, points=args.points, seed=args.seed,
                                estimate=args.estimate)
                 print(f"| {shape} | {n:,} | {k} | " + " | ".join(f"{r[f]:.4f}" for f in filters)
                       + " |", flush=True)
     return 0
+
+
+def _shape(text: str) -> str:
+    if text not in SHAPES:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected one of {', '.join(SHAPES)}")
+    return text
 
 
 if __name__ == "__main__":

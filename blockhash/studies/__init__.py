@@ -1,6 +1,7 @@
 """Studies: takes scenes and settings; gives measured trade-offs.  The trade study (speed
 against accuracy of the caustic layer, ``blockhash tradeoff``) and the density-estimate
-study (:mod:`.estimates`, :mod:`.sampling`, ``tools/estimate_study.py``).
+study (:mod:`.estimates`, :mod:`.sampling`, ``tools/estimate_study.py``; :mod:`.fold_bias`
+the estimate's excess beside a synthetic fold line, ``tools/fold_bias.py``).
 
 :mod:`.sweep` runs the settings and measures them, :mod:`.measure` holds the error
 measures, :mod:`.report` writes ``tradeoff.json``, the plots and ``report.md``, and

@@ -197,14 +197,8 @@ def test_the_study_tool_prints_the_done_when_tables_again_from_its_json(small_st
 
 @pytest.mark.slow
 def test_the_k_nearest_estimate_adds_flux_at_a_fold_and_less_with_more_photons():
-    import importlib.util
+    from blockhash.studies import fold_bias as fold
 
-    tool = Path(__file__).resolve().parents[2] / "tools" / "fold_bias.py"
-    if not tool.is_file():
-        pytest.skip("tools/ is not beside the package (installed wheel)")
-    spec = importlib.util.spec_from_file_location("fold_bias", tool)
-    fold = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(fold)
     few = fold.flux_ratio("fold", 20_000, 50, ["none", "cone"], points=400)
     many = fold.flux_ratio("fold", 320_000, 50, ["none", "cone"], points=400)
     smooth = fold.flux_ratio("smooth", 20_000, 50, ["cone"], points=400)
