@@ -18,6 +18,8 @@ import math
 import time
 from pathlib import Path
 
+#: Where the tools keep Mitsuba references (``--cache``).
+REFERENCE_CACHE = Path.home() / ".cache" / "blockhash" / "references"
 #: Scene file suffixes a bare name may take under ``scenes/``, in the order tried.
 SCENE_SUFFIXES = (".toml", ".xml")
 
@@ -32,6 +34,11 @@ def count(text: str) -> int:
     if not (math.isfinite(value) and value == int(value) and value >= 1):
         raise argparse.ArgumentTypeError(f"{text!r}: expected a whole number >= 1 (such as 2e5)")
     return int(value)
+
+
+def whole(text: str) -> int:
+    """A count that may be 0."""
+    return 0 if str(text).strip() in ("0", "0.0") else count(text)
 
 
 def size(text: str) -> tuple[int, int]:
@@ -111,14 +118,30 @@ class ToolParser(argparse.ArgumentParser):
         self.add_argument(flag, type=listing(kind) if many else kind, default=default,
                           help=(help or "image size") + f" (default {_shown(default)})")
 
-    def scenes(self, default, *, many: bool = True, flag: str | None = None, help=None):
-        """``--scenes a,b`` (paths or names under ``scenes/``; ``many=False``: ``--scene``),
-        given as resolved paths."""
+    def scenes(self, default, *, many: bool = True, flag: str | None = None, help=None,
+               **kwargs):
+        """``--scenes a,b`` (paths or names under ``scenes/``; ``many=False``: ``--scene``; a
+        ``flag`` without dashes is a positional, e.g. with ``nargs="?"``), given as resolved
+        paths."""
         flag = flag or ("--scenes" if many else "--scene")
         parse = listing(self.scene) if many else self.scene
         self.add_argument(flag, type=parse, default=parse(default),
                           help=(help or "scene files or names under scenes/")
-                          + f" (default {default})")
+                          + f" (default {default})", **kwargs)
+
+    def workers(self):
+        """``--workers N``: local worker processes for a render's passes (0: this process);
+        :func:`executor` gives the executor."""
+        self.add_argument("--workers", type=whole, default=0, help="local worker processes for "
+                          "the passes (default 0: in this process)")
+
+    def mitsuba_reference(self, spp: int = 4096):
+        """``--ref-spp`` and ``--cache``: the cached Mitsuba caustic reference
+        (:func:`blockhash.reference.mitsuba.caustic_comparison`)."""
+        self.add_argument("--ref-spp", type=count, default=spp,
+                          help=f"the Mitsuba reference's samples per pixel (default {spp})")
+        self.add_argument("--cache", type=Path, default=REFERENCE_CACHE,
+                          help=f"where references are kept (default {REFERENCE_CACHE})")
 
     def json_output(self, help="also write the results as JSON to this file"):
         """``--json PATH``."""
@@ -129,6 +152,13 @@ def _shown(default) -> str:
     if isinstance(default, (list, tuple)):
         return ",".join(_shown(d) for d in default)
     return f"{default:,}" if isinstance(default, int) else str(default)
+
+
+def executor(workers: int):
+    """Where a tool's passes run: ``workers`` local processes, or this process for 0."""
+    from blockhash.passes.executors import InProcess, LocalWorkers
+
+    return LocalWorkers(workers) if workers else InProcess()
 
 
 def timed(fn, *args, **kwargs):
