@@ -2,7 +2,10 @@
 reference, a finer tessellation, a synthetic fold), each run on a tiny input from a folder
 outside the checkout: the rows they print or write hold the figures they promise."""
 
+import json
+import math
 
+import pytest
 from conftest import run_tool
 
 
@@ -26,3 +29,46 @@ def test_fold_bias_adds_flux_at_a_fold_and_none_without_an_edge(tmp_path):
                                      "--points", "200", "--estimate", "conserving"], tmp_path)
     [fold] = _table(text, "fold")
     assert all(abs(float(v) - 1) < 0.01 for v in fold[3:])
+
+
+def _cache(tmp_path):
+    """A reference cache of the test's own, so that every run traces its tiny reference."""
+    return ["--cache", tmp_path / "cache"]
+
+
+@pytest.mark.gl
+def test_spp_sweep_writes_a_row_per_spp_near_the_reference(tmp_path):
+    out = tmp_path / "sweep.json"
+    text = run_tool("spp_sweep.py", ["ring", "--size", "24x24", "--spp", "1,4", "--photons", "5e3",
+                                     "--reference", "2e5", *_cache(tmp_path), "--json", out],
+                    tmp_path)
+    saved = json.loads(out.read_text())
+    assert saved["command"].startswith("python tools/spp_sweep.py ring --size 24x24")
+    rows = saved["rows"]
+    assert [(r["scene"], r["spp"], r["photons"]) for r in rows] == [("ring", 1, 5000),
+                                                                    ("ring", 4, 5000)]
+    for r in rows:
+        assert 0.8 < r["flux"] < 1.2 and 0 < r["blur"] < 0.5 and math.isfinite(r["blur_all"])
+        assert r["reference_photons"] == 200_000 and 0 < r["pixels_region"] <= r["pixels_compared"]
+        assert r["seconds"] > 0 and "caustic" in r["timings"]
+    assert text.count("  spp ") == 2 and "ring: reference 200,000 photons" in text
+    assert list((tmp_path / "cache").glob("lighttrace-*.npz"))
+
+
+@pytest.mark.gl
+def test_photon_radii_finds_the_index_radii_exact_on_a_tiny_map(tmp_path):
+    text = run_tool("photon_radii.py", ["scenes/ring.toml", "--size", "24", "--photons", "5e3",
+                                        "--reference", "2e5", *_cache(tmp_path)], tmp_path)
+    lines = text.splitlines()
+    assert lines[0].startswith("ring: 5,000 photons; index ")
+    # the index's own radii are the exact ones here: ratio 1, the same images
+    assert "mean 1.0000, median 1.0000" in lines[0] and "same 100.0%" in lines[0]
+    fluxes = [float(line.split("flux ")[1].split()[0]) for line in lines if " radii: flux " in line]
+    assert len(fluxes) == 2 and fluxes[0] == fluxes[1] and 0.8 < fluxes[0] < 1.2
+    assert lines[-1] == "  own against exact: relative RMS 0.0000"
+    text = run_tool("photon_radii.py", ["ring", "--photons", "5e3", "--times-only",
+                                        "--repeat", "2"], tmp_path)
+    [line] = text.splitlines()
+    assert line.startswith("ring, 5,000 photons, median of 2: index (render: no tables) ")
+    seconds = [float(part.split()[-2]) for part in line.split(": ", 1)[1].split("; ")]
+    assert len(seconds) == 4 and all(0 <= s < 60 for s in seconds)

@@ -18,38 +18,34 @@ pinhole through a delta surface, so its caustic there is 0):
     python tools/spp_sweep.py scenes/ring.toml scenes/corner.toml --spp 1,4,9,16
     python tools/spp_sweep.py scenes/venus.toml --photons 200000 --json out.json
 
+``--size`` renders (and traces the reference) at another square size than the scene's.
 The default spp (``blockhash.frame.subpixel.DEFAULT_SPP``) was chosen on ring and corner
 only; venus is reported, never tuned on.
 """
 
 from __future__ import annotations
 
-import argparse
-import json
 import sys
 import time
-from pathlib import Path
-
-ROOT = Path(__file__).resolve().parents[1]
 
 from blockhash.passes.pipeline import render_scene
 from blockhash.photons.tracing import trace_caustic_photons
-from blockhash.reference.lighttrace import cached_reference, lambertian
 from blockhash.scene.loader import load_scene
-from blockhash.studies.estimates import caustic_region, measure
+from blockhash.studies.command import ToolParser, count, listing, side, write_json
+from blockhash.studies.estimates import lambertian_reference, measure, reference_options
 
 #: Light-tracer photons of the reference: its blurred relative noise in the caustic region
 #: is printed beside every row.
 REFERENCE_PHOTONS = 100_000_000
 
 
-def sweep(scene_path, spps, *, photons, reference, cache, progress=print) -> list[dict]:
-    scene = lambertian(load_scene(scene_path))
-    name = Path(scene_path).stem
+def sweep(scene_path, spps, *, photons, reference, cache, size=None, progress=print) -> list[dict]:
+    scene = load_scene(scene_path)
+    if size:
+        scene = scene.with_size(size, size)
+    name = scene_path.stem
     t = time.perf_counter()
-    ref, _ = cached_reference(scene, reference, cache_dir=cache, progress=False)
-    mask = ref.comparison_mask()
-    region = caustic_region(ref.radiance, mask)
+    scene, ref, mask, region = lambertian_reference(scene, reference, cache_dir=cache)
     progress(f"{name}: reference {ref.emitted:,} photons ({time.perf_counter() - t:.0f} s), "
              f"{int(mask.sum()):,} pixels compared, {int(region.sum()):,} in the caustic region")
     pm = trace_caustic_photons(scene, photons, seed=scene.photons.seed)
@@ -71,23 +67,24 @@ def sweep(scene_path, spps, *, photons, reference, cache, progress=print) -> lis
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("scenes", nargs="+")
-    ap.add_argument("--spp", default="1,4,9,16", help="comma-separated square numbers")
-    ap.add_argument("--photons", type=float, default=1e6, help="photons stored (default 1e6)")
-    ap.add_argument("--reference", type=float, default=REFERENCE_PHOTONS,
-                    help="light-tracer photons shot for the reference (default %(default).0e)")
-    ap.add_argument("--cache", default=str(Path.home() / ".cache" / "blockhash"))
-    ap.add_argument("--json", help="write the rows to this JSON file")
-    a = ap.parse_args(argv)
+    p = ToolParser(__doc__, __file__)
+    p.add_argument("scenes", nargs="+", type=p.scene,
+                   help="scene files or names under scenes/")
+    p.add_argument("--spp", type=listing(count), default=[1, 4, 9, 16],
+                   help="comma-separated square numbers (default 1,4,9,16)")
+    p.photons(1_000_000, help="photons stored")
+    reference_options(p, REFERENCE_PHOTONS)
+    p.add_argument("--size", type=side, default=None,
+                   help="square image side, 128 or 128x128 (default the scene's)")
+    p.json_output("write the rows to this JSON file")
+    a = p.parse_args(argv)
     rows = []
     for s in a.scenes:
-        rows += sweep(s, [int(x) for x in a.spp.split(",")], photons=int(a.photons),
-                      reference=int(a.reference), cache=a.cache)
+        rows += sweep(s, a.spp, photons=a.photons, reference=a.reference, cache=a.cache,
+                      size=a.size)
     if a.json:
-        Path(a.json).write_text(json.dumps({"command": "python tools/spp_sweep.py "
-                                            + " ".join(argv or sys.argv[1:]), "rows": rows},
-                                           indent=1) + "\n")
+        write_json(a.json, {"command": "python tools/spp_sweep.py "
+                            + " ".join(sys.argv[1:] if argv is None else argv), "rows": rows})
     return 0
 
 

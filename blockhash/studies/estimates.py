@@ -19,6 +19,7 @@ exceeds :data:`REGION_FRACTION` of its 99th percentile.
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -34,6 +35,7 @@ from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.reference.lighttrace import cached_reference, lambertian
 from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial
+from blockhash.studies.command import count
 from blockhash.studies.measure import flux_ratio, masked_blur, rel_rms
 from blockhash.studies.sweep import box_down
 
@@ -62,6 +64,30 @@ def caustic_region(reference, mask) -> np.ndarray:
     b = masked_blur(reference, mask).sum(axis=2)
     top = float(np.percentile(b[mask], 99)) if mask.any() else 0.0
     return mask & (b > REGION_FRACTION * top)
+
+
+#: Where the light-traced references are cached unless a command names another folder.
+REFERENCE_CACHE = Path.home() / ".cache" / "blockhash"
+
+
+def reference_options(parser, photons: int | None = None, *, flag: str = "--reference") -> None:
+    """The options of a command that compares with the light-traced reference: ``--cache DIR``
+    (default :data:`REFERENCE_CACHE`) and, given its default ``photons``, ``FLAG N`` (the
+    light tracer's photons, a count such as 1e8)."""
+    if photons is not None:
+        parser.add_argument(flag, type=count, default=photons,
+                            help=f"light-tracer photons shot for the reference (default {photons:.0e})")
+    parser.add_argument("--cache", type=Path, default=REFERENCE_CACHE,
+                        help=f"folder of the cached references (default {REFERENCE_CACHE})")
+
+
+def lambertian_reference(scene, photons: int, *, size=None, cache_dir=REFERENCE_CACHE):
+    """The reference a Lambertian render is compared with: ``(scene with every ks 0, its
+    light-traced reference (cached), the comparison mask, the caustic region)``."""
+    scene = lambertian(scene)
+    ref, _ = cached_reference(scene, photons, size=size, cache_dir=cache_dir, progress=False)
+    mask = ref.comparison_mask()
+    return scene, ref, mask, caustic_region(ref.radiance, mask)
 
 
 def measure(image, reference, mask, region) -> dict:
