@@ -72,3 +72,16 @@ def test_photon_radii_finds_the_index_radii_exact_on_a_tiny_map(tmp_path):
     assert line.startswith("ring, 5,000 photons, median of 2: index (render: no tables) ")
     seconds = [float(part.split()[-2]) for part in line.split(": ", 1)[1].split("; ")]
     assert len(seconds) == 4 and all(0 <= s < 60 for s in seconds)
+
+
+@pytest.mark.gl
+def test_render_accuracy_converges_to_the_exact_image_as_a_grows(tmp_path):
+    text = run_tool("render_accuracy.py", ["scenes/ring.toml", "--size", "32x32", "--photons",
+                                           "2e4", "--A", "1,16"], tmp_path)
+    lines = text.splitlines()
+    assert lines[0] == ("scenes/ring.toml: 20,000 photons, 32x32, k=50; exact = cKDTree k "
+                        "nearest on the same map")
+    rows = {int(a): (float(err), float(ratio)) for a, err, ratio, _ in map(str.split, lines[2:])}
+    assert sorted(rows) == [1, 16]
+    assert rows[1][1] < 0.95 and rows[1][0] > 0.05  # A = 1: the Block Hashing image darker
+    assert rows[16][0] < 0.01 and abs(rows[16][1] - 1) < 0.01  # A = 16: the exact image
