@@ -85,3 +85,21 @@ def test_render_accuracy_converges_to_the_exact_image_as_a_grows(tmp_path):
     assert sorted(rows) == [1, 16]
     assert rows[1][1] < 0.95 and rows[1][0] > 0.05  # A = 1: the Block Hashing image darker
     assert rows[16][0] < 0.01 and abs(rows[16][1] - 1) < 0.01  # A = 16: the exact image
+
+
+@pytest.mark.gl
+def test_caustic_flux_check_prints_each_method_and_count_against_the_reference(tmp_path):
+    text = run_tool("caustic_flux_check.py", ["scenes/ring.toml", "--photons", "2e4,5000",
+                                              "--size", "24x24", "--reference-photons", "2e5",
+                                              *_cache(tmp_path)], tmp_path)
+    lines = text.splitlines()
+    assert lines[0].startswith("scenes/ring.toml (ks = 0), 24x24 (x2 supersampled), reference "
+                               "200,000 photons (")
+    assert str(tmp_path / "cache") in lines[0]
+    rows = [line.rsplit(None, 4) for line in lines[2:]]
+    assert [(r[0], r[1]) for r in rows] == [("exact kNN (cKDTree)", "20,000"),
+                                            ("BH default A=8", "20,000"),
+                                            ("exact kNN (cKDTree)", "5,000"),
+                                            ("BH default A=8", "5,000")]
+    for _, _, flux, rms, blur in rows:
+        assert 0.85 < float(flux) < 1.15 and 0 < float(blur) < float(rms) < 0.5

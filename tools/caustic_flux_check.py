@@ -14,10 +14,8 @@ directly; caustics seen in mirrors are in neither sum).
 
 from __future__ import annotations
 
-import argparse
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 
@@ -30,40 +28,43 @@ from blockhash.reference.lighttrace import cached_reference, lambertian
 from blockhash.scene.loader import load_scene
 from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial
+from blockhash.studies.command import ToolParser, count, size
+from blockhash.studies.estimates import reference_options
 from blockhash.studies.measure import errors_against
 from blockhash.studies.sweep import box_down
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("scene")
-    parser.add_argument("--photons", default="1000000", help="comma-separated photon counts")
-    parser.add_argument("--size", default="128x128")
-    parser.add_argument("--supersample", type=int, default=2)
-    parser.add_argument("--reference-photons", type=int, default=50_000_000)
-    parser.add_argument("--k", type=int, default=50)
-    parser.add_argument("--A", type=int, default=8)
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--keep-ks", action="store_true", help="keep the scene's ks (default: 0)")
-    parser.add_argument("--cache", default=str(Path.home() / ".cache" / "blockhash"))
-    args = parser.parse_args()
-    w, h = (int(v) for v in args.size.split("x"))
+def main(argv=None) -> None:
+    p = ToolParser(__doc__, __file__)
+    p.add_argument("scene", type=p.scene, help="scene file or name under scenes/")
+    p.photons([1_000_000], many=True, help="photon counts")
+    p.add_argument("--size", type=size, default=(128, 128),
+                   help="image size, 128x128 or 128 (default 128x128)")
+    p.add_argument("--supersample", type=count, default=2)
+    reference_options(p, 50_000_000, flag="--reference-photons")
+    p.add_argument("--k", type=count, default=50)
+    p.add_argument("--A", type=count, default=8)
+    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--keep-ks", action="store_true", help="keep the scene's ks (default: 0)")
+    args = p.parse_args(argv)
+    w, h = args.size
     ss = args.supersample
     scene = load_scene(args.scene)
+    shown = args.scene.relative_to(p.root) if p.root in args.scene.parents else args.scene
     if not args.keep_ks:
         scene = lambertian(scene)
     t = time.perf_counter()
     ref, path = cached_reference(scene, args.reference_photons, size=(w, h), cache_dir=args.cache)
     mask = ref.comparison_mask()
     noise = np.sqrt(np.sum(ref.stderr[mask] ** 2)) / ref.radiance[mask].sum()
-    print(f"{args.scene} (ks {'kept' if args.keep_ks else '= 0'}), {w}x{h} (x{ss} supersampled), "
+    print(f"{shown} (ks {'kept' if args.keep_ks else '= 0'}), {w}x{h} (x{ss} supersampled), "
           f"reference {ref.emitted:,} photons ({path}, {time.perf_counter() - t:.0f} s), "
           f"{mask.sum():,} pixels compared, reference flux standard error {noise:.2%}")
     g = rasterize(scene.camera, scene.objects, size=(w * ss, h * ss))
     points = shading_points(scene.camera, g, scene.objects, SceneRays(scene.objects), (MirrorMaterial,))
     materials = receiver_materials(scene.objects)
     print(f"{'method':<22} {'N':>10} {'flux / reference':>17} {'rel RMS':>8} {'rel RMS (2 px blur)':>20}")
-    for n in (int(float(v)) for v in args.photons.split(",")):
+    for n in args.photons:
         photons = trace_caustic_photons(scene, n, seed=args.seed)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
