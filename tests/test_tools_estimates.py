@@ -103,3 +103,16 @@ def test_caustic_flux_check_prints_each_method_and_count_against_the_reference(t
                                             ("BH default A=8", "5,000")]
     for _, _, flux, rms, blur in rows:
         assert 0.85 < float(flux) < 1.15 and 0 < float(blur) < float(rms) < 0.5
+
+
+def test_sphere_tessellation_compares_each_subdivision_with_the_finest(tmp_path):
+    text = run_tool("sphere_tessellation.py", ["--photons", "2e4", "--subdivisions", "2,3",
+                                               "--finest", "4", "--cell", "0.01"], tmp_path)
+    lines = text.splitlines()
+    assert lines[0].startswith("glass.toml: 20,000 photons stored, histogram ")
+    assert lines[0].endswith("cells of 10 mm over the caustic; against subdivisions 4")
+    rows = [line.split() for line in lines[2:]]
+    assert [(r[0], r[1]) for r in rows] == [("2", "320"), ("3", "1,280"), ("4", "5,120")]
+    err, flux = [float(r[2]) for r in rows], [float(r[3]) for r in rows]
+    assert err[2] == 0 and flux[2] == 1  # the finest against itself
+    assert err[0] > err[1] > 0 and all(abs(f - 1) < 0.05 for f in flux)

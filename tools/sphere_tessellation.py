@@ -11,19 +11,15 @@ each histogram from the finest one's, and the stored flux ratio, say what the fa
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import sys
-import time
-from pathlib import Path
 
 import numpy as np
-
-ROOT = Path(__file__).resolve().parents[1]
 
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.scene import meshes
 from blockhash.scene.loader import load_scene
+from blockhash.studies.command import ToolParser, count, listing, number, timed
 
 
 def with_subdivisions(scene, s: int):
@@ -38,20 +34,19 @@ def with_subdivisions(scene, s: int):
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("scene", nargs="?", default=str(ROOT / "scenes" / "glass.toml"))
-    ap.add_argument("--photons", type=float, default=1e6)
-    ap.add_argument("--subdivisions", default="3,4,5,6")
-    ap.add_argument("--finest", type=int, default=7)
-    ap.add_argument("--cell", type=float, default=0.002, help="histogram cell, metres")
-    a = ap.parse_args(argv)
+    p = ToolParser(__doc__, __file__)
+    p.add_argument("scene", nargs="?", type=p.scene, default="glass",
+                   help="scene file or name under scenes/ (default glass)")
+    p.photons(1_000_000, help="photons stored")
+    p.add_argument("--subdivisions", type=listing(count), default=[3, 4, 5, 6],
+                   help="icosphere subdivisions compared (default 3,4,5,6)")
+    p.add_argument("--finest", type=count, default=7, help="the subdivision compared with")
+    p.add_argument("--cell", type=number, default=0.002, help="histogram cell, metres")
+    a = p.parse_args(argv)
     scene = load_scene(a.scene)
-    maps = {}
-    for s in [int(x) for x in a.subdivisions.split(",")] + [a.finest]:
-        t = time.perf_counter()
-        pm = trace_caustic_photons(with_subdivisions(scene, s), int(a.photons),
-                                   seed=scene.photons.seed)
-        maps[s] = (pm, time.perf_counter() - t)
+    maps = {s: timed(trace_caustic_photons, with_subdivisions(scene, s), a.photons,
+                     seed=scene.photons.seed)
+            for s in a.subdivisions + [a.finest]}
     ref = maps[a.finest][0]
     lo = np.percentile(ref.positions, 1, axis=0)
     hi = np.percentile(ref.positions, 99, axis=0)
@@ -62,7 +57,7 @@ def main(argv=None) -> int:
                                  weights=pm.powers[:, 0])
         return h
     href = hist(ref)
-    print(f"{Path(a.scene).name}: {int(a.photons):,} photons stored, histogram "
+    print(f"{a.scene.name}: {a.photons:,} photons stored, histogram "
           f"{len(bins[0]) - 1} x {len(bins[1]) - 1} cells of {a.cell * 1e3:g} mm over the "
           f"caustic; against subdivisions {a.finest}")
     print(f"{'subdiv':>6} {'triangles':>10} {'rel. L2 vs finest':>18} {'flux ratio':>11} {'trace s':>8}")
