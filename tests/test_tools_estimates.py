@@ -5,8 +5,9 @@ outside the checkout: the rows they print or write hold the figures they promise
 import json
 import math
 
+import numpy as np
 import pytest
-from conftest import run_tool
+from conftest import TOOLS_DIR, run_tool
 
 
 def _table(text: str, first: str) -> list[list[str]]:
@@ -116,3 +117,36 @@ def test_sphere_tessellation_compares_each_subdivision_with_the_finest(tmp_path)
     err, flux = [float(r[2]) for r in rows], [float(r[3]) for r in rows]
     assert err[2] == 0 and flux[2] == 1  # the finest against itself
     assert err[0] > err[1] > 0 and all(abs(f - 1) < 0.05 for f in flux)
+
+
+def _trade_study(folder, cache, darkening: dict) -> None:
+    """A trade study's ``tradeoff.json`` and ``images.exr`` (24 x 24, the ring scene), its
+    image at each A the reference times ``darkening[A]``."""
+    from blockhash.evaluate.images import write_exr
+    from blockhash.reference.lighttrace import cached_reference, lambertian
+    from blockhash.scene.loader import load_scene
+
+    scene = lambertian(load_scene(TOOLS_DIR.parent / "scenes" / "ring.toml"))
+    ref, _ = cached_reference(scene, 200_000, size=(24, 24), cache_dir=cache)
+    folder.mkdir()
+    (folder / "tradeoff.json").write_text(json.dumps({
+        "scene": "scenes/ring.toml", "lambertian": True, "reference": {"photons": 200_000},
+        "size": [24, 24], "plan": {"photons": [5000], "k0": 50}}))
+    reference = ref.radiance.astype(np.float32)
+    write_exr(folder / "images.exr", {"reference": reference,
+                                      **{f"A{a}": reference * g for a, g in darkening.items()}})
+
+
+def test_darkening_check_fits_a_gain_per_a_and_tests_it_on_the_other_study(tmp_path):
+    cache = tmp_path / "cache"
+    _trade_study(tmp_path / "fit", cache, {1: 0.8, 4: 0.95})
+    _trade_study(tmp_path / "test", cache, {1: 0.9, 4: 0.95, 16: 1.0})
+    text = run_tool("darkening_check.py", [tmp_path / "fit", tmp_path / "test", "--cache", cache],
+                    tmp_path)
+    lines = text.splitlines()
+    assert lines[0] == "gains fitted on scenes/ring.toml, tested on scenes/ring.toml (N = 5,000, k = 50)"
+    rows = {int(r[0]): [float(v) for v in r[1:]] for r in map(str.split, lines[2:])}
+    assert sorted(rows) == [1, 4]  # the A both studies hold
+    gain, before, after, rms_before, rms_after = rows[1]
+    assert (gain, before, after) == (1.25, 0.9, 1.125)
+    assert rows[4][:3] == [1.053, 0.95, 1.0] and rows[4][4] < 0.001 < rows[4][3]

@@ -15,7 +15,6 @@ tracer cannot connect a caustic to the pinhole through a delta surface).
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
@@ -24,13 +23,17 @@ import numpy as np
 from blockhash.evaluate.images import read_layers
 from blockhash.reference.lighttrace import cached_reference, lambertian
 from blockhash.scene.loader import load_scene
+from blockhash.studies.command import ToolParser
+from blockhash.studies.estimates import reference_options
 from blockhash.studies.measure import errors_against
 
 
-def load(study_dir: Path, cache: str):
+def load(study_dir: Path, cache, scene_path):
+    """(the study, its layers, the comparison mask of its reference); ``scene_path`` resolves
+    the study's scene (a path, a checkout path or a name under scenes/)."""
     study = json.loads((study_dir / "tradeoff.json").read_text())
     layers = read_layers(study_dir / "images.exr")
-    scene = load_scene(study["scene"])
+    scene = load_scene(scene_path(study["scene"]))
     if scene.objects and study.get("lambertian"):
         scene = lambertian(scene)
     ref, _ = cached_reference(scene, study["reference"]["photons"], size=tuple(study["size"]),
@@ -38,14 +41,14 @@ def load(study_dir: Path, cache: str):
     return study, layers, ref.comparison_mask()
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("fit", type=Path, help="study directory the gains are fitted on")
-    parser.add_argument("test", type=Path, help="study directory they are tested on")
-    parser.add_argument("--cache", default=str(Path.home() / ".cache" / "blockhash"))
-    args = parser.parse_args()
-    fit, fit_img, fit_mask = load(args.fit, args.cache)
-    test, test_img, test_mask = load(args.test, args.cache)
+def main(argv=None) -> None:
+    p = ToolParser(__doc__, __file__)
+    p.add_argument("fit", type=Path, help="study directory the gains are fitted on")
+    p.add_argument("test", type=Path, help="study directory they are tested on")
+    reference_options(p)
+    args = p.parse_args(argv)
+    fit, fit_img, fit_mask = load(args.fit, args.cache, p.scene)
+    test, test_img, test_mask = load(args.test, args.cache, p.scene)
     print(f"gains fitted on {fit['scene']}, tested on {test['scene']} "
           f"(N = {max(test['plan']['photons']):,}, k = {test['plan']['k0']})")
     print(f"{'A':>3} {'gain':>7} {'flux before':>12} {'flux after':>11} {'RMS blur before':>16} "
