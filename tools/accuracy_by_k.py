@@ -1,7 +1,7 @@
 """False negatives at every k, for each lookup of the default preset (CPU reference).
 
 ``tools/eval_accuracy.py``'s measurement (its maps, query sets and split into near and far
-queries) repeated over k and the lookups: the walk (today's default), the tables hashed
+queries) repeated over k and the lookups: the walk (the default), the tables hashed
 with the walk off, and the Hilbert cells.  One table per lookup and A: the mean false
 negatives as a share of k, per map and k.
 
@@ -11,14 +11,8 @@ negatives as a share of k, per map and k.
 
 from __future__ import annotations
 
-import argparse
-import json
-import sys
-from pathlib import Path
-
-from blockhash.evaluate import accuracy_runs as ea
-
-SCENES = Path(__file__).resolve().parents[1] / "scenes"
+from blockhash.studies import accuracy_runs as ea
+from blockhash.studies.command import ToolParser
 
 KS = (1, 2, 4, 8, 16, 32, 50, 100, 128)
 LOOKUPS = ("walk", "hash", "cells")
@@ -52,33 +46,26 @@ def tables(rows) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--maps", default=",".join(ea.TUNE + ea.REPORT))
-    ap.add_argument("--photons", type=float, default=1e5)
-    ap.add_argument("--queries", type=int, default=4000)
-    ap.add_argument("--k", default=",".join(map(str, KS)))
-    ap.add_argument("--A", default="8,64")
-    ap.add_argument("--lookups", default=",".join(LOOKUPS))
-    ap.add_argument("--json", help="write the rows here")
-    ap.add_argument("--from-json", metavar="FILE", help="print the tables of a saved run")
-    a = ap.parse_args(argv)
+    p = ToolParser(__doc__, __file__)
+    ea.run_options(p, k=KS)
+    p.add_argument("--lookups", type=ea.one_of(*LOOKUPS), default=list(LOOKUPS),
+                   help=f"lookups (default {','.join(LOOKUPS)})")
+    ea.rows_options(p)
+    a = p.parse_args(argv)
     if a.from_json:
-        print(tables(json.loads(Path(a.from_json).read_text())["rows"]))
+        print(tables(ea.saved_rows(a.from_json)))
         return 0
     rows = []
-    for lookup in a.lookups.split(","):
-        for k in (int(x) for x in a.k.split(",")):
-            for name in a.maps.split(","):
-                rows += ea.evaluate(name, int(a.photons), a.queries, k,
-                                    [int(x) for x in a.A.split(",")], ("default",),
-                                    lookup=lookup, scenes=SCENES)
+    for lookup in a.lookups:
+        for k in a.k:
+            for name in a.maps:
+                rows += ea.evaluate(name, a.photons, a.queries, k, a.A, ("default",),
+                                    lookup=lookup, scenes=p.root / "scenes")
     print(tables(rows))
     if a.json:
-        Path(a.json).write_text(json.dumps({"command": "python tools/accuracy_by_k.py "
-                                            + " ".join(argv or sys.argv[1:]), "rows": rows},
-                                           indent=1) + "\n")
+        ea.save_rows(a.json, __file__, argv, rows)
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

@@ -12,47 +12,36 @@ input first.
 
 from __future__ import annotations
 
-import argparse
-import time
-from pathlib import Path
-from statistics import median
-
 import numpy as np
-from scipy.spatial import cKDTree
 
-ROOT = Path(__file__).resolve().parents[1]
-
-from blockhash import BlockHashIndex
-from blockhash.evaluate.photon_maps import MAPS
+from blockhash.studies import accuracy_runs as ea
+from blockhash.studies.command import ToolParser, count, listing
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--maps", default="caustic,room,uniform")
-    ap.add_argument("--photons", default="1e6")
-    ap.add_argument("--A", default="8")
-    ap.add_argument("--k", type=int, default=50)
-    ap.add_argument("--repeat", type=int, default=5)
-    args = ap.parse_args(argv)
-    BlockHashIndex(MAPS["uniform"].photons(5000, np.random.default_rng(9)), k=8, A=2)
+    p = ToolParser(__doc__, __file__)
+    p.add_argument("--maps", type=listing(ea.map_name), default=["caustic", "room", "uniform"],
+                   help="photon maps (default caustic,room,uniform)")
+    p.photons([1_000_000], many=True, help="photon counts")
+    p.add_argument("--A", type=listing(count), default=[8], help="the accuracy knob A (default 8)")
+    p.add_argument("--k", type=count, default=50, help="neighbours k (default 50)")
+    p.add_argument("--repeat", type=count, default=5, help="rounds (default 5)")
+    p.json_output("write the rows here")
+    args = p.parse_args(argv)
+    ea.warm_up()
     print(f"{'map':10s} {'N':>10s} {'A':>3s} {'BH s':>7s} {'kd s':>7s} {'ratio':>6s}  stages (median s)")
-    for name in args.maps.split(","):
-        for n in (int(float(v)) for v in args.photons.split(",")):
-            pts = MAPS[name].photons(n, np.random.default_rng(0))
-            for A in (int(a) for a in args.A.split(",")):
-                bh, kd, stages = [], [], []
-                for _ in range(args.repeat):
-                    t0 = time.perf_counter()
-                    index = BlockHashIndex(pts, k=args.k, A=A)
-                    bh.append(time.perf_counter() - t0)
-                    t0 = time.perf_counter()
-                    cKDTree(pts)
-                    kd.append(time.perf_counter() - t0)
-                    stages.append(index.timings)
-                parts = ", ".join(f"{s} {median(t[s] for t in stages):.3f}"
-                                  for s in ("encode", "blocks", "thresholds", "insert", "pack"))
-                print(f"{name:10s} {n:>10,} {A:>3d} {median(bh):7.3f} {median(kd):7.3f} "
-                      f"{median(bh) / median(kd):6.2f}  {parts}", flush=True)
+    rows = []
+    for name in args.maps:
+        for n in args.photons:
+            pts = ea.photon_map(name, p.root / "scenes").photons(n, np.random.default_rng(0))
+            for A in args.A:
+                r = {"map": name, **ea.build_beside_ckdtree(pts, args.k, A, args.repeat)}
+                rows.append(r)
+                parts = ", ".join(f"{s} {t:.3f}" for s, t in r["stages"].items())
+                print(f"{name:10s} {n:>10,} {A:>3d} {r['build_s']:7.3f} {r['ckdtree_s']:7.3f} "
+                      f"{r['ratio']:6.2f}  {parts}", flush=True)
+    if args.json:
+        ea.save_rows(args.json, __file__, argv, rows)
     return 0
 
 

@@ -13,7 +13,6 @@ query misses most of the draw; ``--clock gpu`` on a GPU).
 
 from __future__ import annotations
 
-import argparse
 import statistics
 
 import numpy as np
@@ -22,19 +21,21 @@ from blockhash import BlockHashIndex
 from blockhash.evaluate.datasets import DISTRIBUTIONS
 from blockhash.gl.lookup import GLLookup
 from blockhash.studies.bench import device_info, make_queries
+from blockhash.studies.command import ToolParser, count
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv=None) -> int:
+    ap = ToolParser(__doc__, __file__)
     ap.add_argument("specs", nargs="+", help="VARIANT[@WIDTH] or floor:VARIANT[@WIDTH]")
-    ap.add_argument("--photons", type=int, default=200_000)
-    ap.add_argument("--queries", type=int, default=65_536)
-    ap.add_argument("--k", type=int, default=50)
-    ap.add_argument("--A", type=int, default=8)
+    ap.photons(200_000)
+    ap.add_argument("--queries", type=count, default=65_536, help="queries (default 65,536)")
+    ap.add_argument("--k", type=count, default=50)
+    ap.add_argument("--A", type=count, default=8)
     ap.add_argument("--data", choices=sorted(DISTRIBUTIONS), default="caustic")
-    ap.add_argument("--rounds", type=int, default=8)
+    ap.add_argument("--rounds", type=count, default=8)
     ap.add_argument("--clock", choices=("wall", "gpu"), default="wall")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
+    args.specs = list(dict.fromkeys(args.specs))  # a spec given twice is timed once
     pts = DISTRIBUTIONS[args.data](args.photons, np.random.default_rng(0))
     q = make_queries(pts, args.queries, "image", 1, args.data)
     side = int(np.ceil(np.sqrt(args.queries)))
@@ -64,7 +65,8 @@ def main() -> None:
     for spec, t in times.items():
         med = statistics.median(t)
         print(f"{spec:<44} {1e3 * med:>10.1f} {1e3 * min(t):>9.1f} {med / base:>6.2f}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

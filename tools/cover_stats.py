@@ -15,112 +15,71 @@ usage: python tools/cover_stats.py [--scenes scenes/ring.toml,...] [--maps caust
 """
 
 import argparse
-import json
-import sys
-import time
 
 import numpy as np
 
-from blockhash.evaluate.photon_maps import EXTREMES, MAPS, named, queries
-from blockhash.frame.photon_radius import exact_radii2, own_radii2
+from blockhash.evaluate.photon_maps import EXTREMES, MAPS, queries
 from blockhash.index.block_hash_index import BlockHashIndex
-from blockhash.index.lookups.cover import FINE, OCTAVE_STEPS, CoverGather
-
-
-def scene_points(path, photons, size, k):
-    """(index, (m, 3) float32 shading points) of a scene's camera at size x size."""
-    from blockhash.frame.gbuffer import rasterize
-    from blockhash.frame.shading import SceneRays, shading_points
-    from blockhash.photons.tracing import trace_caustic_photons
-    from blockhash.scene.loader import load_scene
-    from blockhash.scene.model import MirrorMaterial
-
-    scene = load_scene(path)
-    pm = trace_caustic_photons(scene, photons, seed=scene.photons.seed)
-    index = BlockHashIndex(pm.positions, k=k, directions=pm.directions, normals=pm.normals,
-                           powers=pm.powers)
-    gbuf = rasterize(scene.camera, scene.objects, size=(size, size))
-    pts = shading_points(scene.camera, gbuf, scene.objects, SceneRays(scene.objects), (MirrorMaterial,))
-    live = (pts.material >= 0).reshape(-1)
-    return index, pts.position.reshape(-1, 3)[live]
-
+from blockhash.index.lookups.cover import FINE, OCTAVE_STEPS
+from blockhash.studies import accuracy_runs as ea
+from blockhash.studies.command import ToolParser, count, listing
+from blockhash.studies.cover_reads import cover_row, scene_points
 
 #: The photon maps of tools/eval_accuracy.py but its scene maps (ring, venus: --scenes).
 MAP_NAMES = (*MAPS, *EXTREMES)
 
 
-def stats(name, index, q, k, exact, fine=FINE, axis=None, steps=OCTAVE_STEPS):
-    r2 = (exact_radii2 if exact else own_radii2)(index, k)
-    t = time.perf_counter()
-    gather = CoverGather.build(index, r2, fine=fine, axis=axis, steps=steps)
-    build = time.perf_counter() - t
-    cov = gather.query(q)
-    counts, cand = cov.counts, cov.candidates
-    covered = counts > 0
-    row = {"map": name, "photons": len(index), "k": k, "queries": len(q), "fine_cells": fine,
-           "octave_steps": steps,
-           "octaves": len(gather.octaves), "windows": gather.windows,
-           "fine_axis": "xyz"[gather.axis],
-           "table_bytes_per_photon": gather.table_bytes / len(index),
-           "record_bytes_per_photon": gather.records.nbytes / len(index),
-           "covered_share": float(covered.mean()),
-           "covering_mean": float(counts.mean()), "covering_max": int(counts.max(initial=0)),
-           "covering_mean_covered": float(counts[covered].mean()) if covered.any() else 0.0,
-           "candidates_mean": float(cand.mean()), "candidates_p99": float(np.quantile(cand, 0.99)),
-           "candidates_max": int(cand.max(initial=0)),
-           "ratio": float(cand.mean() / max(counts.mean(), 1e-12)),
-           "probes_mean": float(np.mean(cov.probes)), "build_s": build,
-           "radii": "exact" if exact else "own", "r2_mean": float(np.mean(r2))}
-    print(f"{name:>10} (fine {fine}, steps {steps}): {row['octaves']} octaves, {row['windows']:,} "
-          f"windows (fine axis {row['fine_axis']}) "
-          f"({row['table_bytes_per_photon']:.1f} B/photon); covering mean {row['covering_mean']:.1f} "
-          f"max {row['covering_max']}; candidates mean {row['candidates_mean']:.0f} p99 "
-          f"{row['candidates_p99']:.0f} max {row['candidates_max']}; ratio {row['ratio']:.1f}x; "
-          f"windows probed {row['probes_mean']:.0f}", flush=True)
-    return row
+def axis(text: str):
+    """A fine axis: ``auto`` (None, the rule's) or x, y, z (0, 1, 2)."""
+    if text not in ("auto", "x", "y", "z"):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected auto, x, y or z")
+    return None if text == "auto" else "xyz".index(text)
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--scenes", default="scenes/ring.toml,scenes/venus.toml,scenes/glass.toml,"
-                                       "scenes/corner.toml")
-    p.add_argument("--maps", default=",".join(MAP_NAMES),
-                   help="photon maps of tools/eval_accuracy.py, queried with its query sets")
-    p.add_argument("--photons", type=float, default=2e5)
-    p.add_argument("--queries", type=int, default=65536, help="queries per photon map")
-    p.add_argument("--size", type=int, default=256, help="scene image side (one point per pixel)")
-    p.add_argument("--k", type=int, default=50)
-    p.add_argument("--fine", default=str(FINE), help="fine cells per coarse side, comma-separated")
-    p.add_argument("--axis", default="auto", help="fine axes, comma-separated: auto, x, y, z")
-    p.add_argument("--steps", default=str(OCTAVE_STEPS),
+    p = ToolParser(__doc__, __file__)
+    p.scenes("scenes/ring.toml,scenes/venus.toml,scenes/glass.toml,scenes/corner.toml")
+    p.add_argument("--maps", type=listing(ea.map_name), default=list(MAP_NAMES),
+                   help="photon maps of tools/eval_accuracy.py, queried with its query sets "
+                        "('' for none)")
+    p.photons(200_000)
+    p.add_argument("--queries", type=count, default=65536, help="queries per photon map")
+    p.size(256, help="scene image side (one point per pixel)")
+    p.add_argument("--k", type=count, default=50)
+    p.add_argument("--fine", type=listing(count), default=[FINE],
+                   help="fine cells per coarse side, comma-separated")
+    p.add_argument("--axis", type=listing(axis), default=[None],
+                   help="fine axes, comma-separated: auto, x, y, z")
+    p.add_argument("--steps", type=listing(count), default=[OCTAVE_STEPS],
                    help="octaves per doubling of the cell side, comma-separated (1, 2, 3)")
     p.add_argument("--exact-radii", action="store_true", help="cKDTree radii instead of the render's")
-    p.add_argument("--json", help="write the rows here")
+    p.json_output("write the rows here")
     args = p.parse_args(argv)
-    n = int(args.photons)
-    layouts = [(int(f), None if a == "auto" else "xyz".index(a), int(st))
-               for st in args.steps.split(",") for f in args.fine.split(",")
-               for a in args.axis.split(",")]
+    layouts = [(f, a, st) for st in args.steps for f in args.fine for a in args.axis]
     rows = []
 
     def measure(name, index, q):
-        for fine, axis, steps in layouts:
-            rows.append(stats(name, index, q, args.k, args.exact_radii, fine, axis, steps))
-            rows[-1]["axis_choice"] = "auto" if axis is None else "xyz"[axis]
+        for fine, ax, steps in layouts:
+            row = cover_row(name, index, q, args.k, args.exact_radii, fine, ax, steps)
+            rows.append(row)
+            print(f"{name:>10} (fine {fine}, steps {steps}): {row['octaves']} octaves, "
+                  f"{row['windows']:,} windows (fine axis {row['fine_axis']}) "
+                  f"({row['table_bytes_per_photon']:.1f} B/photon); covering mean "
+                  f"{row['covering_mean']:.1f} max {row['covering_max']}; candidates mean "
+                  f"{row['candidates_mean']:.0f} p99 {row['candidates_p99']:.0f} max "
+                  f"{row['candidates_max']}; ratio {row['ratio']:.1f}x; "
+                  f"windows probed {row['probes_mean']:.0f}", flush=True)
 
-    for path in [s for s in args.scenes.split(",") if s]:
-        index, q = scene_points(path, n, args.size, args.k)
-        measure(path.rsplit("/", 1)[-1].removesuffix(".toml"), index, q)
-    for name in [m for m in args.maps.split(",") if m]:
-        pm = named(name)
-        index = BlockHashIndex(pm.photons(n, np.random.default_rng(7)), k=args.k)
+    for path in args.scenes:
+        measure(path.stem, *scene_points(path, args.photons, args.size, args.k))
+    for name in args.maps:
+        pm = ea.photon_map(name, p.root / "scenes")
+        index = BlockHashIndex(pm.photons(args.photons, np.random.default_rng(7)), k=args.k)
         measure(name, index, queries(pm, args.queries, np.random.default_rng(8)))
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump({"command": "python tools/cover_stats.py " + " ".join(argv or sys.argv[1:]),
-                       "rows": rows}, fh, indent=1)
+        ea.save_rows(args.json, __file__, argv, rows)
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

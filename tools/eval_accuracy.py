@@ -31,22 +31,17 @@ same buckets per table); ``--tune`` restricts the maps to the TUNE set.
 
 from __future__ import annotations
 
-import argparse
-import json
+import itertools
+import os
 import platform
-import sys
 from pathlib import Path
 
 import numpy as np
 
-from blockhash import BlockHashIndex
-from blockhash.evaluate.accuracy_runs import PRESETS, REPORT, TUNE, evaluate
-from blockhash.evaluate.photon_maps import MAPS
+from blockhash.studies import accuracy_runs as ea
+from blockhash.studies.command import ToolParser, count, listing, number
 
-ROOT = Path(__file__).resolve().parents[1]
-SCENES = ROOT / "scenes"
 
-#: Maps the default preset's constants were chosen on.
 def markdown(rows: list[dict]) -> str:
     """Two tables: mean false negatives per map and A for each preset, and the targets at
     the default preset's A = 8."""
@@ -90,60 +85,50 @@ def markdown(rows: list[dict]) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--maps", default=",".join(TUNE + REPORT))
-    ap.add_argument("--photons", type=float, default=1e6)
-    ap.add_argument("--queries", type=int, default=20_000)
-    ap.add_argument("--k", type=int, default=50)
-    ap.add_argument("--A", default="1,2,4,8,16,32,64")
-    ap.add_argument("--presets", default=",".join(PRESETS))
-    ap.add_argument("--quick", action="store_true", help="N = 10^5, 4,000 queries, A in 1, 8, 64")
-    ap.add_argument("--ppb", help="sweep: photons per bucket / k at A = 8 (comma-separated)")
-    ap.add_argument("--L", help="sweep: tables")
-    ap.add_argument("--slack", help="sweep: block slack")
-    ap.add_argument("--walk-trees", help="sweep: tables the nearest-box-first walk is seeded with")
-    ap.add_argument("--layouts", help="sweep: threshold layouts of the default preset "
-                    "(adaptive, marginal)")
-    ap.add_argument("--tune", action="store_true", help="only the TUNE maps")
-    ap.add_argument("--lookup", choices=("cells", "walk", "hash"),
-                    help="the query (default: the preset's); rounds of dependent fetches per "
-                         "query are printed where the query counts them")
-    ap.add_argument("--json", help="write the rows (and the machine) here")
-    ap.add_argument("--markdown", help="write the table here")
-    ap.add_argument("--from-json", metavar="FILE",
-                    help="print the tables of a saved run (--json) instead of running")
-    args = ap.parse_args(argv)
+    p = ToolParser(__doc__, __file__)
+    ea.run_options(p, photons=1_000_000, queries=20_000, A=(1, 2, 4, 8, 16, 32, 64))
+    p.add_argument("--presets", type=ea.one_of(*ea.PRESETS), default=list(ea.PRESETS),
+                   help=f"presets (default {','.join(ea.PRESETS)})")
+    p.add_argument("--quick", action="store_true", help="N = 10^5, 4,000 queries, A in 1, 8, 64")
+    p.add_argument("--ppb", type=listing(number),
+                   help="sweep: photons per bucket / k at A = 8 (comma-separated)")
+    p.add_argument("--L", type=listing(count), help="sweep: tables")
+    p.add_argument("--slack", type=listing(number), help="sweep: block slack")
+    p.add_argument("--walk-trees", type=listing(count),
+                   help="sweep: tables the nearest-box-first walk is seeded with")
+    p.add_argument("--layouts", type=listing(str), help="sweep: threshold layouts of the "
+                   "default preset (adaptive, marginal)")
+    p.add_argument("--tune", action="store_true", help="only the TUNE maps")
+    p.add_argument("--lookup", choices=("cells", "walk", "hash"),
+                   help="the query (default: the preset's); rounds of dependent fetches per "
+                        "query are printed where the query counts them")
+    p.add_argument("--markdown", type=Path, help="write the table here")
+    ea.rows_options(p, "the rows (and the machine)")
+    args = p.parse_args(argv)
     if args.from_json:
-        print(markdown(json.loads(Path(args.from_json).read_text())["rows"]))
+        print(markdown(ea.saved_rows(args.from_json)))
         return 0
     if args.quick:
-        args.photons, args.queries, args.A = 1e5, 4000, "1,8,64"
-    As = [int(a) for a in args.A.split(",")]
-    sweeps = [[(key, int(v) if key in ("L", "walk_trees") else float(v)) for v in text.split(",")]
-              for key, text in (("photons_per_bucket", args.ppb), ("L", args.L),
-                                ("block_slack", args.slack),
-                                ("walk_trees", args.walk_trees)) if text]
-    if args.layouts:
-        sweeps.append([("layout", v) for v in args.layouts.split(",")])
-    configs = [dict(c) for c in __import__("itertools").product(*sweeps)] or [{}]
-    if args.tune:
-        args.maps = ",".join(TUNE)
+        args.photons, args.queries, args.A = 100_000, 4000, [1, 8, 64]
+    sweeps = [[(key, v) for v in values]
+              for key, values in (("photons_per_bucket", args.ppb), ("L", args.L),
+                                  ("block_slack", args.slack), ("walk_trees", args.walk_trees),
+                                  ("layout", args.layouts)) if values]
+    configs = [dict(c) for c in itertools.product(*sweeps)] or [{}]
+    maps = ea.TUNE if args.tune else args.maps
     rows = []
-    # Compile numba's paths on a tiny input first, so the first build is not timed with them.
-    BlockHashIndex(MAPS["uniform"].photons(5000, np.random.default_rng(9)), k=8, A=2).query(np.zeros((4, 3)))
-    for name in args.maps.split(","):
-        rows += evaluate(name, int(args.photons), args.queries, args.k, As, args.presets.split(","),
-                         configs, args.lookup, scenes=SCENES)
+    ea.warm_up()
+    for name in maps:
+        rows += ea.evaluate(name, args.photons, args.queries, args.k, args.A, args.presets,
+                            configs, args.lookup, scenes=p.root / "scenes")
     table = markdown(rows)
     print(table)
     if args.markdown:
-        Path(args.markdown).write_text(table + "\n")
+        args.markdown.write_text(table + "\n")
     if args.json:
-        Path(args.json).write_text(json.dumps({
-            "command": "python tools/eval_accuracy.py " + " ".join(argv or sys.argv[1:]),
-            "machine": {"platform": platform.platform(), "python": platform.python_version(),
-                        "cpus": __import__("os").cpu_count()},
-            "rows": rows}, indent=1))
+        ea.save_rows(args.json, __file__, argv, rows,
+                     machine={"platform": platform.platform(), "python": platform.python_version(),
+                              "cpus": os.cpu_count()})
     return 0
 
 

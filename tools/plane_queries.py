@@ -10,41 +10,41 @@ floor: 0 (where the renderer queries) and a little above or below.
 
 from __future__ import annotations
 
-import argparse
-import warnings
-
-from blockhash import BlockHashIndex
-from blockhash.evaluate.metrics import accuracy, exact_knn
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.scene.loader import load_scene
+from blockhash.studies.accuracy_runs import plane_false_negatives
+from blockhash.studies.command import ToolParser, count, listing, number
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("scene")
-    parser.add_argument("--photons", type=int, default=100_000)
-    parser.add_argument("--queries", type=int, default=2_000)
-    parser.add_argument("--k", type=int, default=50)
-    parser.add_argument("--A", type=int, default=8)
-    parser.add_argument("--dy", default="0,1e-7,-1e-7,1e-3")
-    parser.add_argument("--seed", type=int, default=1)
-    args = parser.parse_args()
+def height(text: str) -> str:
+    """A height above the floor, kept as written (the table's header shows it)."""
+    number(text)
+    return text.strip()
+
+
+def main(argv=None) -> int:
+    p = ToolParser(__doc__, __file__)
+    p.add_argument("scene", type=p.scene, help="a scene file or a name under scenes/")
+    p.photons(100_000)
+    p.add_argument("--queries", type=count, default=2_000, help="queries (default 2,000)")
+    p.add_argument("--k", type=count, default=50)
+    p.add_argument("--A", type=count, default=8)
+    p.add_argument("--dy", type=listing(height), default="0,1e-7,-1e-7,1e-3",
+                   help="query heights above the floor (default 0,1e-7,-1e-7,1e-3)")
+    p.add_argument("--seed", type=int, default=1)
+    args = p.parse_args(argv)
     photons = trace_caustic_photons(load_scene(args.scene), args.photons, seed=args.seed)
     y = photons.positions[:, 1]
-    print(f"{args.scene}: {len(photons):,} photons, y in [{y.min():.3g}, {y.max():.3g}], "
+    shown = args.scene.relative_to(p.root) if args.scene.is_relative_to(p.root) else args.scene
+    print(f"{shown}: {len(photons):,} photons, y in [{y.min():.3g}, {y.max():.3g}], "
           f"k={args.k}, A={args.A}, {args.queries:,} queries")
-    print(f"{'preset':<8} " + " ".join(f"{'dy=' + d:>12}" for d in args.dy.split(",")))
+    print(f"{'preset':<8} " + " ".join(f"{'dy=' + d:>12}" for d in args.dy))
     for preset in ("default", "paper"):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            index = BlockHashIndex(photons.positions, k=args.k, A=args.A, preset=preset)
-        cells = []
-        for dy in (float(d) for d in args.dy.split(",")):
-            q = photons.positions[:args.queries] * [1.0, 0.0, 1.0] + [1e-3, dy, 0.0]
-            acc = accuracy(index.query(q), exact_knn(index.positions, q, args.k), len(index))
-            cells.append(f"{acc.fn_fraction:>12.1%}")
-        print(f"{preset:<8} " + " ".join(cells))
+        fn = plane_false_negatives(photons.positions, args.k, args.A, preset,
+                                   [float(d) for d in args.dy], args.queries)
+        print(f"{preset:<8} " + " ".join(f"{f:>12.1%}" for f in fn))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

@@ -7,6 +7,6 @@ seed, :mod:`.testing` is the pytest helper that holds renders to a reference and
 :mod:`.specular_identity` compares what a mirror shows with the same point seen directly.
 
 Lookups: :mod:`.metrics` the exact k nearest (cKDTree) and the paper's section 6 metrics, on
-photon sets from :mod:`.datasets` and photon maps from :mod:`.photon_maps`;
-:mod:`.accuracy_runs` the accuracy runs on named maps that the tools tabulate.
+photon sets from :mod:`.datasets` and photon maps from :mod:`.photon_maps` (the accuracy
+runs on them that the tools tabulate are a study, :mod:`blockhash.studies.accuracy_runs`).
 """

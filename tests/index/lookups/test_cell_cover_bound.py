@@ -1,16 +1,10 @@
-"""tools/cell_cover_bound.py: the least a one-level cell lookup must read, against a
-per-photon count written independently."""
-
-import sys
-from pathlib import Path
+"""blockhash.index.lookups.cell_cover (tools/cell_cover_bound.py): the least a one-level
+cell lookup must read, against a per-photon count written independently."""
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "tools"))
-
-from cell_cover_bound import cover_bound, level_counts  # noqa: E402
-
-from blockhash.index.lookups.cells import CODE_SHIFT  # noqa: E402
+from blockhash.index.lookups.cell_cover import cover_bound, level_counts
+from blockhash.index.lookups.cells import CODE_SHIFT
 
 
 def brute_force(codes, centre, radius, max_cells, levels):
