@@ -12,6 +12,9 @@ that only the benchmarks and ``tools/shader_stats.py`` use); :mod:`.claims` writ
 study's claims.  :mod:`.gpu_compiler` is a GPU compiler's view of the shaders (registers, scratch,
 occupancy on Mesa RADV's null device).  :mod:`.command` is what the commands in ``tools/`` share: their argument
 types (photon counts, sizes, scenes), the scenes of the checkout, timing and JSON output.
+:mod:`.accuracy_runs` are the index's accuracy runs on named photon maps beside the exact k
+nearest (``tools/eval_accuracy.py`` and its peers), :mod:`.cover_reads` what the cover gather
+reads per shading point (``tools/cover_stats.py``).
 """
 
 from blockhash.studies.sweep import QUICK, SweepPlan, run_sweep
