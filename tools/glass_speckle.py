@@ -14,7 +14,6 @@ usage: python tools/glass_speckle.py [--size 128] [--spp-ref 256] [--one-branch]
                                      [--mitsuba-spp 1024]
 """
 
-import argparse
 import sys
 
 import numpy as np
@@ -23,6 +22,7 @@ from scipy.ndimage import binary_erosion
 from blockhash.frame.gbuffer import rasterize
 from blockhash.passes.pipeline import direct_layer
 from blockhash.scene.loader import load_scene
+from blockhash.studies.command import ToolParser, count
 
 
 def rel(a, b, mask) -> float:
@@ -31,13 +31,13 @@ def rel(a, b, mask) -> float:
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--scene", default="scenes/glass.toml")
-    p.add_argument("--size", type=int, default=128)
-    p.add_argument("--spp-ref", type=int, default=256)
+    p = ToolParser(__doc__, __file__)
+    p.scenes("scenes/glass.toml", many=False)
+    p.size(128)
+    p.add_argument("--spp-ref", type=count, default=256)
     p.add_argument("--one-branch", action="store_true",
                    help="also one random branch per sample at glass")
-    p.add_argument("--mitsuba-spp", type=int, help="also compare with Mitsuba's path tracer")
+    p.add_argument("--mitsuba-spp", type=count, help="also compare with Mitsuba's path tracer")
     args = p.parse_args(argv)
     scene = load_scene(args.scene)
     size = (args.size, args.size)

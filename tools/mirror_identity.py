@@ -16,30 +16,31 @@ usage: python tools/mirror_identity.py [SCENE] [--size 128] [--photons 50000] [-
                                        [--seeds 1,2,3,4] [--through wall] [--json FILE]
 """
 
-import argparse
-import json
 import sys
 
 from blockhash.evaluate.specular_identity import identity_check
 from blockhash.scene.loader import load_scene
+from blockhash.studies.command import ToolParser, count, listing, write_json
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("scene", nargs="?", default="scenes/mirror.toml")
-    p.add_argument("--size", type=int, default=128)
-    p.add_argument("--photons", type=float, default=5e4)
-    p.add_argument("--spp", type=int, default=4)
-    p.add_argument("--seeds", default="1,2,3,4")
-    p.add_argument("--through", default=None, help="comma-separated planar mirror or glass objects "
-                   "(default: every planar mirror and flat-faced glass object)")
-    p.add_argument("--json", default=None)
+    p = ToolParser(__doc__, __file__)
+    p.add_argument("scene", nargs="?", type=p.scene, default="scenes/mirror.toml",
+                   help="a scene file or name under scenes/ (default scenes/mirror.toml)")
+    p.size(128)
+    p.photons(50_000)
+    p.add_argument("--spp", type=count, default=4)
+    p.add_argument("--seeds", type=listing(count), default=[1, 2, 3, 4])
+    p.add_argument("--through", type=listing(str), default=None, help="comma-separated planar "
+                   "mirror or glass objects (default: every planar mirror and flat-faced glass "
+                   "object)")
+    p.json_output()
     args = p.parse_args(argv)
     scene = load_scene(args.scene)
-    report = identity_check(scene, size=(args.size, args.size), photons=int(args.photons),
-                            spp=args.spp, seeds=tuple(int(s) for s in args.seeds.split(",")),
-                            through=args.through.split(",") if args.through else None)
-    print(f"{args.scene}, {args.size} x {args.size}, {int(args.photons):,} photons, {args.spp} spp: "
+    shown = args.scene.relative_to(p.root) if args.scene.is_relative_to(p.root) else args.scene
+    report = identity_check(scene, size=(args.size, args.size), photons=args.photons,
+                            spp=args.spp, seeds=tuple(args.seeds), through=args.through or None)
+    print(f"{shown}, {args.size} x {args.size}, {args.photons:,} photons, {args.spp} spp: "
           f"{report['pixels']:,} pixels seen through the specular surface and directly; "
           f"footprint {report['footprint']:.3f} direct pixels per specular pixel, box blur "
           f"{report['blur'][0]} (specular view) and {report['blur'][1]} (direct view)")
@@ -51,9 +52,8 @@ def main(argv=None):
         print(f"| {name} | {ratios} | {layer['limits']['ratio']:.4f} | {rms} | "
               f"{layer['limits']['rel_rms']:.4f} | {'yes' if layer['holds'] else 'NO'} |")
     if args.json:
-        with open(args.json, "w") as f:
-            json.dump({"scene": args.scene, "size": args.size, "photons": int(args.photons),
-                       "spp": args.spp, **report}, f, indent=2)
+        write_json(args.json, {"scene": str(shown), "size": args.size,
+                               "photons": args.photons, "spp": args.spp, **report})
     return 0 if all(layer["holds"] for layer in report["layers"].values()) else 1
 
 

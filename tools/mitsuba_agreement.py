@@ -11,7 +11,6 @@ usage: python tools/mitsuba_agreement.py [--scenes ring,glass,venus] [--size 128
                                          [--spp 1024] [--photons 4000000]
 """
 
-import argparse
 import sys
 
 import numpy as np
@@ -20,22 +19,24 @@ from scipy.ndimage import uniform_filter
 from blockhash.reference.lighttrace import light_trace
 from blockhash.reference.mitsuba import mitsuba_reference, without_specular_lobes
 from blockhash.scene.loader import load_scene
+from blockhash.studies.command import ToolParser, count
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--scenes", default="ring,glass,venus")
-    p.add_argument("--size", type=int, default=128)
-    p.add_argument("--spp", type=int, default=1024)
-    p.add_argument("--photons", type=float, default=4e6)
+    p = ToolParser(__doc__, __file__)
+    p.scenes("ring,glass,venus")
+    p.size(128)
+    p.add_argument("--spp", type=count, default=1024, help="Mitsuba's samples per pixel")
+    p.photons(4_000_000, help="photons the light tracer shoots")
     args = p.parse_args(argv)
     print("| scene | Mitsuba / light tracer flux (r, g, b) | light tracer flux noise | blurred "
           "relative RMS | Mitsuba s | light tracer s |\n| --- | --- | --- | --- | --- | --- |")
-    for name in args.scenes.split(","):
-        scene = without_specular_lobes(load_scene(f"scenes/{name}.toml"))
+    for path in args.scenes:
+        name = path.stem
+        scene = without_specular_lobes(load_scene(path))
         size = (args.size, args.size)
         ref = mitsuba_reference(scene, args.spp, size=size, layers=("caustic",))
-        lt = light_trace(scene, int(args.photons), size=size)
+        lt = light_trace(scene, args.photons, size=size)
         mask = lt.comparison_mask(1)
         a, b = ref.caustic.astype(np.float64), lt.radiance
         ratio = a[mask].sum(axis=0) / b[mask].sum(axis=0)

@@ -21,10 +21,7 @@ usage: python tools/mitsuba_mirror.py [--size 256] [--spp 256] [--photons 200000
                                       [--passes 4] [--png-dir docs] [--json FILE]
 """
 
-import argparse
-import json
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -36,19 +33,21 @@ from blockhash.frame.shading import SceneRays
 from blockhash.passes.plan import RenderPlan
 from blockhash.reference.mitsuba import mitsuba_reference, render_mitsuba
 from blockhash.scene.camera import Pinhole
+from blockhash.studies.command import ToolParser, count, timed, write_json
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--scene", default="scenes/mirror.toml")
-    p.add_argument("--wall", default="wall")
-    p.add_argument("--size", type=int, default=256)
-    p.add_argument("--spp", type=int, default=256, help="Mitsuba's samples per pixel")
-    p.add_argument("--photons", type=float, default=2e5)
-    p.add_argument("--passes", type=int, default=4)
-    p.add_argument("--png-dir", default=None)
-    p.add_argument("--json", default=None)
+    p = ToolParser(__doc__, __file__)
+    p.scenes("scenes/mirror.toml", many=False)
+    p.add_argument("--wall", default="wall", help="the mirror's object name (default wall)")
+    p.size(256)
+    p.add_argument("--spp", type=count, default=256, help="Mitsuba's samples per pixel")
+    p.photons(200_000, help="photons per pass")
+    p.add_argument("--passes", type=count, default=4, help="blockhash's passes (default 4)")
+    p.add_argument("--png-dir", type=Path, help="write the three images here")
+    p.json_output()
     args = p.parse_args(argv)
+    shown = args.scene.relative_to(p.root) if args.scene.is_relative_to(p.root) else args.scene
     size = (args.size, args.size)
     scene = blockhash.load_scene(args.scene).with_size(*size)
     pin = Pinhole.of(scene.camera)
@@ -60,9 +59,8 @@ def main(argv=None):
     for i, o in enumerate(scene.objects):
         if not o.is_specular:
             floor |= (obj == i).reshape(size[1], size[0])
-    t = time.perf_counter()
-    bh = blockhash.render(scene, photons=int(args.photons), plan=RenderPlan(passes=args.passes))
-    bh_s = time.perf_counter() - t
+    bh, bh_s = timed(blockhash.render, scene, photons=args.photons,
+                     plan=RenderPlan(passes=args.passes))
     ptracer, pt_s = render_mitsuba(scene, "ptracer", args.spp)
     path, path_s = render_mitsuba(scene, "path", args.spp)
     ref = mitsuba_reference(scene, args.spp, layers=("caustic",))
@@ -76,12 +74,12 @@ def main(argv=None):
         "Mitsuba ptracer caustic (isolated)": (ref.caustic, sum(ref.timings.values())),
         "Mitsuba path less blockhash's direct layer": (path - bh.direct, path_s),
     }
-    out = {"scene": args.scene, "size": args.size, "spp": args.spp, "photons": int(args.photons),
+    out = {"scene": str(shown), "size": args.size, "spp": args.spp, "photons": args.photons,
            "passes": args.passes, "wall_pixels": int(wall.sum()),
            "caustic_pixels": {"mirror": int(wall_c.sum()), "floor": int(floor_c.sum())}, "rows": [],
            "identity": ident, "ptracer_seconds": pt_s}
-    print(f"{args.scene}, {args.size} x {args.size}: {int(wall.sum()):,} mirror pixels; Mitsuba "
-          f"{args.spp} spp; blockhash {int(args.photons):,} photons x {args.passes} passes\n")
+    print(f"{shown}, {args.size} x {args.size}: {int(wall.sum()):,} mirror pixels; Mitsuba "
+          f"{args.spp} spp; blockhash {args.photons:,} photons x {args.passes} passes\n")
     print(f"| renderer | caustic flux in the mirror ({int(wall_c.sum())} px; r, g, b) | on the floor "
           f"seen directly ({int(floor_c.sum())} px) | seconds |\n| --- | --- | --- | --- |")
     for name, (img, sec) in rows.items():
@@ -96,14 +94,15 @@ def main(argv=None):
           f"{', '.join(f'{r:.4f}' for r in ident['ratio'])}, blurred relative RMS {ident['rel_rms']:.4f}")
     if args.png_dir:
         white = white_point(bh.combined)
-        folder = Path(args.png_dir)
+        folder = args.png_dir
+        folder.mkdir(parents=True, exist_ok=True)
         for name, img in (("mirror", bh.combined), ("mirror-mitsuba-ptracer", ptracer),
                           ("mirror-mitsuba-path", path)):
             write_rgb8(folder / f"{name}.png", np.round(srgb(img, white=white) * 255).astype(np.uint8))
         print(f"images: {folder}/mirror.png, mirror-mitsuba-ptracer.png, mirror-mitsuba-path.png "
               "(one exposure)")
     if args.json:
-        Path(args.json).write_text(json.dumps(out, indent=2) + "\n")
+        write_json(args.json, out)
     return 0
 
 

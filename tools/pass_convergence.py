@@ -9,40 +9,33 @@ count smaller, so what stays is the estimate's bias): the flux ratio of the mean
 blurred error of the mean against passes as a power law.
 
 usage: python tools/pass_convergence.py [--scenes ring,glass] [--size 128] [--seeds 6]
-                                        [--passes 16] [--ref-spp 4096] [--json FILE]
+                                        [--passes 16] [--photons N] [--ref-spp 4096]
+                                        [--json FILE]
 """
 
-import argparse
-import json
 import sys
-from pathlib import Path
 
 import numpy as np
 
-from blockhash.passes.executors import InProcess, LocalWorkers
 from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import Renderer
 from blockhash.passes.run import run_passes
-from blockhash.reference.lighttrace import light_trace
-from blockhash.reference.mitsuba import cached_caustic, without_specular_lobes
-from blockhash.scene.loader import load_scene
+from blockhash.studies.caustic_reference import caustic_comparison, executor, reference_options
+from blockhash.studies.command import ToolParser, count, write_json
 from blockhash.studies.measure import flux_ratio, masked_blur, power_law, rel_rms
-
-SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
 
 def blurred(img, ref, mask):
     return rel_rms(masked_blur(img, mask), masked_blur(ref, mask), mask)
 
 
-def measure(name, size, seeds, passes, ref_spp, cache, executor):
-    scene = without_specular_lobes(load_scene(SCENES / f"{name}.toml")).with_size(size, size)
-    mask = light_trace(scene, 1000).comparison_mask(1)
-    ref, _ = cached_caustic(scene, name, size, ref_spp, cache)
+def measure(path, size, seeds, passes, ref_spp, cache, executor, photons=None):
+    name = path.stem
+    scene, mask, ref, _ = caustic_comparison(path, size, ref_spp, cache)
     marks = [p for p in (1, 2, 4, 8, 16, 32, 64, 128) if p <= passes]
     images = {p: [] for p in marks}
     for seed in range(1, seeds + 1):
-        r = Renderer(scene, seed=seed)
+        r = Renderer(scene, seed=seed, photons=photons)
 
         def keep(renderer, stats, elapsed, session):
             if renderer.passes in images:
@@ -67,29 +60,26 @@ def table(results) -> str:
         for r in res["rows"]:
             out.append(f"| {res['scene']} | {r['passes']} | {r['flux_of_mean']:.4f} | "
                        f"{r['blur_one_median']:.4f} | {r['blur_of_mean']:.4f} |")
+        law = res["power_law_blur_of_mean"]  # None from fewer than two pass counts
         out.append(f"| {res['scene']} | power law of the mean's blurred error | | | "
-                   f"n^{res['power_law_blur_of_mean']:.2f} |")
+                   + ("-" if law is None else f"n^{law:.2f}") + " |")
     return "\n".join(out)
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--scenes", default="ring,glass")
-    p.add_argument("--size", type=int, default=128)
-    p.add_argument("--seeds", type=int, default=6)
-    p.add_argument("--passes", type=int, default=16)
-    p.add_argument("--ref-spp", type=int, default=4096)
-    p.add_argument("--cache", default=str(Path.home() / ".cache" / "blockhash" / "references"))
-    p.add_argument("--workers", type=int, default=0, help="local worker processes for each "
-                   "render's passes (0: in this process)")
-    p.add_argument("--json")
+    p = ToolParser(__doc__, __file__)
+    p.scenes("ring,glass")
+    p.size(128)
+    p.add_argument("--seeds", type=count, default=6, help="renders, photon seeds 1..N")
+    p.add_argument("--passes", type=count, default=16, help="passes of each render (default 16)")
+    p.photons(None, help="photons per pass (None: the scene's)")
+    reference_options(p)
     args = p.parse_args(argv)
-    executor = LocalWorkers(args.workers) if args.workers else InProcess()
-    results = [measure(s, args.size, args.seeds, args.passes, args.ref_spp, Path(args.cache), executor)
-               for s in args.scenes.split(",")]
+    results = [measure(s, args.size, args.seeds, args.passes, args.ref_spp, args.cache,
+                       executor(args.workers), args.photons) for s in args.scenes]
     print(table(results))
     if args.json:
-        Path(args.json).write_text(json.dumps(results, indent=1) + "\n")
+        write_json(args.json, results)
     return 0
 
 

@@ -14,12 +14,12 @@ usage: python tools/pass_memory.py [--scene scenes/ring.toml] [--photons 1000000
                                    [--env MALLOC_MMAP_THRESHOLD_=131072 ...]
 """
 
-import argparse
 import json
 import os
 import subprocess
 import sys
-from pathlib import Path
+
+from blockhash.studies.command import ToolParser, count, listing
 
 CHILD = """
 import json, resource, sys, time
@@ -46,35 +46,39 @@ print(json.dumps({"passes": r.passes, "seconds": time.perf_counter() - t,
 
 
 def run(args, n: int, env: dict) -> dict:
-    out = subprocess.run([sys.executable, "-c", CHILD, args.scene, str(args.size),
-                          str(args.photons), str(n), args.marks, args.method, str(args.workers), args.overlap],
+    out = subprocess.run([sys.executable, "-c", CHILD, str(args.scene), str(args.size),
+                          str(args.photons), str(n), ",".join(map(str, args.marks)), args.method,
+                          str(args.workers), args.overlap],
                          capture_output=True, text=True, check=True, env={**os.environ, **env})
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--scene", default=str(Path(__file__).resolve().parents[1] / "scenes" / "ring.toml"))
-    p.add_argument("--photons", type=int, default=1_000_000)
-    p.add_argument("--passes", default="2,100")
-    p.add_argument("--size", type=int, default=512)
+    p = ToolParser(__doc__, __file__)
+    p.scenes("scenes/ring.toml", many=False)
+    p.photons(1_000_000, help="photons per pass")
+    p.add_argument("--passes", type=listing(count), default=[2, 100],
+                   help="pass counts, each a render of its own (default 2,100)")
+    p.size(512)
     p.add_argument("--method", default="auto", help="the photon search (LookupOptions): auto, "
                    "or cpu for a render with no GL caustic pass")
     p.add_argument("--workers", type=int, default=0, help="local worker processes (0: the "
                    "render in this process)")
     p.add_argument("--overlap", choices=("on", "off"), default="on", help="in this process: the "
                    "next pass's photons traced while this pass renders (on, the default) or not")
-    p.add_argument("--marks", default="", help="passes after which to print the peak so far")
+    p.add_argument("--marks", type=listing(count), default=[],
+                   help="passes after which to print the peak so far")
     p.add_argument("--env", action="append", default=[], metavar="NAME=VALUE",
                    help="also run under this environment variable (repeatable)")
     args = p.parse_args(argv)
     settings = [("default", {})] + [(e, dict([e.split("=", 1)])) for e in args.env]
     where = f"{args.workers} local workers" if args.workers else "in process"
+    shown = ",".join(map(str, args.marks)) or "-"
     print(f"| environment | passes | photons per pass | peak RSS (MiB), {where} | against the first "
-          f"count | largest worker's peak (MiB) | peaks after passes {args.marks or '-'} (MiB) | "
+          f"count | largest worker's peak (MiB) | peaks after passes {shown} (MiB) | "
           "s per pass |\n" + "| --- " * 8 + "|")
     for name, env in settings:
-        rows = [run(args, int(n), env) for n in args.passes.split(",")]
+        rows = [run(args, n, env) for n in args.passes]
         key = "worker_peak_mib" if args.workers else "peak_mib"
         for r in rows:
             marks = ", ".join(f"{v:.0f}" for v in r["peaks_at"].values()) or "-"

@@ -1,7 +1,7 @@
 """Seconds per warm pass, stage by stage, of this checkout beside another commit's (a
 ``git worktree``), in the same run: each (checkout, scene, size, photons) a fresh process that
-steps one pass at a time in one process (``Renderer.step``: one pass in flight, no overlap),
-leaves out ``--warm`` passes and averages the next ``--passes``.
+runs one pass at a time in one process (``run_passes`` on ``InProcess(overlap=False)``: one
+pass in flight, no overlap; ``Renderer.step`` in a baseline older than ``run_passes``), leaves out ``--warm`` passes and averages the next ``--passes``.
 
 Per row: seconds a pass by stage (trace, index, photon radii, pixel splat, cover gather,
 G-buffer + direct, caustic), photons stored per second of tracing, and stored photons per
@@ -13,13 +13,14 @@ usage: python tools/pass_stages.py --baseline /tmp/blockhash-6c34444
            [--warm 1] [--passes 3] [--json docs/pass-stages.json]
 """
 
-import argparse
 import json
 import os
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+from blockhash.studies.command import ToolParser, count, write_json
 
 ROOT = Path(__file__).resolve().parents[1]
 STAGES = ("trace", "index", "photon radii", "pixel splat", "cover gather", "gbuffer", "direct",
@@ -32,16 +33,24 @@ scene_path, size, photons, warm, passes = sys.argv[1:6]
 scene = blockhash.load_scene(scene_path).with_size(int(size), int(size))
 r = blockhash.Renderer(scene, photons=int(photons))
 rows = []
-for p in range(int(warm) + int(passes)):
-    s = r.step()
-    if p >= int(warm):
+def keep(s):
+    if len(rows) + int(warm) < r.passes:
         rows.append({"stored": s.stored, "emitted": s.emitted, "timings": s.timings})
+try:  # one pass in flight, no overlap
+    from blockhash.passes.executors import InProcess
+    from blockhash.passes.run import run_passes
+except ImportError:  # a baseline from before the render loop: one step at a time
+    for p in range(int(warm) + int(passes)):
+        keep(r.step())
+else:
+    run_passes(r, blockhash.RenderPlan(passes=int(warm) + int(passes),
+                                       executor=InProcess(overlap=False)),
+               on_pass=lambda renderer, s, elapsed, session: keep(s))
 print(json.dumps(rows))
 """
 
-
 def run(checkout: Path, scene: str, size: int, photons: int, warm: int, passes: int) -> dict:
-    env = {**os.environ, "PYTHONPATH": str(checkout)}
+    env = {**os.environ, "PYTHONPATH": str(Path(checkout).resolve())}
     proc = subprocess.run([sys.executable, "-c", CHILD, scene, str(size), str(photons), str(warm),
                            str(passes)], capture_output=True, text=True, env=env,
                           cwd=tempfile.gettempdir())
@@ -58,15 +67,15 @@ def run(checkout: Path, scene: str, size: int, photons: int, warm: int, passes: 
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = ToolParser(__doc__, __file__)
     p.add_argument("--baseline", type=Path, required=True, help="a checkout of the commit to "
                    "compare with (git worktree add /tmp/blockhash-6c34444 6c34444)")
-    p.add_argument("--scenes", default="ring,venus,glass,corner")
-    p.add_argument("--sizes", default="256,512")
-    p.add_argument("--photons", default="200000,1000000")
-    p.add_argument("--warm", type=int, default=1)
-    p.add_argument("--passes", type=int, default=3)
-    p.add_argument("--json", type=Path)
+    p.scenes("ring,venus,glass,corner")
+    p.size([256, 512], many=True, flag="--sizes", help="image sides")
+    p.photons([200_000, 1_000_000], many=True, help="photons per pass")
+    p.add_argument("--warm", type=int, default=1, help="passes left out first (default 1)")
+    p.add_argument("--passes", type=count, default=3, help="passes averaged (default 3)")
+    p.json_output()
     args = p.parse_args(argv)
     cols = ("trace", "index", "photon radii", "pixel splat", "cover gather", "gbuffer + direct",
             "caustic")
@@ -74,10 +83,10 @@ def main(argv=None):
           + " | stored per s of tracing | stored per s end to end |")
     print("| --- " * (6 + len(cols) + 1) + "|")
     out = []
-    for name in args.scenes.split(","):
-        scene = name if name.endswith(".toml") else str(ROOT / "scenes" / f"{name}.toml")
-        for size in (int(s) for s in args.sizes.split(",")):
-            for photons in (int(float(n)) for n in args.photons.split(",")):
+    for path in args.scenes:
+        name, scene = path.stem, str(path)
+        for size in args.sizes:
+            for photons in args.photons:
                 res = {}
                 for label, checkout in (("baseline", args.baseline), ("this", ROOT)):
                     res[label] = run(checkout, scene, size, photons, args.warm, args.passes)
@@ -101,9 +110,9 @@ def main(argv=None):
                         f"{t['stored_per_s'] / b['stored_per_s']:.2f}x |", flush=True)
                 out.append({"scene": name, "size": size, "photons": photons, **res})
     if args.json:
-        args.json.write_text(json.dumps({"args": {k: str(v) for k, v in vars(args).items()},
-                                         "rows": out}, indent=1))
+        write_json(args.json, {"args": vars(args), "rows": out})
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

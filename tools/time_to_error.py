@@ -13,7 +13,7 @@ For each scene, with ks = 0 on every modified Phong material (Mitsuba has none),
    mirror or glass are left out, since Mitsuba's ptracer cannot reach the camera through a
    delta surface): per-pixel relative RMS, blurred relative RMS (sigma 2 px), mean FLIP, flux
    ratio, and the film's estimated relative standard error;
-3. the one-pass render of before (``render_scene``: 9 stratified samples per pixel), for the
+3. the one-pass render (``render_scene``: 9 stratified samples per pixel), for the
    default stopping rule's comparison;
 4. Mitsuba's ``ptracer`` at 1, 2, 4, ... spp (independent seeds), timed as one render (what
    a user's render costs) and as the two renders of its caustic isolation, until it reaches
@@ -31,11 +31,11 @@ checks (the reference's brightest pixel, its 3 x 3 neighbourhood and the caustic
 
 usage: python tools/time_to_error.py [--scenes ring,venus,glass,corner] [--size 256]
                                      [--times 2,8,32] [--ref-spp 4096] [--photons N]
+                                     [--passes N] [--workers N]
                                      [--json docs/time-to-error-256.json]
        python tools/time_to_error.py --from-json docs/time-to-error-256.json
 """
 
-import argparse
 import json
 import math
 import sys
@@ -44,18 +44,17 @@ from pathlib import Path
 
 import numpy as np
 
-from blockhash.passes.executors import InProcess, LocalWorkers
+from blockhash.passes.executors import InProcess
 from blockhash.passes.pipeline import render_scene
 from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import Renderer
 from blockhash.passes.run import run_passes
-from blockhash.reference.lighttrace import light_trace
-from blockhash.reference.mitsuba import cached_caustic, mitsuba_reference, without_specular_lobes
-from blockhash.scene.loader import load_scene
+from blockhash.reference.mitsuba import mitsuba_reference
+from blockhash.studies.caustic_reference import caustic_comparison, executor, reference_options
+from blockhash.studies.command import ToolParser, count, listing, number, write_json
 from blockhash.studies.measure import flip_error, flux_ratio, masked_blur, power_law, rel_rms
 
 METRICS = ("pixel", "blur", "flip")
-SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
 
 def metrics(img, ref, mask) -> dict:
@@ -90,9 +89,10 @@ def focus(img, ref) -> dict:
 
 
 def progressive_curve(scene, ref, mask, until: float, photons, *, focus_checks: bool,
-                      executor=None):
-    """Pass by pass: the render's own time (from the start of its loop, workers' start
-    included; the copies of the film taken here left out) and its errors, computed after."""
+                      executor=None, passes=None):
+    """Pass by pass, for ``until`` seconds (or ``passes``, the most): the render's own time
+    (from the start of its loop, workers' start included; the copies of the film taken here
+    left out) and its errors, computed after."""
     r = Renderer(scene, photons=photons)
     films, aside = [], 0.0
 
@@ -102,7 +102,7 @@ def progressive_curve(scene, ref, mask, until: float, photons, *, focus_checks: 
         films.append((renderer.passes, elapsed - aside, renderer.film.caustic.astype(np.float32),
                       renderer.film.estimated_error()))
         aside += time.perf_counter() - t
-    run_passes(r, RenderPlan(passes=None, seconds=until, executor=executor or InProcess()),
+    run_passes(r, RenderPlan(passes=passes, seconds=until, executor=executor or InProcess()),
                on_pass=keep)
     curve = []
     for passes, own, img, est in films:
@@ -121,10 +121,9 @@ def at_time(curve, t):
     return done[-1] if done else curve[0]
 
 
-def measure(name, size, ref_spp, times, max_spp, photons, cache, executor=None):
-    scene = without_specular_lobes(load_scene(SCENES / f"{name}.toml")).with_size(size, size)
-    mask = light_trace(scene, 1000).comparison_mask(1)
-    ref, ref_s = cached_caustic(scene, name, size, ref_spp, cache)
+def measure(path, size, ref_spp, times, max_spp, photons, cache, executor=None, passes=None):
+    name = path.stem
+    scene, mask, ref, ref_s = caustic_comparison(path, size, ref_spp, cache)
     render_scene(scene.with_size(32, 32), photons=20000)  # warm: compiled kernels and programs
     one = render_scene(scene, photons=photons)
     row = {"scene": name, "size": size, "ref_spp": ref_spp, "ref_seconds": ref_s,
@@ -134,7 +133,7 @@ def measure(name, size, ref_spp, times, max_spp, photons, cache, executor=None):
           flush=True)
     curve, stages, emitted, stored = progressive_curve(scene, ref, mask, max(times) * 1.02, photons,
                                                        focus_checks=name == "glass",
-                                                       executor=executor)
+                                                       executor=executor, passes=passes)
     row.update(curve=curve, stages=stages, emitted=emitted, stored=stored)
     target = {m: at_time(curve, max(times))[m] for m in METRICS}
     ladder = []
@@ -247,33 +246,30 @@ def tables(rows) -> str:
 
 
 def main(argv=None):
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--scenes", default="ring,venus,glass,corner")
-    p.add_argument("--size", type=int, default=256)
-    p.add_argument("--times", default=None, help="blockhash times in s (default 2,8,32 at 256 "
-                   "and below, else 8,32,128)")
-    p.add_argument("--ref-spp", type=int, default=4096)
-    p.add_argument("--max-spp", type=int, default=4096, help="the ladder's last spp")
-    p.add_argument("--photons", type=int, help="photons per pass (default: the scene's)")
-    p.add_argument("--cache", default=str(Path.home() / ".cache" / "blockhash" / "references"))
-    p.add_argument("--workers", type=int, default=0, help="local worker processes for the passes "
-                   "(0: in this process)")
-    p.add_argument("--json")
-    p.add_argument("--from-json", help="print the tables of an earlier run's JSON (no rendering)")
+    p = ToolParser(__doc__, __file__)
+    p.scenes("ring,venus,glass,corner")
+    p.size(256)
+    p.add_argument("--times", type=listing(number), default=None, help="blockhash times in s "
+                   "(default 2,8,32 at 256 and below, else 8,32,128)")
+    p.add_argument("--max-spp", type=count, default=4096, help="the ladder's last spp")
+    p.photons(None, help="photons per pass (None: the scene's)")
+    p.add_argument("--passes", type=count, help="the most passes of the progressive render "
+                   "(default: as many as the longest of --times allows)")
+    reference_options(p)
+    p.add_argument("--from-json", type=Path, help="print the tables of an earlier run's JSON "
+                   "(no rendering)")
     args = p.parse_args(argv)
-    times = [float(t) for t in (args.times or ("2,8,32" if args.size <= 256 else "8,32,128"))
-             .split(",")]
+    times = args.times or ([2.0, 8.0, 32.0] if args.size <= 256 else [8.0, 32.0, 128.0])
     if args.from_json:
         rows = [analyse(r, [e["time"] for e in r["at"]])
-                for r in json.loads(Path(args.from_json).read_text())]
+                for r in json.loads(args.from_json.read_text())]
     else:
         rows = []
-        for s in args.scenes.split(","):
+        for s in args.scenes:
             rows.append(measure(s, args.size, args.ref_spp, times, args.max_spp, args.photons,
-                                Path(args.cache),
-                                LocalWorkers(args.workers) if args.workers else InProcess()))
+                                args.cache, executor(args.workers), args.passes))
             if args.json:  # after every scene: a long run keeps what it measured
-                Path(args.json).write_text(json.dumps(rows, indent=1, default=float) + "\n")
+                write_json(args.json, rows)
     print(tables(rows))
     return 0
 

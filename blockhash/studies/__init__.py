@@ -10,7 +10,9 @@ measures, :mod:`.report` writes ``tradeoff.json``, the plots and ``report.md``, 
 and the caustic pass's peers, photon splatting among them: :mod:`.splat_pass`, the GL splat
 that only the benchmarks and ``tools/shader_stats.py`` use); :mod:`.claims` writes the trade
 study's claims.  :mod:`.gpu_compiler` is a GPU compiler's view of the shaders (registers, scratch,
-occupancy on Mesa RADV's null device).  :mod:`.command` is what the commands in ``tools/`` share: their argument
+occupancy on Mesa RADV's null device).
+:mod:`.caustic_reference` holds the caustic layer to a cached Mitsuba reference
+(``tools/pass_convergence.py``, ``tools/time_to_error.py``).  :mod:`.command` is what the commands in ``tools/`` share: their argument
 types (photon counts, sizes, scenes), the scenes of the checkout, timing and JSON output.
 :mod:`.accuracy_runs` are the index's accuracy runs on named photon maps beside the exact k
 nearest (``tools/eval_accuracy.py`` and its peers), :mod:`.cover_reads` what the cover gather

@@ -1,0 +1,151 @@
+"""The commands in tools/ that measure a render in passes, or hold it to Mitsuba 3, run on a
+tiny input from a folder outside the checkout: what each prints and writes.
+
+The ones that run Mitsuba skip without it, unless BLOCKHASH_REQUIRE_MITSUBA is set, where
+they fail instead."""
+
+import json
+import math
+import os
+from pathlib import Path
+
+import pytest
+from conftest import run_tool
+
+from blockhash.reference.mitsuba import mitsuba_available
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def needs_mitsuba():
+    ok, why = mitsuba_available()
+    if not ok:
+        if os.environ.get("BLOCKHASH_REQUIRE_MITSUBA"):
+            pytest.fail(f"BLOCKHASH_REQUIRE_MITSUBA is set but {why}")
+        pytest.skip(why)
+
+
+def table_rows(text: str, first: str) -> list[list[str]]:
+    """The cells of the Markdown table rows of ``text`` that start with ``| first |``."""
+    return [[c.strip() for c in line.split("|")[1:-1]] for line in text.splitlines()
+            if line.startswith(f"| {first} |")]
+
+
+def test_mitsuba_agreement_prints_a_flux_ratio_near_one(tmp_path, needs_mitsuba):
+    text = run_tool("mitsuba_agreement.py", ["--scenes", "ring", "--size", "24", "--spp", "16",
+                                              "--photons", "2e5"], tmp_path)
+    [row] = table_rows(text, "ring")
+    ratio = [float(v) for v in row[1].split(",")]
+    assert all(0.8 < r < 1.25 for r in ratio), ratio  # the same caustic, two renderers
+    assert 0 < float(row[2]) < 0.1  # the light tracer's flux noise
+    assert math.isfinite(float(row[3]))
+
+
+@pytest.mark.gl
+def test_mitsuba_mirror_finds_the_caustic_in_the_mirror_only_in_blockhash(tmp_path, needs_mitsuba):
+    out = tmp_path / "mirror.json"
+    text = run_tool("mitsuba_mirror.py", ["--size", "48", "--spp", "16", "--photons", "5000",
+                                           "--passes", "1", "--png-dir", "images", "--json", out],
+                    tmp_path)
+    res = json.loads(out.read_text())
+    assert res["scene"] == "scenes/mirror.toml" and res["photons"] == 5000
+    bh, ptracer, path = res["rows"]
+    assert sum(bh["mirror"]) > 0 and sum(bh["floor"]) > 0
+    assert sum(ptracer["mirror"]) == 0  # a particle tracer cannot see a caustic in a mirror
+    assert sum(ptracer["floor"]) > 0
+    assert res["identity"]["pixels"] > 0
+    assert all(0.5 < r < 1.5 for r in res["identity"]["ratio"])
+    for name in ("mirror", "mirror-mitsuba-ptracer", "mirror-mitsuba-path"):
+        assert (tmp_path / "images" / f"{name}.png").stat().st_size > 0
+    assert "| blockhash caustic layer |" in text
+
+
+@pytest.mark.gl
+def test_glass_speckle_prints_the_direct_layers_error_against_more_samples(tmp_path):
+    text = run_tool("glass_speckle.py", ["--scene", "glass", "--size", "24", "--spp-ref", "16",
+                                         "--one-branch"], tmp_path)
+    lines = [line for line in text.splitlines() if line.startswith("24 x 24")]
+    assert [line.split(", ")[2].split(":")[0] for line in lines] == ["both branches",
+                                                                       "one branch"]
+    for line in lines:
+        errors = [float(w.rstrip(",")) for w in line.split() if w[0].isdigit() and "." in w]
+        assert len(errors) == 3 and all(0 < e < 1 for e in errors), line
+
+
+@pytest.mark.gl
+def test_mirror_identity_holds_on_a_small_image(tmp_path):
+    out = tmp_path / "identity.json"
+    text = run_tool("mirror_identity.py", ["mirror", "--size", "48", "--photons", "5000",
+                                           "--spp", "1", "--seeds", "1,2", "--json", out],
+                    tmp_path)
+    res = json.loads(out.read_text())
+    assert res["scene"] == "scenes/mirror.toml" and res["pixels"] > 0
+    direct = res["layers"]["direct"]
+    assert direct["holds"] and res["layers"]["caustic"]["holds"]
+    assert len(direct["runs"]) == 2  # one run a seed
+    assert all(abs(r - 1) < 0.05 for run in direct["runs"] for r in run["ratio"])
+    assert text.startswith("scenes/mirror.toml, 48 x 48, 5,000 photons, 1 spp")
+
+
+@pytest.mark.gl
+def test_pass_convergence_writes_a_row_per_pass_count(tmp_path, needs_mitsuba):
+    out, cache = tmp_path / "convergence.json", tmp_path / "cache"
+    text = run_tool("pass_convergence.py", ["--scenes", "ring", "--size", "24", "--seeds", "2",
+                                            "--passes", "2", "--photons", "3000", "--ref-spp",
+                                            "16", "--cache", cache, "--json", out], tmp_path)
+    [res] = json.loads(out.read_text())
+    assert res["scene"] == "ring" and res["seeds"] == 2
+    assert [r["passes"] for r in res["rows"]] == [1, 2]
+    for r in res["rows"]:
+        assert 0.7 < r["flux_of_mean"] < 1.4  # the reference's flux, at 16 spp
+        assert 0 < r["blur_of_mean"] < 2 and 0 < r["blur_one_median"] < 2
+    assert math.isfinite(res["power_law_blur_of_mean"])
+    assert (cache / "ring-24-16.npy").is_file()
+    assert len(table_rows(text, "ring")) == 3
+
+
+@pytest.mark.gl
+def test_time_to_error_writes_the_curve_and_mitsubas_ladder(tmp_path, needs_mitsuba):
+    out = tmp_path / "tte.json"
+    text = run_tool("time_to_error.py", ["--scenes", "ring", "--size", "24", "--times", "30",
+                                         "--passes", "2", "--photons", "3000", "--ref-spp", "16",
+                                         "--max-spp", "2", "--cache", tmp_path / "cache",
+                                         "--json", out], tmp_path)
+    [row] = json.loads(out.read_text())
+    assert [c["passes"] for c in row["curve"]] == [1, 2]
+    assert all(0.7 < c["flux"] < 1.4 and c["blur"] > 0 for c in row["curve"])
+    assert [r["spp"] for r in row["ladder"]] == [1, 2]
+    assert row["one_pass"]["spp"] == 9 and row["one_pass"]["blur"] > 0
+    [at] = row["at"]
+    assert at["time"] == 30 and at["passes"] == 2
+    assert row["stored"] > 1000
+    assert "| ring | 24 | 30 (" in text
+    again = run_tool("time_to_error.py", ["--from-json", out], tmp_path)
+    assert again.strip() and again.strip() in text  # the tables again, from the JSON
+
+
+@pytest.mark.gl
+def test_pass_stages_writes_each_stage_beside_a_baseline(tmp_path):
+    out = tmp_path / "stages.json"
+    text = run_tool("pass_stages.py", ["--baseline", ROOT, "--scenes", "ring",
+                                       "--sizes", "24", "--photons", "2000", "--passes", "1",
+                                       "--json", out], tmp_path)
+    [row] = json.loads(out.read_text())["rows"]
+    for side in ("baseline", "this"):
+        assert row[side]["stored"] > 1000 and row[side]["seconds"]["trace"] > 0
+        assert row[side]["stored_per_s"] > 0
+    # the same checkout on both sides: the same photons, whatever the seconds
+    assert row["baseline"]["stored"] == row["this"]["stored"]
+    assert "| ring | 24 | 2,000 | speed-up |" in text
+
+
+@pytest.mark.gl
+def test_pass_memory_writes_the_peaks_of_each_pass_count(tmp_path):
+    text = run_tool("pass_memory.py", ["--photons", "2000", "--passes", "1,2",
+                                       "--size", "24", "--marks", "1,2"], tmp_path)
+    rows = table_rows(text, "default")
+    assert [r[1] for r in rows] == ["1", "2"]
+    assert [len(r[6].split(",")) for r in rows] == [1, 2]  # the peaks after passes 1 and 2
+    peak = float(rows[-1][3])
+    assert 50 < peak < 5000  # MiB: a real process's resident set
