@@ -150,3 +150,24 @@ def test_darkening_check_fits_a_gain_per_a_and_tests_it_on_the_other_study(tmp_p
     gain, before, after, rms_before, rms_after = rows[1]
     assert (gain, before, after) == (1.25, 0.9, 1.125)
     assert rows[4][:3] == [1.053, 0.95, 1.0] and rows[4][4] < 0.001 < rows[4][3]
+
+
+@pytest.mark.gl
+def test_estimate_study_writes_every_option_and_prints_its_tables_again(tmp_path):
+    out, md = tmp_path / "study.json", tmp_path / "tables.md"
+    text = run_tool("estimate_study.py", ["--scenes", "corner", "--photons", "2000", "--ks", "10",
+                                          "--size", "16", "--supersample", "1",
+                                          "--reference-photons", "1e5", *_cache(tmp_path),
+                                          "--json", out, "--markdown", md], tmp_path)
+    [study] = json.loads(out.read_text())
+    rows = study["rows"]
+    assert {(r["photons"], r["k"]) for r in rows} == {(2000, 10)}
+    every = _table(text.split("Every option:")[1], "corner")
+    assert len(every) == 16 and sum(r[3] == "exact" for r in every) == 2
+    for r in every:
+        assert 0.5 < float(r[5]) < 1.5 and 0 < float(r[6]) < 1
+    # the exact search's paper row: the same estimate on the exact neighbours, near BH's
+    assert every[0][4] == every[14][4] and abs(float(every[0][5]) - float(every[14][5])) < 0.05
+    assert md.read_text() == text[text.index("Each option, flux"):]
+    again = run_tool("estimate_study.py", ["--from-json", out], tmp_path)
+    assert again == text[text.index("Each option, flux"):]

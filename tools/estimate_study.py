@@ -20,24 +20,25 @@ References are cached in ~/.cache/blockhash by scene content (the first run trac
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def _ints(text):
-    return tuple(int(float(x)) for x in text.split(","))
+from blockhash.scene.loader import load_scene
+from blockhash.studies.command import ToolParser, count, listing, side, write_json
+from blockhash.studies.estimates import (
+    default_options,
+    markdown_table,
+    option_table,
+    reference_options,
+    study_scene,
+    summary_table,
+)
+from blockhash.studies.sampling import context_table, done_when_study, done_when_table
 
 
 def _done_when(args, studies):
-    from blockhash.scene import loader as scene_toml
-    from blockhash.studies.estimates import default_options
-    from blockhash.studies.sampling import context_table, done_when_study, done_when_table
-
-    for name in [] if args.from_json else (args.scenes or "ring,venus,corner").split(","):
-        scene = scene_toml.load_scene(ROOT / "scenes" / f"{name}.toml")
+    for path in [] if args.from_json else args.scenes:
+        scene = load_scene(path)
         for n in args.photons or (1_000_000,):
             studies.append(done_when_study(
                 scene, photons=n, ks=args.ks or (50,), size=(args.size, args.size),
@@ -47,55 +48,52 @@ def _done_when(args, studies):
                 reference_photons=args.reference_photons, cache_dir=args.cache,
                 progress=lambda s: print(s, flush=True)))
             if args.json:
-                Path(args.json).write_text(json.dumps(studies, indent=1))
+                write_json(args.json, studies)
     return ("Done-when check (jittered pixel means, mean ± standard error over seeds):\n\n"
             + done_when_table(studies) + "\n\nWhat the rows rest on:\n\n" + context_table(studies))
 
 
-def main() -> int:
-    from blockhash.scene import loader as scene_toml
-    from blockhash.studies.estimates import markdown_table, option_table, study_scene, summary_table
-
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--scenes", default=None, help="names under scenes/ (default ring,venus,corner)")
-    p.add_argument("--photons", type=_ints, default=None,
+def main(argv=None) -> int:
+    p = ToolParser(__doc__, __file__)
+    p.scenes("ring,venus,corner")
+    p.add_argument("--photons", type=listing(count), default=None,
                    help="photons stored (default 100000,1000000; --done-when 1000000)")
-    p.add_argument("--ks", type=_ints, default=None, help="k (default 50)")
-    p.add_argument("--size", type=int, default=128, help="image width and height (default 128)")
-    p.add_argument("--supersample", type=int, default=None,
+    p.add_argument("--ks", type=listing(count), default=None, help="k (default 50)")
+    p.add_argument("--size", type=side, default=128,
+                   help="image width and height, 128 or 128x128 (default 128)")
+    p.add_argument("--supersample", type=count, default=None,
                    help="shading points per pixel along each axis (default 2; --done-when 8)")
     p.add_argument("--jitter", type=int, default=None,
                    help="seed of stratified jittered shading points (default: the rasterised grid)")
-    p.add_argument("--reference-photons", type=int, default=50_000_000)
-    p.add_argument("--cache", default=str(Path.home() / ".cache" / "blockhash"))
-    p.add_argument("--json", help="write the studies here")
-    p.add_argument("--markdown", help="write the tables here")
-    p.add_argument("--from-json", help="only print the tables of a study written by --json")
+    reference_options(p, 50_000_000, flag="--reference-photons")
+    p.add_argument("--json", type=Path, help="write the studies here")
+    p.add_argument("--markdown", type=Path, help="write the tables here")
+    p.add_argument("--from-json", type=Path,
+                   help="only print the tables of a study written by --json")
     g = p.add_argument_group("the done-when check")
     g.add_argument("--done-when", action="store_true", help="run (or, with --from-json, print) it")
-    g.add_argument("--seeds", type=_ints, default=tuple(range(1, 9)),
+    g.add_argument("--seeds", type=listing(int), default=list(range(1, 9)),
                    help="jitter seeds (default 1,...,8)")
     g.add_argument("--refine", type=int, default=100, help="pixels estimated again (default 100)")
-    g.add_argument("--refine-samples", type=int, default=32,
+    g.add_argument("--refine-samples", type=count, default=32,
                    help="their shading points per pixel along each axis (default 32)")
     g.add_argument("--search", default="bh", help="bh, exact or bh,exact (default bh)")
     g.add_argument("--all-options", action="store_true",
                    help="every option of the study, not only the paper's and the default")
-    args = p.parse_args()
-    studies = json.loads(Path(args.from_json).read_text()) if args.from_json else []
+    args = p.parse_args(argv)
+    studies = json.loads(args.from_json.read_text()) if args.from_json else []
     if args.done_when:
         table = _done_when(args, studies)
     else:
-        for name in [] if args.from_json else (args.scenes or "ring,venus,corner").split(","):
-            scene = scene_toml.load_scene(ROOT / "scenes" / f"{name}.toml")
-            studies.append(study_scene(scene, photons=args.photons or (100_000, 1_000_000),
+        for path in [] if args.from_json else args.scenes:
+            studies.append(study_scene(load_scene(path), photons=args.photons or (100_000, 1_000_000),
                                        ks=args.ks or (50,), size=(args.size, args.size),
                                        supersample=args.supersample or 2, jitter=args.jitter,
                                        reference_photons=args.reference_photons,
                                        cache_dir=args.cache, progress=lambda s: print(s, flush=True)))
             print(f"reference noise (region, per pixel): {studies[-1]['reference']}", flush=True)
             if args.json:
-                Path(args.json).write_text(json.dumps(studies, indent=1))
+                write_json(args.json, studies)
         ks = sorted({r["k"] for st in studies for r in st["rows"]})
         k0 = 50 if 50 in ks else ks[0]
         table = ("Each option, flux / blurred relative RMS, whole compared area:\n\n"
@@ -105,7 +103,7 @@ def main() -> int:
                  + "\n\nEvery option:\n\n" + markdown_table(studies))
     print(table)
     if args.markdown:
-        Path(args.markdown).write_text(table + "\n")
+        args.markdown.write_text(table + "\n")
     return 0
 
 
