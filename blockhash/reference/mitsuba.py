@@ -213,20 +213,3 @@ def cached_caustic(scene, name: str, size: int, spp: int, cache):
     path.parent.mkdir(parents=True, exist_ok=True)
     np.save(path, ref)
     return ref, time.perf_counter() - t
-
-
-def caustic_comparison(path, size: int, spp: int, cache):
-    """What the tools that hold a caustic layer to Mitsuba measure against, for the scene file
-    ``path`` at ``size`` x ``size``: ``(scene, mask, reference, seconds)``, the scene with ks = 0
-    (:func:`without_specular_lobes`), the light tracer's comparison mask (receivers seen
-    directly: Mitsuba's ptracer cannot reach the camera through a delta surface), and
-    :func:`cached_caustic`'s reference and seconds, cached under the file's stem."""
-    from pathlib import Path
-
-    from blockhash.reference.lighttrace import light_trace
-    from blockhash.scene.loader import load_scene
-
-    scene = without_specular_lobes(load_scene(path)).with_size(size, size)
-    mask = light_trace(scene, 1000).comparison_mask(1)
-    ref, seconds = cached_caustic(scene, Path(path).stem, size, spp, cache)
-    return scene, mask, ref, seconds

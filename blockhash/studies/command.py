@@ -18,8 +18,6 @@ import math
 import time
 from pathlib import Path
 
-#: Where the tools keep Mitsuba references (``--cache``).
-REFERENCE_CACHE = Path.home() / ".cache" / "blockhash" / "references"
 #: Scene file suffixes a bare name may take under ``scenes/``, in the order tried.
 SCENE_SUFFIXES = (".toml", ".xml")
 
@@ -34,11 +32,6 @@ def count(text: str) -> int:
     if not (math.isfinite(value) and value == int(value) and value >= 1):
         raise argparse.ArgumentTypeError(f"{text!r}: expected a whole number >= 1 (such as 2e5)")
     return int(value)
-
-
-def whole(text: str) -> int:
-    """A count that may be 0."""
-    return 0 if str(text).strip() in ("0", "0.0") else count(text)
 
 
 def size(text: str) -> tuple[int, int]:
@@ -129,20 +122,6 @@ class ToolParser(argparse.ArgumentParser):
                           help=(help or "scene files or names under scenes/")
                           + f" (default {default})", **kwargs)
 
-    def workers(self):
-        """``--workers N``: local worker processes for a render's passes (0: this process);
-        :func:`executor` gives the executor."""
-        self.add_argument("--workers", type=whole, default=0, help="local worker processes for "
-                          "the passes (default 0: in this process)")
-
-    def mitsuba_reference(self, spp: int = 4096):
-        """``--ref-spp`` and ``--cache``: the cached Mitsuba caustic reference
-        (:func:`blockhash.reference.mitsuba.caustic_comparison`)."""
-        self.add_argument("--ref-spp", type=count, default=spp,
-                          help=f"the Mitsuba reference's samples per pixel (default {spp})")
-        self.add_argument("--cache", type=Path, default=REFERENCE_CACHE,
-                          help=f"where references are kept (default {REFERENCE_CACHE})")
-
     def json_output(self, help="also write the results as JSON to this file"):
         """``--json PATH``."""
         self.add_argument("--json", type=Path, metavar="PATH", help=help)
@@ -152,13 +131,6 @@ def _shown(default) -> str:
     if isinstance(default, (list, tuple)):
         return ",".join(_shown(d) for d in default)
     return f"{default:,}" if isinstance(default, int) else str(default)
-
-
-def executor(workers: int):
-    """Where a tool's passes run: ``workers`` local processes, or this process for 0."""
-    from blockhash.passes.executors import InProcess, LocalWorkers
-
-    return LocalWorkers(workers) if workers else InProcess()
 
 
 def timed(fn, *args, **kwargs):

@@ -72,18 +72,3 @@ def test_timed_and_write_json(tmp_path):
     write_json(tmp_path / "a" / "b.json", {"x": np.float32(1.5), "v": np.arange(2), "p": tmp_path})
     assert json.loads((tmp_path / "a" / "b.json").read_text()) == {"x": 1.5, "v": [0, 1],
                                                                    "p": str(tmp_path)}
-
-
-def test_workers_and_the_mitsuba_reference_options():
-    from blockhash.passes.executors import InProcess, LocalWorkers
-    from blockhash.studies.command import REFERENCE_CACHE, executor
-
-    p = ToolParser("doc", TOOL)
-    p.workers()
-    p.mitsuba_reference(64)
-    args = p.parse_args([])
-    assert args.workers == 0 and args.ref_spp == 64 and args.cache == REFERENCE_CACHE
-    assert isinstance(executor(0), InProcess) and executor(2) == LocalWorkers(2)
-    assert p.parse_args(["--workers", "2", "--cache", "x"]).cache == Path("x")
-    with pytest.raises(SystemExit):
-        p.parse_args(["--workers", "-1"])
