@@ -34,25 +34,10 @@ def test_pass_scaling_writes_the_executors_rows_and_their_images_agree(tmp_path)
     assert "| ring | 24 | 1 local worker |" in text
 
 
-@pytest.mark.gl
-def test_pass_stages_writes_each_stage_beside_a_baseline(tmp_path):
-    out = tmp_path / "stages.json"
-    text = run_tool("pass_stages.py", ["--baseline", ROOT, "--scenes", "ring",
-                 "--sizes", "24", "--photons", "2000", "--passes", "1", "--json", out], tmp_path)
-    [row] = __import__("json").loads(out.read_text())["rows"]
-    for side in ("baseline", "this"):
-        assert row[side]["stored"] > 1000 and row[side]["seconds"]["trace"] > 0
-        assert row[side]["stored_per_s"] > 0
-    # the same checkout on both sides: the same photons, whatever the seconds
-    assert row["baseline"]["stored"] == row["this"]["stored"]
-    assert "| ring | 24 | 2,000 | speed-up |" in text
-
-
-@pytest.mark.gl
-def test_pass_memory_writes_the_peaks_of_each_pass_count(tmp_path):
-    text = run_tool("pass_memory.py", ["--photons", "2000", "--passes", "1,3",
-                 "--size", "24", "--marks", "1,3"], tmp_path)
-    rows = [line for line in text.splitlines() if line.startswith("| default |")]
-    assert [line.split("|")[2].strip() for line in rows] == ["1", "3"]
-    peak = float(rows[-1].split("|")[4])
-    assert 50 < peak < 5000  # MiB: a real process's resident set
+def test_every_tool_has_a_test_that_runs_it_on_a_tiny_input():
+    """Each command in tools/ is named (as "NAME.py" or "NAME.sh") by a test in
+    tests/test_tools*.py that runs it and checks what it writes, beside the --help check."""
+    named = "".join(p.read_text() for p in (ROOT / "tests").glob("test_tools*.py"))
+    tools = sorted(p.name for p in (ROOT / "tools").iterdir() if p.suffix in (".py", ".sh"))
+    untested = [t for t in tools if f'"{t}"' not in named]
+    assert not untested, f"tools without a tiny-input test: {untested}"
