@@ -1,7 +1,8 @@
 """Seconds per warm pass, stage by stage, of this checkout beside another commit's (a
 ``git worktree``), in the same run: each (checkout, scene, size, photons) a fresh process that
 runs one pass at a time in one process (``run_passes`` on ``InProcess(overlap=False)``: one
-pass in flight, no overlap; ``Renderer.step`` in a baseline older than ``run_passes``), leaves out ``--warm`` passes and averages the next ``--passes``.
+pass in flight, no overlap; ``Renderer.step`` in a baseline older than ``run_passes``), leaves
+out ``--warm`` passes and averages the next ``--passes``.
 
 Per row: seconds a pass by stage (trace, index, photon radii, pixel splat, cover gather,
 G-buffer + direct, caustic), photons stored per second of tracing, and stored photons per
