@@ -121,12 +121,13 @@ CITED = re.compile(r"(?<![\w./-])((?:blockhash/(?!glsl/)|glsl/|tools/|tests/)[\w
 
 
 def test_every_path_a_source_file_cites_exists():
-    """Comments and docstrings of .py and .glsl files point at files that are there (a moved
-    module leaves no citation of its old path behind)."""
+    """Comments and docstrings of .py and .glsl files, and the Markdown docs, point at files
+    that are there (a moved module leaves no citation of its old path behind)."""
     missing = []
-    for path in project_files("*.py", "*.glsl", "*.frag"):
+    for path in project_files("*.py", "*.glsl", "*.frag", "*.md"):
         rel = path.relative_to(ROOT).as_posix()
-        if not rel.startswith(("blockhash/", "glsl/", "tools/", "tests/")):
+        if not rel.startswith(("blockhash/", "glsl/", "tools/", "tests/", "docs/")) and \
+                rel not in ("README.md", "BENCHMARKS.md"):
             continue
         for n, line in enumerate(path.read_text().splitlines(), 1):
             for cited in CITED.findall(line):
