@@ -188,3 +188,15 @@ def run_tool(name: str, args, cwd, *, timeout=600) -> str:
                          capture_output=True, text=True, timeout=timeout)
     assert run.returncode == 0, f"{name} exited {run.returncode}:\n{run.stderr[-3000:]}"
     return run.stdout
+
+
+def mitsuba_or_skip():
+    """Skip without Mitsuba 3 (the extra blockhash[mitsuba]), unless BLOCKHASH_REQUIRE_MITSUBA
+    is set (CI sets it), where it fails instead."""
+    from blockhash.reference.mitsuba import mitsuba_available
+
+    ok, why = mitsuba_available()
+    if not ok:
+        if os.environ.get("BLOCKHASH_REQUIRE_MITSUBA"):
+            pytest.fail(f"BLOCKHASH_REQUIRE_MITSUBA is set but {why}")
+        pytest.skip(why)

@@ -6,24 +6,17 @@ they fail instead."""
 
 import json
 import math
-import os
 from pathlib import Path
 
 import pytest
-from conftest import run_tool
-
-from blockhash.reference.mitsuba import mitsuba_available
+from conftest import mitsuba_or_skip, run_tool
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture
 def needs_mitsuba():
-    ok, why = mitsuba_available()
-    if not ok:
-        if os.environ.get("BLOCKHASH_REQUIRE_MITSUBA"):
-            pytest.fail(f"BLOCKHASH_REQUIRE_MITSUBA is set but {why}")
-        pytest.skip(why)
+    mitsuba_or_skip()
 
 
 def table_rows(text: str, first: str) -> list[list[str]]:

@@ -15,7 +15,6 @@ a ``twosided`` one is lit on both faces, and ``flip_normals`` turns the front.
 Needs the extra blockhash[mitsuba]; skipped without it, unless BLOCKHASH_REQUIRE_MITSUBA is
 set (CI sets it), where it fails instead."""
 
-import os
 import warnings
 from dataclasses import replace
 from pathlib import Path
@@ -23,8 +22,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import trimesh
+from conftest import mitsuba_or_skip
 
-from blockhash.reference.mitsuba import mitsuba_available
 from blockhash.scene.camera import Pinhole
 from blockhash.scene.loader import load_scene
 
@@ -66,11 +65,7 @@ TUBE_XML = """<scene version="3.0.0">
 
 @pytest.fixture(scope="module", autouse=True)
 def needs_mitsuba():
-    ok, why = mitsuba_available()
-    if not ok:
-        if os.environ.get("BLOCKHASH_REQUIRE_MITSUBA"):
-            pytest.fail(f"BLOCKHASH_REQUIRE_MITSUBA is set but {why}")
-        pytest.skip(why)
+    mitsuba_or_skip()
 
 
 def tube_mesh(radius=0.5, height=0.6, segments=48) -> trimesh.Trimesh:

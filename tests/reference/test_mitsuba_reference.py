@@ -3,15 +3,15 @@
 Needs the extra blockhash[mitsuba] (and an LLVM >= 16 library for its fast variant); skipped
 without it, unless BLOCKHASH_REQUIRE_MITSUBA is set (CI sets it), where it fails instead."""
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import mitsuba_or_skip
 from scipy.ndimage import uniform_filter
 
 from blockhash.reference.lighttrace import light_trace
-from blockhash.reference.mitsuba import mitsuba_available, mitsuba_reference, without_specular_lobes
+from blockhash.reference.mitsuba import mitsuba_reference, without_specular_lobes
 from blockhash.scene.loader import load_scene
 
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
@@ -19,11 +19,7 @@ SCENES = Path(__file__).resolve().parents[2] / "scenes"
 
 @pytest.fixture(scope="module", autouse=True)
 def needs_mitsuba():
-    ok, why = mitsuba_available()
-    if not ok:
-        if os.environ.get("BLOCKHASH_REQUIRE_MITSUBA"):
-            pytest.fail(f"BLOCKHASH_REQUIRE_MITSUBA is set but {why}")
-        pytest.skip(why)
+    mitsuba_or_skip()
 
 
 @pytest.mark.slow

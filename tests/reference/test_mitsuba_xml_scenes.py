@@ -14,13 +14,12 @@ and ``ptracer`` for the caustic region (all light on the diffuse floor there).
 Needs the extra blockhash[mitsuba]; skipped without it, unless BLOCKHASH_REQUIRE_MITSUBA is
 set (CI sets it), where it fails instead."""
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import mitsuba_or_skip
 
-from blockhash.reference.mitsuba import mitsuba_available
 from blockhash.scene.camera import Pinhole
 from blockhash.scene.loader import load_scene
 
@@ -37,11 +36,7 @@ CENTROID_LIMIT_PX = 0.5
 
 @pytest.fixture(scope="module", autouse=True)
 def needs_mitsuba():
-    ok, why = mitsuba_available()
-    if not ok:
-        if os.environ.get("BLOCKHASH_REQUIRE_MITSUBA"):
-            pytest.fail(f"BLOCKHASH_REQUIRE_MITSUBA is set but {why}")
-        pytest.skip(why)
+    mitsuba_or_skip()
 
 
 def mitsuba_layers(path, depth):
