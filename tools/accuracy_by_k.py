@@ -11,8 +11,8 @@ negatives as a share of k, per map and k.
 
 from __future__ import annotations
 
-from blockhash.studies import accuracy_runs as ea
 from blockhash.studies.command import ToolParser
+from blockhash.studies.lookups import accuracy_runs as ea
 
 KS = (1, 2, 4, 8, 16, 32, 50, 100, 128)
 LOOKUPS = ("walk", "hash", "cells")

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from blockhash.studies import accuracy_runs as ea
 from blockhash.studies.command import ToolParser, count, listing
+from blockhash.studies.lookups import accuracy_runs as ea
 
 
 def main(argv=None) -> int:

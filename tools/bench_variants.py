@@ -20,8 +20,8 @@ import numpy as np
 from blockhash import BlockHashIndex
 from blockhash.evaluate.datasets import DISTRIBUTIONS
 from blockhash.gl.lookup import GLLookup
-from blockhash.studies.bench import device_info, make_queries
 from blockhash.studies.command import ToolParser, count
+from blockhash.studies.shaders.bench import device_info, make_queries
 
 
 def main(argv=None) -> int:

@@ -29,9 +29,9 @@ from blockhash.scene.loader import load_scene
 from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial
 from blockhash.studies.command import ToolParser, count, size
-from blockhash.studies.estimates import reference_options
+from blockhash.studies.density.estimates import reference_options
 from blockhash.studies.measure import errors_against
-from blockhash.studies.sweep import box_down
+from blockhash.studies.tradeoff.sweep import box_down
 
 
 def main(argv=None) -> None:

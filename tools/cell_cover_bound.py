@@ -18,8 +18,8 @@ share of near and far queries (``metrics.far_queries``) whose bound exceeds the 
 
 from __future__ import annotations
 
-from blockhash.studies import accuracy_runs as ea
 from blockhash.studies.command import ToolParser, count, listing
+from blockhash.studies.lookups import accuracy_runs as ea
 
 
 def main(argv=None) -> int:

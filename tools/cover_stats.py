@@ -21,9 +21,9 @@ import numpy as np
 from blockhash.evaluate.photon_maps import EXTREMES, MAPS, queries
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.index.lookups.cover import FINE, OCTAVE_STEPS
-from blockhash.studies import accuracy_runs as ea
 from blockhash.studies.command import ToolParser, count, listing
-from blockhash.studies.cover_reads import cover_row, scene_points
+from blockhash.studies.lookups import accuracy_runs as ea
+from blockhash.studies.lookups.cover_reads import cover_row, scene_points
 
 #: The photon maps of tools/eval_accuracy.py but its scene maps (ring, venus: --scenes).
 MAP_NAMES = (*MAPS, *EXTREMES)

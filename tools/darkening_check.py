@@ -24,7 +24,7 @@ from blockhash.evaluate.images import read_layers
 from blockhash.reference.lighttrace import cached_reference, lambertian
 from blockhash.scene.loader import load_scene
 from blockhash.studies.command import ToolParser
-from blockhash.studies.estimates import reference_options
+from blockhash.studies.density.estimates import reference_options
 from blockhash.studies.measure import errors_against
 
 

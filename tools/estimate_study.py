@@ -6,12 +6,12 @@
 
 Every Phong ks is set to 0 (Lambertian receivers).  For each scene, N and k one photon
 map and one Block Hashing search per shading point; every option of
-blockhash.studies.estimates.default_options() is evaluated on those neighbours.  Prints
+blockhash.studies.density.estimates.default_options() is evaluated on those neighbours.  Prints
 one line per row, writes the rows as JSON (--json) and the markdown tables (--markdown;
 --from-json FILE prints them again from a saved study).  --jitter SEED places the shading
 points by stratified jitter instead of the rasterised grid.
 
---done-when is the issue's check (blockhash.studies.sampling): ring, venus and corner at
+--done-when is the issue's check (blockhash.studies.density.sampling): ring, venus and corner at
 N = 10^6, k = 50, pixel means from 8 x 8 jittered shading points per pixel with the 100
 most uneven pixels estimated again at 32 x 32, over jitter seeds 1 to 8, the paper's
 estimate and the default, with each measure's mean and standard error over the seeds.
@@ -25,7 +25,7 @@ from pathlib import Path
 
 from blockhash.scene.loader import load_scene
 from blockhash.studies.command import ToolParser, count, listing, side, write_json
-from blockhash.studies.estimates import (
+from blockhash.studies.density.estimates import (
     default_options,
     markdown_table,
     option_table,
@@ -33,7 +33,7 @@ from blockhash.studies.estimates import (
     study_scene,
     summary_table,
 )
-from blockhash.studies.sampling import context_table, done_when_study, done_when_table
+from blockhash.studies.density.sampling import context_table, done_when_study, done_when_table
 
 
 def _done_when(args, studies):

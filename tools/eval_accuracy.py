@@ -38,8 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-from blockhash.studies import accuracy_runs as ea
 from blockhash.studies.command import ToolParser, count, listing, number
+from blockhash.studies.lookups import accuracy_runs as ea
 
 
 def markdown(rows: list[dict]) -> str:

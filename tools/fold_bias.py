@@ -20,7 +20,7 @@ over the window x in (-0.2, 0.5), y in (0.25, 0.75) with stratified jittered poi
 (``--points`` per axis along x, half as many along y), and divided by the power of the
 photons inside the window: 1 for an estimate that conserved the photons' power.  The
 window's x-edge at 0.5 and its y-edges cross smooth density only, so what is left over
-is the estimate's own excess at the edge or fold (blockhash.studies.fold_bias).
+is the estimate's own excess at the edge or fold (blockhash.studies.density.fold_bias).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ import argparse
 
 from blockhash.frame.estimate import FILTERS
 from blockhash.studies.command import ToolParser, count, listing
-from blockhash.studies.fold_bias import ESTIMATES, SHAPES, flux_ratio
+from blockhash.studies.density.fold_bias import ESTIMATES, SHAPES, flux_ratio
 
 
 def main(argv=None) -> int:

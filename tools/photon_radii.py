@@ -33,7 +33,7 @@ from blockhash.scene.loader import load_scene
 from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial
 from blockhash.studies.command import ToolParser, count, side, timed
-from blockhash.studies.estimates import lambertian_reference, measure, reference_options
+from blockhash.studies.density.estimates import lambertian_reference, measure, reference_options
 from blockhash.studies.measure import rel_rms
 
 

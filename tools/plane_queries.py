@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.scene.loader import load_scene
-from blockhash.studies.accuracy_runs import plane_false_negatives
 from blockhash.studies.command import ToolParser, count, listing, number
+from blockhash.studies.lookups.accuracy_runs import plane_false_negatives
 
 
 def height(text: str) -> str:

@@ -5,7 +5,7 @@ Mesa's RADV Vulkan driver compiles pipelines on a null device, with no GPU
 (``GLLookup.query``), the exact kd-tree shader and the caustic pass really hand the GL
 driver (``blockhash.gl.shaderlib.recording``; llvmpipe compiles them as usual), turns
 each into SPIR-V with glslang's relaxed GL rules (no text changed), and reads ACO's
-statistics (:mod:`blockhash.studies.gpu_compiler`, which does the work).
+statistics (:mod:`blockhash.studies.shaders.gpu_compiler`, which does the work).
 
     python tools/shader_stats.py                       # the named shaders, RDNA2/RDNA3/GCN
     python tools/shader_stats.py --family navi21 --variants   # plus every lookup variant
@@ -26,7 +26,7 @@ import sys
 from pathlib import Path
 
 from blockhash.studies.command import ToolParser, count, listing, write_json
-from blockhash.studies.gpu_compiler import (
+from blockhash.studies.shaders.gpu_compiler import (
     COLUMNS,
     FAMILIES,
     HEADER,

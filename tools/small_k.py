@@ -12,8 +12,8 @@ photon maps and query sets.  The default was chosen on the TUNE maps only:
 
 from __future__ import annotations
 
-from blockhash.studies import accuracy_runs as ea
 from blockhash.studies.command import ToolParser, count, listing
+from blockhash.studies.lookups import accuracy_runs as ea
 
 
 def main(argv=None) -> int:

@@ -32,7 +32,7 @@ from blockhash.passes.pipeline import render_scene
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.scene.loader import load_scene
 from blockhash.studies.command import ToolParser, count, listing, side, write_json
-from blockhash.studies.estimates import lambertian_reference, measure, reference_options
+from blockhash.studies.density.estimates import lambertian_reference, measure, reference_options
 
 #: Light-tracer photons of the reference: its blurred relative noise in the caustic region
 #: is printed beside every row.

@@ -1,5 +1,5 @@
 """``blockhash bench``: time Block Hashing shader variants against exact kNN, and the stages of
-a scene's caustic pass (``--caustic``); the measuring itself is :mod:`blockhash.studies.bench`.
+a scene's caustic pass (``--caustic``); the measuring itself is :mod:`blockhash.studies.shaders.bench`.
 """
 
 from __future__ import annotations
@@ -9,12 +9,17 @@ import sys
 from blockhash.errors import InputError
 from blockhash.evaluate.datasets import DISTRIBUTIONS
 from blockhash.gl.context import BACKENDS
-from blockhash.studies.bench import PEERS as CAUSTIC_PEERS
-from blockhash.studies.bench import QUERY_SETS
+from blockhash.studies.shaders.bench import PEERS as CAUSTIC_PEERS
+from blockhash.studies.shaders.bench import QUERY_SETS
 
 
 def cmd_bench(args) -> int:
-    from blockhash.studies.bench import format_table, run_benchmark, run_caustic_benchmark, write_results
+    from blockhash.studies.shaders.bench import (
+        format_table,
+        run_benchmark,
+        run_caustic_benchmark,
+        write_results,
+    )
 
     if args.repeat < 1 or args.warmup < 0:
         raise InputError(f"--repeat {args.repeat} / --warmup {args.warmup}: need at least one "

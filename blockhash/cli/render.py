@@ -184,7 +184,7 @@ def _choose_settings(args, scene) -> None:
         print("settings: the scene has no specular object, so no caustic photons are traced and "
               "no index is built; the budget applies to nothing")
         return
-    from blockhash.studies.budget import choose, study_for
+    from blockhash.studies.tradeoff.budget import choose, study_for
 
     if args.photons is not None or args.k is not None or args.A is not None:
         raise InputError("--time-budget / --study-error choose --photons, --k and --A; give "

@@ -40,12 +40,12 @@ def _int_list(text: str) -> tuple[int, ...]:
 def cmd_tradeoff(args) -> int:
     from blockhash.reference.lighttrace import lambertian
     from blockhash.scene.loader import load_scene
-    from blockhash.studies.budget import remember
-    from blockhash.studies.report import write_study
-    from blockhash.studies.sweep import QUICK, SweepPlan, run_sweep, with_plan
+    from blockhash.studies.tradeoff.budget import remember
+    from blockhash.studies.tradeoff.report import write_study
+    from blockhash.studies.tradeoff.sweep import QUICK, SweepPlan, run_sweep, with_plan
 
     if args.replot:
-        from blockhash.studies.report import rewrite_report
+        from blockhash.studies.tradeoff.report import rewrite_report
 
         print(f"report: {rewrite_report(args.output)}")
         return 0

@@ -8,5 +8,5 @@ seed, :mod:`.testing` is the pytest helper that holds renders to a reference and
 
 Lookups: :mod:`.metrics` the exact k nearest (cKDTree) and the paper's section 6 metrics, on
 photon sets from :mod:`.datasets` and photon maps from :mod:`.photon_maps` (the accuracy
-runs on them that the tools tabulate are a study, :mod:`blockhash.studies.accuracy_runs`).
+runs on them that the tools tabulate are a study, :mod:`blockhash.studies.lookups.accuracy_runs`).
 """

@@ -157,7 +157,7 @@ def test_tradeoff_takes_the_method_and_its_older_engine_spelling(capsys):
 @pytest.mark.parametrize("flags, engine", [([], "gl"), (["--method", "cpu"], "cpu"),
                                            (["--engine", "cpu"], "cpu"), (["--method", "bh"], "gl")])
 def test_tradeoff_runs_its_sweep_on_the_engine_of_the_method(monkeypatch, tmp_path, flags, engine):
-    import blockhash.studies.sweep as sweep
+    import blockhash.studies.tradeoff.sweep as sweep
     from blockhash.errors import InputError
 
     seen = []

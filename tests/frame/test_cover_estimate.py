@@ -149,7 +149,7 @@ def test_splatting_equals_the_gather_where_the_camera_sees_the_receiver(ring_sce
     """The same estimate scattered: equal to the cover gather's per pixel that sees a receiver
     directly; where the pixel sees the floor in the mirror ring, only the photons that project
     near it (by the ring's foot, where the floor and its image meet) reach it."""
-    from blockhash.studies.splat_pass import SplatPass
+    from blockhash.studies.shaders.splat_pass import SplatPass
 
     scene, index, pts, mats = ring_scene_points
     gather = cover_gather(index, 50)

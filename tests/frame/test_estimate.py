@@ -146,7 +146,12 @@ def test_estimate_study_measures_every_option_on_the_same_neighbours(tmp_path):
     from pathlib import Path
 
     from blockhash.scene.loader import load_scene
-    from blockhash.studies.estimates import default_options, markdown_table, study_scene, summary_table
+    from blockhash.studies.density.estimates import (
+        default_options,
+        markdown_table,
+        study_scene,
+        summary_table,
+    )
 
     corner = load_scene(Path(__file__).resolve().parents[2] / "scenes" / "corner.toml")
     study = study_scene(corner, photons=(3_000,), ks=(20,), size=(24, 24), supersample=1,

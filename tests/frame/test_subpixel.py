@@ -1,5 +1,5 @@
 """Shading points inside pixels (blockhash.frame.subpixel) and the done-when check's
-pixel means (blockhash.studies.sampling)."""
+pixel means (blockhash.studies.density.sampling)."""
 
 from pathlib import Path
 
@@ -105,7 +105,7 @@ def test_estimate_images_in_chunks_equal_one_search_and_only_fill_what_was_asked
 
     from blockhash.frame.caustic import Neighbours
     from blockhash.frame.estimate import EstimateOptions
-    from blockhash.studies.estimates import estimate_images
+    from blockhash.studies.density.estimates import estimate_images
 
     index = surfaces([(4000, 1, 0.0, FLOOR)], k=10)
     pts = floor_points(12, 10)
@@ -124,7 +124,7 @@ def test_estimate_images_in_chunks_equal_one_search_and_only_fill_what_was_asked
 
 @pytest.fixture(scope="module")
 def small_study(tmp_path_factory):
-    from blockhash.studies.sampling import done_when_study
+    from blockhash.studies.density.sampling import done_when_study
 
     return done_when_study(load_scene(SCENES / "corner.toml"), photons=3_000, ks=(20,), size=(24, 24),
                            samples=2, seeds=(1, 2, 3), refine=5, refine_samples=4,
@@ -133,7 +133,7 @@ def small_study(tmp_path_factory):
 
 
 def test_done_when_study_rows_summary_and_tables(small_study):
-    from blockhash.studies.sampling import context_table, done_when_table, options, summary
+    from blockhash.studies.density.sampling import context_table, done_when_table, options, summary
 
     rows = small_study["rows"]
     labels = [o.label for o in options()]
@@ -160,7 +160,7 @@ def test_refinement_replaces_only_the_most_uneven_pixels_with_fresh_points():
     from blockhash.photons.tracing import trace_caustic_photons
     from blockhash.reference.lighttrace import lambertian
     from blockhash.scene.materials import receiver_materials
-    from blockhash.studies.sampling import options, pixel_means, refine_seed
+    from blockhash.studies.density.sampling import options, pixel_means, refine_seed
 
     scene = lambertian(load_scene(SCENES / "ring.toml"))
     pm = trace_caustic_photons(scene, 5_000, seed=1)
@@ -197,7 +197,7 @@ def test_the_study_tool_prints_the_done_when_tables_again_from_its_json(small_st
 
 @pytest.mark.slow
 def test_the_k_nearest_estimate_adds_flux_at_a_fold_and_less_with_more_photons():
-    from blockhash.studies import fold_bias as fold
+    from blockhash.studies.density import fold_bias as fold
 
     few = fold.flux_ratio("fold", 20_000, 50, ["none", "cone"], points=400)
     many = fold.flux_ratio("fold", 320_000, 50, ["none", "cone"], points=400)
@@ -207,7 +207,7 @@ def test_the_k_nearest_estimate_adds_flux_at_a_fold_and_less_with_more_photons()
 
 
 def test_verdict_reads_two_standard_errors_of_the_seeds_and_the_reference():
-    from blockhash.studies.sampling import verdict
+    from blockhash.studies.density.sampling import verdict
 
     def s(flux, se, blur=0.02, blur_se=0.001):
         return {"flux": flux, "flux_se": se, "flux_region": flux, "flux_region_se": se,

@@ -1,5 +1,5 @@
 """A GPU compiler's view of the shaders blockhash runs: registers, scratch memory, occupancy
-(what ``tools/shader_stats.py`` prints and ``tests/studies/test_gpu_compiler.py`` holds to budget).
+(what ``tools/shader_stats.py`` prints and ``tests/studies/shaders/test_gpu_compiler.py`` holds to budget).
 
 Mesa's RADV Vulkan driver compiles pipelines on a null device, with no GPU
 (``RADV_FORCE_FAMILY``).  :func:`lookup_shaders` and :func:`caustic_shaders` record the
@@ -251,7 +251,7 @@ def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_00
             out[f"caustic {name}: {stage}"] = _largest(got)
     if "splat" in lookups:
         from blockhash.frame.cover_estimate import cover_gather
-        from blockhash.studies.splat_pass import SplatPass
+        from blockhash.studies.shaders.splat_pass import SplatPass
 
         with recording() as got:
             SplatPass(cover_gather(index, k), backend=backend).render(

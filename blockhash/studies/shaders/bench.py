@@ -295,7 +295,7 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
                 add(gather, stage, times, device, clk)
             continue
         if gather == "splat":
-            from blockhash.studies.splat_pass import SplatPass
+            from blockhash.studies.shaders.splat_pass import SplatPass
 
             gathered = cover_gather(index, settings.k)
             image, walls = SplatPass(gathered, backend=backend).render(

@@ -9,7 +9,7 @@ with cKDTree for the paper's and the default estimate, the lookup's own share); 
 neighbours, so the options differ only in the estimate.  Images are rendered at
 ``supersample`` times the size and box-filtered, as in the trade study.
 
-Measures, per row (:mod:`.measure`): ``flux`` the ratio of summed caustic radiance to the
+Measures, per row (:mod:`blockhash.studies.measure`): ``flux`` the ratio of summed caustic radiance to the
 reference's over the comparison mask (:meth:`LightTraceImage.comparison_mask`), ``blur``
 the relative RMS after a 2-pixel Gaussian blur over that mask, and ``flux_region`` and
 ``blur_region`` the same over the *caustic region*: mask pixels whose blurred reference
@@ -37,7 +37,7 @@ from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial
 from blockhash.studies.command import count
 from blockhash.studies.measure import flux_ratio, masked_blur, rel_rms
-from blockhash.studies.sweep import box_down
+from blockhash.studies.tradeoff.sweep import box_down
 
 #: The caustic region: blurred reference above this fraction of its 99th percentile.
 REGION_FRACTION = 0.05

@@ -11,11 +11,11 @@ For one scene and image size it
 4. for each setting (N, k, A, preset, variant) of :class:`SweepPlan` builds the
    index (timed), runs the caustic pass in GL (compiled by a warm-up draw first, then
    timed: wall time of the pass, and the draw alone), and measures its image against
-   the exact one and the reference (:mod:`.measure`), and its neighbours against the
+   the exact one and the reference (:mod:`blockhash.studies.measure`), and its neighbours against the
    exact ones (false negatives and dilations per pixel query, paper Figs. 12 and 14;
    :mod:`blockhash.evaluate.metrics`).
 
-The result is a dict (written as ``tradeoff.json`` by :mod:`.report`): ``rows`` holds
+The result is a dict (written as ``tradeoff.json`` by :mod:`blockhash.studies.tradeoff.report`): ``rows`` holds
 one dict per setting with at least ``method``, ``photons``, ``k``, ``A``, ``preset``,
 ``variant``, ``seconds`` (per stage), ``rel_rms_exact``, ``rel_rms_reference`` and
 ``flux_ratio_reference``; exact rows have ``method`` 'exact-ckdtree' or

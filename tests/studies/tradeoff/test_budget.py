@@ -1,4 +1,4 @@
-"""Settings for a budget (blockhash.studies.budget) from a synthetic trade study."""
+"""Settings for a budget (blockhash.studies.tradeoff.budget) from a synthetic trade study."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 
 from blockhash.cli import main
 from blockhash.errors import InputError
-from blockhash.studies.budget import choose, predicted_seconds, study_for
+from blockhash.studies.tradeoff.budget import choose, predicted_seconds, study_for
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -60,7 +60,7 @@ def test_an_explicit_study_file_is_read_and_a_missing_one_named(tmp_path):
 def test_a_scene_without_mirrors_skips_the_photon_stages(tmp_path, capsys):
     from pathlib import Path
 
-    ring = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
+    ring = Path(__file__).resolve().parents[3] / "scenes" / "ring.toml"
     text = ring.read_text().replace('material = "mirror"', 'material = "floor"')
     scene = tmp_path / "plain.toml"
     scene.write_text(text)

@@ -111,7 +111,7 @@ def study_for(scene, *, cache_dir, study_path=None, backend=None, progress=print
     if cached.is_file():
         progress(f"using the cached trade study {cached}")
         return json.loads(cached.read_text())
-    from blockhash.studies.sweep import SweepPlan, run_sweep
+    from blockhash.studies.tradeoff.sweep import SweepPlan, run_sweep
 
     progress("no trade study of this scene yet: running a short calibration study")
     study = run_sweep(scene, SweepPlan(**CALIBRATION), cache_dir=cache_dir, backend=backend,

@@ -39,7 +39,7 @@ from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.reference.lighttrace import cached_reference, lambertian, light_trace
 from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial
-from blockhash.studies.estimates import (
+from blockhash.studies.density.estimates import (
     caustic_region,
     estimate_images,
     measure,
@@ -48,7 +48,7 @@ from blockhash.studies.estimates import (
     upsample,
 )
 from blockhash.studies.measure import flux_ratio
-from blockhash.studies.sweep import box_down
+from blockhash.studies.tradeoff.sweep import box_down
 
 #: Pixels estimated again, and their shading points per pixel along each axis.
 REFINE = 100
@@ -102,7 +102,7 @@ def done_when_study(scene, *, photons=1_000_000, ks=(50,), size=(128, 128), samp
                     seeds=tuple(range(1, 9)), refine=REFINE, refine_samples=REFINE_SAMPLES,
                     search_kinds=("bh",), estimate_options=None, reference_photons=50_000_000,
                     A=8, cache_dir=None, progress=print) -> dict:
-    """Rows of :func:`.estimates.measure` per (k, search, seed, option) for one scene with
+    """Rows of :func:`blockhash.studies.density.estimates.measure` per (k, search, seed, option) for one scene with
     ks = 0, one photon map of ``photons`` (the scene's seed); seed None is the regular grid."""
     scene = lambertian(scene)
     name = scene.path.stem if scene.path else "?"

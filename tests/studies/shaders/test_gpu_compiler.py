@@ -1,4 +1,4 @@
-"""The GPU compiler check (blockhash/studies/gpu_compiler.py, tools/shader_stats.py): Mesa
+"""The GPU compiler check (blockhash/studies/shaders/gpu_compiler.py, tools/shader_stats.py): Mesa
 RADV's ACO backend compiles the shaders blockhash runs on a null RDNA2 device, and the GPU-shaped lookup fits its budget
 (no scratch memory, no spills, at most 64 VGPRs in wave64); shaders that do not fit fail.
 
@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from conftest import context_or_skip
 
-from blockhash.studies import gpu_compiler
+from blockhash.studies.shaders import gpu_compiler
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -102,7 +102,7 @@ def test_the_check_catches_the_walks_scratch_queues(lookups):
 @pytest.mark.slow
 def test_the_cells_caustic_pass_fits_the_gpu_budget():
     context_or_skip("egl")
-    scene = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
+    scene = Path(__file__).resolve().parents[3] / "scenes" / "ring.toml"
     shaders = gpu_compiler.caustic_shaders(str(scene), lookups=("cells",), backend="egl")
     assert len(shaders) == 3
     for name, text in shaders.items():
@@ -113,7 +113,7 @@ def test_the_cells_caustic_pass_fits_the_gpu_budget():
 @pytest.fixture(scope="module")
 def ring_caustic_passes():
     context_or_skip("egl")
-    scene = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
+    scene = Path(__file__).resolve().parents[3] / "scenes" / "ring.toml"
     return gpu_compiler.caustic_shaders(str(scene), lookups=("cover", "walk"), backend="egl")
 
 

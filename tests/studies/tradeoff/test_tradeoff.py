@@ -11,14 +11,14 @@ import pytest
 
 from blockhash.errors import InputError
 from blockhash.scene.loader import load_scene
-from blockhash.studies.claims import check_claims
 from blockhash.studies.measure import flux_ratio, masked_blur, rel_rms
-from blockhash.studies.report import pareto_front, write_study
-from blockhash.studies.sweep import QUICK, SweepPlan, run_sweep, with_plan
+from blockhash.studies.tradeoff.claims import check_claims
+from blockhash.studies.tradeoff.report import pareto_front, write_study
+from blockhash.studies.tradeoff.sweep import QUICK, SweepPlan, run_sweep, with_plan
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
-RING = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
+RING = Path(__file__).resolve().parents[3] / "scenes" / "ring.toml"
 #: Smaller than --quick: CPU engine (no shader compiles), 32 x 32, three photon counts.
 TINY = with_plan(QUICK, photons=(2_000, 6_000, 20_000), grid_A=(1, 2, 4, 8, 32),
                  grid_photons=(20_000,), size=(32, 32), reference_photons=1_000_000, engine="cpu",

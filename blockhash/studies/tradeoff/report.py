@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from blockhash.evaluate.images import write_exr
-from blockhash.studies.claims import report_markdown
+from blockhash.studies.tradeoff.claims import report_markdown
 
 #: The error the report reads: relative RMS after a 2-pixel blur, against the reference
 #: (per-pixel noise of the estimate and of the reference removed, bias and blur kept).
