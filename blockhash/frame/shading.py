@@ -265,11 +265,17 @@ def _cone(light):
             power / (2.0 * np.pi * (1.0 - cos_c)))
 
 
-def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays) -> np.ndarray:
+def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
+                 pass_index: int = 0) -> np.ndarray:
     """(h, w, 3) direct radiance from point and spot lights, shadowed, times the path weight
     (the modified Phong BRDF, :func:`blockhash.scene.materials.phong_brdf`): per light, the
     points on its side of their surface cast one shadow ray each (:meth:`SceneRays.visible`'s
-    segments, embree's occlusion query), and :func:`_lit` adds the unshadowed ones' radiance."""
+    segments, embree's occlusion query), and :func:`_lit` adds the unshadowed ones' radiance.
+    Area and directional lights, and an area light's radiance seen, are
+    :mod:`blockhash.frame.surface_lights`' (an area light's point per sample from
+    ``pass_index``'s light sample)."""
+    from blockhash.frame import surface_lights
+
     h, w = points.shape
     mat = points.material.reshape(-1)
     live = np.flatnonzero(mat >= 0)
@@ -285,7 +291,15 @@ def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays) -> np.
                         dtype=np.float64).reshape(len(objects), -1)
 
     kd, ks, e = per_object("kd", np.zeros(3)), per_object("ks", np.zeros(3)), per_object("n", 1.0)[:, 0]
-    for light in lights:
+    surface_lights.emission_seen(out, lights, objects, p, wo, mat, rays)
+    for li, light in enumerate(lights):
+        if hasattr(light, "radiance"):
+            surface_lights.area_light(out, light, live, p, n, wo, mat, kd, ks, e, rays,
+                                      pass_index, li)
+            continue
+        if hasattr(light, "irradiance"):
+            surface_lights.directional_light(out, light, live, p, n, wo, mat, kd, ks, e, rays)
+            continue
         lp = np.asarray(light.position, dtype=np.float64).reshape(1, 3)
         front = _facing(p, n, live, lp[0])
         origins, wi, dist = shadow_segments(p[front], n[front], lp, RAY_OFFSET * rays.scale)

@@ -231,7 +231,7 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
     points, seen = camera_samples(setup.scene, setup.rays, s.side, p, backend=s.backend)
     timings["gbuffer"] = time.perf_counter() - t
     t = time.perf_counter()
-    direct = direct_light(points, setup.scene.objects, setup.scene.lights, setup.rays)
+    direct = direct_light(points, setup.scene.objects, setup.scene.lights, setup.rays, p)
     timings["direct"] = time.perf_counter() - t
     caustic = np.zeros_like(direct, dtype=np.float32)
     estimate = setup.caustic.estimate

@@ -170,10 +170,18 @@ class Emitter:
     """Cone sampling toward the specular objects for every light; with ``geometry``, into
     each cone's projection map's live cells (module docstring)."""
 
-    def __init__(self, lights, specular_objects, geometry=None):
+    def __init__(self, lights, specular_objects, geometry=None, bounds=None):
+        from blockhash.photons.light_targets import SurfaceSampler, light_targets
+
         self.positions, self.intensity, self.spot_axis, self.spot_cos = [], [], [], []
         cones: list[Cone] = []
         for li, light in enumerate(lights):
+            if not hasattr(light, "position"):  # area and directional: light_targets
+                self.positions.append(np.zeros(3))
+                self.intensity.append(np.zeros(3))
+                self.spot_axis.append(None)
+                self.spot_cos.append(-1.0)
+                continue
             pos = np.asarray(light.position, dtype=np.float64)
             power = np.asarray(light.power, dtype=np.float64)
             cone_deg = getattr(light, "cone_deg", None)
@@ -209,15 +217,38 @@ class Emitter:
             cones = mapped or cones
         self.cones = tuple(cones)
         self.n_lights = len(lights)
-        # pmf over cones: power of the light falling into each cone
+        if bounds is None:
+            boxes = np.array([o.mesh.bounds for o in specular_objects]).reshape(-1, 2, 3)
+            bounds = np.stack([boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)])
+        self.targets = tuple(light_targets(lights, specular_objects, bounds))
+        # pmf over cones, then the area and directional lights' targets: power of the light
+        # falling into each
         brightness = np.array([float(np.mean(self.intensity[c.light])) * c.solid_angle
-                               * c.live_fraction for c in cones])
-        total = brightness.sum() if len(cones) else 0.0
+                               * c.live_fraction for c in cones]
+                              + [t.brightness for t in self.targets])
+        total = brightness.sum() if len(brightness) else 0.0
         self.pmf = brightness / total if total > 0 else brightness
         self.cdf = np.cumsum(self.pmf)
-        if len(cones):
+        if len(self.cdf):
             self.cdf[-1] = 1.0
         self.total_brightness = total
+        self.surfaces = (SurfaceSampler(self.targets, self.pmf[len(cones):], lights, bounds)
+                         if self.targets else None)
+
+    @property
+    def sources(self) -> int:
+        """Cones and targets: what a photon chooses between (0: no light reaches a specular
+        object)."""
+        return len(self.cones) + len(self.targets)
+
+    def uniforms(self, seed: int, start: int, count: int):
+        """The uniforms :meth:`sample` takes for photons ``start .. start + count - 1``."""
+        u = photon_uniforms(seed, start, count)
+        if self.surfaces is None:
+            return u
+        from blockhash.photons.light_targets import surface_uniforms
+
+        return u, surface_uniforms(seed, start, count)
 
     @staticmethod
     def _clip_to_spot(axis, cos_a, s_axis, s_cos):
@@ -236,8 +267,29 @@ class Emitter:
         # partial overlap: sample the smaller cone, photons outside the spot carry nothing
         return (axis, cos_a, "object") if cos_a >= s_cos else (s_axis, s_cos, "spot")
 
-    def sample(self, u: np.ndarray):
-        """Origins (n, 3), unit directions (n, 3), weights (n, 3) and light index (n,) from uniforms (n, 4)."""
+    def sample(self, u):
+        """Origins (n, 3), unit directions (n, 3), weights (n, 3) and light index (n,) from
+        :meth:`uniforms` (n, 4), or with area or directional lights (their pair)."""
+        if self.surfaces is None:
+            return self._sample_cones(u)
+        u, extra = u
+        k = np.minimum(np.searchsorted(self.cdf, u[:, 0], side="right"), self.sources - 1)
+        n = len(u)
+        origins, dirs, weights = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
+        light = np.zeros(n, dtype=np.int64)
+        on_cone = k < len(self.cones)
+        if on_cone.any():
+            rows = np.flatnonzero(on_cone)
+            origins[rows], dirs[rows], weights[rows], light[rows] = self._sample_cones(u[rows])
+        rows = np.flatnonzero(~on_cone)
+        if len(rows):
+            j = k[rows] - len(self.cones)
+            origins[rows], dirs[rows], weights[rows] = self.surfaces.sample(j, u[rows], extra[rows])
+            light[rows] = np.array([t.light for t in self.targets], dtype=np.int64)[j]
+        return origins, dirs, weights, light
+
+    def _sample_cones(self, u: np.ndarray):
+        """:meth:`sample` for photons whose uniforms choose a point or spot light's cone."""
         k = np.minimum(np.searchsorted(self.cdf, u[:, 0], side="right"), len(self.cones) - 1)
         axes = np.array([c.axis for c in self.cones])
         t1 = np.array([c.t1 for c in self.cones])
@@ -249,7 +301,8 @@ class Emitter:
         origins = np.array(self.positions)[light]
         # mixture density q(w) = sum over cones c whose live cells hold w of
         # pmf_c / (solid_angle_c live_fraction_c)
-        density = self.pmf / np.array([c.solid_angle * c.live_fraction for c in self.cones])
+        density = self.pmf[:len(self.cones)] / np.array([c.solid_angle * c.live_fraction
+                                                         for c in self.cones])
         q = density[k]
         for j, c in enumerate(self.cones):
             other = (k != j) & (light == c.light)

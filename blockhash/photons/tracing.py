@@ -47,7 +47,7 @@ import warnings
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.photons.emission import Emitter, photon_uniforms
+from blockhash.photons.emission import Emitter
 from blockhash.photons.paths import (  # noqa: F401 (the map and its fates, importable from here)
     ABSORBED,
     DIRECT,
@@ -129,7 +129,7 @@ def trace_caustic_photons(scene, n_stored_target: int | None = None, *, seed: in
     source = PhotonSource(scene)
     photons = source.until_stored(n_stored_target, seed=seed, batch_size=batch_size,
                                   max_emitted=max_emitted, progress=progress)
-    if photons.stats.get("stopped_by") == "nothing_stored":  # a map was asked for: none is
+    if photons.stats.get("stopped_by") in ("nothing_stored", "unreachable"):  # a map was asked for
         raise InputError(
             f"{source.name}: {no_caustic_reason(photons.stats)}; the mirrors are not reachable "
             "from the lights, or nothing diffuse receives their reflection: move the light, "
@@ -145,6 +145,8 @@ def no_caustic_reason(stats: dict) -> str:
     32,326)``.  A scene without a specular object says so instead."""
     if stats.get("stopped_by") == "no_specular_objects":
         return "the scene has no specular (mirror or glass) object, so it has no caustic"
+    if stats.get("stopped_by") == "unreachable":
+        return str(stats.get("reason"))
     toward = list(stats.get("specular_objects") or
                   dict.fromkeys(c["object"] for c in stats.get("cones", ())))
     fates = ", ".join(f"{name.replace('_', ' ')} {stats[name]:,}" for name in FATE_NAMES
@@ -171,15 +173,21 @@ class PhotonSource:
                                   hint=f"{name}: caustic paths need at least one mirror bounce")
         self.lights = lights = tuple(scene.lights)
         if not lights:
-            raise InputError(f"{name} has no lights; caustic photons need at least one point or "
-                             "spot light: add a [[lights]] entry")
+            raise InputError(f"{name} has no lights; caustic photons need at least one light: "
+                             "add a [[lights]] entry or an object with emission")
         self.specular = specular = tuple(scene.specular_objects)
         self.emitter = self.geometry = None
+        self.unreachable = ""
         if not specular:
             return
         self.geometry = geometry or EmbreeGeometry(tuple(scene.objects))
-        emitter = Emitter(lights, specular, geometry=self.geometry)
-        if not emitter.cones:
+        emitter = Emitter(lights, specular, geometry=self.geometry, bounds=scene.bounds)
+        if not emitter.sources and not all(hasattr(li, "position") for li in lights):
+            # an area light facing away from every mirror: a render goes on with direct light
+            self.unreachable = (f"no light reaches the specular objects {[o.name for o in specular]} "
+                                "(each area light faces away from them, or is behind them)")
+            return
+        if not emitter.sources:
             raise InputError(
                 f"{name}: no light reaches a specular object (every spot light's cone misses "
                 f"the mirrors {[o.name for o in specular]}); aim a spot light at a mirror or widen "
@@ -194,6 +202,10 @@ class PhotonSource:
                       maximum=2**128 - 1, hint="use a non-negative integer seed")
 
     def _no_specular(self, t0) -> CausticPhotons:
+        if self.unreachable:
+            return CausticPhotons.empty({
+                "emitted": 0, "hit_specular": 0, "stored": 0, "stopped_by": "unreachable",
+                "reason": f"{self.name}: {self.unreachable}", "seconds": time.perf_counter() - t0})
         return CausticPhotons.empty({
             "emitted": 0, "hit_specular": 0, "stored": 0, "stopped_by": "no_specular_objects",
             "reason": f"{self.name} has no specular (mirror) object, so it has no caustic",
@@ -263,7 +275,7 @@ class PhotonSource:
                     else:
                         guess = 4 * need + 1024 if start == 0 else batch_size
                 count = min(batch_size, cap - start, guess)
-                u = photon_uniforms(seed, first + start, count)
+                u = self.emitter.uniforms(seed, first + start, count)
                 origins, dirs, weights, light = self.emitter.sample(u)
                 batch = trace_batch(self.geometry, origins, dirs, weights, self.max_bounces,
                                     seed=seed, start=first + start)
@@ -339,7 +351,11 @@ class _Run:
             "cones": tuple({"light": c.light, "object": c.object_name, "sampled": c.sampled,
                             "half_angle_deg": float(np.degrees(np.arccos(c.cos_half))),
                             "solid_angle": c.solid_angle, "pmf": float(p)}
-                           for c, p in zip(source.emitter.cones, source.emitter.pmf)),
+                           for c, p in zip(source.emitter.cones, source.emitter.pmf))
+                     + tuple({"light": t.light, "object": t.object_name, "sampled": t.kind,
+                              "pmf": float(p)}
+                             for t, p in zip(source.emitter.targets,
+                                             source.emitter.pmf[len(source.emitter.cones):])),
             "specular_objects": tuple(o.name for o in source.specular),
             "stopped_by": self.stopped_by,
             "traced": self.traced, "rays_cast": self.rays, "batches": self.batches,

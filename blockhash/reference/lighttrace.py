@@ -69,7 +69,7 @@ from blockhash import __version__
 from blockhash.code_version import source_digest
 from blockhash.errors import InputError
 from blockhash.frame.shading import SceneRays
-from blockhash.photons.emission import Emitter, photon_uniforms
+from blockhash.photons.emission import Emitter
 from blockhash.photons.paths import trace_batch
 from blockhash.scene.camera import Pinhole
 from blockhash.scene.materials import material_arrays, phong_brdf, receiver_materials
@@ -187,10 +187,10 @@ def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
              "stored": 0, "connected": 0}
     specular = tuple(scene.specular_objects)
     if specular:
-        emitter = Emitter(tuple(scene.lights), specular)
-        if not emitter.cones:
+        emitter = Emitter(tuple(scene.lights), specular, bounds=scene.bounds)
+        if not emitter.sources:
             raise InputError("light_trace: no light reaches a specular object; aim a spot light "
-                             "at a mirror or widen its cone_deg")
+                             "at a mirror or widen its cone_deg, or turn an area light to face one")
         kd, ks, e = material_arrays(receiver_materials(scene.objects))
         max_bounces = scene.photons.max_bounces
         bar = None
@@ -199,7 +199,7 @@ def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
             bar = tqdm(total=m_total, unit="photon", desc="light tracing")
         for start in range(0, m_total, batch_size):
             count = min(batch_size, m_total - start)
-            origins, dirs, weights, _ = emitter.sample(photon_uniforms(seed, start, count))
+            origins, dirs, weights, _ = emitter.sample(emitter.uniforms(seed, start, count))
             b = trace_batch(geom, origins, dirs, weights, max_bounces, seed=seed, start=start)
             stats["stored"] += len(b.stored)
             _connect(b, pin, rays, kd, ks, e, sum1, sum2, stats)
@@ -264,11 +264,11 @@ def scene_digest(scene) -> str:
     h.update(repr((c.eye.tolist(), c.target.tolist(), c.up.tolist(), c.fov_y_deg,
                    c.width, c.height)).encode())
     for light in scene.lights:
-        h.update(repr((type(light).__name__, np.asarray(light.position).tolist(),
-                       np.asarray(light.power).tolist(),
-                       None if getattr(light, "direction", None) is None
-                       else np.asarray(light.direction).tolist(),
-                       getattr(light, "cone_deg", None))).encode())
+        h.update(repr((type(light).__name__, *(np.asarray(getattr(light, a)).tolist()
+                                               for a in ("position", "power", "direction",
+                                                         "cone_deg", "object", "radiance",
+                                                         "irradiance")
+                                               if hasattr(light, a)))).encode())
     for o in scene.objects:
         m = o.material
         h.update(repr((o.name, type(m).__name__,

@@ -50,12 +50,23 @@ typo is never silently ignored)::
     direction = [0.0, -1.0, 0.0]    # required, the cone's axis (normalised on load)
     power = 50.0                    # required, watts emitted into the whole cone
     cone_deg = 30.0                 # required, half angle, 0 < cone_deg <= 90
+    [[lights]]
+    kind = "directional"            # sunlight: parallel light from outside the scene
+    direction = [0.3, -1.0, 0.2]    # required, the direction the light travels (normalised)
+    irradiance = 4.0                # required, W m^-2 on a surface facing the light,
+                                    #   number (white) or [r, g, b]; each >= 0, not all 0
+    # [[lights]] may be left out where an object emits (an area light, below)
 
     [[objects]]                     # one table per object; at least one
     name = "floor"                  # required, unique
     material = "floor"              # required, the NAME of a [materials.NAME] table
     mesh = "meshes/floor.obj"       # a .obj, .ply or .stl file, relative to the
                                     #   scene file's folder (or absolute) ...
+    emission = [17.0, 12.0, 4.0]    # optional: the object is an area light, emitting this
+                                    #   radiance (W m^-2 sr^-1, number or [r, g, b], >= 0,
+                                    #   not all 0) from the front of each face (where the
+                                    #   face normal points), Lambertian, as Mitsuba's area
+                                    #   emitter; its material (phong) is what it reflects
     normals = "auto"                #   only with mesh: "auto" (the file's vertex
                                     #   normals, else smooth), "smooth" (averaged
                                     #   over shared vertices) or "flat" (per face)
@@ -105,8 +116,10 @@ import trimesh
 from blockhash.errors import InputError
 from blockhash.scene import meshes
 from blockhash.scene.model import (
+    AreaLight,
     Camera,
     DielectricMaterial,
+    DirectionalLight,
     MirrorMaterial,
     PhongMaterial,
     PhotonSettings,
@@ -224,9 +237,13 @@ def _parse_materials(t) -> dict:
 def _parse_light(t, i: int):
     key = f"lights[{i}]"
     if "kind" not in t:
-        raise _FieldError(f"{key}.kind", "missing required key; expected \"point\" or \"spot\"")
-    kind = _choice(t["kind"], f"{key}.kind", ("point", "spot"))
+        raise _FieldError(f"{key}.kind", "missing required key; expected \"point\", \"spot\" or "
+                          "\"directional\" (an area light is an object with emission)")
+    kind = _choice(t["kind"], f"{key}.kind", ("point", "spot", "directional"))
     with _under(key):
+        if kind == "directional":
+            _keys(t, "", ("kind", "direction", "irradiance"), what="a directional light")
+            return DirectionalLight(direction=t["direction"], irradiance=t["irradiance"])
         if kind == "point":
             _keys(t, "", ("kind", "position", "power"), what="a point light")
             return PointLight(position=t["position"], power=t["power"])
@@ -288,10 +305,11 @@ def _parse_shape(t, key: str) -> trimesh.Trimesh:
         raise _FieldError(key, str(exc)) from None
 
 
-def _parse_object(t, i: int, materials: dict, base: Path) -> SceneObject:
+def _parse_object(t, i: int, materials: dict, base: Path) -> tuple[SceneObject, AreaLight | None]:
     key = f"objects[{i}]"
     _keys(t, key, ("name", "material"),
-          ("mesh", "shape", "normals", "scale", "rotate_deg", "translate"), what="an object")
+          ("mesh", "shape", "normals", "scale", "rotate_deg", "translate", "emission"),
+          what="an object")
     name = _string(t["name"], f"{key}.name", what="the object's name")
     mat = _string(t["material"], f"{key}.material", what="a material name")
     if mat not in materials:
@@ -312,9 +330,25 @@ def _parse_object(t, i: int, materials: dict, base: Path) -> SceneObject:
     else:
         mesh = _parse_shape(t["shape"], f"{key}.shape")
     with _under(key):
-        return SceneObject(name=name, mesh=meshes.placed(mesh, scale=scale, rotate_deg=rotate,
-                                                          translate=translate),
-                           material=materials[mat])
+        obj = SceneObject(name=name, mesh=meshes.placed(mesh, scale=scale, rotate_deg=rotate,
+                                                         translate=translate),
+                          material=materials[mat])
+    if "emission" not in t:
+        return obj, None
+    if obj.is_specular:
+        raise _FieldError(f"{key}.emission", f"object {name!r} has the {mat!r} material, a "
+                          f"{'glass' if obj.is_dielectric else 'mirror'}: blockhash's emitters "
+                          "are diffuse surfaces; give the emitting object a phong material "
+                          "(kd = 0 for a light that reflects nothing)")
+    with _under(key):
+        light = AreaLight(object=name, mesh=obj.mesh, radiance=_emission(t["emission"]))
+    return obj, light
+
+
+def _emission(value):
+    from blockhash.scene.values import rgb
+
+    return rgb(value, "emission", what="emitted radiance in W m^-2 sr^-1")
 
 
 def _parse_photons(t) -> PhotonSettings:
@@ -326,17 +360,19 @@ def _parse_photons(t) -> PhotonSettings:
 
 
 def _parse(data: dict, base: Path, path: Path | None) -> Scene:
-    _keys(data, "", ("camera", "materials", "lights", "objects"), ("photons", "description"),
+    _keys(data, "", ("camera", "materials", "objects"), ("lights", "photons", "description"),
           what="a scene file")
     description = _string(data["description"], "description", what="a one-line description") \
         if "description" in data else ""
     camera = _parse_camera(data["camera"])
     materials = _parse_materials(data["materials"])
     lights = [_parse_light(t, i) for i, t in enumerate(
-        _array_of_tables(data["lights"], "lights", what="a light"))]
+        _array_of_tables(data["lights"], "lights", what="a light"))] if "lights" in data else []
     objects, seen = [], {}
     for i, t in enumerate(_array_of_tables(data["objects"], "objects", what="an object")):
-        obj = _parse_object(t, i, materials, base)
+        obj, area = _parse_object(t, i, materials, base)
+        if area is not None:
+            lights.append(area)
         if obj.name in seen:
             raise _FieldError(f"objects[{i}].name", f"duplicate object name {obj.name!r} (also "
                               f"objects[{seen[obj.name]}]); expected unique names; rename one")

@@ -411,7 +411,7 @@ ERRORS = {
                               "reflectance = [0.95, 0.78, 0.45]\nkd = 0.5",
                               r"materials\.mirror\.kd: unknown key"),
     "unknown light kind": ('kind = "point"', 'kind = "area"',
-                           r"lights\[0\]\.kind: expected one of 'point', 'spot'; got 'area'"),
+                           r"lights\[0\]\.kind: expected one of 'point', 'spot', 'directional'; got 'area'"),
     "light without power": ("power = 100.0", "power = 0.0",
                             r"lights\[0\]\.power: the light emits nothing"),
     "point light with cone": ("power = 100.0", "power = 100.0\ncone_deg = 20.0",
@@ -451,8 +451,8 @@ def test_scene_needs_a_light():
     with pytest.raises(InputError, match=r"^scenes/test\.toml: lights: expected at least one "
                                          r"\[\[lights\]\] table \(a light\); got none"):
         _parse(text)
-    with pytest.raises(InputError, match=r"^scenes/test\.toml: lights: missing required key; a "
-                                         r"scene file needs camera, materials, lights, objects"):
+    with pytest.raises(InputError, match=r"^scenes/test\.toml: lights: the scene has no light; "
+                                         r"add a \[\[lights\]\] table or an object with emission"):
         _parse(text[len("lights = []\n"):])
 
 

@@ -41,7 +41,9 @@ import numpy as np
 
 from blockhash.errors import InputError
 from blockhash.scene.model import (
+    AreaLight,
     DielectricMaterial,
+    DirectionalLight,
     MirrorMaterial,
     PhongMaterial,
     Scene,
@@ -104,6 +106,13 @@ def _bsdf(material, bsdf_id: str, drop_specular: bool, owner: str) -> list[str]:
 
 
 def _emitter(light) -> list[str]:
+    if isinstance(light, AreaLight):
+        return []  # written inside its shape (scene_xml)
+    if isinstance(light, DirectionalLight):
+        return ['<emitter type="directional">',
+                f'    <vector name="direction" x="{_num(light.direction[0])}" '
+                f'y="{_num(light.direction[1])}" z="{_num(light.direction[2])}"/>',
+                "    " + _rgb("irradiance", light.irradiance), "</emitter>"]
     power = np.asarray(light.power, dtype=np.float64)
     if isinstance(light, SpotLight):
         cone = float(light.cone_deg)
@@ -167,10 +176,15 @@ def scene_xml(scene: Scene, *, drop_specular: bool = False, spp: int = DEFAULT_M
             out += _bsdf(obj.material, ids[id(obj.material)], drop_specular, obj.name)
     for light in scene.lights:
         out += _emitter(light)
+    areas = {light.object: light for light in scene.lights if isinstance(light, AreaLight)}
     for obj in scene.objects:
         out += [f'<shape type="ply" id={quoteattr(obj.name)}>',
                 f'    <string name="filename" value={quoteattr(mesh_file_name(obj.name))}/>',
-                f'    <ref id={quoteattr(ids[id(obj.material)])}/>', "</shape>"]
+                f'    <ref id={quoteattr(ids[id(obj.material)])}/>']
+        if obj.name in areas:
+            out += ['    <emitter type="area">',
+                    "        " + _rgb("radiance", areas[obj.name].radiance), "    </emitter>"]
+        out.append("</shape>")
     out.append("</scene>")
     return "\n".join(out) + "\n"
 

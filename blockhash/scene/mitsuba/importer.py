@@ -25,12 +25,17 @@ Mapped:
   blockhash, bare or wrapped (Mitsuba's bare ``conductor`` is black from behind: wrap it in
   ``twosided`` where its back face is seen or lit);
 * emitters ``point`` (``position`` or ``to_world``, not both, as in Mitsuba;
-  ``intensity``) and ``spot`` (``to_world``, ``intensity``, ``cutoff_angle``;
-  ``beam_width`` must equal it, as blockhash's spot is uniform inside its cone).  An
-  emitter's ``<spectrum value="v"/>`` is a flat spectrum, v * (1.2048, 0.9483, 0.9089) in
-  RGB as in Mitsuba's RGB variants (:data:`.xml_values.FLAT_EMITTER_RGB`).
+  ``intensity``), ``spot`` (``to_world``, ``intensity``, ``cutoff_angle``;
+  ``beam_width`` must equal it, as blockhash's spot is uniform inside its cone) and
+  ``directional`` (``direction`` or ``to_world``'s +z, not both; ``irradiance``), and an
+  ``area`` emitter inside a shape (``radiance``; the shape becomes an
+  :class:`blockhash.scene.model.AreaLight`, emitting from its front face, and keeps its BSDF
+  for the light it reflects).  An emitter's ``<spectrum value="v"/>`` is a flat spectrum,
+  v * (1.2048, 0.9483, 0.9089) in RGB as in Mitsuba's RGB variants
+  (:data:`.xml_values.FLAT_EMITTER_RGB`).
 
-Refused: every other element, plugin type and property (area lights, textures, media, rough
+Refused: every other element, plugin type and property (``envmap`` and ``constant``
+emitters, an area emitter on a mirror or glass shape or with a textured radiance, textures, media, rough
 or measured BSDFs, other sensors and integrators, Gaussian and other filters, spectra of
 wavelength:value pairs or from a file, a sensor to_world with scale, shear or a mirror flip,
 clip planes that would clip the scene, sample counts blockhash cannot stratify, depths its
@@ -60,7 +65,9 @@ from blockhash.scene.mitsuba import sensor as mitsuba_sensor
 from blockhash.scene.mitsuba.exporter import METADATA_MARK
 from blockhash.scene.mitsuba.xml_values import XmlReader, parse
 from blockhash.scene.model import (
+    AreaLight,
     DielectricMaterial,
+    DirectionalLight,
     MirrorMaterial,
     PhongMaterial,
     PhotonSettings,
@@ -72,7 +79,14 @@ from blockhash.scene.model import (
 
 SHAPES = ("ply", "obj", "rectangle", "sphere", "cube")
 BSDFS = ("diffuse", "conductor", "dielectric", "twosided")
-EMITTERS = ("point", "spot")
+EMITTERS = ("point", "spot", "directional")
+#: Emitters Mitsuba has that blockhash does not model, with the way out.
+REFUSED_EMITTERS = {
+    "envmap": "an environment map lights from every direction, which blockhash does not "
+              "model; use a directional emitter for the sun, or area emitters",
+    "constant": "a constant environment lights from every direction, which blockhash does "
+                "not model; use area emitters (a large emitting shape) or a directional one",
+}
 ELEMENTS = ("default", "integrator", "sensor", "bsdf", "emitter", "shape")
 #: Indices of refraction Mitsuba names for the outside that blockhash takes as 1 (vacuum).
 AIR = ("air", "vacuum")
@@ -123,10 +137,27 @@ class _Reader(XmlReader):
 
     def emitter(self, el):
         kind = el.get("type")
+        if kind in REFUSED_EMITTERS:
+            self.fail(el, REFUSED_EMITTERS[kind])
+        if kind == "area":
+            self.fail(el, "an area emitter belongs inside a <shape> (the surface that emits); "
+                      "move it into one")
         if kind not in EMITTERS:
-            self.fail(el, f"unsupported emitter; supported: {', '.join(EMITTERS)} "
-                      "(blockhash's lights)")
+            self.fail(el, f"unsupported emitter; supported: {', '.join(EMITTERS)}, and area "
+                      "inside a shape (blockhash's lights)")
         spectra = ("rgb", "spectrum", "float")
+        if kind == "directional":
+            p = self.props(el, {"direction": ("vector",), "irradiance": spectra,
+                                "to_world": ("transform",)}, children=("texture",),
+                           emitter=True)
+            self._no_texture(el, p, "irradiance")
+            if "direction" in p and "to_world" in p:
+                self.fail(el, "only one of direction and to_world can be given (Mitsuba refuses "
+                          "both too); keep one")
+            d = (p["to_world"][:3, :3] @ [0.0, 0.0, 1.0] if "to_world" in p
+                 else p.get("direction", np.array([0.0, 0.0, 1.0])))
+            return self.build(el, DirectionalLight, direction=d,
+                              irradiance=np.broadcast_to(p.get("irradiance", 1.0), (3,)))
         if kind == "point":
             p = self.props(el, {"position": ("point",), "intensity": spectra,
                                 "to_world": ("transform",)}, emitter=True)
@@ -160,10 +191,13 @@ class _Reader(XmlReader):
         if kind == "sphere":
             allowed |= {"center": ("point",), "radius": ("float",)}
         p = self.props(el, allowed, children=("bsdf", "ref", "emitter"))
-        material = None
+        material = emitter = None
         for kid in p["<children>"]:
             if kid.tag == "emitter":
-                self.fail(kid, "area lights are not supported; use point or spot emitters")
+                if emitter is not None:
+                    self.fail(kid, "a shape takes one emitter; keep one")
+                emitter = kid
+                continue
             if material is not None:
                 self.fail(kid, "a shape takes one BSDF; keep one")
             if kid.tag == "ref":
@@ -174,11 +208,37 @@ class _Reader(XmlReader):
                 material = bsdfs[ref]
             else:
                 material = self.bsdf(kid, "")
-        if material is None:
-            self.fail(el, "the shape has no BSDF; add <ref id=\"...\"/> or an inline <bsdf>")
+        if material is None:  # Mitsuba's default BSDF: diffuse, reflectance 0.5, one-sided
+            material = self.build(el, PhongMaterial, kd=np.full(3, 0.5), ks=0.0, n=0.0,
+                                  sided="one")
         mesh = self.mesh(el, kind, p)
         name = el.get("id") or f"{kind}-{index}"
-        return self.build(el, SceneObject, name=name, mesh=mesh, material=material)
+        obj = self.build(el, SceneObject, name=name, mesh=mesh, material=material)
+        if emitter is None:
+            return obj, None
+        return obj, self.area(emitter, obj)
+
+    def area(self, el, obj):
+        """The AreaLight of an ``<emitter type="area">`` inside the shape of ``obj``."""
+        kind = el.get("type")
+        if kind != "area":
+            self.fail(el, f"a {kind!r} emitter inside a shape; the emitter inside a shape is "
+                      "area (a point, spot or directional emitter goes at the top level)")
+        if obj.is_specular:
+            what = "glass (dielectric)" if obj.is_dielectric else "mirror (conductor)"
+            self.fail(el, f"an area emitter on a {what} shape: blockhash's emitters are diffuse "
+                      "surfaces; give the emitting shape a diffuse BSDF (or none, Mitsuba's "
+                      "default)")
+        p = self.props(el, {"radiance": ("rgb", "spectrum", "float")}, children=("texture",),
+                       emitter=True)
+        self._no_texture(el, p, "radiance")
+        return self.build(el, AreaLight, object=obj.name, mesh=obj.mesh,
+                          radiance=np.broadcast_to(p.get("radiance", 1.0), (3,)))
+
+    def _no_texture(self, el, p: dict, name: str) -> None:
+        for kid in p["<children>"]:
+            self.fail(kid, f"a textured {name} is not supported: blockhash's lights emit one "
+                      f"RGB value; give <rgb name=\"{name}\" value=\"r, g, b\"/>")
 
     def mesh(self, el, kind: str, p: dict) -> trimesh.Trimesh:
         if kind in ("ply", "obj"):
@@ -290,14 +350,17 @@ def load_mitsuba(path) -> Scene:
         elif el.tag == "emitter":
             lights.append(r.emitter(el))
         elif el.tag == "shape":
-            objects.append(r.shape(el, bsdfs, len(objects)))
+            obj, area = r.shape(el, bsdfs, len(objects))
+            objects.append(obj)
+            if area is not None:
+                lights.append(area)
         else:
             r.fail(el, f"unsupported element; supported: {', '.join(ELEMENTS)}")
     if render is None:
         r.fail(root, "no <sensor>; add a perspective sensor")
     if not lights:
-        r.fail(root, "no <emitter>: blockhash renders the light of point and spot emitters; "
-               "add <emitter type=\"point\"> or <emitter type=\"spot\">")
+        r.fail(root, "no <emitter>: blockhash renders the light of point, spot, directional "
+               "and area emitters; add one (an area emitter goes inside a shape)")
     if not objects:
         r.fail(root, "no <shape>; add the shapes the light falls on")
     if integrator is not None:

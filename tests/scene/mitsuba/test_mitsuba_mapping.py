@@ -192,7 +192,32 @@ CASES = [
     (dict(lens='<float name="fov" value="180"/>'), r"s.xml:2: <sensor .*horizontal field of view of 180 degrees"),
     (dict(lens='<float name="fov" value="40"/><string name="focal_length" value="50mm"/>'), r"s.xml:2: .*either fov or focal_length"),
     (dict(lens='<float name="fov" value="40"/><string name="fov_axis" value="z"/>'), r"s.xml:2: .*fov_axis 'z'"),
-    (dict(light=""), r"s.xml:1: <scene>: no <emitter>.*add <emitter type=\"point\">"),
+    (dict(light=""), r"s.xml:1: <scene>: no <emitter>.*point, spot, directional and area.*inside a shape"),
+    (dict(light='<emitter type="envmap"><string name="filename" value="sky.exr"/></emitter>'),
+     r"s.xml:8: <emitter type=\"envmap\">: an environment map .*use a directional emitter for the sun"),
+    (dict(light='<emitter type="constant"/>'), r"s.xml:8: <emitter type=\"constant\">: a constant environment .*area emitters"),
+    (dict(light='<emitter type="area"/>'), r"s.xml:8: <emitter type=\"area\">: an area emitter belongs inside a <shape>.*move it into one"),
+    (dict(body='<shape type="sphere"><bsdf type="conductor"><string name="material" value="none"/></bsdf>'
+               '<emitter type="area"/></shape>'), r"s.xml:10: <emitter type=\"area\">: an area emitter on a mirror \(conductor\) shape.*diffuse BSDF"),
+    (dict(body='<shape type="sphere"><bsdf type="dielectric"/><emitter type="area"/></shape>'),
+     r"s.xml:10: <emitter type=\"area\">: an area emitter on a glass"),
+    (dict(body='<shape type="rectangle"><emitter type="area"><texture type="bitmap" name="radiance">'
+               '<string name="filename" value="a.png"/></texture></emitter></shape>'),
+     r"s.xml:10: <texture type=\"bitmap\" name=\"radiance\">: a textured radiance is not supported.*<rgb name=\"radiance\""),
+    (dict(body='<shape type="rectangle"><emitter type="area"><rgb name="radiance" value="-1, 1, 1"/></emitter></shape>'),
+     r"s.xml:10: <emitter type=\"area\">: .*emission\[0\]: expected a number in \[0, inf\); got -1"),
+    (dict(body='<shape type="rectangle"><emitter type="area"><rgb name="radiance" value="0"/></emitter></shape>'),
+     r"s.xml:10: <emitter type=\"area\">: .*emits nothing"),
+    (dict(body='<shape type="rectangle"><transform name="to_world"><scale x="0"/></transform><emitter type="area"/></shape>'),
+     r"s.xml:10: <shape type=\"rectangle\">: the to_world transform is singular"),
+    (dict(body='<shape type="rectangle"><emitter type="point"/></shape>'), r"s.xml:10: <emitter type=\"point\">: a 'point' emitter inside a shape"),
+    (dict(light='<emitter type="directional"><vector name="direction" x="0" y="0" z="0"/></emitter>'),
+     r"s.xml:8: <emitter type=\"directional\">: .*direction: expected a non-zero direction"),
+    (dict(light='<emitter type="directional"><vector name="direction" x="0" y="-1" z="0"/>'
+                '<transform name="to_world"><rotate x="1" angle="90"/></transform></emitter>'),
+     r"s.xml:8: <emitter type=\"directional\">: only one of direction and to_world"),
+    (dict(light='<emitter type="directional"><rgb name="irradiance" value="nan, 1, 1"/></emitter>'),
+     r"s.xml:8: .*(finite|nan)"),
     (dict(body='<shape type="cube"><default name="x" value="1"/></shape>'), r"s.xml:10: <default name=\"x\">: a <default> must sit directly in <scene>"),
 ]
 

@@ -1,0 +1,140 @@
+"""Direct light from area and directional lights, and an area light's own radiance seen.
+
+* **Area light** (:class:`blockhash.scene.model.AreaLight`): each shading point takes one
+  point ``y`` on the light per pass, uniform by area, and one shadow ray to it; its radiance
+  is ``L f_r(wi, wo) cos(theta_x) cos(theta_y) A / d^2`` (zero where ``y``'s face turns away).
+  The point on the light comes from a 2-D R2 sequence over the passes under a random shift of
+  each point's own (Cranley-Patterson, as the camera samples of :func:`blockhash.frame.
+  subpixel.pass_offsets`): the first coordinate picks the triangle by area and, rescaled,
+  is the first barycentric one, so any run of n passes covers the light about as evenly as
+  n stratified samples, and soft shadows converge with passes.
+* **Directional light**: a shadow ray against its direction, out of the scene; radiance
+  ``E f_r(wi, wo) cos(theta_x)``.
+* **Emission seen**: a shading point on an area light's object whose viewer is on the front
+  of the face it lies on adds the light's radiance ``L`` (times the path weight, as every
+  term of the direct layer), so the light is seen directly and in mirrors and glass.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from blockhash.scene.raycast import RAY_OFFSET
+
+#: Seed of the per-point shifts of the light samples (one fixed stream: an image is the same
+#: in every run).
+LIGHT_SAMPLE_SEED = 0x11A5
+#: The R2 sequence's step (Roberts 2018), as the camera samples' passes take it.
+R2_STEP = (0.7548776662466927, 0.5698402909980532)
+
+
+def light_uniforms(n: int, pass_index: int, light_index: int) -> np.ndarray:
+    """(n, 2) uniforms of pass ``pass_index``'s light sample at each of ``n`` points (module
+    docstring), a shift of their own per light."""
+    rng = np.random.default_rng([LIGHT_SAMPLE_SEED, int(light_index)])
+    shift = rng.random((n, 2))
+    return np.mod(shift + pass_index * np.asarray(R2_STEP), 1.0)
+
+
+def points_on_light(light, u: np.ndarray):
+    """(points (n, 3), front normals (n, 3)) on ``light`` (an AreaLight) from uniforms
+    ``u`` (n, 2): the triangle by area from ``u[:, 0]``, its remainder in that triangle's
+    stretch of the CDF and ``u[:, 1]`` the uniform barycentrics."""
+    areas = light.face_areas
+    cdf = np.cumsum(areas) / areas.sum()
+    f = np.minimum(np.searchsorted(cdf, u[:, 0], side="right"), len(cdf) - 1)
+    lo = np.where(f > 0, cdf[np.maximum(f - 1, 0)], 0.0)
+    width = np.maximum(cdf[f] - lo, 1e-300)
+    r0 = np.clip((u[:, 0] - lo) / width, 0.0, 1.0)
+    s = np.sqrt(r0)
+    b0, b2 = 1.0 - s, s * u[:, 1]
+    tri = light.triangles[f]
+    y = b0[:, None] * tri[:, 0] + (1.0 - b0 - b2)[:, None] * tri[:, 1] + b2[:, None] * tri[:, 2]
+    return y, light.face_normals[f]
+
+
+def area_light(out, light, live, p, n, wo, mat, kd, ks, e, rays, pass_index: int,
+               light_index: int) -> None:
+    """Adds to ``out`` (flat (m, 3)) the direct light of ``light`` (an AreaLight) at the
+    points ``live`` (module docstring)."""
+    if not len(live):
+        return
+    u = light_uniforms(len(p), pass_index, light_index)[live]
+    y, ny = points_on_light(light, u)
+    x = p[live].astype(np.float64)
+    nx = n[live].astype(np.float64)
+    to = y - x
+    d2 = np.einsum("ij,ij->i", to, to)
+    dist = np.sqrt(d2)
+    wi = to / np.maximum(dist, 1e-300)[:, None]
+    cos_y = -np.einsum("ij,ij->i", wi, ny)
+    cos_x = np.einsum("ij,ij->i", wi, nx)
+    ok = np.flatnonzero((cos_y > 0.0) & (cos_x > 0.0) & (dist > 0.0))
+    if not len(ok):
+        return
+    offset = RAY_OFFSET * rays.scale
+    origins = x[ok] + nx[ok] * offset
+    end = y[ok] + ny[ok] * offset
+    seg = end - origins
+    length = np.linalg.norm(seg, axis=1)
+    lit = ~rays.geometry.occluded(origins, seg / length[:, None], length * (1 - 1e-6))
+    ok = ok[lit]
+    li = light.radiance[None, :] * (cos_y[ok] * light.area / d2[ok])[:, None]
+    _shade(out, live[ok], wi[ok], n, wo, mat, kd, ks, e, li)
+
+
+def directional_light(out, light, live, p, n, wo, mat, kd, ks, e, rays) -> None:
+    """Adds to ``out`` the direct light of ``light`` (a DirectionalLight) at ``live``."""
+    if not len(live):
+        return
+    toward = -np.asarray(light.direction, dtype=np.float64)
+    nx = n[live].astype(np.float64)
+    ok = np.flatnonzero(nx @ toward > 0.0)
+    if not len(ok):
+        return
+    offset = RAY_OFFSET * rays.scale
+    origins = p[live[ok]].astype(np.float64) + nx[ok] * offset
+    dirs = np.broadcast_to(toward, (len(ok), 3)).copy()
+    far = np.full(len(ok), 4.0 * rays.scale + float(np.abs(origins).max()) * 2.0 + 1.0)
+    lit = ~rays.geometry.occluded(origins, dirs, far)
+    ok = ok[lit]
+    li = np.broadcast_to(light.irradiance, (len(ok), 3))
+    _shade(out, live[ok], dirs[lit], n, wo, mat, kd, ks, e, np.ascontiguousarray(li))
+
+
+def emission_seen(out, lights, objects, p, wo, mat, rays) -> None:
+    """Adds to ``out`` each area light's radiance at the points on its object whose viewer
+    (``wo``) is on the front of the face (a ray cast back at the point tells the side)."""
+    names = {o.name: i for i, o in enumerate(objects)}
+    for light in lights:
+        if not hasattr(light, "radiance"):
+            continue
+        on = np.flatnonzero(mat == names[light.object])
+        if not len(on):
+            continue
+        v = wo[on].astype(np.float64)
+        lift = 8.0 * RAY_OFFSET * rays.scale
+        hit, _, _, obj, _, outer = rays.first_hit(p[on].astype(np.float64) + v * lift, -v,
+                                                  sides=True)
+        front = hit & outer & (obj == names[light.object])
+        out[on[front]] += light.radiance
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _shade(out, idx, wi, n, wo, mat, kd, ks, e, li):
+    """Adds to ``out[idx]`` f_r(wi, wo) cos(theta) li: the modified Phong f_r of
+    :func:`blockhash.scene.materials.phong_brdf` and ``li`` (m, 3) the light arriving along
+    ``wi`` (radiance times its solid angle, or irradiance)."""
+    for j in numba.prange(len(idx)):
+        i = idx[j]
+        w0, w1, w2 = wi[j, 0], wi[j, 1], wi[j, 2]
+        cos = (w0 * n[i, 0] + w1 * n[i, 1]) + w2 * n[i, 2]
+        if cos <= 0.0:
+            continue
+        m = mat[i]
+        c_alpha = ((2.0 * cos * n[i, 0] - w0) * wo[i, 0] + (2.0 * cos * n[i, 1] - w1) * wo[i, 1]) \
+            + (2.0 * cos * n[i, 2] - w2) * wo[i, 2]
+        lobe = (e[m] + 2.0) / (2.0 * np.pi) * max(c_alpha, 0.0) ** e[m]
+        for c in range(3):
+            out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * li[j, c] * cos
