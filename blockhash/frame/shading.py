@@ -292,10 +292,12 @@ def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
 
     kd, ks, e = per_object("kd", np.zeros(3)), per_object("ks", np.zeros(3)), per_object("n", 1.0)[:, 0]
     surface_lights.emission_seen(out, lights, objects, p, wo, mat, rays)
+    owner = np.arange(h * w) if points.owner is None else points.owner
+    samples = h * w if points.samples is None else int(np.prod(points.samples))
     for li, light in enumerate(lights):
         if hasattr(light, "radiance"):
             surface_lights.area_light(out, light, live, p, n, wo, mat, kd, ks, e, rays,
-                                      pass_index, li)
+                                      pass_index, li, owner, samples)
             continue
         if hasattr(light, "irradiance"):
             surface_lights.directional_light(out, light, live, p, n, wo, mat, kd, ks, e, rays)

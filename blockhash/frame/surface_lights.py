@@ -3,8 +3,8 @@
 * **Area light** (:class:`blockhash.scene.model.AreaLight`): each shading point takes one
   point ``y`` on the light per pass, uniform by area, and one shadow ray to it; its radiance
   is ``L f_r(wi, wo) cos(theta_x) cos(theta_y) A / d^2`` (zero where ``y``'s face turns away).
-  The point on the light comes from a 2-D R2 sequence over the passes under a random shift of
-  each point's own (Cranley-Patterson, as the camera samples of :func:`blockhash.frame.
+  The point on the light comes from a 2-D Kronecker sequence over the passes
+  (:data:`LIGHT_STEP`) under a random shift of each point's own (Cranley-Patterson, as the camera samples of :func:`blockhash.frame.
   subpixel.pass_offsets`): the first coordinate picks the triangle by area and, rescaled,
   is the first barycentric one, so any run of n passes covers the light about as evenly as
   n stratified samples, and soft shadows converge with passes.
@@ -25,16 +25,23 @@ from blockhash.scene.raycast import RAY_OFFSET
 #: Seed of the per-point shifts of the light samples (one fixed stream: an image is the same
 #: in every run).
 LIGHT_SAMPLE_SEED = 0x11A5
-#: The R2 sequence's step (Roberts 2018), as the camera samples' passes take it.
-R2_STEP = (0.7548776662466927, 0.5698402909980532)
+#: The step of the light samples' sequence over passes: dimensions 3 and 4 of Roberts' R4
+#: Kronecker sequence (1 / phi_4^3, 1 / phi_4^4, phi_4 the real root of x^5 = x + 1).  The
+#: camera samples take R2's steps (:data:`blockhash.frame.subpixel.R2_STEP`); the light taking
+#: the same would tie each pass's point on the light to its point in the pixel (the 4-D
+#: points on one 2-D lattice), and the soft shadows would converge more slowly.
+LIGHT_STEP = (0.6287067210378086, 0.5385972572236101)
 
 
-def light_uniforms(n: int, pass_index: int, light_index: int) -> np.ndarray:
-    """(n, 2) uniforms of pass ``pass_index``'s light sample at each of ``n`` points (module
-    docstring), a shift of their own per light."""
+def light_uniforms(samples: int, owner: np.ndarray, pass_index: int,
+                   light_index: int) -> np.ndarray:
+    """(len(owner), 2) uniforms of pass ``pass_index``'s light sample at points of camera
+    samples ``owner`` (flat indices into ``samples`` camera samples; module docstring): the
+    shift is the camera sample's, so it follows the pixel from pass to pass however the
+    points are laid out (glass's two branches share their sample's), one shift per light."""
     rng = np.random.default_rng([LIGHT_SAMPLE_SEED, int(light_index)])
-    shift = rng.random((n, 2))
-    return np.mod(shift + pass_index * np.asarray(R2_STEP), 1.0)
+    shift = rng.random((samples, 2))[owner]
+    return np.mod(shift + pass_index * np.asarray(LIGHT_STEP), 1.0)
 
 
 def points_on_light(light, u: np.ndarray):
@@ -55,12 +62,12 @@ def points_on_light(light, u: np.ndarray):
 
 
 def area_light(out, light, live, p, n, wo, mat, kd, ks, e, rays, pass_index: int,
-               light_index: int) -> None:
+               light_index: int, owner: np.ndarray, samples: int) -> None:
     """Adds to ``out`` (flat (m, 3)) the direct light of ``light`` (an AreaLight) at the
-    points ``live`` (module docstring)."""
+    points ``live`` (module docstring), ``owner`` (m,) their camera samples, of ``samples``."""
     if not len(live):
         return
-    u = light_uniforms(len(p), pass_index, light_index)[live]
+    u = light_uniforms(samples, owner[live], pass_index, light_index)
     y, ny = points_on_light(light, u)
     x = p[live].astype(np.float64)
     nx = n[live].astype(np.float64)

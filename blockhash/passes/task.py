@@ -167,8 +167,8 @@ class RenderSetup:
                 raise InputError("a traced photon map (photons=CausticPhotons) is one pass; give "
                                  "photons=N (photons per pass) to render more passes")
             return self.traced
-        if self.source.emitter is None:
-            return None
+        if self.source.emitter is None:  # no mirror; or none a light reaches: say why once
+            return self.source.until_stored(1) if self.source.unreachable and p == 0 else None
         if p == 0:
             return self.source.until_stored(self.settings.count, seed=self.settings.seed)
         if emitted is None:
