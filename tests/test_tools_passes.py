@@ -104,8 +104,11 @@ def test_time_to_error_writes_the_curve_and_mitsubas_ladder(tmp_path, needs_mits
     text = run_tool("time_to_error.py", ["--scenes", "ring", "--size", "24", "--times", "30",
                                          "--passes", "2", "--photons", "3000", "--ref-spp", "16",
                                          "--max-spp", "2", "--cache", tmp_path / "cache",
-                                         "--json", out], tmp_path)
-    [row] = json.loads(out.read_text())
+                                         "--integrators", "ptracer,path", "--json", out], tmp_path)
+    row, path_row = json.loads(out.read_text())
+    assert (row["integrator"], path_row["integrator"]) == ("ptracer", "path")
+    assert path_row["curve"] == row["curve"]  # one blockhash curve, raced by both
+    assert [r["spp"] for r in path_row["ladder"]] == [1, 2]
     assert [c["passes"] for c in row["curve"]] == [1, 2]
     assert all(0.7 < c["flux"] < 1.4 and c["blur"] > 0 for c in row["curve"])
     assert [r["spp"] for r in row["ladder"]] == [1, 2]
@@ -113,7 +116,8 @@ def test_time_to_error_writes_the_curve_and_mitsubas_ladder(tmp_path, needs_mits
     [at] = row["at"]
     assert at["time"] == 30 and at["passes"] == 2
     assert row["stored"] > 1000
-    assert "| ring | 24 | 30 (" in text
+    assert "| ring | 24 | ptracer | 30 (" in text and "| ring | 24 | path | 30 (" in text
+    assert "the faster Mitsuba's time" in text
     again = run_tool("time_to_error.py", ["--from-json", out], tmp_path)
     assert again.strip() and again.strip() in text  # the tables again, from the JSON
 
@@ -142,3 +146,28 @@ def test_pass_memory_writes_the_peaks_of_each_pass_count(tmp_path):
     assert [len(r[6].split(",")) for r in rows] == [1, 2]  # the peaks after passes 1 and 2
     peak = float(rows[-1][3])
     assert 50 < peak < 5000  # MiB: a real process's resident set
+
+
+@pytest.mark.gl
+def test_light_kinds_measures_each_kind_and_holds_two_to_mitsuba(tmp_path, needs_mitsuba):
+    out = tmp_path / "lights.json"
+    text = run_tool("light_kinds.py", ["--photons", "5000", "--size", "24", "--passes", "2",
+                                       "--pass-photons", "3000", "--ref-spp", "16",
+                                       "--png-dir", tmp_path / "png", "--json", out], tmp_path)
+    res = json.loads(out.read_text())
+    kinds = {k["scene"]: k for k in res["kinds"]}
+    assert {s: k["lights"] for s, k in kinds.items()} == {
+        "ring": ["PointLight"], "cbox": ["AreaLight"], "sun": ["DirectionalLight"]}
+    for k in kinds.values():
+        assert k["stored"] == 5000 and 0.3 < k["stored_fraction"] <= 1.0
+        assert k["stored_per_second"] > 0
+    rows = {r["scene"]: r for r in res["agreement"]}
+    assert set(rows) == {"cbox", "sun"}
+    for r in rows.values():
+        assert 0.6 < r["caustic_flux"] < 1.5  # a tiny render against a 16 spp Mitsuba
+        assert 0.97 < r["direct"]["ratio"] < 1.03  # direct light: no photon noise
+        assert r["direct"]["passes"] == [4, 64]
+        e4, e64 = r["direct"]["rel_rms"]
+        assert e64 < e4
+    assert (tmp_path / "png" / "cbox.png").is_file() and (tmp_path / "png" / "sun-mitsuba.png").is_file()
+    assert len(table_rows(text, "cbox")) == 2 and len(table_rows(text, "sun")) == 2

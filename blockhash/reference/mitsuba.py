@@ -173,8 +173,14 @@ def render_mitsuba(scene, integrator: str, spp: int, *, seed: int = 0, size=None
 
 
 def mitsuba_reference(scene, spp: int, *, seed: int = 0, size=None,
-                      layers=("direct", "caustic")) -> MitsubaReference:
-    """The Mitsuba reference of ``scene`` (module docstring) at ``spp`` samples per pixel."""
+                      layers=("direct", "caustic"), integrator: str = "ptracer") -> MitsubaReference:
+    """The Mitsuba reference of ``scene`` (module docstring) at ``spp`` samples per pixel;
+    ``integrator`` renders the caustic's pair (``ptracer``, or ``path``, which reaches an
+    area light's caustic from the camera side; the isolation is the same: a path's value is
+    the product of its diffuse albedos either way)."""
+    if integrator not in ("ptracer", "path"):
+        raise InputError(f"integrator={integrator!r}: the caustic is isolated from Mitsuba's "
+                         "'ptracer' or 'path'; give one of those")
     spp = int(spp)
     if spp < 1:
         raise InputError(f"spp={spp} must be >= 1 samples per pixel")
@@ -184,10 +190,10 @@ def mitsuba_reference(scene, spp: int, *, seed: int = 0, size=None,
     direct = caustic = np.zeros((h, w, 3), np.float32)
     if "caustic" in layers:
         dim = dimmed(scene, ALBEDO_SCALE)
-        full, timings["caustic (ptracer)"] = render_mitsuba(dim, "ptracer", spp, seed=seed,
-                                                            size=size)
-        rest, timings["caustic (ptracer, specular absorbing)"] = render_mitsuba(
-            absorbing(dim), "ptracer", spp, seed=seed, size=size)
+        full, timings[f"caustic ({integrator})"] = render_mitsuba(dim, integrator, spp,
+                                                                  seed=seed, size=size)
+        rest, timings[f"caustic ({integrator}, specular absorbing)"] = render_mitsuba(
+            absorbing(dim), integrator, spp, seed=seed, size=size)
         caustic = (full - rest) / np.float32(ALBEDO_SCALE)
     if "direct" in layers:
         direct, timings["direct (path)"] = render_mitsuba(scene, "path", spp, seed=seed, size=size)

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import mitsuba_or_skip
-from scipy.ndimage import binary_dilation, binary_erosion, uniform_filter
+from scipy.ndimage import binary_erosion, uniform_filter
 
 from blockhash.frame.camera_samples import camera_samples
 from blockhash.frame.shading import SceneRays, direct_light
@@ -24,6 +24,7 @@ from blockhash.reference.lighttrace import light_trace
 from blockhash.reference.mitsuba import mitsuba_reference, render_mitsuba, without_specular_lobes
 from blockhash.scene.camera import Pinhole
 from blockhash.scene.loader import parse_scene
+from blockhash.studies.lights import soft_shadow_errors
 
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
 SIZE = (64, 64)
@@ -38,23 +39,6 @@ def scene_of(name: str):
     text = re.sub(r"(radius = [0-9.]+)\n", r"\1\nsubdivisions = 4\n",
                   (SCENES / f"{name}.toml").read_text())
     return without_specular_lobes(parse_scene(text, path=SCENES / f"{name}.toml")).with_size(*SIZE)
-
-
-def receivers_seen(scene, rays) -> np.ndarray:
-    """(h, w) bool: pixels whose centre sees a diffuse object other than a light, away from
-    its edges (a pixel and its 8 neighbours see the same object) and from the lights."""
-    pin = Pinhole.of(scene.camera)
-    d = pin.pixel_rays()
-    hit, _, _, obj, _ = rays.first_hit(np.broadcast_to(pin.eye, d.shape).copy(), d)
-    obj = np.where(hit, obj, -1).reshape(pin.height, pin.width)
-    lamps = [i for i, o in enumerate(scene.objects)
-             if o.name in {getattr(li, "object", None) for li in scene.lights}]
-    diffuse = np.array([not o.is_specular for o in scene.objects] + [False])
-    m = diffuse[obj] & ~binary_dilation(np.isin(obj, lamps))
-    for dy in (-1, 0, 1):
-        for dx in (-1, 0, 1):
-            m &= np.roll(np.roll(obj, dy, 0), dx, 1) == obj
-    return binary_erosion(m, border_value=0)
 
 
 @pytest.mark.slow
@@ -100,20 +84,12 @@ def test_direct_light_and_soft_shadows_agree_with_mitsubas_path_tracer(name):
     passes at most 0.2 of that at 4 (measured on cbox: 0.14)."""
     scene = scene_of(name)
     ref, _ = render_mitsuba(scene, "path", 4096, max_depth=2)
-    rays = SceneRays(scene.objects)
-    m = receivers_seen(scene, rays)
-    acc = np.zeros(ref.shape)
-    err = {}
-    for p in range(64):
-        points, _ = camera_samples(scene, rays, 1, p)
-        acc += box_filter(points.gather(direct_light(points, scene.objects, scene.lights, rays, p)), 1)
-        if p + 1 in (4, 64):
-            img = acc / (p + 1)
-            err[p + 1] = np.sqrt(((img - ref)[m] ** 2).mean()) / ref[m].mean()
-    assert img[m].sum() == pytest.approx(ref[m].sum(), rel=0.01)
+    res = soft_shadow_errors(scene, ref.astype(np.float64), SceneRays(scene.objects))
+    e4, e64 = res["rel_rms"]
+    assert res["ratio"] == pytest.approx(1.0, abs=0.01)
     if name == "cbox":  # sunlight's shadows are hard: nothing to converge but the pixel edges
-        assert err[64] <= 0.2 * err[4], err
-    assert err[64] < 0.03, err
+        assert e64 <= 0.2 * e4, res
+    assert e64 < 0.03, res
 
 
 @pytest.mark.slow
