@@ -25,11 +25,10 @@ def _render(meshes, colours, lights, camera, size):
         material = pyrender.MetallicRoughnessMaterial(baseColorFactor=(*colour, 1.0), metallicFactor=0.0,
                                                       roughnessFactor=0.8)
         scene.add(pyrender.Mesh.from_trimesh(mesh, material=material, smooth=True))
-    for position, intensity in lights:
-        pose = np.eye(4)
-        pose[:3, 3] = position
-        scene.add(pyrender.PointLight(color=np.ones(3), intensity=float(np.mean(intensity))),
-                  pose=pose)
+    for kind, pose, intensity in lights:
+        light = (pyrender.DirectionalLight if kind == "directional" else pyrender.PointLight)(
+            color=np.ones(3), intensity=float(np.mean(intensity)))
+        scene.add(light, pose=np.asarray(pose))
     pose, fov_y_deg = camera
     width, height = size
     cam = pyrender.PerspectiveCamera(yfov=np.radians(fov_y_deg), aspectRatio=width / height)
@@ -50,9 +49,7 @@ def preview(scene, *, size=None):
                      else o.material.reflectance if o.is_specular
                      else np.clip(np.asarray(o.material.kd) + np.asarray(o.material.ks), 0, 1))
                for o in scene.objects]
-    # pyrender gets point lights of the same intensity (W/sr): a spot's power fills its cone.
-    lights = [(tuple(l.position), tuple(np.asarray(l.power) / getattr(l, "solid_angle", 4 * np.pi)))
-              for l in scene.lights]
+    lights = [_preview_light(light) for light in scene.lights]
     cam = scene.camera
     camera = (np.linalg.inv(cam.view_matrix()), float(cam.fov_y_deg))
     with multiprocessing.get_context("spawn").Pool(1) as pool:
@@ -65,3 +62,25 @@ def gbuffer_depth(camera, gbuffer) -> np.ndarray:
     p = gbuffer.position.reshape(-1, 3).astype(np.float64)
     z = -(p @ view[2, :3] + view[2, 3])
     return np.where(gbuffer.object.reshape(-1) >= 0, z, 0.0).reshape(gbuffer.object.shape)
+
+
+def _preview_light(light):
+    """(kind, pose (4, 4), intensity) of a pyrender light standing in for ``light``: a point
+    light of the same intensity (W/sr; a spot's power fills its cone), an area light as a
+    point at its centre a little in front of it with its intensity along the normal (L A,
+    its power over pi), a directional light as pyrender's, shining along its direction."""
+    pose = np.eye(4)
+    if hasattr(light, "irradiance"):
+        z = -np.asarray(light.direction, dtype=np.float64)  # pyrender's light shines along -z
+        x = np.cross([0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0], z)
+        x /= np.linalg.norm(x)
+        pose[:3, :3] = np.stack([x, np.cross(z, x), z], axis=1)
+        return "directional", pose.tolist(), tuple(light.irradiance)
+    if hasattr(light, "radiance"):
+        tri = light.triangles
+        w = light.face_areas / light.area
+        normal = (light.face_normals * w[:, None]).sum(axis=0)
+        pose[:3, 3] = (tri.mean(axis=1) * w[:, None]).sum(axis=0) + 1e-3 * normal
+        return "point", pose.tolist(), tuple(np.asarray(light.power) / np.pi)
+    pose[:3, 3] = light.position
+    return "point", pose.tolist(), tuple(np.asarray(light.power) / getattr(light, "solid_angle", 4 * np.pi))

@@ -135,6 +135,19 @@ def test_gbuffer_depth_agrees_with_pyrender(ring):
     assert np.median(rel) < 0.01 and np.mean(rel < 0.02) > 0.95
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["cbox", "sun"])
+def test_pyrender_previews_area_and_directional_lights(name):
+    """The preview stands a pyrender light in for an area light and the sun: the image is
+    lit well beyond pyrender's ambient light (0.15 of the albedo, about 25 of 255 at most)."""
+    from blockhash.scene.loader import load_scene
+
+    scene = load_scene(RING.parent / f"{name}.toml")
+    colour, depth = preview(scene, size=(48, 48))
+    assert (depth > 0).mean() > 0.5
+    assert np.percentile(colour, 90) > 60, np.percentile(colour, 90)
+
+
 def test_render_and_compare_commands(tmp_path, capsys):
     out = tmp_path / "ring.exr"
     assert main(["render", str(RING), "-o", str(out), "--photons", "20000", "--size", "48x48"]) == 0

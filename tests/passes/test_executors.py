@@ -281,3 +281,24 @@ def test_ctrl_c_with_local_workers_writes_the_passes_so_far_and_stops_them(tmp_p
     passes = read_attribute(out, "blockhash:passes")
     assert passes >= 1 and f"wrote the image of {passes} pass" in err
     assert read_attribute(out, "blockhash:stopped") == "interrupted (Ctrl-C)"
+
+
+def test_area_and_directional_lights_give_the_one_process_image_on_workers():
+    """A scene with an area light and one with sunlight: pass 3 alone equals pass 3 after
+    0..2 (the light samples follow the pass number), and local workers give the in-process
+    image bit for bit."""
+    for name in ("cbox", "sun"):
+        scene = blockhash.load_scene(RING.parent / f"{name}.toml").with_size(24, 24)
+        settings = PassSettings.of(scene, photons=2000)
+        a, b = RenderSetup(scene, settings), RenderSetup(scene, settings)
+        first = run_pass(a, 0)
+        in_order = [run_pass(a, p, first.emitted) for p in (1, 2, 3)]
+        late = run_pass(b, 3, first.emitted)
+        np.testing.assert_array_equal(late.direct, in_order[2].direct)
+        np.testing.assert_array_equal(late.caustic, in_order[2].caustic)
+        assert not np.array_equal(in_order[0].direct, in_order[1].direct) or name == "sun"
+        here = Renderer(scene, photons=2000)
+        run_passes(here, RenderPlan(passes=3))
+        there = Renderer(scene, photons=2000)
+        run_passes(there, RenderPlan(passes=3, executor=LocalWorkers(2)))
+        assert_same_image(there, here)
