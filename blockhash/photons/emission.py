@@ -26,6 +26,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from blockhash.photons.directions import cone_solid_angle, orthonormal_basis, sample_cones  # noqa: F401
+
 #: Bounding cones are widened by this much (in cosine) against rounding.
 CONE_MARGIN = 1e-9
 #: A sampled direction counts as inside a cone when its cosine to the axis is at
@@ -40,35 +42,6 @@ MAP_CELLS = 128
 #: Pilot rays per cell side of a projection map (stratified, at the sub-cells' centres).
 MAP_PILOTS = 2
 
-
-def cone_solid_angle(cos_half: float | np.ndarray):
-    """Solid angle (sr) of a cone with the given cosine of its half-angle."""
-    return 2.0 * np.pi * (1.0 - np.asarray(cos_half, dtype=np.float64))
-
-
-def orthonormal_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors (3,) completing unit ``axis`` to a right-handed frame (Duff et al. 2017)."""
-    x, y, z = (float(c) for c in axis)
-    sign = 1.0 if z >= 0.0 else -1.0
-    a = -1.0 / (sign + z)
-    b = x * y * a
-    t1 = np.array([1.0 + sign * x * x * a, sign * b, -sign * x])
-    t2 = np.array([b, sign + y * y * a, -y])
-    return t1, t2
-
-
-def sample_cones(axes, t1, t2, cos_half, u1, u2) -> np.ndarray:
-    """(n, 3) directions uniform in solid angle inside per-photon cones.
-
-    ``axes``, ``t1``, ``t2`` are (n, 3) orthonormal frames, ``cos_half`` (n,),
-    ``u1``, ``u2`` (n,) uniforms in [0, 1).
-    """
-    cos_t = 1.0 - u1 * (1.0 - cos_half)
-    sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t * cos_t))
-    phi = 2.0 * np.pi * u2
-    d = (cos_t[:, None] * axes + (sin_t * np.cos(phi))[:, None] * t1
-         + (sin_t * np.sin(phi))[:, None] * t2)
-    return d / np.linalg.norm(d, axis=1, keepdims=True)
 
 def photon_uniforms(seed: int, start: int, count: int) -> np.ndarray:
     """(count, 4) uniforms in [0, 1) of photons ``start .. start+count-1``.

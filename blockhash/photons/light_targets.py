@@ -35,6 +35,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from blockhash.photons.directions import frames, orthonormal_basis, sample_cones
+
 #: Philox counters of the area lights' extra uniforms start this far past the photon's own
 #: (photon i of the streams reads counter SURFACE_COUNTER + i): a range no pass reaches.
 SURFACE_COUNTER = 1 << 120
@@ -111,18 +113,6 @@ def surface_uniforms(seed: int, start: int, count: int) -> np.ndarray:
     return np.random.Generator(bitgen).random((count, 4))
 
 
-def frames(axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(t1, t2) (n, 3): unit vectors completing each unit row of ``axes`` to a right-handed
-    frame (:func:`blockhash.photons.emission.orthonormal_basis`, row by row)."""
-    x, y, z = axes[:, 0], axes[:, 1], axes[:, 2]
-    sign = np.where(z >= 0.0, 1.0, -1.0)
-    a = -1.0 / (sign + z)
-    b = x * y * a
-    t1 = np.stack([1.0 + sign * x * x * a, sign * b, -sign * x], axis=1)
-    t2 = np.stack([b, sign + y * y * a, -y], axis=1)
-    return t1, t2
-
-
 class SurfaceSampler:
     """Origins, directions and weights of the photons that chose a target
     (:class:`Target`) of an area or directional light (module docstring).  ``targets`` are
@@ -164,8 +154,6 @@ class SurfaceSampler:
         return origins, dirs, weights
 
     def _area(self, li, light, j, u, extra):
-        from blockhash.photons.emission import sample_cones
-
         n = len(j)
         tri_cdf = self._area_cdf[li]
         f = np.minimum(np.searchsorted(tri_cdf, extra[:, 0], side="right"), len(tri_cdf) - 1)
@@ -198,8 +186,6 @@ class SurfaceSampler:
         return y, d, w
 
     def _directional(self, li, light, j, u):
-        from blockhash.photons.emission import orthonormal_basis
-
         n = len(j)
         D = np.asarray(light.direction, dtype=np.float64)
         t1, t2 = orthonormal_basis(D)

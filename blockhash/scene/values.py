@@ -148,3 +148,11 @@ def choice(value, key: str, choices) -> str:
 
 def fmt(v) -> str:
     return "(" + ", ".join(f"{float(x):g}" for x in np.asarray(v).reshape(-1)) + ")"
+
+
+def check_mesh(mesh, key: str) -> None:
+    """A mesh with at least one triangle and finite vertices, or an error naming ``key``."""
+    if len(mesh.faces) == 0:
+        raise FieldError(key, "the mesh is empty (0 triangles); expected at least one triangle")
+    if not np.isfinite(mesh.vertices).all():
+        raise FieldError(key, "the mesh has NaN or infinite vertex coordinates; fix the mesh")

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from blockhash.errors import InputError
+from blockhash.photons.directions import frames
 from blockhash.photons.emission import photon_uniforms
-from blockhash.photons.light_targets import frames
 from blockhash.photons.paths import trace_batch
 from blockhash.photons.tracing import PhotonSource
 from blockhash.scene.loader import load_scene, parse_scene

@@ -1,0 +1,214 @@
+"""The scene's lights: point and spot lights, area lights (an object that emits) and
+directional lights (sunlight), frozen dataclasses that validate their own values (every error
+an :class:`~blockhash.errors.InputError` naming the key path), and :func:`check_lights`, what
+a :class:`blockhash.scene.model.Scene` checks of them against its objects."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+
+from blockhash.scene.values import FieldError as _FieldError
+from blockhash.scene.values import check_mesh
+from blockhash.scene.values import fmt as _fmt
+from blockhash.scene.values import number as _number
+from blockhash.scene.values import owned as _owned
+from blockhash.scene.values import readonly as _readonly
+from blockhash.scene.values import rgb as _rgb
+from blockhash.scene.values import string as _string
+from blockhash.scene.values import vector as _vector
+
+
+def _power(value, key: str) -> np.ndarray:
+    p = _rgb(value, key, what="power in watts")
+    if not p.any():
+        raise _FieldError(key, "the light emits nothing (power 0 in every channel); "
+                          "expected watts > 0 in at least one channel")
+    return p
+
+
+@dataclass(frozen=True, eq=False)
+class PointLight:
+    """Isotropic point light: ``position`` (3,) metres, ``power`` (3,) watts RGB
+    (total, over the whole sphere)."""
+
+    position: np.ndarray
+    power: np.ndarray
+
+    def __post_init__(self):
+        with _owned("PointLight"):
+            object.__setattr__(self, "position", _vector(self.position, "position"))
+            object.__setattr__(self, "power", _power(self.power, "power"))
+
+    def __repr__(self) -> str:
+        return f"PointLight(position={_fmt(self.position)}, power={_fmt(self.power)})"
+
+
+@dataclass(frozen=True, eq=False)
+class SpotLight:
+    """Spot light: ``position`` (3,) metres, ``direction`` (3,) unit axis,
+    ``power`` (3,) watts RGB emitted into the cone, uniform in solid angle
+    inside it, ``cone_deg`` the half angle in (0, 90]."""
+
+    position: np.ndarray
+    direction: np.ndarray
+    power: np.ndarray
+    cone_deg: float
+
+    def __post_init__(self):
+        with _owned("SpotLight"):
+            object.__setattr__(self, "position", _vector(self.position, "position"))
+            d = _vector(self.direction, "direction", unit="a direction")
+            length = float(np.linalg.norm(d))
+            if length == 0.0:
+                raise _FieldError("direction", "expected a non-zero direction for the cone's axis; "
+                                  "got (0, 0, 0)")
+            object.__setattr__(self, "direction", _readonly(d / length))
+            object.__setattr__(self, "power", _power(self.power, "power"))
+            object.__setattr__(self, "cone_deg", _number(
+                self.cone_deg, "cone_deg", lo=0.0, hi=90.0, lo_open=True,
+                hint="cone_deg is the half angle of the cone in degrees"))
+
+    @property
+    def solid_angle(self) -> float:
+        """Steradians inside the cone, ``2 pi (1 - cos cone)``."""
+        return 2.0 * math.pi * (1.0 - math.cos(math.radians(self.cone_deg)))
+
+    def __repr__(self) -> str:
+        return (f"SpotLight(position={_fmt(self.position)}, direction={_fmt(self.direction)}, "
+                f"power={_fmt(self.power)}, cone_deg={self.cone_deg:g})")
+
+
+@dataclass(frozen=True, eq=False)
+class AreaLight:
+    """A diffuse (Lambertian) emitter: the object named ``object`` emits ``radiance`` (3,)
+    W m^-2 sr^-1 RGB from the front of each face (where its face normal points, the
+    counter-clockwise winding), as Mitsuba's ``area`` emitter.  ``mesh`` is that object's
+    mesh (the :class:`Scene` checks that it is the object's); the power is
+    ``pi * radiance * area``.  Built by the loader from an object's ``emission``."""
+
+    object: str
+    mesh: trimesh.Trimesh
+    radiance: np.ndarray
+
+    def __post_init__(self):
+        with _owned(f"AreaLight {self.object!r}" if isinstance(self.object, str) else "AreaLight"):
+            _string(self.object, "object", what="the emitting object's name")
+            if not isinstance(self.mesh, trimesh.Trimesh):
+                raise _FieldError("mesh", f"expected a trimesh.Trimesh; got {type(self.mesh).__name__}")
+            check_mesh(self.mesh, "mesh")
+            radiance = _rgb(self.radiance, "emission", what="emitted radiance in W m^-2 sr^-1")
+            if not radiance.any():
+                raise _FieldError("emission", "the light emits nothing (radiance 0 in every "
+                                  "channel); expected W m^-2 sr^-1 > 0 in at least one channel, "
+                                  "or leave emission out for an object that does not emit")
+            object.__setattr__(self, "radiance", radiance)
+            tri = np.asarray(self.mesh.triangles, dtype=np.float64)
+            cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+            areas = 0.5 * np.linalg.norm(cross, axis=1)
+            total = float(areas.sum())
+            if not total > 0.0 or not math.isfinite(total):
+                raise _FieldError("mesh", f"the emitting mesh has zero area ({len(areas):,} "
+                                  "degenerate triangles); an area light needs triangles of "
+                                  "positive area: fix the mesh or its scale")
+            live = areas > 0.0
+            normals = np.zeros_like(cross)
+            normals[live] = cross[live] / (2.0 * areas[live, None])
+            object.__setattr__(self, "_triangles", _readonly(tri))
+            object.__setattr__(self, "_areas", _readonly(areas))
+            object.__setattr__(self, "_normals", _readonly(normals))
+
+    @property
+    def triangles(self) -> np.ndarray:
+        """(n, 3, 3) float64: the emitting triangles' corners."""
+        return self._triangles
+
+    @property
+    def face_areas(self) -> np.ndarray:
+        """(n,) float64 square metres (0 for a degenerate triangle, which emits nothing)."""
+        return self._areas
+
+    @property
+    def face_normals(self) -> np.ndarray:
+        """(n, 3) unit front-face normals (zeros for a degenerate triangle)."""
+        return self._normals
+
+    @property
+    def area(self) -> float:
+        return float(self._areas.sum())
+
+    @property
+    def power(self) -> np.ndarray:
+        """(3,) watts: pi * radiance * area (Lambertian emission from one face)."""
+        return math.pi * self.radiance * self.area
+
+    def __repr__(self) -> str:
+        return (f"AreaLight(object={self.object!r}, radiance={_fmt(self.radiance)}, "
+                f"area={self.area:.6g} m^2)")
+
+
+@dataclass(frozen=True, eq=False)
+class DirectionalLight:
+    """Sunlight: parallel light travelling along ``direction`` (3,) (normalised), of
+    ``irradiance`` (3,) W m^-2 RGB on a surface perpendicular to it, as Mitsuba's
+    ``directional`` emitter."""
+
+    direction: np.ndarray
+    irradiance: np.ndarray
+
+    def __post_init__(self):
+        with _owned("DirectionalLight"):
+            d = _vector(self.direction, "direction", unit="a direction")
+            length = float(np.linalg.norm(d))
+            if length == 0.0:
+                raise _FieldError("direction", "expected a non-zero direction the light travels "
+                                  "along; got (0, 0, 0); e.g. [0, -1, 0] for light from straight "
+                                  "above")
+            object.__setattr__(self, "direction", _readonly(d / length))
+            e = _rgb(self.irradiance, "irradiance", what="irradiance in W m^-2")
+            if not e.any():
+                raise _FieldError("irradiance", "the light emits nothing (irradiance 0 in every "
+                                  "channel); expected W m^-2 > 0 in at least one channel")
+            object.__setattr__(self, "irradiance", e)
+
+    def __repr__(self) -> str:
+        return (f"DirectionalLight(direction={_fmt(self.direction)}, "
+                f"irradiance={_fmt(self.irradiance)})")
+
+
+#: The light classes a :class:`Scene` takes.
+LIGHTS = (PointLight, SpotLight, AreaLight, DirectionalLight)
+
+
+def check_lights(lights, objects) -> None:
+    """Each light one of :data:`LIGHTS`; an area light's object in the scene, with its mesh,
+    and not a mirror or glass (blockhash's emitters are diffuse surfaces)."""
+    by_name = {o.name: o for o in objects}
+    emitting = set()
+    for i, light in enumerate(lights):
+        if not isinstance(light, LIGHTS):
+            raise _FieldError(f"lights[{i}]", "expected a PointLight, SpotLight, AreaLight or "
+                              f"DirectionalLight; got {type(light).__name__}")
+        if not isinstance(light, AreaLight):
+            continue
+        obj = by_name.get(light.object)
+        if obj is None:
+            raise _FieldError(f"lights[{i}]", f"area light on object {light.object!r}, which the "
+                              f"scene does not hold (objects: {sorted(by_name)}); add the object "
+                              "or name one of those")
+        if obj.is_specular:
+            kind = "glass" if obj.is_dielectric else "mirror"
+            raise _FieldError(f"lights[{i}]", f"area light on object {light.object!r}, a {kind}: "
+                              "blockhash's emitters are diffuse surfaces; give the emitting "
+                              "object a phong material, or put the light on another object")
+        if light.mesh is not obj.mesh:
+            raise _FieldError(f"lights[{i}]", f"area light on object {light.object!r} with a mesh "
+                              "other than the object's; build it with AreaLight(object, "
+                              "obj.mesh, radiance)")
+        if light.object in emitting:
+            raise _FieldError(f"lights[{i}]", f"object {light.object!r} carries two area lights; "
+                              "give it one emission")
+        emitting.add(light.object)
