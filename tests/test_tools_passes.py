@@ -94,7 +94,7 @@ def test_pass_convergence_writes_a_row_per_pass_count(tmp_path, needs_mitsuba):
         assert 0.7 < r["flux_of_mean"] < 1.4  # the reference's flux, at 16 spp
         assert 0 < r["blur_of_mean"] < 2 and 0 < r["blur_one_median"] < 2
     assert math.isfinite(res["power_law_blur_of_mean"])
-    assert (cache / "ring-24-16.npy").is_file()
+    assert (cache / "ring-24-16-albedo1024.npy").is_file()
     assert len(table_rows(text, "ring")) == 3
 
 

@@ -44,8 +44,8 @@ def scene_of(name: str):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["cbox", "sun"])
 def test_the_caustic_agrees_with_mitsubas_particle_tracer_and_the_light_tracer(name):
-    """Caustic flux within 3% (measured: cbox 1.7%, sun 1.3% at 64 x 64, Mitsuba at 256 spp
-    carrying most of the difference's noise) and the blurred caustic within 0.06."""
+    """Caustic flux within 2% and the noise (the light tracer against Mitsuba's isolation at
+    1/1024: cbox 0.5% at 64 x 64) and the blurred caustic within 0.06."""
     scene = scene_of(name)
     ref = mitsuba_reference(scene, 256, layers=("caustic",))
     lt = light_trace(scene, 1_000_000)
@@ -53,7 +53,7 @@ def test_the_caustic_agrees_with_mitsubas_particle_tracer_and_the_light_tracer(n
     a, b = ref.caustic.astype(np.float64), lt.radiance
     assert b[mask].sum() > 0
     noise = np.sqrt((lt.stderr[mask] ** 2).sum())
-    assert abs(a[mask].sum() - b[mask].sum()) < 0.03 * b[mask].sum() + 4 * noise
+    assert abs(a[mask].sum() - b[mask].sum()) < 0.02 * b[mask].sum() + 4 * noise
     A, B = uniform_filter(a, (5, 5, 1)), uniform_filter(b, (5, 5, 1))
     bright = mask & (B.sum(axis=2) > 0.05 * B.sum(axis=2).max())
     rel = np.sqrt(((A - B)[bright] ** 2).mean()) / B[bright].mean()

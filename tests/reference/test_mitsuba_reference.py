@@ -34,8 +34,9 @@ def test_the_light_tracer_and_mitsuba_agree_on_the_caustic(name, photons, spp):
     flux_a, flux_b = a[mask].sum(), b[mask].sum()
     # The light tracer's noise in the flux, from its per-pixel standard errors.
     noise = np.sqrt((lt.stderr[mask] ** 2).sum())
-    # Mitsuba's isolation keeps 1/64 of the paths of two diffuse vertices (L D S+ D E,
-    # reference/mitsuba.py); measured at 128 x 128: flux ratio 1.0017 (ring), 0.998 (glass).
+    # Mitsuba's isolation keeps 1/1024 of the paths of two diffuse vertices (L D S+ D E,
+    # reference/mitsuba.py); measured at 128 x 128 when it kept 1/64: flux ratio 1.0017
+    # (ring), 0.998 (glass).
     assert abs(flux_a - flux_b) < 0.01 * flux_b + 4 * noise
     A, B = uniform_filter(a, (5, 5, 1)), uniform_filter(b, (5, 5, 1))
     bright = mask & (B.sum(axis=2) > 0.05 * B.sum(axis=2).max())
