@@ -169,5 +169,11 @@ def test_light_kinds_measures_each_kind_and_holds_two_to_mitsuba(tmp_path, needs
         assert r["direct"]["passes"] == [4, 64]
         e4, e64 = r["direct"]["rel_rms"]
         assert e64 < e4
-    assert (tmp_path / "png" / "cbox.png").is_file() and (tmp_path / "png" / "sun-mitsuba.png").is_file()
+    import OpenImageIO as oiio
+
+    for name in ("cbox", "cbox-mitsuba", "sun", "sun-mitsuba"):
+        img = oiio.ImageInput.open(str(tmp_path / "png" / f"{name}.png"))
+        pixels = img.read_image(format="uint8")
+        img.close()
+        assert pixels.shape == (24, 24, 3) and pixels.max() > 100, name  # lit, not black
     assert len(table_rows(text, "cbox")) == 2 and len(table_rows(text, "sun")) == 2

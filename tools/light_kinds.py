@@ -62,8 +62,8 @@ def agreement(path, size: int, passes: int, photons: int, ref_spp: int, png_dir)
         whole, _ = render_mitsuba(scene, "path", ref_spp)
         white = white_point(image.combined)
         png_dir.mkdir(parents=True, exist_ok=True)
-        write_rgb8(png_dir / f"{path.stem}.png", srgb(image.combined, white=white))
-        write_rgb8(png_dir / f"{path.stem}-mitsuba.png", srgb(whole, white=white))
+        for name, img in ((path.stem, image.combined), (f"{path.stem}-mitsuba", whole)):
+            write_rgb8(png_dir / f"{name}.png", np.round(srgb(img, white=white) * 255).astype(np.uint8))
     return row
 
 
