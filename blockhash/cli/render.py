@@ -54,7 +54,8 @@ def cmd_render(args) -> int:
         renderer, plan = make_renderer(
             scene, photons=args.photons, spp=args.spp, seed=args.seed,
             estimate=options_from(args), backend=args.backend, plan=plan,
-            lookup=LookupOptions(method=args.method, k=args.k, A=args.A, variant=args.variant))
+            lookup=LookupOptions(method=args.method, k=args.k, A=args.A, variant=args.variant),
+            indirect=not args.no_indirect)
         progress = _Progress(renderer, plan, out, args.preview_every)
         try:
             run_passes(renderer, plan, on_pass=progress.update, on_wait=progress.waiting)
@@ -77,6 +78,8 @@ def cmd_render(args) -> int:
           f"relative standard error {'n/a (one pass)' if err == float('inf') else f'{err:.3g}'}")
     if "index" in info:
         print(info["index"])
+    if "indirect" in info:
+        print(f"indirect light: {info['indirect']}")
     print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
     return 0
 
@@ -235,6 +238,10 @@ def add_render(sub) -> None:
                    help="rewrite the PNG every SECONDS as the image refines")
     p.add_argument("--photons", type=int, help="caustic photons to store per pass (default: the "
                    "scene's)")
+    p.add_argument("--no-indirect", action="store_true",
+                   help="leave out the light between diffuse surfaces (the indirect layer, "
+                        "photons after a diffuse bounce; the EXR then has no indirect layer), "
+                        "for caustic-only studies")
     p.add_argument("--k", type=int, help="photons per estimate (default: the scene's)")
     p.add_argument("--A", type=int, help="accuracy multiplier (default: the scene's)")
     p.add_argument("--method", choices=METHODS, default="auto",

@@ -25,6 +25,10 @@ class RenderResult:
     #: ``radii(index, k)``), to estimate again on ``index`` as the render did; None for the
     #: k-nearest estimates.
     radii: object = None
+    #: The indirect layer (light after a diffuse bounce, :mod:`blockhash.photons.indirect`);
+    #: None where the render has none (left out, or a scene whose diffuse surfaces cannot
+    #: light one another): then absent from :meth:`layers`, not zero.
+    indirect: np.ndarray | None = None
 
     @property
     def samples(self) -> np.ndarray:
@@ -33,7 +37,13 @@ class RenderResult:
 
     @property
     def combined(self) -> np.ndarray:
-        return self.direct + self.caustic
+        total = self.direct + self.caustic
+        return total if self.indirect is None else total + self.indirect
 
     def layers(self) -> dict:
-        return {"direct": self.direct, "caustic": self.caustic, "combined": self.combined}
+        """The layers by name: direct, caustic, indirect (where the render has it),
+        combined (their sum)."""
+        out = {"direct": self.direct, "caustic": self.caustic}
+        if self.indirect is not None:
+            out["indirect"] = self.indirect
+        return {**out, "combined": self.combined}

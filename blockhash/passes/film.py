@@ -9,6 +9,8 @@ photons' powers were divided by the photons that pass emitted.  The film keeps
   unnormalised flux over all photons emitted, as SPPM divides by the photons of every pass
   (a pass that stores no photon adds its emitted count and nothing else, so the image stays
   unbiased);
+* the indirect layer's mean (light after a diffuse bounce, where the render has it)
+  weighted by each pass's indirect photons shot;
 * the weighted sum of squared deviations of the caustic layer from its running mean, updated
   by West's incremental algorithm (1979; Welford's, weighted), stable in float64 whatever the
   count of passes or the scale of the values.
@@ -37,10 +39,16 @@ class Film:
         self.weight = 0.0      # sum of the passes' weights (photons emitted)
         self.weight2 = 0.0     # sum of their squares: the effective count of passes
         self._m2 = np.zeros(shape)
+        #: The indirect layer's mean weighted by each pass's indirect photons shot (None: the
+        #: render has none), and that weight's sum.
+        self.indirect = None
+        self.indirect_weight = 0.0
 
-    def add(self, direct: np.ndarray, caustic: np.ndarray, emitted: int) -> None:
+    def add(self, direct: np.ndarray, caustic: np.ndarray, emitted: int,
+            indirect: np.ndarray | None = None, indirect_emitted: int = 0) -> None:
         """One pass's pixel means; ``emitted`` its photons shot (0 when the scene has no
-        specular object, and then every pass weighs the same)."""
+        specular object, and then every pass weighs the same); ``indirect`` its indirect
+        layer (None: the render has none) of ``indirect_emitted`` photons shot."""
         direct = np.asarray(direct, dtype=np.float64)
         caustic = np.asarray(caustic, dtype=np.float64)
         if direct.shape != self.direct.shape or caustic.shape != self.caustic.shape:
@@ -56,8 +64,17 @@ class Film:
         delta = caustic - self.caustic
         new_caustic = self.caustic + delta * (w / weight)
         new_m2 = self._m2 + w * delta * (caustic - new_caustic)
-        (self.direct, self.caustic, self._m2, self.weight, self.weight2,
-         self.passes) = new_direct, new_caustic, new_m2, weight, self.weight2 + w * w, passes
+        new_indirect, indirect_weight = self.indirect, self.indirect_weight
+        if indirect is not None:
+            indirect = np.asarray(indirect, dtype=np.float64)
+            wi = float(max(indirect_emitted, 1))
+            indirect_weight += wi
+            base = np.zeros(self.direct.shape) if self.indirect is None else self.indirect
+            new_indirect = base + (indirect - base) * (wi / indirect_weight)
+        (self.direct, self.caustic, self._m2, self.weight, self.weight2, self.passes,
+         self.indirect, self.indirect_weight) = (new_direct, new_caustic, new_m2, weight,
+                                                 self.weight2 + w * w, passes, new_indirect,
+                                                 indirect_weight)
 
     @property
     def effective_passes(self) -> float:

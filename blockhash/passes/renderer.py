@@ -61,17 +61,19 @@ class Renderer:
 
     ``photons``: caustic photons stored in the first pass (every later pass emits as many as
     the first did), or a traced map (``CausticPhotons``) for a one-pass render.  ``side``:
-    S for S x S samples per pixel per pass.  The rest as :func:`.pipeline.render`.
+    S for S x S samples per pixel per pass.  ``indirect``: trace the light between diffuse
+    surfaces where the scene has it (False: leave it out).  The rest as
+    :func:`.pipeline.render`.
     """
 
     def __init__(self, scene, *, photons=None, side: int = 1, seed=None,
                  estimate: EstimateOptions = EstimateOptions(), lookup: LookupOptions = LookupOptions(),
-                 backend=None, schedule: Schedule = Schedule()):
+                 backend=None, schedule: Schedule = Schedule(), indirect: bool = True):
         traced = None if photons is None or isinstance(photons, (int, np.integer)) else photons
         self.scene = scene
         self.settings = PassSettings.of(scene, photons=None if traced is not None else photons,
                                         side=side, seed=seed, estimate=estimate, lookup=lookup,
-                                        backend=backend, schedule=schedule)
+                                        backend=backend, schedule=schedule, indirect=indirect)
         if traced is not None:
             from dataclasses import replace
 
@@ -126,12 +128,12 @@ class Renderer:
         return merged
 
     def _add(self, c: PassContribution) -> PassStats:
-        self.film.add(c.direct, c.caustic, c.emitted)
+        self.film.add(c.direct, c.caustic, c.emitted, c.indirect, c.indirect_emitted)
         for category, message in c.info.pop("warnings", ()):  # raised in a worker process
             warnings.warn(message, category, stacklevel=4)
         if c.index == 0:
             self.emitted_per_pass = c.emitted
-            self.info.update({k: v for k, v in c.info.items() if k == "index"})
+            self.info.update({k: v for k, v in c.info.items() if k in ("index", "indirect")})
         for name, sec in c.timings.items():
             self.timings[name] = self.timings.get(name, 0.0) + sec
         if c.photon_index is not None or c.index == 0:
@@ -165,4 +167,6 @@ class Renderer:
                             caustic=self.film.caustic.astype(np.float32),
                             timings=dict(self.timings), info=info, index=self.index,
                             spp=self.settings.side ** 2 * self.passes, passes=self.passes,
-                            radii=self.radii)
+                            radii=self.radii,
+                            indirect=None if self.film.indirect is None
+                            else self.film.indirect.astype(np.float32))

@@ -57,13 +57,18 @@ class PassSettings:
     variant: str = "default"
     backend: str | None = None
     schedule: Schedule = field(default_factory=Schedule)
+    indirect: bool = True
 
     @classmethod
     def of(cls, scene, *, photons=None, side: int = 1, seed=None,
            estimate: EstimateOptions = EstimateOptions(), lookup: LookupOptions = LookupOptions(),
-           backend=None, schedule: Schedule = Schedule()) -> "PassSettings":
+           backend=None, schedule: Schedule = Schedule(), indirect: bool = True) -> "PassSettings":
         """The settings of ``scene`` with these overrides (``photons``: photons stored per
-        pass, or None for the scene's; a traced map is given to :class:`RenderSetup`)."""
+        pass, or None for the scene's; a traced map is given to :class:`RenderSetup`;
+        ``indirect``: trace the indirect photons where the scene has diffuse interreflection)."""
+        if not isinstance(indirect, bool):
+            raise InputError(f"indirect={indirect!r}: expected True (render the light between "
+                             "diffuse surfaces where the scene has it) or False (leave it out)")
         settings = scene.photons
         k = settings.k if lookup.k is None else lookup.k
         method = resolve_method(lookup.method, estimate.estimate)
@@ -75,7 +80,8 @@ class PassSettings:
         return cls(count=count, side=as_int(side, "side", minimum=1),
                    seed=settings.seed if seed is None else seed, estimate=estimate,
                    method=method, k=k, A=settings.A if lookup.A is None else lookup.A,
-                   variant=lookup.variant, backend=backend, schedule=schedule)
+                   variant=lookup.variant, backend=backend, schedule=schedule,
+                   indirect=indirect)
 
 
 @dataclass(frozen=True)
@@ -156,6 +162,44 @@ class RenderSetup:
         self.materials = receiver_materials(scene.objects)
         self.pin = Pinhole.of(scene.camera)
         self.caustic = caustic_stage(settings)
+        self.indirect, self.indirect_emitted, self.indirect_note = self._indirect(scene, settings)
+
+    def _indirect(self, scene, settings: PassSettings):
+        """(the :class:`blockhash.photons.indirect.IndirectSource`, the photons it shoots per
+        pass, a note saying why none) of the render: None and 0 when ``settings`` leaves the
+        indirect light out, for a traced photon map, or when the scene's diffuse surfaces
+        cannot light one another (the pilot, :func:`blockhash.photons.indirect.needs_indirect`).
+
+        The photons of a pass are shared by the flux each map carries (the rule): the indirect
+        photons shot a pass are the caustic's shot (pass 0's, estimated from a pilot of
+        :data:`~blockhash.photons.indirect.PILOT` caustic photons) times the ratio of the
+        indirect flux to the caustic flux (from pilots of as many photons of each), within
+        [1/4, 4]; the caustic's count where the scene has no caustic.  So a watt of either
+        layer costs about the same tracing, however rarely a map's photons are stored."""
+        from blockhash.photons.indirect import PILOT, IndirectSource, needs_indirect
+
+        if not settings.indirect or self.traced is not None:
+            return None, 0, "left out" if not settings.indirect else "a traced map: one pass"
+        source = IndirectSource(scene, self.rays.geometry)
+        needed, pilot = needs_indirect(source, settings.seed)
+        if not needed:
+            return None, 0, (f"none: no photon of a {PILOT:,}-photon pilot met a diffuse surface "
+                             "after leaving one (the scene's diffuse surfaces cannot light one "
+                             "another)")
+        sample = source.emit(PILOT, seed=settings.seed)
+        emitted = float(settings.count)
+        if self.source.emitter is not None:
+            caustic = self.source.emit(PILOT, seed=settings.seed)
+            stored = max(len(caustic.positions), 1)
+            c_flux = float(caustic.powers.sum(axis=0).mean())  # watts: powers are per shot
+            i_flux = float(sample.powers.sum(axis=0).mean())
+            emitted *= PILOT / stored  # the caustic's photons shot a pass
+            if c_flux > 0:
+                emitted *= min(max(i_flux / c_flux, 0.25), 4.0)
+        emitted = max(int(np.ceil(emitted)), 1)
+        target = emitted * len(sample.positions) / PILOT
+        return source, emitted, (f"{emitted:,} photons shot a pass over the whole scene, about "
+                                 f"{int(target):,} stored at second or later diffuse vertices")
 
     def photons(self, p: int, emitted: int | None):
         """Pass ``p``'s photons (None: the scene has no specular object): pass 0 until
@@ -194,6 +238,10 @@ class PassContribution:
     info: dict = field(default_factory=dict)
     photon_index: object = None
     radii: object = None
+    #: The indirect layer's pixel means (None: the render has no indirect photons) and the
+    #: indirect photons shot (:mod:`blockhash.photons.indirect`).
+    indirect: np.ndarray | None = None
+    indirect_emitted: int = 0
 
     def portable(self) -> "PassContribution":
         """The contribution without what stays in its process (the index and radii)."""
@@ -226,32 +274,73 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
         info["photon_stats"] = {k: v for k, v in photons.stats.items()
                                 if isinstance(v, (int, float, str))
                                 or k == "specular_objects"}
-    index, radii, splat, whole = _index(setup, photons, p, scale, timings, info)
+    built = _index(setup, photons, p, scale, timings, info)
     t = time.perf_counter()
     points, seen = camera_samples(setup.scene, setup.rays, s.side, p, backend=s.backend)
     timings["gbuffer"] = time.perf_counter() - t
     t = time.perf_counter()
     direct = direct_light(points, setup.scene.objects, setup.scene.lights, setup.rays, p)
     timings["direct"] = time.perf_counter() - t
-    caustic = np.zeros_like(direct, dtype=np.float32)
-    estimate = setup.caustic.estimate
     t = time.perf_counter()
+    caustic = _layer(setup, built, points, seen)
+    timings["caustic"] = time.perf_counter() - t
+    indirect, indirect_emitted = _indirect_layer(setup, p, scale, points, seen, timings, info)
+    direct = box_filter(points.gather(direct), s.side)
+    timings["total"] = time.perf_counter() - t0
+    index, radii = built[0], built[1]
+    return PassContribution(p, direct, caustic, photons.emitted if photons is not None else 0,
+                            stored, scale, timings, info, index, radii, indirect,
+                            indirect_emitted)
+
+
+def _layer(setup: RenderSetup, built, points, seen) -> np.ndarray:
+    """The pixel means of one photon map's estimate at the pass's camera points, from its
+    :func:`_index` (``built``: index, radii, pixel splat, every photon's index and radii)."""
+    index, radii, splat, whole = built
+    estimate, side = setup.caustic.estimate, setup.settings.side
+    image = np.zeros(points.shape + (3,), dtype=np.float32)
     if splat is not None and not seen.all():
         # Points seen in a mirror or through glass gather every photon: the splat reached
         # only the pixels that see its photons directly.
-        caustic = estimate(setup, whole[0], only(points, ~seen), whole[1])
+        image = estimate(setup, whole[0], only(points, ~seen), whole[1])
         if index is not None:
-            caustic += estimate(setup, index, only(points, seen), radii)
+            image += estimate(setup, index, only(points, seen), radii)
     elif index is not None:
-        caustic = estimate(setup, index, points, radii)
-    timings["caustic"] = time.perf_counter() - t
-    caustic = box_filter(points.gather(caustic), s.side)
-    if splat is not None:
-        caustic = caustic + splat
-    direct = box_filter(points.gather(direct), s.side)
-    timings["total"] = time.perf_counter() - t0
-    return PassContribution(p, direct, caustic, photons.emitted if photons is not None else 0,
-                            stored, scale, timings, info, index, radii)
+        image = estimate(setup, index, points, radii)
+    image = box_filter(points.gather(image), side)
+    return image + splat if splat is not None else image
+
+
+def _indirect_layer(setup: RenderSetup, p: int, scale: float, points, seen, timings: dict,
+                    info: dict):
+    """Pass ``p``'s indirect layer and its photons shot (None, 0 without indirect photons):
+    the indirect photons from photon ``p * PASS_STRIDE`` of their streams, indexed and
+    estimated as the caustic's are, their radii on the same schedule."""
+    from blockhash.photons.tracing import PASS_STRIDE
+
+    if setup.indirect is None:
+        if p == 0:
+            info["indirect"] = setup.indirect_note
+        return None, 0
+    t = time.perf_counter()
+    photons = setup.indirect.emit(setup.indirect_emitted, seed=setup.settings.seed,
+                                  start=p * PASS_STRIDE)
+    stages: dict = {"trace": time.perf_counter() - t}
+    if p == 0:
+        info["indirect"] = setup.indirect_note
+        info["indirect_stats"] = {k: v for k, v in photons.stats.items()
+                                  if isinstance(v, (int, float, str))}
+    if len(photons.positions) < setup.settings.k:
+        h, w = setup.pin.height, setup.pin.width
+        image = np.zeros((h, w, 3), dtype=np.float32)
+    else:
+        built = _index(setup, photons, p, scale, stages, {})
+        t = time.perf_counter()
+        image = _layer(setup, built, points, seen)
+        stages["estimate"] = time.perf_counter() - t
+    for name, sec in stages.items():
+        timings[f"indirect {name}"] = sec
+    return image, photons.emitted
 
 
 def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, info: dict):

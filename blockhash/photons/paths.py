@@ -158,38 +158,10 @@ def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int, 
         if bounce == max_bounces:
             fate[idx[spec]] = MAX_BOUNCES
             break
-        idx, d, w, face = idx[spec], d[spec], w[spec], face[spec]
-        p, ns, ng = surface_hits(geom, face, u[spec], v[spec], d)
-        obj = geom.face_object[face]
-        glass = geom.is_dielectric[obj]
-        r = np.empty_like(d)
-        side = np.ones(len(d))  # +1: leave on the incoming side, -1: pass through
-        mirror = ~glass
-        if mirror.any():
-            w[mirror] = w[mirror] * geom.reflectance[obj[mirror]]
-            rm = reflect(d[mirror], ns[mirror])
-            under = np.einsum("ij,ij->i", rm, ng[mirror]) <= 0.0  # shading normal sent it in
-            if under.any():
-                mi = np.flatnonzero(mirror)[under]
-                rm[under] = reflect(d[mi], ng[mi])
-                fallbacks[idx[mi]] += 1
-            r[mirror] = rm / np.sqrt(np.einsum("ij,ij->i", rm, rm))[:, None]
-        if glass.any():
-            gi = np.flatnonzero(glass)
-            pid = idx[gi]
-            uc = choices[pid, events[pid] % choices.shape[1]]
-            events[pid] += 1
-            og = obj[gi]
-            r[gi], through, factor = scatter(d[gi], ns[gi], ng[gi], entering(geom, face[gi], d[gi]),
-                                             geom.ior[og], geom.tint[og], uc)
-            w[gi] = w[gi] * factor
-            side[gi[through]] = -1.0
-        dead = ~np.any(w > 0.0, axis=1)
-        if dead.any():
-            fate[idx[dead]] = ABSORBED
-            live = ~dead
-            idx, r, w, p, ng, side = idx[live], r[live], w[live], p[live], ng[live], side[live]
-        d = r
+        absorbed, (idx, d, w, p, ng, side) = specular_step(
+            geom, idx[spec], d[spec], w[spec], face[spec], u[spec], v[spec], choices, events,
+            fallbacks)
+        fate[absorbed] = ABSORBED
         o = p + ng * (side * offset)[:, None]
 
     if parts:
@@ -202,3 +174,44 @@ def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int, 
         s_depth = np.zeros(0, dtype=np.uint8)
         s_obj = np.zeros(0, dtype=np.int64)
     return Batch(fate, fallbacks, s_idx, s_p, s_d, s_n, s_w, s_depth, rays, s_obj, s_ng)
+
+
+def specular_step(geom: EmbreeGeometry, idx, d, w, face, u, v, choices, events, fallbacks):
+    """One specular event for photons ``idx`` (travelling along ``d`` with weights ``w``) at
+    their hits (``face``, barycentrics ``u``, ``v``) on mirrors and glass: a mirror reflects
+    (its reflectance on the weight; the geometric normal where the shading normal would send
+    the photon into the surface, counted in ``fallbacks``), glass reflects or refracts by the
+    Fresnel probabilities from ``choices`` (the photon's ``events``-th column, counted on).
+    Returns (the photons absorbed, whose weight fell to 0, and (idx, new directions, weights,
+    hit points, geometric normals on the side they came from, +1 / -1 for leaving on that
+    side or passing through) of the others)."""
+    p, ns, ng = surface_hits(geom, face, u, v, d)
+    obj = geom.face_object[face]
+    glass = geom.is_dielectric[obj]
+    r = np.empty_like(d)
+    side = np.ones(len(d))  # +1: leave on the incoming side, -1: pass through
+    mirror = ~glass
+    if mirror.any():
+        w[mirror] = w[mirror] * geom.reflectance[obj[mirror]]
+        rm = reflect(d[mirror], ns[mirror])
+        under = np.einsum("ij,ij->i", rm, ng[mirror]) <= 0.0  # shading normal sent it in
+        if under.any():
+            mi = np.flatnonzero(mirror)[under]
+            rm[under] = reflect(d[mi], ng[mi])
+            fallbacks[idx[mi]] += 1
+        r[mirror] = rm / np.sqrt(np.einsum("ij,ij->i", rm, rm))[:, None]
+    if glass.any():
+        gi = np.flatnonzero(glass)
+        pid = idx[gi]
+        uc = choices[pid, events[pid] % choices.shape[1]]
+        events[pid] += 1
+        og = obj[gi]
+        r[gi], through, factor = scatter(d[gi], ns[gi], ng[gi], entering(geom, face[gi], d[gi]),
+                                         geom.ior[og], geom.tint[og], uc)
+        w[gi] = w[gi] * factor
+        side[gi[through]] = -1.0
+    dead = ~np.any(w > 0.0, axis=1)
+    if not dead.any():
+        return idx[:0], (idx, r, w, p, ng, side)
+    live = ~dead
+    return idx[dead], (idx[live], r[live], w[live], p[live], ng[live], side[live])

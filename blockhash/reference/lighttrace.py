@@ -150,8 +150,12 @@ def directly_visible(scene, pinhole: Pinhole, rays: SceneRays) -> np.ndarray:
 # --------------------------------------------------------------------------- tracing
 
 def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
-                batch_size: int = BATCH, progress: bool = False) -> LightTraceImage:
-    """Light-trace the caustic layer of ``scene`` with ``photons`` photons shot.
+                batch_size: int = BATCH, progress: bool = False,
+                layer: str = "caustic") -> LightTraceImage:
+    """Light-trace the caustic layer of ``scene`` with ``photons`` photons shot; with
+    ``layer="indirect"``, the indirect layer: photons over the whole scene
+    (:class:`blockhash.photons.indirect.IndirectSource`), every diffuse vertex after a path's
+    first connected to the camera.
 
     Parameters
     ----------
@@ -186,7 +190,12 @@ def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
     stats = {"photons": m_total, "seed": seed, "size": [pin.width, pin.height],
              "stored": 0, "connected": 0}
     specular = tuple(scene.specular_objects)
-    if specular:
+    if layer not in ("caustic", "indirect"):
+        raise InputError(f"layer={layer!r}: the light tracer renders the 'caustic' or the "
+                         "'indirect' layer; give one of those")
+    if layer == "indirect":
+        _trace_indirect(scene, rays, pin, m_total, seed, batch_size, sum1, sum2, stats)
+    elif specular:
         emitter = Emitter(tuple(scene.lights), specular, bounds=scene.bounds)
         if not emitter.sources:
             raise InputError("light_trace: no light reaches a specular object; aim a spot light "
@@ -212,6 +221,20 @@ def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
     return LightTraceImage(radiance=(sum1 / m_total).reshape(shape),
                            sum_squares=sum2.reshape(shape),
                            visible=visible, emitted=m_total, stats=stats)
+
+
+def _trace_indirect(scene, rays: SceneRays, pin: Pinhole, m_total: int, seed: int,
+                    batch_size: int, sum1, sum2, stats) -> None:
+    """The indirect layer's photons, batch by batch, each stored vertex splatted (``_connect``)."""
+    from blockhash.photons.indirect import IndirectSource
+
+    source = IndirectSource(scene, rays.geometry)
+    kd, ks, e = material_arrays(receiver_materials(scene.objects))
+    for start in range(0, m_total, batch_size):
+        count = min(batch_size, m_total - start)
+        b = source.batch(count, seed=seed, start=start)
+        stats["stored"] += len(b.positions)
+        _connect(b, pin, rays, kd, ks, e, sum1, sum2, stats)
 
 
 def _connect(b, pin: Pinhole, rays: SceneRays, kd, ks, e, sum1, sum2, stats) -> None:

@@ -1,0 +1,265 @@
+"""Indirect photons: light after a diffuse bounce (stochastic progressive photon mapping's full
+transport, as pbrt-v4's ``SPPMIntegrator`` stores it).
+
+Photons leave every light over the whole scene, not only toward the specular objects: a
+point light uniformly over its sphere, a spot light uniformly inside its cone, an area light
+from a point uniform by area in a cosine-distributed direction, a directional light from a
+disc across its direction that covers the scene's bounding sphere.  A light is chosen by its
+power (a directional light's: its irradiance over that disc), and a photon carries the
+light's power over that probability, divided by the photons shot.  They follow mirrors and
+glass as the caustic photons do (:func:`blockhash.photons.paths.specular_step`) and at a
+diffuse (modified Phong) surface bounce on: a cosine-distributed direction about the shading
+normal on the side they came from, the weight times ``pi f_r`` (``kd + ks (n + 2) / 2
+cos^n alpha``), then Russian roulette with the survival probability the largest channel of
+that factor (at most 1).  A photon is **stored at every diffuse vertex after its first**: the
+first is direct light (the renderer's shadow rays) or, after a mirror or glass, the caustic
+(the caustic photon map), so each path's light is counted once.  Paths end, as Mitsuba's of
+the same depth, after ``max_bounces + 1`` surface events.
+
+Random numbers are counter-based per photon, as the caustic photons': photon ``i`` of pass
+``p`` reads its emission from Philox counter ``INDIRECT_COUNTER + p * PASS_STRIDE + i`` and
+each bounce ``b`` from a key of its own, so a pass's photons are the same in any process.
+
+:func:`needs_indirect` is the pilot that decides whether a scene has any: a scene whose
+diffuse surfaces cannot light one another (no pilot photon leaving a diffuse surface meets
+another diffuse surface next) traces none.
+"""
+
+from __future__ import annotations
+
+import time
+from types import SimpleNamespace
+
+import numpy as np
+
+from blockhash.photons.directions import frames, sample_cones
+from blockhash.photons.emission import orthonormal_basis
+from blockhash.photons.paths import CausticPhotons, specular_step
+from blockhash.scene.optics import choice_uniforms
+from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, surface_hits
+
+#: The indirect photons' counters start here (past any pass's caustic photons, below the area
+#: lights' extra uniforms at 2^120).
+INDIRECT_COUNTER = 1 << 100
+#: Key offsets: bounce b draws from key seed + (b + 1) * BOUNCE_KEY; the area light's
+#: direction from seed + EMIT_KEY; glass choices from seed + GLASS_KEY.
+BOUNCE_KEY = 1 << 96
+EMIT_KEY = 1 << 95
+GLASS_KEY = 1 << 94
+#: Photons of the pilot (:func:`needs_indirect`, and the share of photons per pass).
+PILOT = 16384
+
+
+def _uniforms(key: int, start: int, count: int) -> np.ndarray:
+    bitgen = np.random.Philox(key=int(key) % (1 << 128), counter=INDIRECT_COUNTER + int(start))
+    return np.random.Generator(bitgen).random((count, 4))
+
+
+class IndirectSource:
+    """A scene's lights emitting over the whole scene and the receivers' materials, built
+    once: indirect photons from any stretch of the per-photon streams (module docstring)."""
+
+    def __init__(self, scene, geometry: EmbreeGeometry):
+        from blockhash.scene.materials import material_arrays, receiver_materials
+
+        self.scene, self.geometry = scene, geometry
+        self.max_events = int(scene.photons.max_bounces) + 1
+        lo, hi = scene.bounds
+        self.center = 0.5 * (lo + hi)
+        self.radius = 0.5 * float(np.linalg.norm(hi - lo)) * (1.0 + 1e-6) + 1e-9
+        self.lights = tuple(scene.lights)
+        self.power = np.array([self._power(li) for li in self.lights])
+        brightness = self.power.mean(axis=1)
+        self.pmf = brightness / brightness.sum()
+        self.cdf = np.cumsum(self.pmf)
+        self.cdf[-1] = 1.0
+        self.kd, self.ks, self.e = material_arrays(receiver_materials(scene.objects))
+
+    def _power(self, light) -> np.ndarray:
+        if hasattr(light, "irradiance"):
+            return np.asarray(light.irradiance) * np.pi * self.radius ** 2
+        return np.asarray(light.power, dtype=np.float64)
+
+    def emit(self, count: int, *, seed: int, start: int = 0) -> CausticPhotons:
+        """Photons ``start .. start + count - 1`` shot; those stored at a second or later
+        diffuse vertex, powers divided by ``count``."""
+        t0 = time.perf_counter()
+        b = self.batch(count, seed=seed, start=start)
+        stats = {"emitted": count, "stored": len(b.positions), **b.counts,
+                 "seconds": time.perf_counter() - t0}
+        return CausticPhotons(b.positions, b.directions, b.normals, b.weights / float(count),
+                              count, stats, b.objects)
+
+    def batch(self, count: int, *, seed: int, start: int = 0) -> SimpleNamespace:
+        """The stored photons of photons ``start .. start + count - 1`` as the light tracer
+        connects them (:func:`blockhash.reference.lighttrace.light_trace`): positions,
+        directions, shading and geometric normals (on the side the photon came from),
+        weights not yet divided by the photons shot, objects, and the paths' counts."""
+        o, d, w = self._emission(seed, start, count)
+        parts, counts = self._trace(o, d, w, seed, start)
+        if parts:
+            pos, dirs, nrm, wts, obj, ng = (np.concatenate(a) for a in zip(*parts))
+        else:
+            z = np.zeros((0, 3))
+            pos, dirs, nrm, wts, ng = z, z.copy(), z.copy(), z.copy(), z.copy()
+            obj = np.zeros(0, np.int64)
+        return SimpleNamespace(positions=pos, directions=dirs, normals=nrm, weights=wts,
+                               objects=obj.astype(np.int64), geo_normals=ng,
+                               stored=np.arange(len(pos)), counts=counts)
+
+    # ------------------------------------------------------------------ emission
+
+    def _emission(self, seed: int, start: int, n: int):
+        u = _uniforms(seed, start, n)
+        k = np.minimum(np.searchsorted(self.cdf, u[:, 0], side="right"), len(self.lights) - 1)
+        o, d, w = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
+        extra = None
+        for li, light in enumerate(self.lights):
+            rows = np.flatnonzero(k == li)
+            if not len(rows):
+                continue
+            u1, u2 = u[rows, 1], u[rows, 2]
+            w[rows] = self.power[li] / self.pmf[li]
+            if hasattr(light, "irradiance"):  # a disc across the direction, upstream
+                D = np.asarray(light.direction, dtype=np.float64)
+                t1, t2 = orthonormal_basis(D)
+                rho, phi = self.radius * np.sqrt(u1), 2.0 * np.pi * u2
+                o[rows] = (self.center - 2.0 * self.radius * D + (rho * np.cos(phi))[:, None] * t1
+                           + (rho * np.sin(phi))[:, None] * t2)
+                d[rows] = D
+            elif hasattr(light, "radiance"):  # a point by area, a cosine direction
+                if extra is None:
+                    extra = _uniforms(seed + EMIT_KEY, start, n)
+                areas = light.face_areas
+                f = np.minimum(np.searchsorted(np.cumsum(areas) / areas.sum(), u[rows, 3],
+                                               side="right"), len(areas) - 1)
+                s = np.sqrt(u1)
+                b0, b2 = 1.0 - s, s * u2
+                tri = light.triangles[f]
+                o[rows] = (b0[:, None] * tri[:, 0] + (1.0 - b0 - b2)[:, None] * tri[:, 1]
+                           + b2[:, None] * tri[:, 2])
+                d[rows] = _cosine(light.face_normals[f], extra[rows, 0], extra[rows, 1])
+            else:  # point (the whole sphere) or spot (its cone), uniform in solid angle
+                cone = getattr(light, "cone_deg", None)
+                axis = np.asarray(getattr(light, "direction", (0.0, 0.0, 1.0)), dtype=np.float64)
+                cos_c = -1.0 if cone is None else float(np.cos(np.radians(cone)))
+                t1, t2 = orthonormal_basis(axis)
+                m = len(rows)
+                d[rows] = sample_cones(np.tile(axis, (m, 1)), np.tile(t1, (m, 1)),
+                                       np.tile(t2, (m, 1)), np.full(m, cos_c), u1, u2)
+                o[rows] = light.position
+        return o, d, w
+
+    # ------------------------------------------------------------------ paths
+
+    def _trace(self, o, d, w, seed: int, start: int):
+        geom = self.geometry
+        n = len(o)
+        idx = np.arange(n)
+        diffuse_seen = np.zeros(n, dtype=np.int64)  # diffuse vertices so far
+        choices = choice_uniforms(seed + GLASS_KEY, start, n) if geom.is_dielectric.any() else None
+        events = np.zeros(n, dtype=np.int64)
+        fallbacks = np.zeros(n, dtype=np.uint16)
+        offset = RAY_OFFSET * geom.scale
+        o = o + d * offset
+        parts = []
+        counts = {"escaped": 0, "absorbed": 0, "roulette": 0, "max_events": 0, "rays_cast": 0}
+        for event in range(self.max_events):
+            if not idx.size:
+                break
+            counts["rays_cast"] += int(idx.size)
+            hit, face, u, v = geom.intersect(o, d)
+            counts["escaped"] += int((~hit).sum())
+            idx, d, w = idx[hit], d[hit], w[hit]  # face, u, v: the hits' only
+            obj = geom.face_object[face]
+            spec = geom.is_specular[obj]
+            diff = np.flatnonzero(~spec)
+            back = geom.one_sided[obj[diff]] & ~entering(geom, face[diff], d[diff])
+            counts["absorbed"] += int(back.sum())
+            diff = diff[~back]
+            p, ns, ng = surface_hits(geom, face[diff], u[diff], v[diff], d[diff])
+            store = diffuse_seen[idx[diff]] >= 1
+            if store.any():
+                parts.append((p[store], d[diff][store], ns[store], w[diff][store],
+                              obj[diff][store], ng[store]))
+            diffuse_seen[idx[diff]] += 1
+            last = event == self.max_events - 1
+            new = []
+            if len(diff) and not last:
+                new.append(self._bounce(idx[diff], d[diff], w[diff], obj[diff], p, ns, ng,
+                                        seed, start, event, counts))
+            sp = np.flatnonzero(spec)
+            if len(sp) and not last:
+                absorbed, (si, sd, sw, spn, sng, side) = specular_step(
+                    geom, idx[sp], d[sp], w[sp], face[sp], u[sp], v[sp], choices, events,
+                    fallbacks)
+                counts["absorbed"] += len(absorbed)
+                new.append((si, sd, sw, spn + sng * (side * offset)[:, None]))
+            if last:
+                counts["max_events"] += len(diff) + len(sp)
+            if not new:
+                break
+            idx, d, w, o = (np.concatenate(a) for a in zip(*new))
+        return parts, counts
+
+    def _bounce(self, idx, d, w, obj, p, ns, ng, seed, start, event, counts):
+        """A diffuse bounce: cosine-distributed about the shading normal on the incoming side
+        (the geometric normal where the shading normal leans past it), weight times pi f_r
+        and Russian roulette (module docstring)."""
+        u = _uniforms(seed + (event + 1) * BOUNCE_KEY, start, 0 if not len(idx) else int(idx.max()) + 1)
+        u = u[idx]
+        up = np.where((np.einsum("ij,ij->i", ns, ng) > 0.0)[:, None], ns, ng)
+        wo = _cosine(up, u[:, 0], u[:, 1])
+        under = np.einsum("ij,ij->i", wo, ng) <= 0.0
+        wi = -d
+        cos_n = np.einsum("ij,ij->i", wo, up)
+        refl = 2.0 * np.einsum("ij,ij->i", wi, up)[:, None] * up - wi
+        c_alpha = np.maximum(np.einsum("ij,ij->i", refl, wo), 0.0)
+        e = self.e[obj]
+        lobe = (e + 2.0) / 2.0 * c_alpha ** e
+        factor = self.kd[obj] + self.ks[obj] * lobe[:, None]
+        factor[under | (cos_n <= 0.0)] = 0.0
+        q = np.minimum(factor.max(axis=1), 1.0)
+        live = u[:, 2] < q
+        counts["roulette"] += int((~live).sum())
+        w = w[live] * factor[live] / q[live, None]
+        offset = RAY_OFFSET * self.geometry.scale
+        return idx[live], wo[live], w, p[live] + ng[live] * offset
+
+
+def _cosine(normals: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> np.ndarray:
+    """(n, 3) directions cosine-distributed about unit ``normals`` (Malley's method)."""
+    r, phi = np.sqrt(u1), 2.0 * np.pi * u2
+    t1, t2 = frames(normals)
+    z = np.sqrt(np.maximum(1.0 - u1, 0.0))
+    return ((r * np.cos(phi))[:, None] * t1 + (r * np.sin(phi))[:, None] * t2
+            + z[:, None] * normals)
+
+
+def needs_indirect(source: IndirectSource, seed: int) -> tuple[bool, dict]:
+    """(whether the scene's diffuse surfaces light one another, the pilot's counts): the
+    pilot's photons shot as a pass's are, a scene needs indirect photons when one of them,
+    leaving a diffuse surface, meets another diffuse surface next (not over a mirror or
+    glass: light refocused by a mirror onto the surface it left, L D S+ D, is a mirror's
+    second-order light, left to a scene that also has diffuse-to-diffuse light), and the
+    flux stored at second diffuse vertices in the pilot (``stored_flux``, W, per photon
+    shot)."""
+    geom = source.geometry
+    o, d, w = source._emission(seed, 0, PILOT)
+    offset = RAY_OFFSET * geom.scale
+    hit, face, u, v = geom.intersect(o + d * offset, d)
+    diff = ~geom.is_specular[geom.face_object[face]]  # face, u, v: the hits' only
+    rows = np.flatnonzero(hit)[diff]
+    if not len(rows):
+        return False, {"pilot": PILOT, "diffuse_to_diffuse": 0, "stored_flux": 0.0}
+    f = face[diff]
+    p, ns, ng = surface_hits(geom, f, u[diff], v[diff], d[rows])
+    counts = {"roulette": 0}
+    idx, wo, _, start = source._bounce(rows, d[rows], w[rows], geom.face_object[f], p, ns, ng,
+                                       seed, 0, 0, counts)
+    hit2, face2, _, _ = geom.intersect(start, wo)
+    second = ~geom.is_specular[geom.face_object[face2]]
+    dd = int(second.sum())
+    full = source.emit(PILOT, seed=seed, start=0) if dd else None
+    flux = float(full.powers.sum(axis=0).mean()) if full is not None else 0.0
+    return dd > 0, {"pilot": PILOT, "diffuse_to_diffuse": dd, "stored_flux": flux}
