@@ -35,7 +35,7 @@ def measure(path, size, seeds, passes, ref_spp, cache, executor, photons=None):
     marks = [p for p in (1, 2, 4, 8, 16, 32, 64, 128) if p <= passes]
     images = {p: [] for p in marks}
     for seed in range(1, seeds + 1):
-        r = Renderer(scene, seed=seed, photons=photons)
+        r = Renderer(scene, seed=seed, photons=photons, indirect=False)  # the caustic's study
 
         def keep(renderer, stats, elapsed, session):
             if renderer.passes in images:

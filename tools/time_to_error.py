@@ -93,7 +93,7 @@ def progressive_curve(scene, ref, mask, until: float, photons, *, focus_checks: 
     """Pass by pass, for ``until`` seconds (or ``passes``, the most): the render's own time
     (from the start of its loop, workers' start included; the copies of the film taken here
     left out) and its errors, computed after."""
-    r = Renderer(scene, photons=photons)
+    r = Renderer(scene, photons=photons, indirect=False)  # the caustic layer is measured
     films, aside = [], 0.0
 
     def keep(renderer, stats, elapsed, session):

@@ -54,8 +54,7 @@ def cmd_render(args) -> int:
         renderer, plan = make_renderer(
             scene, photons=args.photons, spp=args.spp, seed=args.seed,
             estimate=options_from(args), backend=args.backend, plan=plan,
-            lookup=LookupOptions(method=args.method, k=args.k, A=args.A, variant=args.variant),
-            indirect=not args.no_indirect)
+            lookup=LookupOptions(method=args.method, k=args.k, A=args.A, variant=args.variant))
         progress = _Progress(renderer, plan, out, args.preview_every)
         try:
             run_passes(renderer, plan, on_pass=progress.update, on_wait=progress.waiting)
@@ -99,7 +98,7 @@ def _plan(args, *, one_pass: bool):
         count = 1 if one_pass else DEFAULT_PASSES
     schedule = Schedule(alpha=args.alpha, footprint=args.footprint)
     return RenderPlan(passes=count, seconds=args.time, target_error=args.target_error,
-                      schedule=schedule, executor=_executor(args))
+                      schedule=schedule, executor=_executor(args), indirect=not args.no_indirect)
 
 
 def _executor(args):

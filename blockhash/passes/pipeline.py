@@ -36,8 +36,7 @@ from blockhash.validate import old_keywords
 
 
 def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions(),
-           lookup=LookupOptions(), backend=None, plan: RenderPlan | None = None,
-           indirect: bool = True) -> RenderResult:
+           lookup=LookupOptions(), backend=None, plan: RenderPlan | None = None) -> RenderResult:
     """Render ``scene`` (:func:`blockhash.load_scene`) in passes until ``plan`` says stop:
     its direct and caustic layers.
 
@@ -59,13 +58,10 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
     lookup : LookupOptions
         The photon search: method, k, A, shader variant.
     backend : {'auto', 'egl', 'osmesa'}, optional
-    indirect : bool
-        Render the light between diffuse surfaces (an ``indirect`` layer, from photons after a
-        diffuse bounce, :mod:`blockhash.photons.indirect`) where the scene has it; False
-        leaves it out (no layer), for caustic-only studies.
     plan : RenderPlan, optional
         How the render proceeds: its stopping rule (most passes, seconds, target error), the
-        radii's schedule and where the passes run (:mod:`blockhash.passes.plan`); default
+        radii's schedule, where the passes run and whether it renders the light between
+        diffuse surfaces (``indirect``; :mod:`blockhash.passes.plan`); default
         ``RenderPlan()``, or one pass with every photon gathered for a traced map;
         ``RenderPlan(passes=1)`` is the single render of
         ``render_scene``.
@@ -88,14 +84,13 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
         raise InputError(f"plan must be a RenderPlan; got {type(plan).__name__} "
                          "(e.g. plan=RenderPlan(passes=16) or RenderPlan(passes=None, seconds=30))")
     renderer, plan = make_renderer(scene, photons=photons, spp=spp, seed=seed,
-                                   estimate=estimate, lookup=lookup, backend=backend, plan=plan,
-                                   indirect=indirect)
+                                   estimate=estimate, lookup=lookup, backend=backend, plan=plan)
     run_passes(renderer, plan)
     return renderer.image
 
 
 def make_renderer(scene, *, photons, spp, seed, estimate, lookup, backend,
-                  plan: RenderPlan | None, indirect: bool = True):
+                  plan: RenderPlan | None):
     """The :class:`.renderer.Renderer` that :func:`render` steps, and its plan (None:
     :class:`.plan.RenderPlan`'s defaults, or :data:`ONE_PASS` for a traced photon map, one
     pass's photons all gathered)."""
@@ -104,7 +99,7 @@ def make_renderer(scene, *, photons, spp, seed, estimate, lookup, backend,
         plan = ONE_PASS if traced else RenderPlan()
     renderer = Renderer(scene, photons=photons, side=spp_side(per_pass_spp(scene, spp, plan)),
                         seed=seed, estimate=estimate, lookup=lookup, backend=backend,
-                        schedule=plan.schedule, indirect=indirect)
+                        schedule=plan.schedule, indirect=plan.indirect)
     return renderer, plan
 
 

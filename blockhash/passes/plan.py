@@ -51,6 +51,10 @@ class RenderPlan:
     executor : InProcess, LocalWorkers or DaskCluster
                                        where the passes run (:mod:`.executors`; default in
                                        this process); the image is the same
+    indirect : bool                    render the light between diffuse surfaces (the
+                                       ``indirect`` layer, :mod:`blockhash.photons.indirect`)
+                                       where the scene has it (default True); False leaves it
+                                       out, for caustic-only studies: no layer, not a zero one
     """
 
     passes: int | None = DEFAULT_PASSES
@@ -58,8 +62,13 @@ class RenderPlan:
     target_error: float | None = None
     schedule: Schedule = field(default_factory=Schedule)
     executor: object = field(default_factory=InProcess)
+    indirect: bool = True
 
     def __post_init__(self):
+        if not isinstance(self.indirect, bool):
+            raise InputError(f"indirect={self.indirect!r}: expected True (render the light "
+                             "between diffuse surfaces where the scene has it) or False (leave "
+                             "it out)")
         if self.passes is not None and (isinstance(self.passes, bool) or
                                         not isinstance(self.passes, int) or self.passes < 1):
             raise InputError.about("{passes}{value!r}: a render runs at least one pass; give "

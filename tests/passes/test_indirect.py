@@ -93,11 +93,11 @@ def test_the_ceiling_lit_only_by_the_floor_is_lit_and_left_out_on_request(tmp_pa
     assert image.indirect is not None and image.indirect.max() > 0
     np.testing.assert_array_equal(image.combined, image.direct + image.caustic + image.indirect)
     assert image.info["indirect"].endswith("stored at second or later diffuse vertices")
-    without = blockhash.render(scene, photons=5000, plan=RenderPlan(passes=1), indirect=False)
+    without = blockhash.render(scene, photons=5000, plan=RenderPlan(passes=1, indirect=False))
     assert without.indirect is None and "indirect" not in without.layers()
     np.testing.assert_array_equal(without.direct, image.direct)
     with pytest.raises(blockhash.InputError, match="indirect='no': expected True"):
-        blockhash.render(scene, photons=5000, indirect="no")
+        RenderPlan(indirect="no")
     text = tmp_path / "facing.toml"
     text.write_text(FACING)
     for flag, layers in (([], {"direct", "caustic", "indirect", "combined"}),
@@ -123,7 +123,7 @@ def test_a_scene_whose_diffuse_surfaces_cannot_light_one_another_traces_none(nam
     assert image.indirect is None and "indirect" not in image.layers()
     assert image.info["indirect"].startswith("none: no photon of a")
     assert not any(k.startswith("indirect") for k in image.timings)
-    without = blockhash.render(scene, photons=4000, plan=RenderPlan(passes=2), indirect=False)
+    without = blockhash.render(scene, photons=4000, plan=RenderPlan(passes=2, indirect=False))
     np.testing.assert_array_equal(image.combined, without.combined)
 
 
