@@ -177,3 +177,20 @@ def test_light_kinds_measures_each_kind_and_holds_two_to_mitsuba(tmp_path, needs
         img.close()
         assert pixels.shape == (24, 24, 3) and pixels.max() > 100, name  # lit, not black
     assert len(table_rows(text, "cbox")) == 2 and len(table_rows(text, "sun")) == 2
+
+
+@pytest.mark.gl
+def test_whole_image_holds_the_indirect_layer_to_mitsuba_and_the_light_tracer(tmp_path, needs_mitsuba):
+    out = tmp_path / "whole.json"
+    text = run_tool("whole_image.py", ["--scenes", "corner,glass", "--size", "24", "--passes", "1",
+                                       "--photons", "30000", "--ref-spp", "256",
+                                       "--lt-photons", "100000", "--json", out], tmp_path)
+    rows = {r["scene"]: r for r in json.loads(out.read_text())}
+    corner, glass = rows["corner"], rows["glass"]
+    # corner's wall and floor light each other: the indirect layer brings the image up to
+    # Mitsuba's (a tiny render against a 16 spp reference); glass has no such light
+    assert 0.9 < corner["flux"] < 1.15 and corner["flux"] - corner["flux_without"] > 0.05, corner
+    assert 0.8 < corner["indirect_vs_light_tracer"] < 1.3  # 900 photons: wide discs
+    assert "indirect_vs_light_tracer" not in glass and glass["indirect_note"].startswith("none")
+    assert glass["flux"] == glass["flux_without"]
+    assert len(table_rows(text, "corner")) == 1

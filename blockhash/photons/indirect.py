@@ -2,7 +2,9 @@
 transport, as pbrt-v4's ``SPPMIntegrator`` stores it).
 
 Photons leave every light over the whole scene, not only toward the specular objects: a
-point light uniformly over its sphere, a spot light uniformly inside its cone, an area light
+point or spot light uniformly inside the narrower of its own cone (the whole sphere for a
+point light) and the cone that holds the scene's bounding sphere (a direction outside a
+spot's cone carries nothing), an area light
 from a point uniform by area in a cosine-distributed direction, a directional light from a
 disc across its direction that covers the scene's bounding sphere.  A light is chosen by its
 power (a directional light's: its irradiance over that disc), and a photon carries the
@@ -68,16 +70,41 @@ class IndirectSource:
         self.center = 0.5 * (lo + hi)
         self.radius = 0.5 * float(np.linalg.norm(hi - lo)) * (1.0 + 1e-6) + 1e-9
         self.lights = tuple(scene.lights)
-        self.power = np.array([self._power(li) for li in self.lights])
+        self.cones = [self._cone(li) for li in self.lights]
+        self.power = np.array([self._power(li, c) for li, c in zip(self.lights, self.cones)])
         brightness = self.power.mean(axis=1)
         self.pmf = brightness / brightness.sum()
         self.cdf = np.cumsum(self.pmf)
         self.cdf[-1] = 1.0
         self.kd, self.ks, self.e = material_arrays(receiver_materials(scene.objects))
 
-    def _power(self, light) -> np.ndarray:
+    def _cone(self, light):
+        """(axis, cos of the half angle, intensity W/sr) a point or spot light's photons are
+        shot into: the narrower of its own cone (the whole sphere for a point light) and the
+        cone that holds the scene's bounding sphere from outside it (None for other lights)."""
+        if not hasattr(light, "position"):
+            return None
+        cone = getattr(light, "cone_deg", None)
+        power = np.asarray(light.power, dtype=np.float64)
+        own_axis = np.asarray(getattr(light, "direction", (0.0, 0.0, 1.0)), dtype=np.float64)
+        own_cos = -1.0 if cone is None else float(np.cos(np.radians(cone)))
+        intensity = power / (2.0 * np.pi * (1.0 - own_cos))
+        to = self.center - np.asarray(light.position, dtype=np.float64)
+        dist = float(np.linalg.norm(to))
+        if dist <= self.radius:
+            return own_axis, own_cos, intensity
+        scene_cos = float(np.sqrt(1.0 - (self.radius / dist) ** 2)) - 1e-9
+        if scene_cos > own_cos:
+            return to / dist, scene_cos, intensity
+        return own_axis, own_cos, intensity
+
+    def _power(self, light, cone) -> np.ndarray:
+        """The watts a light's photons carry: a directional light's over the disc, a point
+        or spot light's into the cone it is sampled in."""
         if hasattr(light, "irradiance"):
             return np.asarray(light.irradiance) * np.pi * self.radius ** 2
+        if cone is not None:
+            return cone[2] * 2.0 * np.pi * (1.0 - cone[1])
         return np.asarray(light.power, dtype=np.float64)
 
     def emit(self, count: int, *, seed: int, start: int = 0) -> CausticPhotons:
@@ -139,15 +166,17 @@ class IndirectSource:
                 o[rows] = (b0[:, None] * tri[:, 0] + (1.0 - b0 - b2)[:, None] * tri[:, 1]
                            + b2[:, None] * tri[:, 2])
                 d[rows] = _cosine(light.face_normals[f], extra[rows, 0], extra[rows, 1])
-            else:  # point (the whole sphere) or spot (its cone), uniform in solid angle
-                cone = getattr(light, "cone_deg", None)
-                axis = np.asarray(getattr(light, "direction", (0.0, 0.0, 1.0)), dtype=np.float64)
-                cos_c = -1.0 if cone is None else float(np.cos(np.radians(cone)))
+            else:  # point or spot: uniform in solid angle inside the cone of _cone
+                axis, cos_c, _ = self.cones[li]
                 t1, t2 = orthonormal_basis(axis)
                 m = len(rows)
                 d[rows] = sample_cones(np.tile(axis, (m, 1)), np.tile(t1, (m, 1)),
                                        np.tile(t2, (m, 1)), np.full(m, cos_c), u1, u2)
                 o[rows] = light.position
+                cone = getattr(light, "cone_deg", None)
+                if cone is not None:  # aimed at the scene: outside the spot's cone is dark
+                    outside = d[rows] @ np.asarray(light.direction) < np.cos(np.radians(cone)) - 1e-12
+                    w[rows[outside]] = 0.0
         return o, d, w
 
     # ------------------------------------------------------------------ paths
