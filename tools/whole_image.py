@@ -7,7 +7,8 @@ specular chain plus 2, as the indirect photons' paths) at ``--ref-spp``, and blo
 render (``--passes`` passes of ``--photons`` caustic photons; the indirect photons shot a pass
 as blockhash/passes/task.py shares them), compared over the receivers the camera sees
 (:func:`blockhash.studies.lights.receivers_seen`: diffuse surfaces other than a lamp, away
-from edges): the flux ratio and the relative RMS after a 5 x 5 box blur, of the combined
+from edges): the flux ratio and the relative RMS after a 5 x 5 box blur (and that less the
+reference's own noise, from a second Mitsuba render of another seed), of the combined
 image and of direct + caustic alone (what the image held before the indirect layer); the
 indirect layer's flux against the in-project light tracer's (``--lt-photons``, 0 to skip);
 the indirect photons shot and stored a pass and the seconds of a pass with and without them.
@@ -56,6 +57,12 @@ def measure(path, size, passes, photons, ref_spp, lt_photons) -> dict:
            "seconds": seconds, "seconds_without_indirect": seconds_without,
            "indirect_note": image.info.get("indirect", "")}
     row["flux"], row["blurred"] = compare(image.combined.astype(np.float64), ref, mask)
+    # the reference's own noise: a second Mitsuba render of another seed against it
+    again, _ = render_mitsuba(scene, "ptracer", ref_spp, seed=7)
+    row["ref_flux_noise"], noise = compare(again.astype(np.float64), ref, mask)
+    row["ref_flux_noise"] = abs(row["ref_flux_noise"] - 1.0) / np.sqrt(2.0)
+    row["ref_blurred_noise"] = noise / np.sqrt(2.0)
+    row["blurred_less_ref_noise"] = float(np.sqrt(max(row["blurred"] ** 2 - row["ref_blurred_noise"] ** 2, 0.0)))
     row["flux_without"], row["blurred_without"] = compare(
         (image.direct + image.caustic).astype(np.float64), ref, mask)
     if image.indirect is not None and lt_photons:
@@ -69,14 +76,15 @@ def measure(path, size, passes, photons, ref_spp, lt_photons) -> dict:
 
 def table(rows) -> str:
     out = ["| scene | size | passes x photons | Mitsuba ptracer spp | whole-image flux / Mitsuba's "
-           "| blurred rel. RMS | without the indirect layer: flux, blurred | indirect flux / light "
-           "tracer's (its noise) | s with / without indirect | indirect photons |",
-           "| --- " * 10 + "|"]
+           "| blurred rel. RMS (less the reference's noise; that noise) | without the indirect "
+           "layer: flux, blurred | indirect flux / light tracer's (its noise) | s with / without "
+           "indirect | indirect photons |", "| --- " * 10 + "|"]
     for r in rows:
         lt = (f"{r['indirect_vs_light_tracer']:.4f} ({r['light_tracer_noise']:.4f})"
               if "indirect_vs_light_tracer" in r else "-")
         out.append(f"| {r['scene']} | {r['size']} | {r['passes']} x {r['photons']:,} | "
-                   f"{r['ref_spp']} | {r['flux']:.4f} | {r['blurred']:.4f} | "
+                   f"{r['ref_spp']} | {r['flux']:.4f} | {r['blurred']:.4f} "
+                   f"({r['blurred_less_ref_noise']:.4f}; {r['ref_blurred_noise']:.4f}) | "
                    f"{r['flux_without']:.4f}, {r['blurred_without']:.4f} | {lt} | "
                    f"{r['seconds']:.1f} / {r['seconds_without_indirect']:.1f} | "
                    f"{r['indirect_note']} |")

@@ -8,7 +8,8 @@ refracts each shading point's ray by the Fresnel probabilities (up to
 ``MAX_DIELECTRIC_EVENTS``).  A one-sided receiver seen from behind shades nothing (black,
 as Mitsuba's ``diffuse``), and one seen from the front takes light from its front only
 (the normals face the camera, and the lights are shaded on the normal's side).  Direct light
-is point and spot lights with shadow rays, through the modified Phong BRDF.
+is point, spot, area and directional lights with shadow rays (an area light sampled at a
+point per pass, :mod:`.surface_lights`), through the modified Phong BRDF.
 """
 
 from __future__ import annotations
@@ -267,7 +268,7 @@ def _cone(light):
 
 def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
                  pass_index: int = 0) -> np.ndarray:
-    """(h, w, 3) direct radiance from point and spot lights, shadowed, times the path weight
+    """(h, w, 3) direct radiance from the lights, shadowed, times the path weight
     (the modified Phong BRDF, :func:`blockhash.scene.materials.phong_brdf`): per light, the
     points on its side of their surface cast one shadow ray each (:meth:`SceneRays.visible`'s
     segments, embree's occlusion query), and :func:`_lit` adds the unshadowed ones' radiance.

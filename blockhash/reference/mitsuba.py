@@ -24,10 +24,12 @@ is one or two Mitsuba renders at ``spp`` samples per pixel:
   tracer sees no caustic through a mirror or glass (it cannot connect to a pinhole through
   a delta surface).
 * **direct**: Mitsuba's path tracer (``path``) with the depth the scene's specular chains
-  need: point and spot lights seen over diffuse surfaces, directly or through mirrors and
-  glass.  Point lights cannot be reached over a specular surface from the camera, so no
-  caustic is in it; diffuse interreflection is (a floor lit by a wall), which blockhash's
-  direct layer leaves out.
+  need: lights seen over diffuse surfaces, directly or through mirrors and glass.  Point,
+  spot and directional lights cannot be reached over a specular surface from the camera, so
+  no caustic of theirs is in it, but an area light's is (a path tracer reaches it by sampling
+  the glass); diffuse interreflection is in it too (a floor lit by a wall), which blockhash
+  renders in its indirect layer.  For the direct layer alone, :func:`render_mitsuba` with
+  ``max_depth=2`` (emitters seen and lit directly).
 
 Mitsuba's LLVM variant (``llvm_ad_rgb``) needs an LLVM shared library (16 or newer); the
 module finds a system one (``DRJIT_LIBLLVM_PATH``, else ``libLLVM-*.so`` under the usual
