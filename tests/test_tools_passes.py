@@ -194,3 +194,19 @@ def test_whole_image_holds_the_indirect_layer_to_mitsuba_and_the_light_tracer(tm
     assert "indirect_vs_light_tracer" not in glass and glass["indirect_note"].startswith("none")
     assert glass["flux"] == glass["flux_without"]
     assert len(table_rows(text, "corner")) == 1
+
+
+@pytest.mark.gl
+def test_time_to_error_races_the_whole_image(tmp_path, needs_mitsuba):
+    out = tmp_path / "whole.json"
+    text = run_tool("time_to_error.py", ["--scenes", "corner", "--size", "24", "--times", "30",
+                                         "--passes", "2", "--photons", "3000", "--ref-spp", "16",
+                                         "--max-spp", "2", "--cache", tmp_path / "cache",
+                                         "--layer", "whole", "--integrators", "ptracer,path",
+                                         "--json", out], tmp_path)
+    rows = json.loads(out.read_text())
+    assert [r["layer"] for r in rows] == ["whole", "whole"]
+    assert all(0.6 < c["flux"] < 1.5 for c in rows[0]["curve"])  # the whole image's light
+    assert all(0 <= c["flip"] <= 1 for c in rows[0]["curve"])  # LDR-FLIP
+    assert (tmp_path / "cache" / "corner-24-16-whole.npy").is_file()
+    assert "| corner | 24 | path | 30 (" in text

@@ -25,6 +25,12 @@ reference's own noise: Mitsuba's squared error at s spp is ``a / s + a / S``, ``
 the ladder, so blockhash's error less the reference's noise is ``sqrt(e^2 - a / S)``, reached
 by Mitsuba at ``a / (e^2 - a / S)`` spp (its time from a line through the ladder).
 
+With ``--layer whole`` the comparison is of the whole image (direct light, caustic and the
+indirect layer) against a long Mitsuba ``ptracer`` render of the whole scene (no albedo
+dimming), over the receivers seen directly (:func:`blockhash.studies.lights.receivers_seen`),
+the FLIP column the LDR-FLIP of the tone-mapped images (one exposure, the reference's), and
+Mitsuba's ladder its whole renders with each of ``--integrators``.
+
 Also per scene: the power law of the blurred and per-pixel error against passes (fitted from
 pass 2 on), the estimated error beside the measured per-pixel error, and for glass the focus
 checks (the reference's brightest pixel, its 3 x 3 neighbourhood and the caustic flux).
@@ -49,18 +55,33 @@ from blockhash.passes.pipeline import render_scene
 from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import Renderer
 from blockhash.passes.run import run_passes
-from blockhash.reference.mitsuba import mitsuba_reference
-from blockhash.studies.caustic_reference import caustic_comparison, executor, reference_options
+from blockhash.reference.mitsuba import mitsuba_reference, render_mitsuba
+from blockhash.studies.caustic_reference import (
+    caustic_comparison,
+    executor,
+    reference_options,
+    whole_comparison,
+)
 from blockhash.studies.command import ToolParser, count, listing, number, write_json
-from blockhash.studies.measure import flip_error, flux_ratio, masked_blur, power_law, rel_rms
+from blockhash.studies.measure import (
+    flip_error,
+    flux_ratio,
+    ldr_flip_error,
+    masked_blur,
+    power_law,
+    rel_rms,
+)
 
 METRICS = ("pixel", "blur", "flip")
 
 
-def metrics(img, ref, mask) -> dict:
+def metrics(img, ref, mask, *, ldr: bool = False) -> dict:
+    """The errors of ``img`` against ``ref`` over ``mask``; ``flip`` the HDR-FLIP of the
+    caustic layer, or with ``ldr`` the LDR-FLIP of the tone-mapped whole image."""
     return {"pixel": rel_rms(img, ref, mask),
             "blur": rel_rms(masked_blur(img, mask), masked_blur(ref, mask), mask),
-            "flip": flip_error(img, ref, mask), "flux": flux_ratio(img, ref, mask)}
+            "flip": (ldr_flip_error if ldr else flip_error)(img, ref, mask),
+            "flux": flux_ratio(img, ref, mask)}
 
 
 def crossing(errs, times, target):
@@ -89,24 +110,30 @@ def focus(img, ref) -> dict:
 
 
 def progressive_curve(scene, ref, mask, until: float, photons, *, focus_checks: bool,
-                      executor=None, passes=None):
+                      executor=None, passes=None, whole: bool = False):
     """Pass by pass, for ``until`` seconds (or ``passes``, the most): the render's own time
     (from the start of its loop, workers' start included; the copies of the film taken here
-    left out) and its errors, computed after."""
-    r = Renderer(scene, photons=photons, indirect=False)  # the caustic layer is measured
+    left out) and its errors, computed after: of the caustic layer (rendered without the
+    indirect light), or with ``whole`` of the whole image (direct, caustic and indirect)."""
+    r = Renderer(scene, photons=photons, indirect=whole)
     films, aside = [], 0.0
 
     def keep(renderer, stats, elapsed, session):
         nonlocal aside
         t = time.perf_counter()
-        films.append((renderer.passes, elapsed - aside, renderer.film.caustic.astype(np.float32),
-                      renderer.film.estimated_error()))
+        film = renderer.film
+        img = film.caustic
+        if whole:
+            img = film.direct + film.caustic + (0.0 if film.indirect is None else film.indirect)
+        films.append((renderer.passes, elapsed - aside, img.astype(np.float32),
+                      film.estimated_error()))
         aside += time.perf_counter() - t
     run_passes(r, RenderPlan(passes=passes, seconds=until, executor=executor or InProcess()),
                on_pass=keep)
     curve = []
     for passes, own, img, est in films:
-        row = {"passes": passes, "seconds": own, "estimated_error": est, **metrics(img, ref, mask)}
+        row = {"passes": passes, "seconds": own, "estimated_error": est,
+               **metrics(img, ref, mask, ldr=whole)}
         if focus_checks:
             row["focus"] = focus(img, ref)
         curve.append(row)
@@ -122,21 +149,24 @@ def at_time(curve, t):
 
 
 def measure(path, size, ref_spp, times, max_spp, photons, cache, executor=None, passes=None,
-            integrators=("ptracer",)):
+            integrators=("ptracer",), layer: str = "caustic"):
     """The scene's blockhash curve and, per Mitsuba integrator of ``integrators``, its
-    ladder and the ratios (one row each)."""
+    ladder and the ratios (one row each), on ``layer`` ('caustic' or 'whole')."""
     name = path.stem
-    scene, mask, ref, ref_s = caustic_comparison(path, size, ref_spp, cache)
+    whole = layer == "whole"
+    scene, mask, ref, ref_s = (whole_comparison if whole else caustic_comparison)(
+        path, size, ref_spp, cache)
     render_scene(scene.with_size(32, 32), photons=20000)  # warm: compiled kernels and programs
     one = render_scene(scene, photons=photons)
-    row = {"scene": name, "size": size, "ref_spp": ref_spp, "ref_seconds": ref_s,
+    row = {"scene": name, "size": size, "ref_spp": ref_spp, "ref_seconds": ref_s, "layer": layer,
            "one_pass": {"seconds": one.timings["total"], "spp": one.spp,
-                        **metrics(one.caustic, ref, mask)}}
+                        **metrics(one.combined if whole else one.caustic, ref, mask, ldr=whole)}}
     print(f"{name} {size}: one pass {one.timings['total']:.2f} s blur {row['one_pass']['blur']:.4f}",
           flush=True)
     curve, stages, emitted, stored = progressive_curve(scene, ref, mask, max(times) * 1.02, photons,
-                                                       focus_checks=name == "glass",
-                                                       executor=executor, passes=passes)
+                                                       focus_checks=name == "glass" and not whole,
+                                                       executor=executor, passes=passes,
+                                                       whole=whole)
     row.update(curve=curve, stages=stages, emitted=emitted, stored=stored)
     target = {m: at_time(curve, max(times))[m] for m in METRICS}
     rows = []
@@ -144,11 +174,16 @@ def measure(path, size, ref_spp, times, max_spp, photons, cache, executor=None, 
         ladder = []
         spp = 1
         while spp <= max_spp:
-            m = mitsuba_reference(scene, spp, seed=1000 + spp, layers=("caustic",),
-                                  integrator=integrator)
-            mm = metrics(m.caustic, ref, mask)
-            ladder.append({"spp": spp, "s1": m.timings[f"caustic ({integrator})"],
-                           "s2": sum(m.timings.values()), **mm})
+            if whole:  # one render: the user's image
+                img, sec = render_mitsuba(scene, integrator, spp, seed=1000 + spp)
+                mm = metrics(img, ref, mask, ldr=True)
+                ladder.append({"spp": spp, "s1": sec, "s2": sec, **mm})
+            else:
+                m = mitsuba_reference(scene, spp, seed=1000 + spp, layers=("caustic",),
+                                      integrator=integrator)
+                mm = metrics(m.caustic, ref, mask)
+                ladder.append({"spp": spp, "s1": m.timings[f"caustic ({integrator})"],
+                               "s2": sum(m.timings.values()), **mm})
             print(f"  mitsuba {integrator} spp {spp}: {ladder[-1]['s1']:.2f} s pixel "
                   f"{mm['pixel']:.4f} blur {mm['blur']:.4f} flip {mm['flip']:.4f}", flush=True)
             if all(mm[k] <= target[k] for k in METRICS):
@@ -299,6 +334,11 @@ def main(argv=None):
     p.photons(None, help="photons per pass (None: the scene's)")
     p.add_argument("--passes", type=count, help="the most passes of the progressive render "
                    "(default: as many as the longest of --times allows)")
+    p.add_argument("--layer", choices=("caustic", "whole"), default="caustic",
+                   help="what is compared: the caustic layer (default; against Mitsuba's "
+                   "isolated caustic) or the whole image (direct, caustic and indirect, against "
+                   "Mitsuba's whole render over the receivers seen directly; FLIP on the "
+                   "tone-mapped images)")
     p.add_argument("--integrators", type=listing(integrator), default=["ptracer"],
                    help="Mitsuba's integrators to race, each isolating the caustic as the "
                    "reference does: ptracer, path (default ptracer)")
@@ -314,7 +354,8 @@ def main(argv=None):
         rows = []
         for s in args.scenes:
             rows += measure(s, args.size, args.ref_spp, times, args.max_spp, args.photons,
-                            args.cache, executor(args.workers), args.passes, args.integrators)
+                            args.cache, executor(args.workers), args.passes, args.integrators,
+                            args.layer)
             if args.json:  # after every scene: a long run keeps what it measured
                 write_json(args.json, rows)
     print(tables(rows))

@@ -54,3 +54,31 @@ def caustic_comparison(path, size: int, spp: int, cache):
     mask = light_trace(scene, 1000).comparison_mask(1)
     ref, seconds = cached_caustic(scene, Path(path).stem, size, spp, cache)
     return scene, mask, ref, seconds
+
+
+def whole_comparison(path, size: int, spp: int, cache):
+    """``(scene, mask, reference, seconds)`` for the whole image of the scene file ``path``
+    at ``size`` x ``size``: the scene with ks = 0, the receivers the camera sees
+    (:func:`blockhash.studies.lights.receivers_seen`), and Mitsuba's ``ptracer`` render of the
+    whole scene at ``spp`` (seed 1) with the seconds it took (None when read from ``cache``,
+    kept as ``NAME-SIZE-SPP-whole.npy``)."""
+    import time
+
+    import numpy as np
+
+    from blockhash.frame.shading import SceneRays
+    from blockhash.reference.mitsuba import render_mitsuba, without_specular_lobes
+    from blockhash.scene.loader import load_scene
+    from blockhash.studies.lights import receivers_seen
+
+    scene = without_specular_lobes(load_scene(path)).with_size(size, size)
+    mask = receivers_seen(scene, SceneRays(scene.objects))
+    file = Path(cache) / f"{Path(path).stem}-{size}-{spp}-whole.npy"
+    if file.exists():
+        return scene, mask, np.load(file), None
+    t = time.perf_counter()
+    ref, _ = render_mitsuba(scene, "ptracer", spp, seed=1)
+    file.parent.mkdir(parents=True, exist_ok=True)
+    np.save(file, ref)
+    return scene, mask, ref, time.perf_counter() - t
+

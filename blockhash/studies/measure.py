@@ -55,6 +55,23 @@ def flip_error(image, truth, mask):
     return float(np.asarray(err_map)[mask].mean())
 
 
+def ldr_flip_error(image, truth, mask):
+    """Mean LDR-FLIP over ``mask`` of the two images tone-mapped as the PNG is, with one
+    exposure (the truth's white point, :func:`blockhash.evaluate.images.white_point`): what a
+    user compares by eye; None when ``flip-evaluator`` is not installed."""
+    try:
+        import flip_evaluator as flip
+    except ImportError:
+        return None
+    from blockhash.evaluate.images import srgb, white_point
+
+    white = white_point(np.where(mask[..., None], truth, 0.0))
+    a = srgb(np.asarray(image, dtype=np.float64), white=white).astype(np.float32)
+    b = srgb(np.asarray(truth, dtype=np.float64), white=white).astype(np.float32)
+    err_map, _, _ = flip.evaluate(b, a, "LDR")
+    return float(np.asarray(err_map)[mask].mean())
+
+
 def errors_against(image, truth, mask, prefix: str) -> dict:
     """``{prefix}_rel_rms``-style measures of one image against one truth."""
     out = {f"rel_rms_{prefix}": rel_rms(image, truth, mask),
