@@ -22,3 +22,8 @@ def size(text: str) -> tuple[int, int]:
     if w < 1 or h < 1:
         raise argparse.ArgumentTypeError(f"--size {text!r}: width and height must be positive")
     return w, h
+
+
+#: The exit status of a render stopped by Ctrl-C (as a shell reports SIGINT).
+INTERRUPTED = 130
+

@@ -12,7 +12,7 @@ import time
 import warnings
 from pathlib import Path
 
-from blockhash.cli.args import FLAGS
+from blockhash.cli.args import FLAGS, INTERRUPTED
 from blockhash.cli.args import size as _size
 from blockhash.cli.estimate import add_arguments as add_estimate_arguments
 from blockhash.cli.estimate import options_from
@@ -23,7 +23,6 @@ from blockhash.scene.camera import DEFAULT_SPP
 from blockhash.validate import writable_path
 
 #: Exit status after Ctrl-C (128 + SIGINT), the image so far written.
-INTERRUPTED = 130
 
 
 def cmd_render(args) -> int:
@@ -45,6 +44,10 @@ def cmd_render(args) -> int:
     scene = load_scene(args.scene)
     if args.size:
         scene = scene.with_size(*args.size)
+    if args.frames is not None:
+        from blockhash.cli.frames import render_animation
+
+        return render_animation(args, scene, out, _plan(args, one_pass=False))
     study = args.time_budget is not None or args.study_error is not None
     if study:
         _choose_settings(args, scene)
@@ -237,6 +240,10 @@ def add_render(sub) -> None:
                    help="rewrite the PNG every SECONDS as the image refines")
     p.add_argument("--photons", type=int, help="caustic photons to store per pass (default: the "
                    "scene's)")
+    p.add_argument("--frames", nargs="?", const="", metavar="A:B",
+                   help="render the frames of the scene's [animation] (all, or frames A .. B-1, "
+                        "or one frame N): OUTPUT-0000.exr and .png per frame and OUTPUT.mp4; "
+                        "each frame is a render of --passes passes; Ctrl-C keeps the frames done")
     p.add_argument("--no-indirect", action="store_true",
                    help="leave out the light between diffuse surfaces (the indirect layer, "
                         "photons after a diffuse bounce; the EXR then has no indirect layer), "

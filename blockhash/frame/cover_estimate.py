@@ -41,6 +41,12 @@ def cover_gather(index, k: int, radii=None, *, steps: int = OCTAVE_STEPS) -> Cov
     return per_index[key]
 
 
+def forget_gathers(index) -> None:
+    """Drop the gathers built on ``index`` (an index kept for the next frame of an animation
+    gathers with the next frame's radii; the last frame's would otherwise stay with it)."""
+    _GATHERS.pop(index, None)
+
+
 def require_conserving(options: EstimateOptions) -> None:
     if not options.conserving:
         raise InputError(f"the cover gather sums the conserving estimate only; estimate="

@@ -27,7 +27,7 @@ import numpy as np
 from blockhash.errors import InputError
 from blockhash.frame.camera_samples import camera_samples, only
 from blockhash.frame.caustic import CausticPass, estimate_cpu, estimate_exact
-from blockhash.frame.cover_estimate import cover_gather, estimate_cover_cpu
+from blockhash.frame.cover_estimate import cover_gather, estimate_cover_cpu, forget_gathers
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.options import LookupOptions, resolve_method
 from blockhash.frame.photon_radius import exact_radii2, own_radii2
@@ -163,6 +163,9 @@ class RenderSetup:
         self.pin = Pinhole.of(scene.camera)
         self.caustic = caustic_stage(settings)
         self.indirect, self.indirect_emitted, self.indirect_note = self._indirect(scene, settings)
+        #: Passes' photons, indices and radii kept for the next frames of an animation whose
+        #: camera alone moves (:class:`blockhash.passes.frames.FrameCache`; None: none kept).
+        self.cache = None
 
     def _indirect(self, scene, settings: PassSettings):
         """(the :class:`blockhash.photons.indirect.IndirectSource`, the photons it shoots per
@@ -254,8 +257,19 @@ def trace_pass(setup: RenderSetup, p: int, emitted: int | None = None):
     """Pass ``p``'s photons and the seconds they took (:meth:`RenderSetup.photons`): the first
     stage of :func:`run_pass`, which a caller may run ahead, on another thread."""
     t0 = time.perf_counter()
-    photons = setup.photons(p, emitted)
+    photons = _kept(setup, ("caustic photons", p), lambda: setup.photons(p, emitted))
     return photons, time.perf_counter() - t0
+
+
+def _kept(setup: RenderSetup, key, make):
+    """``make()``, or what the setup's frame cache keeps under ``key`` (kept when made)."""
+    if setup.cache is None:
+        return make()
+    if key not in setup.cache:
+        value = make()
+        setup.cache.keep(key, (value,))
+        return value
+    return setup.cache[key][0]
 
 
 def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
@@ -323,8 +337,9 @@ def _indirect_layer(setup: RenderSetup, p: int, scale: float, points, seen, timi
             info["indirect"] = setup.indirect_note
         return None, 0
     t = time.perf_counter()
-    photons = setup.indirect.emit(setup.indirect_emitted, seed=setup.settings.seed,
-                                  start=p * PASS_STRIDE)
+    photons = _kept(setup, ("indirect photons", p),
+                    lambda: setup.indirect.emit(setup.indirect_emitted, seed=setup.settings.seed,
+                                                start=p * PASS_STRIDE))
     stages: dict = {"trace": time.perf_counter() - t}
     if p == 0:
         info["indirect"] = setup.indirect_note
@@ -334,7 +349,7 @@ def _indirect_layer(setup: RenderSetup, p: int, scale: float, points, seen, timi
         h, w = setup.pin.height, setup.pin.width
         image = np.zeros((h, w, 3), dtype=np.float32)
     else:
-        built = _index(setup, photons, p, scale, stages, {})
+        built = _index(setup, photons, p, scale, stages, {}, name="indirect")
         t = time.perf_counter()
         image = _layer(setup, built, points, seen)
         stages["estimate"] = time.perf_counter() - t
@@ -343,9 +358,12 @@ def _indirect_layer(setup: RenderSetup, p: int, scale: float, points, seen, timi
     return image, photons.emitted
 
 
-def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, info: dict):
+def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, info: dict,
+           name: str = "caustic"):
     """The pass's index, radii, pixel splat and (index, radii) of every photon, for the points
-    seen in mirrors; all None without photons."""
+    seen in mirrors; all None without photons.  The index and the photons' radii (not the
+    splat, which depends on the camera) come from the setup's frame cache where it keeps
+    them (``name``: which map)."""
     s, stage = setup.settings, setup.caustic
     stored = 0 if photons is None else len(photons.positions)
     if stored == 0:
@@ -354,11 +372,17 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
         raise InputError.about("only {stored} caustic photons were stored, fewer than {k}{value}; "
                                "trace more photons ({photons}) or lower {k}", stored=stored,
                                value=s.k)
+    kept = setup.cache.get((name, p)) if setup.cache is not None else None
     t = time.perf_counter()
-    # The cover gather reads the records in Hilbert order only: the hash tables are built
-    # on first use (a caller's k-nearest query), not here.
-    index = BlockHashIndex(photons.positions, k=s.k, A=s.A, directions=photons.directions,
-                           normals=photons.normals, powers=photons.powers, tables=not stage.cover)
+    if kept is not None:
+        index, r2 = kept
+        forget_gathers(index)  # the last frame's gathers: this frame builds its own
+    else:
+        # The cover gather reads the records in Hilbert order only: the hash tables are
+        # built on first use (a caller's k-nearest query), not here.
+        index = BlockHashIndex(photons.positions, k=s.k, A=s.A, directions=photons.directions,
+                               normals=photons.normals, powers=photons.powers,
+                               tables=not stage.cover)
     timings["index"] = time.perf_counter() - t
     if p == 0:
         info["index"] = (
@@ -369,7 +393,12 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
         return index, None, None, None
     radii = PassRadii(stage.radii, scale)
     t = time.perf_counter()
-    r2 = radii(index, s.k)
+    if kept is None:
+        r2 = radii(index, s.k)
+        if setup.cache is not None:
+            setup.cache.keep((name, p), (index, r2))
+    else:
+        radii = FixedRadii(r2)
     timings["photon radii"] = time.perf_counter() - t
     if not stage.cover:
         return index, radii, None, None

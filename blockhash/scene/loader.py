@@ -86,6 +86,9 @@ typo is never silently ignored)::
     # rotate_deg = [0.0, 0.0, 0.0]  # degrees about x, then y, then z (fixed axes)
     # translate = [0.0, 0.0, 0.0]   # metres
 
+    [animation]                     # optional: keyframes of the camera, the lights and the
+                                    #   objects (blockhash/scene/animation.py lists the keys)
+
     [photons]                       # optional; every key has a default
     count = 200000                  # caustic photons to store (target), >= 1
     k = 50                          # photons per density estimate, 1 <= k <= count
@@ -109,6 +112,7 @@ from __future__ import annotations
 
 import difflib
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 
 import trimesh
@@ -360,8 +364,8 @@ def _parse_photons(t) -> PhotonSettings:
 
 
 def _parse(data: dict, base: Path, path: Path | None) -> Scene:
-    _keys(data, "", ("camera", "materials", "objects"), ("lights", "photons", "description"),
-          what="a scene file")
+    _keys(data, "", ("camera", "materials", "objects"),
+          ("lights", "photons", "description", "animation"), what="a scene file")
     description = _string(data["description"], "description", what="a one-line description") \
         if "description" in data else ""
     camera = _parse_camera(data["camera"])
@@ -379,8 +383,15 @@ def _parse(data: dict, base: Path, path: Path | None) -> Scene:
         seen[obj.name] = i
         objects.append(obj)
     photons = _parse_photons(data.get("photons", {}))
-    return Scene(camera=camera, lights=tuple(lights), objects=tuple(objects), photons=photons,
-                 path=path, description=description)
+    scene = Scene(camera=camera, lights=tuple(lights), objects=tuple(objects), photons=photons,
+                  path=path, description=description)
+    if "animation" not in data:
+        return scene
+    from blockhash.scene.animation import check_animation, parse_animation
+
+    scene = replace(scene, animation=parse_animation(data["animation"], scene))
+    check_animation(scene.animation, scene)
+    return scene
 
 
 def parse_scene(text: str, *, path: Path | str | None = None) -> Scene:

@@ -226,6 +226,9 @@ class Scene:
     photons: PhotonSettings = field(default_factory=PhotonSettings)
     path: Path | None = None
     description: str = ""
+    #: The keyframes of an animated scene (:class:`blockhash.scene.animation.Animation`),
+    #: None for a still.
+    animation: object = None
 
     def __post_init__(self):
         with _owned("Scene"):
