@@ -13,7 +13,7 @@ returns what the pass adds to the film (:class:`PassContribution`).
 4. direct light and the caustic estimate of those samples, box-filtered into pixel means.
 
 Which search and estimate a pass runs is chosen once, when the setup is built
-(:func:`caustic_stage`), not by names inside the pass.
+(:func:`blockhash.passes.stages.caustic_stage`), not by names inside the pass.
 """
 
 from __future__ import annotations
@@ -26,16 +26,15 @@ import numpy as np
 
 from blockhash.errors import InputError
 from blockhash.frame.camera_samples import camera_samples, only
-from blockhash.frame.caustic import CausticPass, estimate_cpu, estimate_exact
-from blockhash.frame.cover_estimate import cover_gather, estimate_cover_cpu, forget_gathers
+from blockhash.frame.cover_estimate import cover_gather, forget_gathers
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.options import LookupOptions, resolve_method
-from blockhash.frame.photon_radius import exact_radii2, own_radii2
 from blockhash.frame.shading import SceneRays, direct_light
 from blockhash.frame.subpixel import box_filter
 from blockhash.gl.limits import MAX_K
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.passes.schedule import FixedRadii, PassRadii, Schedule, shrink
+from blockhash.passes.stages import caustic_stage  # noqa: F401 (importable from here)
 from blockhash.scene.camera import Pinhole
 from blockhash.validate import as_int
 
@@ -84,70 +83,10 @@ class PassSettings:
                    indirect=indirect)
 
 
-@dataclass(frozen=True)
-class CausticStage:
-    """How a pass turns its photons into the caustic, chosen once per render
-    (:func:`caustic_stage`).
-
-    radii : callable or None     the photons' own squared radii, ``radii(index, k)``
-                                 (None: the k-nearest estimates' radius from the search)
-    cover : bool                 the cover gather (records only, no hash tables; the pixel
-                                 splat under the footprint, the gather built per pass)
-    estimate : callable          ``estimate(setup, index, points, radii)``: (h, w, 3) float32
-    """
-
-    radii: object
-    cover: bool
-    estimate: object
-
-
-def _gl_pass(gather: str):
-    def estimate(setup, index, points, radii):
-        cp = CausticPass(index, backend=setup.settings.backend, radii=radii, gather=gather)
-        try:
-            return cp.render(points, setup.materials, variant=setup.settings.variant,
-                             options=setup.settings.estimate)
-        finally:
-            cp.release()
-    return estimate
-
-
-def _cover_cpu(setup, index, points, radii):
-    s = setup.settings
-    return estimate_cover_cpu(cover_gather(index, s.k, radii), points, setup.materials,
-                              s.estimate).astype(np.float32)
-
-
-def _knn_cpu(setup, index, points, radii):
-    s = setup.settings
-    return estimate_cpu(index, points, setup.materials, variant=s.variant, options=s.estimate,
-                        radii=radii).astype(np.float32)
-
-
-def _exact(setup, index, points, radii):
-    s = setup.settings
-    return estimate_exact(index, points, setup.materials, backend=s.backend, options=s.estimate,
-                          radii=radii or exact_radii2).astype(np.float32)
-
-
-def caustic_stage(settings: PassSettings) -> CausticStage:
-    """The :class:`CausticStage` of ``settings``' method and estimate (the one place that reads
-    their names)."""
-    conserving = settings.estimate.conserving
-    radii = (exact_radii2 if settings.method == "kdtree" else own_radii2) if conserving else None
-    if settings.method == "cover":
-        return CausticStage(radii, True, _gl_pass("cover"))
-    if settings.method == "bh":
-        return CausticStage(radii, False, _gl_pass("knn"))
-    if settings.method == "cpu":
-        return CausticStage(radii, conserving, _cover_cpu if conserving else _knn_cpu)
-    return CausticStage(radii, False, _exact)
-
-
 class RenderSetup:
     """What a process builds once for a render and reuses for every pass it runs: the photon
     source (embree geometry, emitter), the camera's rays, the receivers' materials and the
-    chosen :class:`CausticStage` (the GL context and compiled programs are kept per process by
+    chosen :class:`~blockhash.passes.stages.CausticStage` (the GL context and compiled programs are kept per process by
     :mod:`blockhash.gl`).  ``traced``: a traced photon map, rendered as pass 0 (one pass)."""
 
     def __init__(self, scene, settings: PassSettings, traced=None):

@@ -103,6 +103,8 @@ naming the file and the key path, what was expected, what was received and the
 way out, e.g. ``scenes/ring.toml: objects[1].material: unknown material 'gold';
 defined materials: floor, mirror; define [materials.gold] or use one of those``.
 
+Why this module is long: its docstring is the scene format's reference, every key listed.
+
 The dataclasses are frozen and their arrays read-only; all but
 ``PhotonSettings`` compare by identity (numpy arrays have no single truth value).  Do not modify an object's
 mesh in place: trimesh would recompute its vertex normals from the faces.
