@@ -210,3 +210,22 @@ def test_time_to_error_races_the_whole_image(tmp_path, needs_mitsuba):
     assert all(0 <= c["flip"] <= 1 for c in rows[0]["curve"])  # LDR-FLIP
     assert (tmp_path / "cache" / "corner-24-16-whole.npy").is_file()
     assert "| corner | 24 | path | 30 (" in text
+
+
+@pytest.mark.gl
+def test_frames_bench_times_frames_flicker_and_memory(tmp_path):
+    out = tmp_path / "frames.json"
+    text = run_tool("frames_bench.py", ["--scenes", "ring", "--sizes", "32", "--passes", "1",
+                                        "--frames", "3", "--photons", "3000", "--flicker-frames", "3",
+                                        "--flicker-size", "32", "--flicker-photons", "20000",
+                                        "--reference-photons", "100000", "--memory-frames", "1,2",
+                                        "--memory-size", "32", "--memory-photons", "3000",
+                                        "--json", out], tmp_path)
+    res = json.loads(out.read_text())
+    motions = {r["motion"]: r for r in res["latency"]}
+    assert set(motions) == {"camera orbit", "light circling"}
+    assert all(r["frame"] > 0 and r["still"] > 0 for r in motions.values())
+    f = res["flicker"]
+    assert f["common"] > 0 and f["independent"] > 0 and f["ratio"] == f["independent"] / f["common"]
+    assert [m["frames"] for m in res["memory"]] == [1, 2] and res["memory"][0]["peak_bytes"] > 2**20
+    assert len(table_rows(text, "ring")) == 2

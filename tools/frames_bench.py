@@ -1,0 +1,190 @@
+"""Frames at low latency: seconds a frame beside a still render, flicker with and without
+common random numbers, and the memory of a camera-only animation.
+
+1. Latency: for each scene of ``--scenes``, size of ``--sizes`` and pass count of
+   ``--passes``: a camera orbit (``--frames`` frames of a full turn) and the scene's first
+   light circling its target (one turn over the frames, 2 m out: the light moves), rendered in
+   one process (:func:`blockhash.passes.frames.render_frames`); the median seconds of a frame
+   after the first, beside one still render of the same passes and photons in a fresh process
+   (``blockhash render``, timed as a whole: what a frame costs rendered one command at a
+   time), and their ratio.
+2. Flicker: the ring's light moving ``--degrees`` a frame around it, the camera still, at
+   ``--flicker-size``: each frame's caustic (``--flicker-photons`` a pass, one pass) with
+   common random numbers (one seed for every frame) and with independent streams (seed + frame),
+   against the light tracer's caustic of each frame (``--reference-photons``): the relative RMS,
+   over the light tracer's comparison mask, of each frame-to-frame change less the
+   reference's change, its median over the frames, and the ratio of the two.
+3. Memory: the peak resident memory of a process rendering 1 and ``--memory-frames`` frames
+   of the ring's camera orbit (``--memory-photons`` a pass, ``--memory-size``).
+
+usage: python tools/frames_bench.py [--scenes ring,venus] [--sizes 256,512] [--passes 1,4]
+                                    [--frames 6] [--photons 200000] [--degrees 1]
+                                    [--flicker-frames 6] [--flicker-size 128]
+                                    [--flicker-photons 100000] [--reference-photons 4000000]
+                                    [--memory-frames 100] [--json FILE]
+"""
+
+import math
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+import blockhash
+from blockhash.passes.frames import render_frames
+from blockhash.passes.plan import RenderPlan
+from blockhash.reference.lighttrace import light_trace
+from blockhash.scene.animation import Animation, Key
+from blockhash.scene.loader import load_scene
+from blockhash.studies.command import ToolParser, count, listing, write_json
+
+
+def circling(scene, frames: int, degrees: float | None = None):
+    """``scene`` with its first light circling the camera's target, 2 m out at the light's
+    height: one turn over ``frames``, or ``degrees`` a frame (a key a frame)."""
+    light = scene.lights[0]
+    target = scene.camera.target
+    step = math.radians(360.0 / frames if degrees is None else degrees)
+    height = float(light.position[1])
+    keys = tuple(Key(f, {"position": np.array([target[0] + 2.0 * math.cos(math.pi + f * step),
+                                               height,
+                                               target[2] + 2.0 * math.sin(math.pi + f * step)])})
+                 for f in range(frames))
+    return replace(scene, animation=Animation(frames=frames, lights={0: keys}))
+
+
+def orbiting(scene, frames: int):
+    return replace(scene, animation=Animation(frames=frames, orbit=(1.0, None)))
+
+
+def still_seconds(path, size: int, passes: int, photons: int) -> float:
+    """Seconds of ``blockhash render`` of one still, a fresh process timed as a whole."""
+    with tempfile.TemporaryDirectory() as tmp:
+        t = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "blockhash", "render", str(path), "--size",
+                        f"{size}x{size}", "--passes", str(passes), "--photons", str(photons),
+                        "-o", str(Path(tmp) / "still.exr")], check=True, capture_output=True)
+        return time.perf_counter() - t
+
+
+def latency(path, size, passes, photons, frames) -> list[dict]:
+    scene = load_scene(path).with_size(size, size)
+    still = still_seconds(path, size, passes, photons)
+    rows = []
+    for kind, animated in (("camera orbit", orbiting(scene, frames)),
+                           ("light circling", circling(scene, frames))):
+        secs = render_frames(animated, range(frames), photons=photons,
+                             plan=RenderPlan(passes=passes))
+        later = float(np.median([secs[f] for f in range(1, frames)]))
+        rows.append({"scene": path.stem, "size": size, "passes": passes, "photons": photons,
+                     "motion": kind, "first": secs[0], "frame": later, "still": still,
+                     "ratio": later / still})
+        print(f"{path.stem} {size} {passes} passes {kind}: {later:.2f} s a frame, still "
+              f"{still:.2f} s", flush=True)
+    return rows
+
+
+def flicker(path, frames, size, photons, reference_photons, degrees) -> dict:
+    scene = circling(load_scene(path).with_size(size, size), frames, degrees)
+    refs, mask = [], None
+    for f in range(frames):
+        lt = light_trace(scene.animation.scene_at(scene, f), reference_photons)
+        refs.append(lt.radiance)
+        mask = lt.comparison_mask(1) if mask is None else mask & lt.comparison_mask(1)
+    out = {"frames": frames, "size": size, "photons": photons, "degrees": degrees,
+           "reference_photons": reference_photons}
+    for label, seeds in (("common", [1] * frames), ("independent", [1 + f for f in range(frames)])):
+        images = []
+        for f in range(frames):
+            one = scene.animation.scene_at(scene, f)
+            images.append(blockhash.render(one, photons=photons, seed=seeds[f],
+                                           plan=RenderPlan(passes=1)).caustic.astype(np.float64))
+        changes = [np.sqrt((((images[f + 1] - images[f]) - (refs[f + 1] - refs[f]))[mask] ** 2).mean())
+                   / refs[f][mask].mean() for f in range(frames - 1)]
+        out[label] = float(np.median(changes))
+    out["ratio"] = out["independent"] / out["common"]
+    return out
+
+
+MEMORY = """
+import resource, sys
+from dataclasses import replace
+from blockhash.passes.frames import render_frames
+from blockhash.passes.plan import RenderPlan
+from blockhash.scene.animation import Animation
+from blockhash.scene.loader import load_scene
+scene = load_scene(sys.argv[1]).with_size(int(sys.argv[2]), int(sys.argv[2]))
+n = int(sys.argv[3])
+scene = replace(scene, animation=Animation(frames=n, orbit=(1.0, None)))
+render_frames(scene, range(n), photons=int(sys.argv[4]), plan=RenderPlan(passes=int(sys.argv[5])))
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
+"""
+
+
+def memory(path, frames_list, size, photons, passes) -> list[dict]:
+    rows = []
+    for n in frames_list:
+        run = subprocess.run([sys.executable, "-c", MEMORY, str(path), str(size), str(n),
+                              str(photons), str(passes)], check=True, capture_output=True, text=True)
+        rows.append({"frames": n, "peak_bytes": int(run.stdout.strip().splitlines()[-1])})
+        print(f"memory {n} frames: {rows[-1]['peak_bytes'] / 2**20:.0f} MiB", flush=True)
+    return rows
+
+
+def tables(lat, flick, mem) -> str:
+    out = ["| scene | size | passes x photons | motion | first frame s | a later frame s (median) "
+           "| still in a fresh process s | frame / still |", "| --- " * 8 + "|"]
+    for r in lat:
+        out.append(f"| {r['scene']} | {r['size']} | {r['passes']} x {r['photons']:,} | {r['motion']} "
+                   f"| {r['first']:.2f} | {r['frame']:.2f} | {r['still']:.2f} | {r['ratio']:.2f} |")
+    if flick:
+        out += ["", "| frames | size | photons | degrees a frame | frame-to-frame change less the "
+                "reference's: common random numbers | independent streams | independent / common |",
+                "| --- " * 7 + "|",
+                f"| {flick['frames']} | {flick['size']} | {flick['photons']:,} | {flick['degrees']:g} | "
+                f"{flick['common']:.4f} | {flick['independent']:.4f} | {flick['ratio']:.2f} |"]
+    if mem:
+        out += ["", "| frames of a camera orbit | peak resident memory MiB | over one frame's |",
+                "| --- | --- | --- |"]
+        for r in mem:
+            out.append(f"| {r['frames']} | {r['peak_bytes'] / 2**20:.0f} | "
+                       f"{r['peak_bytes'] / mem[0]['peak_bytes']:.3f} |")
+    return "\n".join(out)
+
+
+def main(argv=None):
+    p = ToolParser(__doc__, __file__)
+    p.scenes("ring,venus")
+    p.size([256, 512], many=True, flag="--sizes", help="image sizes")
+    p.add_argument("--passes", type=listing(count), default=[1, 4], help="passes a frame")
+    p.add_argument("--frames", type=count, default=6, help="frames of each latency animation")
+    p.photons(200_000, help="photons a pass of the latency renders")
+    p.add_argument("--degrees", type=float, default=1.0, help="the light's turn a frame (flicker)")
+    p.add_argument("--flicker-frames", type=count, default=6)
+    p.size(128, flag="--flicker-size", help="the flicker renders' size")
+    p.photons(100_000, flag="--flicker-photons", help="photons of a flicker frame")
+    p.photons(4_000_000, flag="--reference-photons", help="the light tracer's photons a frame")
+    p.add_argument("--memory-frames", type=listing(count), default=[1, 100],
+                   help="frame counts whose peak memory is measured (the first is the base)")
+    p.size(256, flag="--memory-size", help="the memory renders' size")
+    p.photons(1_000_000, flag="--memory-photons", help="photons a pass of the memory renders")
+    p.json_output()
+    args = p.parse_args(argv)
+    lat = [row for path in args.scenes for size in args.sizes for passes in args.passes
+           for row in latency(path, size, passes, args.photons, args.frames)]
+    ring = p.scene("ring")
+    flick = flicker(ring, args.flicker_frames, args.flicker_size, args.flicker_photons,
+                    args.reference_photons, args.degrees)
+    mem = memory(ring, args.memory_frames, args.memory_size, args.memory_photons, 1)
+    if args.json:
+        write_json(args.json, {"latency": lat, "flicker": flick, "memory": mem})
+    print(tables(lat, flick, mem))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
