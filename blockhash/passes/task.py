@@ -97,7 +97,10 @@ class RenderSetup:
         if traced is None:
             as_int(settings.count, "photons", minimum=1)
         self.rays = SceneRays(scene.objects)
-        self.source = PhotonSource(scene, geometry=self.rays.geometry)
+        # Frames whose lights or objects move keep each photon's direction from frame to
+        # frame (common random numbers, blockhash/passes/frames.py)
+        moving = getattr(scene.animation, "moves_photons", False)
+        self.source = PhotonSource(scene, geometry=self.rays.geometry, stable=moving)
         self.materials = receiver_materials(scene.objects)
         self.pin = Pinhole.of(scene.camera)
         self.caustic = caustic_stage(settings)

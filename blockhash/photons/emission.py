@@ -143,8 +143,14 @@ class Emitter:
     """Cone sampling toward the specular objects for every light; with ``geometry``, into
     each cone's projection map's live cells (module docstring)."""
 
-    def __init__(self, lights, specular_objects, geometry=None, bounds=None):
+    def __init__(self, lights, specular_objects, geometry=None, bounds=None, stable=False):
         from blockhash.photons.light_targets import SurfaceSampler, light_targets
+
+        #: Directions that follow the light (animations whose lights or objects move): a
+        #: photon keeps its direction in its cone whatever the projection map, and one that
+        #: falls in a dead cell carries nothing (not traced), instead of being moved into a
+        #: live cell, which would send every photon after a cell that changes to another.
+        self.stable = bool(stable)
 
         self.positions, self.intensity, self.spot_axis, self.spot_cos = [], [], [], []
         cones: list[Cone] = []
@@ -268,14 +274,14 @@ class Emitter:
         t1 = np.array([c.t1 for c in self.cones])
         t2 = np.array([c.t2 for c in self.cones])
         cos_h = np.array([c.cos_half for c in self.cones])
-        u1, u2 = self._cells(k, u)
+        u1, u2 = (u[:, 1], u[:, 2]) if self.stable else self._cells(k, u)
         dirs = sample_cones(axes[k], t1[k], t2[k], cos_h[k], u1, u2)
         light = np.array([c.light for c in self.cones], dtype=np.int64)[k]
         origins = np.array(self.positions)[light]
         # mixture density q(w) = sum over cones c whose live cells hold w of
         # pmf_c / (solid_angle_c live_fraction_c)
-        density = self.pmf[:len(self.cones)] / np.array([c.solid_angle * c.live_fraction
-                                                         for c in self.cones])
+        density = self.pmf[:len(self.cones)] / np.array([
+            c.solid_angle * (1.0 if self.stable else c.live_fraction) for c in self.cones])
         q = density[k]
         for j, c in enumerate(self.cones):
             other = (k != j) & (light == c.light)
@@ -287,6 +293,11 @@ class Emitter:
                     rows = rows[c.live.reshape(-1)[c.cells_of(dirs[rows])]]
                 q[rows] += density[j]
         weights = np.array(self.intensity)[light] / q[:, None]
+        if self.stable:  # a direction in a dead cell of its own cone carries nothing
+            for j, c in enumerate(self.cones):
+                rows = np.flatnonzero(k == j)
+                if c.live is not None and len(rows):
+                    weights[rows[~c.live.reshape(-1)[c.cells_of(dirs[rows])]]] = 0.0
         for li in range(self.n_lights):
             if self.spot_axis[li] is None:
                 continue

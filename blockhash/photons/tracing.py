@@ -164,9 +164,11 @@ PASS_STRIDE = 1 << 44
 class PhotonSource:
     """A scene's lights, emitter and embree geometry, checked and built once: caustic
     photons from any stretch ``start ..`` of the per-photon streams (the module docstring's
-    determinism), so that the passes of a progressive render share one geometry."""
+    determinism), so that the passes of a progressive render share one geometry.
+    ``stable``: the emitter's directions follow a moving light
+    (:attr:`blockhash.photons.emission.Emitter.stable`)."""
 
-    def __init__(self, scene, *, geometry: EmbreeGeometry | None = None):
+    def __init__(self, scene, *, geometry: EmbreeGeometry | None = None, stable: bool = False):
         self.scene = scene
         self.name = name = _scene_name(scene)
         self.max_bounces = as_int(scene.photons.max_bounces, "photons.max_bounces", minimum=1,
@@ -181,7 +183,8 @@ class PhotonSource:
         if not specular:
             return
         self.geometry = geometry or EmbreeGeometry(tuple(scene.objects))
-        emitter = Emitter(lights, specular, geometry=self.geometry, bounds=scene.bounds)
+        emitter = Emitter(lights, specular, geometry=self.geometry, bounds=scene.bounds,
+                          stable=stable)
         if not emitter.sources and not all(hasattr(li, "position") for li in lights):
             # an area light facing away from every mirror: a render goes on with direct light
             self.unreachable = (f"no light reaches the specular objects {[o.name for o in specular]} "
