@@ -260,3 +260,43 @@ def test_the_camera_depth_max_depth_is_checked_against_is_the_renderers():
     from blockhash.scene.model import DIELECTRIC_MAX_BOUNCES, MAX_BOUNCES
 
     assert (MAX_MIRROR_BOUNCES, MAX_DIELECTRIC_EVENTS) == (MAX_BOUNCES, DIELECTRIC_MAX_BOUNCES)
+
+
+def test_an_area_emitter_inside_a_shape_and_a_directional_emitter_are_read(tmp_path):
+    """A rectangle holding <emitter type="area"> (no BSDF: Mitsuba's default diffuse 0.5) is
+    an object and an AreaLight of its radiance, emitting along the rectangle's +z turned by
+    to_world; a directional emitter's to_world turns its +z into the direction."""
+    from blockhash.scene.model import AreaLight, DirectionalLight, PhongMaterial
+
+    body = ('<shape type="rectangle" id="lamp"><transform name="to_world"><scale value="0.25"/>'
+            '<rotate x="1" angle="90"/><translate y="2"/></transform>'
+            '<emitter type="area"><rgb name="radiance" value="10, 8, 6"/></emitter></shape>')
+    light = ('<emitter type="directional"><transform name="to_world"><lookat origin="0, 0, 0" '
+             'target="0.6, -0.8, 0"/></transform><rgb name="irradiance" value="3"/></emitter>')
+    scene = load(tmp_path, body=body, light=light)
+    sun, lamp = scene.lights
+    assert isinstance(sun, DirectionalLight) and isinstance(lamp, AreaLight)
+    np.testing.assert_allclose(sun.direction, [0.6, -0.8, 0.0], atol=1e-12)
+    np.testing.assert_allclose(sun.irradiance, 3.0)
+    obj = next(o for o in scene.objects if o.name == "lamp")
+    assert lamp.object == "lamp" and lamp.mesh is obj.mesh
+    assert isinstance(obj.material, PhongMaterial) and obj.material.one_sided
+    np.testing.assert_allclose(obj.material.kd, 0.5)
+    np.testing.assert_allclose(lamp.radiance, [10.0, 8.0, 6.0])
+    assert lamp.area == pytest.approx(0.25, rel=1e-12)  # (2 x 0.25)^2
+    np.testing.assert_allclose(lamp.face_normals, np.tile([0.0, -1.0, 0.0], (2, 1)), atol=1e-12)
+    np.testing.assert_allclose(lamp.power, np.pi * 0.25 * np.array([10.0, 8.0, 6.0]))
+
+
+@needs_mitsuba
+def test_mitsuba_reads_the_same_area_light_power(tmp_path):
+    """Mitsuba's own scene of the same file: its area emitter's shape has the area blockhash
+    reads (the power, pi L A, follows)."""
+    body = ('<shape type="rectangle" id="lamp"><transform name="to_world"><scale value="0.25"/>'
+            '<rotate x="1" angle="90"/><translate y="2"/></transform>'
+            '<emitter type="area"><rgb name="radiance" value="10"/></emitter></shape>')
+    text = xml(body=body)
+    scene = load(tmp_path, text=text)
+    mi, loaded = mitsuba_scene(text)
+    areas = [float(s.surface_area()[0]) for s in loaded.shapes() if s.is_emitter()]
+    assert areas == [pytest.approx(scene.lights[1].area, rel=1e-6)]
