@@ -147,9 +147,10 @@ class Emitter:
         from blockhash.photons.light_targets import SurfaceSampler, light_targets
 
         #: Directions that follow the light (animations whose lights or objects move): a
-        #: photon keeps its direction in its cone whatever the projection map, and one that
-        #: falls in a dead cell carries nothing (not traced), instead of being moved into a
-        #: live cell, which would send every photon after a cell that changes to another.
+        #: photon whose direction in its cone falls in a live cell of the projection map keeps
+        #: it, and only one in a dead cell is moved into a live cell (:meth:`_cells`); without
+        #: it every photon is moved by its rank among the live cells, so one cell that
+        #: changes from a frame to the next moves every photon after it.
         self.stable = bool(stable)
 
         self.positions, self.intensity, self.spot_axis, self.spot_cos = [], [], [], []
@@ -274,14 +275,14 @@ class Emitter:
         t1 = np.array([c.t1 for c in self.cones])
         t2 = np.array([c.t2 for c in self.cones])
         cos_h = np.array([c.cos_half for c in self.cones])
-        u1, u2 = (u[:, 1], u[:, 2]) if self.stable else self._cells(k, u)
+        u1, u2 = self._cells(k, u)
         dirs = sample_cones(axes[k], t1[k], t2[k], cos_h[k], u1, u2)
         light = np.array([c.light for c in self.cones], dtype=np.int64)[k]
         origins = np.array(self.positions)[light]
         # mixture density q(w) = sum over cones c whose live cells hold w of
         # pmf_c / (solid_angle_c live_fraction_c)
-        density = self.pmf[:len(self.cones)] / np.array([
-            c.solid_angle * (1.0 if self.stable else c.live_fraction) for c in self.cones])
+        density = self.pmf[:len(self.cones)] / np.array([c.solid_angle * c.live_fraction
+                                                         for c in self.cones])
         q = density[k]
         for j, c in enumerate(self.cones):
             other = (k != j) & (light == c.light)
@@ -293,11 +294,6 @@ class Emitter:
                     rows = rows[c.live.reshape(-1)[c.cells_of(dirs[rows])]]
                 q[rows] += density[j]
         weights = np.array(self.intensity)[light] / q[:, None]
-        if self.stable:  # a direction in a dead cell of its own cone carries nothing
-            for j, c in enumerate(self.cones):
-                rows = np.flatnonzero(k == j)
-                if c.live is not None and len(rows):
-                    weights[rows[~c.live.reshape(-1)[c.cells_of(dirs[rows])]]] = 0.0
         for li in range(self.n_lights):
             if self.spot_axis[li] is None:
                 continue
@@ -314,6 +310,17 @@ class Emitter:
             if c.live is None:
                 continue
             rows = np.flatnonzero(k == j)
+            if self.stable:
+                # a photon whose own cell is live stays there; one in a dead cell moves into a
+                # live cell chosen by u[:, 3], keeping its place in the cell: the directions
+                # are uniform over the live cells, as below
+                g = MAP_CELLS
+                ci = np.minimum((u1[rows] * g).astype(np.int64), g - 1)
+                cj = np.minimum((u2[rows] * g).astype(np.int64), g - 1)
+                dead = ~c.live[ci, cj]
+                rows = rows[dead]
+                u1[rows] = u1[rows] * g - ci[dead]
+                u2[rows] = u2[rows] * g - cj[dead]
             cells = c.live_cells
             pick = cells[np.minimum((u[rows, 3] * len(cells)).astype(np.int64), len(cells) - 1)]
             i, jj = np.divmod(pick, MAP_CELLS)
