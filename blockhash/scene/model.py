@@ -305,6 +305,11 @@ class Scene:
         lines.append(f"  bounds  {_fmt(lo)} .. {_fmt(hi)} m")
         if not self.specular_objects:
             lines.append("  note    no specular (mirror or glass) object: the scene has no caustics")
+        a = self.animation
+        if a is not None:
+            moving = (["camera orbit"] if a.orbit else ["camera"] if a.camera else []) + \
+                [f"light {i}" for i in a.lights] + [f"object {n!r}" for n in a.objects]
+            lines.append(f"  frames  {a.frames} at {a.fps:g} fps; keyed: {', '.join(moving) or 'nothing'}")
         return "\n".join(lines)
 
     def __repr__(self) -> str:

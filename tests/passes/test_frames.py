@@ -169,6 +169,12 @@ def test_an_area_light_moves_with_its_object_and_cannot_be_keyed_itself():
                                scene.lights[0].triangles.mean(axis=(0, 1)) + [0.3, 0, 0], atol=1e-12)
 
 
+def test_the_summary_names_the_frames_and_what_moves():
+    assert load_scene(SCENES / "ring_sweep.toml").summary().splitlines()[-1] == \
+        "  frames  48 at 24 fps; keyed: light 0"
+    assert load_scene(SCENES / "ring_orbit.toml").summary().endswith("keyed: camera orbit")
+
+
 def test_frame_ranges_and_a_still_refused():
     assert frame_range(None, 5) == range(5) and frame_range("1:3", 5) == range(1, 3)
     assert frame_range(":2", 5) == range(2) and frame_range("4", 5) == range(4, 5)
