@@ -11,7 +11,7 @@ import argparse
 FLAGS = {"passes": "--passes ", "seconds": "--time ", "target_error": "--target-error ",
          "alpha": "--alpha ", "footprint": "--footprint ", "photons": "--photons ", "k": "--k ",
          "A": "--A ", "workers": "--workers ", "size": "--size", "spp": "--spp ",
-         "seed": "--seed "}
+         "seed": "--seed ", "seeds": "--seeds ", "margin": "--margin ", "through": "--through "}
 
 
 def size(text: str) -> tuple[int, int]:

@@ -84,7 +84,7 @@ def check_compatible(a: dict, b: dict, *, name_a: str, name_b: str) -> None:
         (ha, wa), (hb, wb) = a[layer].shape[:2], b[layer].shape[:2]
         if (ha, wa) != (hb, wb):
             raise InputError(f"{name_a} is {wa}x{ha} but {name_b} is {wb}x{hb} (layer {layer!r}); "
-                             "render both at the same --size")
+                             "render both at the same size")
 
 
 def resolve_mask(mask, a: dict, *, shape: tuple[int, int], name: str = "--mask") -> np.ndarray | None:

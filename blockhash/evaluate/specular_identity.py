@@ -78,7 +78,8 @@ def _names(scene, names):
         if n not in known:
             raise InputError(f"no object {n!r} in the scene; objects: {', '.join(known)}")
     if not names:
-        raise InputError("the scene holds no planar mirror or glass object; name one with --through")
+        raise InputError.about("the scene holds no planar mirror or glass object; name one with "
+                               "{through}NAME")
     return [known.index(n) for n in names]
 
 

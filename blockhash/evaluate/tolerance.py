@@ -99,11 +99,11 @@ def seed_tolerances(scene, *, seeds: int = 4, first_seed: int = 0, photons=None,
     from blockhash.passes.pipeline import render_scene
 
     if seeds < 2:
-        raise InputError(f"--seeds {seeds}: need at least 2 seeds to measure seed-to-seed noise; "
-                         "use 4 or more for a usable maximum")
+        raise InputError.about("{seeds}{value}: need at least 2 seeds to measure seed-to-seed "
+                               "noise; use 4 or more for a usable maximum", value=seeds)
     if not margin >= 1:
-        raise InputError(f"--margin {margin}: the margin multiplies the largest seed-to-seed "
-                         "difference and must be >= 1")
+        raise InputError.about("{margin}{value}: the margin multiplies the largest seed-to-seed "
+                               "difference and must be >= 1", value=margin)
     renders = []
     seed_list = list(range(first_seed, first_seed + seeds))
     for seed in seed_list:

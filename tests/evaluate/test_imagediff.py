@@ -102,7 +102,7 @@ def test_different_layers_and_sizes_are_named(tmp_path):
                                          r".*a\.exr: \['caustic'\]"):
         compare_layers(tmp_path / "a.exr", tmp_path / "b.exr")
     write_exr(tmp_path / "c.exr", layers(h=20))
-    with pytest.raises(InputError, match=r"a\.exr is 32x24 but .*c\.exr is 32x20.*--size"):
+    with pytest.raises(InputError, match=r"a\.exr is 32x24 but .*c\.exr is 32x20.*the same size"):
         compare_layers(tmp_path / "a.exr", tmp_path / "c.exr")
     with pytest.raises(InputError, match=r"nope\.exr: no such image file"):
         compare_layers(tmp_path / "a.exr", tmp_path / "nope.exr")

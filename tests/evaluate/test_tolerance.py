@@ -46,10 +46,19 @@ def test_limits_round_up_to_two_digits():
 
 def test_too_few_seeds_or_a_margin_below_1_are_refused():
     ring = load_scene(RING)
-    with pytest.raises(InputError, match="--seeds 1: need at least 2 seeds"):
+    with pytest.raises(InputError, match="seeds=1: need at least 2 seeds"):
         seed_tolerances(ring, seeds=1)
-    with pytest.raises(InputError, match="--margin 0.5: .* must be >= 1"):
+    with pytest.raises(InputError, match="margin=0.5: .* must be >= 1"):
         seed_tolerances(ring, margin=0.5)
+
+
+def test_the_command_line_names_its_flags_where_python_names_keywords(capsys):
+    """The same refusal reads as the caller wrote it: ``seeds=1`` from Python, ``--seeds 1``
+    from ``blockhash tolerance``."""
+    from blockhash.cli import main
+
+    assert main(["tolerance", str(RING), "--seeds", "1"]) == 2
+    assert "--seeds 1: need at least 2 seeds" in capsys.readouterr().err
 
 
 @pytest.mark.slow
