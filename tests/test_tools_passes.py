@@ -229,3 +229,11 @@ def test_frames_bench_times_frames_flicker_and_memory(tmp_path):
     assert f["common"] > 0 and f["independent"] > 0 and f["ratio"] == f["independent"] / f["common"]
     assert [m["frames"] for m in res["memory"]] == [1, 2] and res["memory"][0]["peak_bytes"] > 2**20
     assert len(table_rows(text, "ring")) == 2
+
+
+@pytest.mark.gl
+def test_profile_frames_prints_the_frames_seconds_and_their_functions(tmp_path):
+    text = run_tool("profile_frames.py", ["ring", "--size", "24", "--photons", "3000",
+                                          "--frames", "2", "--top", "5"], tmp_path)
+    assert text.startswith("seconds a frame: 1: ")
+    assert "render_frames" in text and "cumulative" in text

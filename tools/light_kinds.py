@@ -30,7 +30,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from scipy.ndimage import uniform_filter
 
 import blockhash
 from blockhash.evaluate.images import srgb, white_point, write_rgb8
@@ -41,6 +40,7 @@ from blockhash.reference.mitsuba import mitsuba_reference, render_mitsuba, witho
 from blockhash.scene.loader import load_scene
 from blockhash.studies.command import ToolParser, count, write_json
 from blockhash.studies.lights import efficiency, soft_shadow_errors
+from blockhash.studies.measure import box_blur_rel_rms, flux_ratio
 
 FATES = ("missed", "direct", "outside_spot", "escaped", "absorbed")
 
@@ -51,11 +51,9 @@ def agreement(path, size: int, passes: int, photons: int, ref_spp: int, png_dir)
     mask = light_trace(scene, 1000).comparison_mask(1)
     image = blockhash.render(scene, photons=photons, plan=RenderPlan(passes=passes))
     ours = image.caustic.astype(np.float64)
-    A, B = uniform_filter(ours, (5, 5, 1)), uniform_filter(ref, (5, 5, 1))
-    bright = mask & (B.sum(axis=2) > 0.05 * B.sum(axis=2).max())
     row = {"scene": path.stem, "size": size, "passes": passes, "photons": photons,
-           "ref_spp": ref_spp, "caustic_flux": float(ours[mask].sum() / ref[mask].sum()),
-           "caustic_blurred_rel_rms": float(np.sqrt(((A - B)[bright] ** 2).mean()) / B[bright].mean())}
+           "ref_spp": ref_spp, "caustic_flux": flux_ratio(ours, ref, mask),
+           "caustic_blurred_rel_rms": box_blur_rel_rms(ours, ref, mask, bright=0.05)}
     direct_ref, _ = render_mitsuba(scene, "path", ref_spp, max_depth=2)
     row["direct"] = soft_shadow_errors(scene, direct_ref.astype(np.float64), SceneRays(scene.objects))
     if png_dir is not None:

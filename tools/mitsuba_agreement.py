@@ -14,12 +14,12 @@ usage: python tools/mitsuba_agreement.py [--scenes ring,glass,venus] [--size 128
 import sys
 
 import numpy as np
-from scipy.ndimage import uniform_filter
 
 from blockhash.reference.lighttrace import light_trace
 from blockhash.reference.mitsuba import mitsuba_reference, without_specular_lobes
 from blockhash.scene.loader import load_scene
 from blockhash.studies.command import ToolParser, count
+from blockhash.studies.measure import box_blur_rel_rms
 
 
 def main(argv=None):
@@ -41,9 +41,7 @@ def main(argv=None):
         a, b = ref.caustic.astype(np.float64), lt.radiance
         ratio = a[mask].sum(axis=0) / b[mask].sum(axis=0)
         noise = np.sqrt((lt.stderr[mask] ** 2).sum(axis=0)) / b[mask].sum(axis=0)
-        A, B = uniform_filter(a, (5, 5, 1)), uniform_filter(b, (5, 5, 1))
-        bright = mask & (B.sum(axis=2) > 0.05 * B.sum(axis=2).max())
-        rel = np.sqrt(((A - B)[bright] ** 2).mean()) / B[bright].mean()
+        rel = box_blur_rel_rms(a, b, mask, bright=0.05)
         print(f"| {name} | {', '.join(f'{r:.4f}' for r in ratio)} | {noise.max():.4f} | "
               f"{rel:.4f} | {sum(ref.timings.values()):.2f} | {lt.stats.get('seconds', float('nan')):.2f} |",
               flush=True)

@@ -22,7 +22,6 @@ import sys
 import time
 
 import numpy as np
-from scipy.ndimage import uniform_filter
 
 import blockhash
 from blockhash.frame.shading import SceneRays
@@ -32,13 +31,12 @@ from blockhash.reference.mitsuba import render_mitsuba, without_specular_lobes
 from blockhash.scene.loader import load_scene
 from blockhash.studies.command import ToolParser, count, write_json
 from blockhash.studies.lights import receivers_seen
+from blockhash.studies.measure import box_blur_rel_rms, flux_ratio
 
 
 def compare(a, ref, mask) -> tuple[float, float]:
     """(flux ratio, blurred relative RMS) of ``a`` against ``ref`` over ``mask``."""
-    A, B = uniform_filter(a, (5, 5, 1)), uniform_filter(ref, (5, 5, 1))
-    return (float(a[mask].sum() / ref[mask].sum()),
-            float(np.sqrt(((A - B)[mask] ** 2).mean()) / B[mask].mean()))
+    return flux_ratio(a, ref, mask), box_blur_rel_rms(a, ref, mask)
 
 
 def measure(path, size, passes, photons, ref_spp, lt_photons) -> dict:

@@ -47,18 +47,13 @@ def light_uniforms(samples: int, owner: np.ndarray, pass_index: int,
 def points_on_light(light, u: np.ndarray):
     """(points (n, 3), front normals (n, 3)) on ``light`` (an AreaLight) from uniforms
     ``u`` (n, 2): the triangle by area from ``u[:, 0]``, its remainder in that triangle's
-    stretch of the CDF and ``u[:, 1]`` the uniform barycentrics."""
-    areas = light.face_areas
-    cdf = np.cumsum(areas) / areas.sum()
+    stretch of the CDF and ``u[:, 1]`` the uniform barycentrics
+    (:meth:`blockhash.scene.lights.AreaLight.points`)."""
+    cdf = light.area_cdf
     f = np.minimum(np.searchsorted(cdf, u[:, 0], side="right"), len(cdf) - 1)
     lo = np.where(f > 0, cdf[np.maximum(f - 1, 0)], 0.0)
     width = np.maximum(cdf[f] - lo, 1e-300)
-    r0 = np.clip((u[:, 0] - lo) / width, 0.0, 1.0)
-    s = np.sqrt(r0)
-    b0, b2 = 1.0 - s, s * u[:, 1]
-    tri = light.triangles[f]
-    y = b0[:, None] * tri[:, 0] + (1.0 - b0 - b2)[:, None] * tri[:, 1] + b2[:, None] * tri[:, 2]
-    return y, light.face_normals[f]
+    return light.points(u[:, 0], np.clip((u[:, 0] - lo) / width, 0.0, 1.0), u[:, 1])
 
 
 def area_light(out, light, live, p, n, wo, mat, kd, ks, e, rays, pass_index: int,

@@ -126,12 +126,11 @@ class RenderSetup:
         if not settings.indirect or self.traced is not None:
             return None, 0, "left out" if not settings.indirect else "a traced map: one pass"
         source = IndirectSource(scene, self.rays.geometry)
-        needed, pilot = needs_indirect(source, settings.seed)
-        if not needed:
+        sample, _ = needs_indirect(source, settings.seed)
+        if sample is None:
             return None, 0, (f"none: no photon of a {PILOT:,}-photon pilot met a diffuse surface "
                              "after leaving one (the scene's diffuse surfaces cannot light one "
                              "another)")
-        sample = source.emit(PILOT, seed=settings.seed)
         emitted = float(settings.count)
         if self.source.emitter is not None:
             caustic = self.source.emit(PILOT, seed=settings.seed)

@@ -50,6 +50,8 @@ EMIT_KEY = 1 << 95
 GLASS_KEY = 1 << 94
 #: Photons of the pilot (:func:`needs_indirect`, and the share of photons per pass).
 PILOT = 16384
+#: Photons traced together (their arrays in flight: a few hundred bytes each a bounce).
+BATCH = 1 << 18
 
 
 def _uniforms(key: int, start: int, count: int) -> np.ndarray:
@@ -121,9 +123,16 @@ class IndirectSource:
         """The stored photons of photons ``start .. start + count - 1`` as the light tracer
         connects them (:func:`blockhash.reference.lighttrace.light_trace`): positions,
         directions, shading and geometric normals (on the side the photon came from),
-        weights not yet divided by the photons shot, objects, and the paths' counts."""
-        o, d, w = self._emission(seed, start, count)
-        parts, counts = self._trace(o, d, w, seed, start)
+        weights not yet divided by the photons shot, objects, and the paths' counts.  Traced
+        :data:`BATCH` photons at a time (each photon's numbers are its own, so the result does
+        not depend on it)."""
+        parts, counts = [], {}
+        for first in range(start, start + count, BATCH):
+            n = min(BATCH, start + count - first)
+            o, d, w = self._emission(seed, first, n)
+            got, c = self._trace(o, d, w, seed, first)
+            parts += got
+            counts = {k: counts.get(k, 0) + v for k, v in c.items()}
         if parts:
             pos, dirs, nrm, wts, obj, ng = (np.concatenate(a) for a in zip(*parts))
         else:
@@ -157,15 +166,8 @@ class IndirectSource:
             elif hasattr(light, "radiance"):  # a point by area, a cosine direction
                 if extra is None:
                     extra = _uniforms(seed + EMIT_KEY, start, n)
-                areas = light.face_areas
-                f = np.minimum(np.searchsorted(np.cumsum(areas) / areas.sum(), u[rows, 3],
-                                               side="right"), len(areas) - 1)
-                s = np.sqrt(u1)
-                b0, b2 = 1.0 - s, s * u2
-                tri = light.triangles[f]
-                o[rows] = (b0[:, None] * tri[:, 0] + (1.0 - b0 - b2)[:, None] * tri[:, 1]
-                           + b2[:, None] * tri[:, 2])
-                d[rows] = _cosine(light.face_normals[f], extra[rows, 0], extra[rows, 1])
+                o[rows], normals = light.points(u[rows, 3], u1, u2)
+                d[rows] = _cosine(normals, extra[rows, 0], extra[rows, 1])
             else:  # point or spot: uniform in solid angle inside the cone of _cone
                 axis, cos_c, _ = self.cones[li]
                 t1, t2 = orthonormal_basis(axis)
@@ -265,14 +267,14 @@ def _cosine(normals: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> np.ndarray:
             + z[:, None] * normals)
 
 
-def needs_indirect(source: IndirectSource, seed: int) -> tuple[bool, dict]:
-    """(whether the scene's diffuse surfaces light one another, the pilot's counts): the
-    pilot's photons shot as a pass's are, a scene needs indirect photons when one of them,
-    leaving a diffuse surface, meets another diffuse surface next (not over a mirror or
-    glass: light refocused by a mirror onto the surface it left, L D S+ D, is a mirror's
-    second-order light, left to a scene that also has diffuse-to-diffuse light), and the
-    flux stored at second diffuse vertices in the pilot (``stored_flux``, W, per photon
-    shot)."""
+def needs_indirect(source: IndirectSource, seed: int):
+    """(the pilot's indirect photon map, None where the scene's diffuse surfaces cannot light
+    one another; the pilot's counts): a scene needs indirect photons when one of
+    :data:`PILOT` photons shot as a pass's are, leaving a diffuse surface, meets another
+    diffuse surface next (not over a mirror or glass: light refocused by a mirror onto the
+    surface it left, L D S+ D, is a mirror's second-order light, left to a scene that also has
+    diffuse-to-diffuse light); the map is the pass-0 stretch of the streams, ``PILOT`` photons
+    shot, for the caller's share of photons."""
     geom = source.geometry
     o, d, w = source._emission(seed, 0, PILOT)
     offset = RAY_OFFSET * geom.scale
@@ -289,6 +291,5 @@ def needs_indirect(source: IndirectSource, seed: int) -> tuple[bool, dict]:
     hit2, face2, _, _ = geom.intersect(start, wo)
     second = ~geom.is_specular[geom.face_object[face2]]
     dd = int(second.sum())
-    full = source.emit(PILOT, seed=seed, start=0) if dd else None
-    flux = float(full.powers.sum(axis=0).mean()) if full is not None else 0.0
-    return dd > 0, {"pilot": PILOT, "diffuse_to_diffuse": dd, "stored_flux": flux}
+    return (source.emit(PILOT, seed=seed, start=0) if dd else None), {
+        "pilot": PILOT, "diffuse_to_diffuse": dd}

@@ -131,12 +131,6 @@ class SurfaceSampler:
                             for z in (lo[2], hi[2])])
         self._corners = corners
         self._margin = 1e-3 * max(float(np.linalg.norm(hi - lo)), 1e-9)
-        self._area_cdf = {}
-        for li in set(self.light.tolist()):
-            light = lights[li]
-            if hasattr(light, "face_areas"):
-                cdf = np.cumsum(light.face_areas)
-                self._area_cdf[li] = cdf / cdf[-1]
 
     def sample(self, j: np.ndarray, u: np.ndarray, extra: np.ndarray):
         """(origins, dirs, weights) (n, 3) each for photons whose target is ``j`` (n,) (an
@@ -155,13 +149,7 @@ class SurfaceSampler:
 
     def _area(self, li, light, j, u, extra):
         n = len(j)
-        tri_cdf = self._area_cdf[li]
-        f = np.minimum(np.searchsorted(tri_cdf, extra[:, 0], side="right"), len(tri_cdf) - 1)
-        s = np.sqrt(extra[:, 1])
-        b0, b1 = 1.0 - s, s * extra[:, 2]
-        tri = light.triangles[f]
-        y = b0[:, None] * tri[:, 0] + (1.0 - b0 - b1)[:, None] * tri[:, 1] + b1[:, None] * tri[:, 2]
-        ny = light.face_normals[f]
+        y, ny = light.points(extra[:, 0], extra[:, 1], extra[:, 2])
         mine = np.flatnonzero(self.light == li)  # this light's targets
         cos_h = np.empty((n, len(mine)))
         axes = np.empty((n, len(mine), 3))

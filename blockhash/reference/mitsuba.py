@@ -18,9 +18,9 @@ is one or two Mitsuba renders at ``spp`` samples per pixel:
   deterministic factor), while those of two or more (diffusely reflected light refocused by
   a mirror, L D S+ D E, and a caustic's further diffuse bounces, L S+ D D E) are scaled down
   by ALBEDO_SCALE or more: on venus, whose ring sits beside the lit bust, they are 37% of
-  the plain difference, 0.6% of it at a scale of 1/64.  In the closed Cornell box, whose
-  walls are all lit and seen in the mirror ball, 1/64 still left them at 2.5% of the caustic
-  flux (against the light tracer, 64 x 64, 2 x 10^6 photons); at 1/1024, 0.5%.  Like blockhash's light tracer, the particle
+  the plain difference, 0.6% of it at a scale of 1/64.  The closed Cornell box, whose walls
+  are all lit and seen in the mirror ball, has more of them: at 1/1024 the light tracer and
+  this isolation agree there within 1% (``tools/mitsuba_agreement.py --scenes cbox``).  Like blockhash's light tracer, the particle
   tracer sees no caustic through a mirror or glass (it cannot connect to a pinhole through
   a delta surface).
 * **direct**: Mitsuba's path tracer (``path``) with the depth the scene's specular chains

@@ -120,6 +120,8 @@ class AreaLight:
             object.__setattr__(self, "_triangles", _readonly(tri))
             object.__setattr__(self, "_areas", _readonly(areas))
             object.__setattr__(self, "_normals", _readonly(normals))
+            cdf = np.cumsum(areas)
+            object.__setattr__(self, "_cdf", _readonly(cdf / cdf[-1]))
 
     @property
     def triangles(self) -> np.ndarray:
@@ -135,6 +137,23 @@ class AreaLight:
     def face_normals(self) -> np.ndarray:
         """(n, 3) unit front-face normals (zeros for a degenerate triangle)."""
         return self._normals
+
+    @property
+    def area_cdf(self) -> np.ndarray:
+        """(n,) the triangles' cumulative share of the area (the last 1)."""
+        return self._cdf
+
+    def points(self, u_face: np.ndarray, u1: np.ndarray, u2: np.ndarray):
+        """(points (m, 3), front normals (m, 3)) uniform by area on the light: the triangle
+        whose stretch of :attr:`area_cdf` holds ``u_face``, and in it the point of uniforms
+        ``u1``, ``u2`` (barycentrics 1 - sqrt(u1), sqrt(u1) u2)."""
+        cdf = self._cdf
+        f = np.minimum(np.searchsorted(cdf, u_face, side="right"), len(cdf) - 1)
+        s = np.sqrt(u1)
+        b0, b2 = 1.0 - s, s * u2
+        tri = self._triangles[f]
+        y = b0[:, None] * tri[:, 0] + (1.0 - b0 - b2)[:, None] * tri[:, 1] + b2[:, None] * tri[:, 2]
+        return y, self._normals[f]
 
     @property
     def area(self) -> float:

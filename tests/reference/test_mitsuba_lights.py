@@ -45,7 +45,8 @@ def scene_of(name: str):
 @pytest.mark.parametrize("name", ["cbox", "sun"])
 def test_the_caustic_agrees_with_mitsubas_particle_tracer_and_the_light_tracer(name):
     """Caustic flux within 2% and the noise (the light tracer against Mitsuba's isolation at
-    1/1024: cbox 0.5% at 64 x 64) and the blurred caustic within 0.06."""
+    1/1024: cbox within 1% at 64 x 64, tools/mitsuba_agreement.py) and the blurred caustic
+    within 0.06."""
     scene = scene_of(name)
     ref = mitsuba_reference(scene, 256, layers=("caustic",))
     lt = light_trace(scene, 1_000_000)
