@@ -21,7 +21,9 @@ class BlockHashError(Exception):
     reads ``passes=0: ...``; a front end that takes the same values under other names (the
     command line's flags, :data:`blockhash.cli.args.FLAGS`) prints
     ``exc.spelled({"passes": "--passes "})``: ``--passes 0: ...``.  Values fill ``{value}``
-    and any other keyword given.
+    and any other keyword given.  ``{name:bare}`` names the parameter alone (``max_flip``, or
+    the flag ``--max-flip``), ``{name:on}`` a switch turned on (``drop_specular=True``, or the
+    flag ``--drop-specular`` alone).
     """
 
     def __init__(self, message: str = "", *args, template: str | None = None,
@@ -52,8 +54,25 @@ def spell(template: str, values: dict, names: dict) -> str:
 
     class Fields(dict):
         def __missing__(self, key):
-            return names.get(key, f"{key}=")
+            return _Name(names[key], False) if key in names else _Name(f"{key}=", True)
     return template.format_map(Fields(values))
+
+
+class _Name(str):
+    """A parameter as a message spells it: as written before its value (``name=``, or a flag
+    and a space), ``:bare`` alone, ``:on`` a switch turned on (``name=True``, or the flag)."""
+
+    def __new__(cls, text: str, library: bool):
+        name = super().__new__(cls, text)
+        name.library = library
+        return name
+
+    def __format__(self, spec: str) -> str:
+        if spec == "bare":
+            return str(self).rstrip("= ")
+        if spec == "on":
+            return f"{self}True" if self.library else str(self).rstrip()
+        return format(str(self), spec)
 
 
 class InputTypeError(BlockHashError, TypeError):

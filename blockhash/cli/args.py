@@ -11,7 +11,10 @@ import argparse
 FLAGS = {"passes": "--passes ", "seconds": "--time ", "target_error": "--target-error ",
          "alpha": "--alpha ", "footprint": "--footprint ", "photons": "--photons ", "k": "--k ",
          "A": "--A ", "workers": "--workers ", "size": "--size", "spp": "--spp ",
-         "seed": "--seed ", "seeds": "--seeds ", "margin": "--margin ", "through": "--through "}
+         "seed": "--seed ", "seeds": "--seeds ", "margin": "--margin ", "through": "--through ",
+         "max_rms": "--max-rms ", "max_rel_rms": "--max-rel-rms ", "max_flip": "--max-flip ",
+         "mask": "--mask ", "drop_specular": "--drop-specular", "study_path": "--tradeoff ",
+         "out_dir": "-o "}
 
 
 def size(text: str) -> tuple[int, int]:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from blockhash.cli.args import INTERRUPTED
+from blockhash.cli.args import FLAGS, INTERRUPTED
 from blockhash.errors import InputError
 
 
@@ -68,7 +68,10 @@ def render_animation(args, scene, out: Path, plan) -> int:
         raise InputError(f"{args.scene}: --frames needs an [animation] table in the scene "
                          "(blockhash/scene/animation.py lists its keys); leave --frames out "
                          "to render a still")
-    frames = frame_range(args.frames, scene.animation.frames)
+    try:
+        frames = frame_range(args.frames, scene.animation.frames)
+    except InputError as exc:  # frame_range's text is --frames here
+        raise InputError(exc.spelled({**FLAGS, "text": "--frames "})) from None
     writer = FrameWriter(out, scene.animation.fps)
     bar = None
     if sys.stderr.isatty():

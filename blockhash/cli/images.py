@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from blockhash.cli.args import size
+from blockhash.cli.args import FLAGS, size
 from blockhash.errors import InputError
 from blockhash.frame.options import METHODS
 from blockhash.gl.context import BACKENDS
@@ -82,7 +82,7 @@ def cmd_compare(args) -> int:
     if args.json:
         _emit_json(args.json, result.to_json())
     for failure in result.failures:
-        print(f"FAIL {failure}", file=sys.stderr)
+        print(f"FAIL {failure.spelled(FLAGS)}", file=sys.stderr)
     if result.limits:
         print("pass: every layer within its limits" if result.passed
               else f"fail: {len(result.failures)} limit(s) exceeded", file=report)

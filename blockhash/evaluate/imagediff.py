@@ -35,11 +35,12 @@ from pathlib import Path
 
 import numpy as np
 
-from blockhash.errors import InputError
+from blockhash.errors import InputError, spell
 from blockhash.evaluate.images import read_layers, srgb, white_point, write_exr
 
-#: Metrics that take a limit, and the command-line option that sets each.
-LIMITED = {"rms": "--max-rms", "relative_rms": "--max-rel-rms", "flip": "--max-flip"}
+#: Metrics that take a limit, and the parameter of :func:`compare_layers` that sets each (a
+#: front end spells it as its own option: :meth:`blockhash.errors.BlockHashError.spelled`).
+LIMITED = {"rms": "max_rms", "relative_rms": "max_rel_rms", "flip": "max_flip"}
 #: Column order of the printed table.
 COLUMNS = ("rms", "relative_rms", "max", "flip")
 #: Pixels per degree of visual angle for FLIP: the package's default, a 0.7 m wide
@@ -87,7 +88,7 @@ def check_compatible(a: dict, b: dict, *, name_a: str, name_b: str) -> None:
                              "render both at the same size")
 
 
-def resolve_mask(mask, a: dict, *, shape: tuple[int, int], name: str = "--mask") -> np.ndarray | None:
+def resolve_mask(mask, a: dict, *, shape: tuple[int, int]) -> np.ndarray | None:
     """``None``, a layer name of A, a mask image path or an (h, w[, c]) array -> (h, w) bool."""
     if mask is None:
         return None
@@ -95,19 +96,21 @@ def resolve_mask(mask, a: dict, *, shape: tuple[int, int], name: str = "--mask")
         arr = a[mask]
     elif isinstance(mask, (str, Path)):
         if not Path(mask).is_file():
-            raise InputError(f"{name} {str(mask)!r} is neither a layer of the first image "
-                             f"({', '.join(sorted(a))}) nor an image file")
+            raise InputError.about("{mask:bare} {value!r} is neither a layer of the first image "
+                                   "({layers}) nor an image file", value=str(mask),
+                                   layers=", ".join(sorted(a)))
         arr = np.concatenate(list(read_layers(mask).values()), axis=2)
     else:
         arr = np.asarray(mask)
     arr = arr if arr.ndim == 3 else arr[..., None]
     if arr.shape[:2] != tuple(shape):
-        raise InputError(f"{name} {mask if isinstance(mask, (str, Path)) else 'array'}: "
-                         f"{arr.shape[1]}x{arr.shape[0]} but the images are {shape[1]}x{shape[0]}")
+        raise InputError.about("{mask:bare} {value}: {w}x{h} but the images are {iw}x{ih}",
+                               value=mask if isinstance(mask, (str, Path)) else "array",
+                               w=arr.shape[1], h=arr.shape[0], iw=shape[1], ih=shape[0])
     keep = np.any(arr != 0, axis=2)
     if not keep.any():
-        raise InputError(f"{name} selects no pixel (it is zero everywhere); give a mask that is "
-                         "non-zero where the images should be compared")
+        raise InputError.about("{mask:bare} selects no pixel (it is zero everywhere); give a mask "
+                               "that is non-zero where the images should be compared")
     return keep
 
 
@@ -120,17 +123,19 @@ def normalise_limits(limits, layers, *, metric: str) -> dict[str, float]:
         limits = {"*": limits}
     unknown = sorted(set(limits) - set(layers) - {"*"})
     if unknown:
-        raise InputError(f"{option} names layer(s) {unknown} that the images do not have; "
-                         f"their layers are {', '.join(sorted(layers))}")
+        raise InputError.about("{%s:bare} names layer(s) {unknown} that the images do not have; "
+                               "their layers are {layers}" % option, unknown=unknown,
+                               layers=", ".join(sorted(layers)))
     checked = {}
     for key, value in limits.items():
-        where = f"{option} is" if key == "*" else f"{option} for layer {key!r} is"
+        where = "{%s:bare} is" % option if key == "*" else "{%s:bare} for layer {layer!r} is" % option
         try:
             number = float(value)
         except (TypeError, ValueError):
-            raise InputError(f"{where} {value!r}; give a number") from None
+            raise InputError.about(where + " {value!r}; give a number", layer=key,
+                                   value=value) from None
         if not number >= 0:
-            raise InputError(f"{where} {number}; give a number >= 0")
+            raise InputError.about(where + " {value}; give a number >= 0", layer=key, value=number)
         checked[key] = number
     return {layer: checked.get(layer, checked.get("*")) for layer in layers
             if layer in checked or "*" in checked}
@@ -167,9 +172,16 @@ class Failure:
     limit: float
 
     def __str__(self) -> str:
+        return self.spelled({})
+
+    def spelled(self, names: dict) -> str:
+        """The failure with its limit's parameter spelled as ``names`` says (a front end's
+        options, :meth:`blockhash.errors.BlockHashError.spelled`), else as the keyword."""
         over = f", {self.value / self.limit:.3g}x the limit" if self.limit > 0 else ""
-        return (f"layer {self.layer!r}: {self.metric} {self.value:.6g} > {self.limit:.6g} "
-                f"({LIMITED[self.metric]}{over})")
+        return spell("layer {layer!r}: {metric} {value:.6g} > {limit:.6g} ({%s:bare}{over})"
+                     % LIMITED[self.metric], {"layer": self.layer, "metric": self.metric,
+                                              "value": self.value, "limit": self.limit,
+                                              "over": over}, names)
 
 
 @dataclass

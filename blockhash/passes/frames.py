@@ -44,10 +44,12 @@ def frame_range(text: str | None, frames: int) -> range:
         else:
             r = range(int(text), int(text) + 1)
     except ValueError:
-        raise InputError(f"--frames {text!r}: expected N, A:B or nothing (all frames)") from None
+        raise InputError.about("{text}{value!r}: expected N, A:B or nothing (all frames)",
+                               value=text) from None
     if not len(r) or r.start < 0 or r.stop > frames:
-        raise InputError(f"--frames {text!r}: the animation has frames 0 .. {frames - 1}; give "
-                         f"a range within them, e.g. 0:{frames}")
+        raise InputError.about("{text}{value!r}: the animation has frames 0 .. {last}; give a "
+                               "range within them, e.g. 0:{frames}", value=text, last=frames - 1,
+                               frames=frames)
     return r
 
 

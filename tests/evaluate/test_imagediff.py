@@ -112,13 +112,13 @@ def test_different_layers_and_sizes_are_named(tmp_path):
 
 def test_bad_limits_are_named():
     a = layers()
-    with pytest.raises(InputError, match=r"--max-rel-rms names layer\(s\) \['shadow'\].*caustic, direct"):
+    with pytest.raises(InputError, match=r"max_rel_rms names layer\(s\) \['shadow'\].*caustic, direct"):
         compare_layers(a, a, max_rel_rms={"shadow": 0.1})
-    with pytest.raises(InputError, match=r"--max-flip is -1.0; give a number >= 0"):
+    with pytest.raises(InputError, match=r"max_flip is -1.0; give a number >= 0"):
         compare_layers(a, a, max_flip=-1)
-    with pytest.raises(InputError, match=r"--max-flip for layer 'caustic' is nan"):
+    with pytest.raises(InputError, match=r"max_flip for layer 'caustic' is nan"):
         compare_layers(a, a, max_flip={"caustic": float("nan")})
-    with pytest.raises(InputError, match=r"--max-rms is 'big'; give a number"):
+    with pytest.raises(InputError, match=r"max_rms is 'big'; give a number"):
         compare_layers(a, a, max_rms="big")
 
 

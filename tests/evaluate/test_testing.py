@@ -29,7 +29,7 @@ def test_failure_names_the_layer_the_metric_and_the_pictures_it_wrote(tmp_path):
     with pytest.raises(AssertionError) as exc:
         assert_images_close(actual, ref, max_rel_rms=0.1, out_dir=tmp_path)
     message = str(exc.value)
-    assert "layer 'caustic': relative_rms 0.5 > 0.1 (--max-rel-rms, 5x the limit)" in message
+    assert "layer 'caustic': relative_rms 0.5 > 0.1 (max_rel_rms, 5x the limit)" in message
     assert "layer 'direct'" not in message
     pictures = re.findall(r"(?:heat map|strip \(actual \| reference \| error\)): (\S+)", message)
     assert len(pictures) == 2

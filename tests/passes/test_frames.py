@@ -179,7 +179,7 @@ def test_frame_ranges_and_a_still_refused():
     assert frame_range(None, 5) == range(5) and frame_range("1:3", 5) == range(1, 3)
     assert frame_range(":2", 5) == range(2) and frame_range("4", 5) == range(4, 5)
     for bad in ("3:9", "x", "4:2"):
-        with pytest.raises(InputError, match=rf"--frames '{bad}'"):
+        with pytest.raises(InputError, match=rf"text='{bad}'"):
             frame_range(bad, 5)
     with pytest.raises(InputError, match="has no \\[animation\\] table"):
         render_frames(load_scene(SCENES / "ring.toml"), [0])

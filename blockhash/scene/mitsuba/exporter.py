@@ -90,11 +90,11 @@ def _bsdf(material, bsdf_id: str, drop_specular: bool, owner: str) -> list[str]:
     lines = []
     if np.any(material.ks > 0):
         if not drop_specular:
-            raise InputError(
-                f"object {owner!r}: its modified Phong material has ks = "
-                f"{np.round(material.ks, 6).tolist()} > 0, and Mitsuba 3 has no modified Phong "
-                "BSDF; export with --drop-specular (drop_specular=True) to write it as "
-                "'diffuse' (kd only), or set ks = 0 in the scene")
+            raise InputError.about(
+                "object {owner!r}: its modified Phong material has ks = {ks} > 0, and Mitsuba 3 "
+                "has no modified Phong BSDF; export with {drop_specular:on} to write it as "
+                "'diffuse' (kd only), or set ks = 0 in the scene", owner=owner,
+                ks=np.round(material.ks, 6).tolist())
         lines.append(f"<!-- {escape(owner)}: the modified Phong lobe ks = "
                      f"{np.round(material.ks, 6).tolist()}, n = {material.n:g} is dropped "
                      "(Mitsuba has no modified Phong); diffuse kd only -->")

@@ -79,7 +79,7 @@ def choose(study, *, pixels: int, time_budget=None, target_error=None) -> Choice
             fastest = min(cands, key=lambda c: c[0])
             raise InputError(f"time_budget={time_budget:g} s: no measured setting fits; the fastest "
                              f"(N={fastest[2]['photons']:,}, A={fastest[2]['A']}) needs about "
-                             f"{fastest[0]:.2f} s; raise the budget or render smaller (--size)")
+                             f"{fastest[0]:.2f} s; raise the budget or render fewer pixels")
         t, e, r = min(fit, key=lambda c: (c[1], c[0]))
         why = (f"least error ({e:.3f}) among the {len(fit)} of {len(cands)} measured settings "
                f"predicted to fit {time_budget:g} s")
@@ -104,8 +104,8 @@ def study_for(scene, *, cache_dir, study_path=None, backend=None, progress=print
     if study_path is not None:
         path = Path(study_path)
         if not path.is_file():
-            raise InputError(f"--tradeoff {path}: no such file; give a tradeoff.json written by "
-                             "blockhash tradeoff")
+            raise InputError.about("{study_path}{value}: no such file; give a tradeoff.json "
+                                   "written by blockhash tradeoff", value=path)
         return json.loads(path.read_text())
     cached = cache_path(scene, cache_dir)
     if cached.is_file():

@@ -95,8 +95,8 @@ def rewrite_report(out_dir) -> Path:
     path = out / "tradeoff.json"
     if not path.is_file():
         from blockhash.errors import InputError
-        raise InputError(f"--replot {out}: no tradeoff.json there; give a directory written by "
-                         "blockhash tradeoff")
+        raise InputError.about("{out_dir}{value}: no tradeoff.json there; give a directory "
+                               "written by blockhash tradeoff", value=out)
     study = json.loads(path.read_text())
     images = read_layers(out / "images.exr") if (out / "images.exr").is_file() else {}
     if "mask" in images:

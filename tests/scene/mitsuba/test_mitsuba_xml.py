@@ -73,7 +73,7 @@ def test_export_then_import_gives_back_every_shipped_scene(path, tmp_path):
 
 def test_a_specular_lobe_is_an_error_naming_the_material_and_the_flag(tmp_path):
     scene = load_scene(SCENES / "ring.toml")
-    with pytest.raises(InputError, match=r"object 'floor'.*ks = .*--drop-specular"):
+    with pytest.raises(InputError, match=r"object 'floor'.*ks = .*drop_specular=True"):
         export_mitsuba(scene, tmp_path / "out")
     assert not (tmp_path / "out").exists()  # nothing written
     assert main(["export", str(SCENES / "ring.toml"), "--to", "mitsuba", "-o", str(tmp_path / "o")]) == 2

@@ -53,7 +53,7 @@ def test_an_explicit_study_file_is_read_and_a_missing_one_named(tmp_path):
     path = tmp_path / "tradeoff.json"
     path.write_text(json.dumps(STUDY))
     assert study_for(None, cache_dir=tmp_path, study_path=path)["size"] == [10, 10]
-    with pytest.raises(InputError, match="--tradeoff .*nope.json: no such file"):
+    with pytest.raises(InputError, match="study_path=.*nope.json: no such file"):
         study_for(None, cache_dir=tmp_path, study_path=tmp_path / "nope.json")
 
 
