@@ -1,5 +1,6 @@
-"""The docs quote what the project measured: README's figures match the JSON the tools
-wrote, and no doc or source points outside the repository."""
+"""The docs quote what the project measured: the figures of README.md and of the docs' pages
+match the JSON the tools wrote and BENCHMARKS.md, and no doc or source points outside the
+repository."""
 
 import json
 import re
@@ -9,17 +10,17 @@ import pytest
 from project_tree import project_files
 
 ROOT = Path(__file__).resolve().parents[1]
-README = (ROOT / "README.md").read_text()
 
 
 def rows(name):
     return json.loads((ROOT / "docs" / name).read_text())["rows"]
 
 
-def quoted(pattern):
-    """The numbers README gives where ``pattern`` (a regex with groups) matches."""
-    m = re.search(pattern, re.sub(r"\s+", " ", README))
-    assert m, f"README no longer says {pattern!r}; update this test with the text"
+def quoted(pattern, page="README.md"):
+    """The numbers ``page`` (README.md or a page of the docs) gives where ``pattern`` (a regex
+    with groups) matches."""
+    m = re.search(pattern, re.sub(r"\s+", " ", (ROOT / page).read_text()))
+    assert m, f"{page} no longer says {pattern!r}; update this test with the text"
     return [float(g) for g in m.groups()]
 
 
@@ -28,14 +29,16 @@ def pct(x):
 
 
 def test_the_default_walks_worst_map_figures_match_the_accuracy_knob_json():
-    a8, a64 = quoted(r"every evaluation map misses at most ([\d.]+)% at A = 8 and ([\d.]+)% at A = 64")
+    a8, a64 = quoted(r"every evaluation map misses at most ([\d.]+)% at A = 8 and ([\d.]+)% at A = 64",
+                     "docs/rendering.md")
     default = [r for r in rows("accuracy-knob.json") if r["preset"] == "default" and not r["config"]]
     assert pct(max(r["fn_mean"] for r in default if r["A"] == 8)) == a8
     assert pct(max(r["fn_mean"] for r in default if r["A"] == 64)) == a64
 
 
 def test_the_far_query_figures_match_the_accuracy_knob_json():
-    a8, a64 = quoted(r"the walk misses ([\d.]+)% of them at A = 8 and ([\d.]+)% at A = 64")
+    a8, a64 = quoted(r"the walk misses ([\d.]+)% of them at A = 8 and ([\d.]+)% at A = 64",
+                     "docs/rendering.md")
     default = [r for r in rows("accuracy-knob.json") if r["preset"] == "default" and not r["config"]]
     far8 = max(r["fn_far"] for r in default if r["A"] == 8)
     far64 = max(r["fn_far"] for r in default if r["A"] == 64)
@@ -70,7 +73,7 @@ def test_the_speed_figures_match_the_bench_json():
     walk, kd, ckd, cells, hashed = quoted(
         r"the default lookup \(the walk\) takes ([\d.]+) s, against ([\d.]+) s for the exact "
         r"kd-tree shader and ([\d.]+) s for cKDTree on two cores; the Hilbert cells lookup "
-        r"takes ([\d.]+) s and the hash without the walk ([\d.]+) s")
+        r"takes ([\d.]+) s and the hash without the walk ([\d.]+) s", "docs/benchmarks.md")
     bench = {r["method"]: r["wall_median"]
              for r in json.loads((ROOT / "docs" / "bench-cells.json").read_text())}
     assert round(bench["BH default"], 2) == walk
@@ -81,6 +84,25 @@ def test_the_speed_figures_match_the_bench_json():
 
 
 BENCHMARKS = (ROOT / "BENCHMARKS.md").read_text()
+
+#: A figure a page quotes from BENCHMARKS.md: a number or a range, then x, %, s or ms.
+FIGURE = re.compile(r"(?<![\w.])(\d+(?:\.\d+)?)(?:-(\d+(?:\.\d+)?))?(?:x|%| ms\b| s\b)")
+
+
+@pytest.mark.parametrize("page, section", [("README.md", "## Against Mitsuba 3"),
+                                           ("docs/benchmarks.md", None),
+                                           ("docs/workers.md", "## How fast")])
+def test_the_figures_the_pages_quote_are_benchmarks_figures(page, section):
+    """README's table against Mitsuba 3 and the docs' summaries copy their figures from
+    BENCHMARKS.md: each number (each end of a range) is one of its numbers."""
+    text = (ROOT / page).read_text()
+    if section:
+        assert section in text, f"{page} has no section {section!r}"
+        text = text.split(section, 1)[1].split("\n## ", 1)[0]
+    numbers = {n for m in FIGURE.finditer(text) for n in m.groups() if n}
+    assert numbers, f"{page} quotes no figure"
+    missing = sorted(n for n in numbers if not re.search(rf"(?<![\d.]){re.escape(n)}(?!\d)", BENCHMARKS))
+    assert not missing, f"{page} quotes figures that BENCHMARKS.md does not hold: {missing}"
 
 
 def claim_rows():
