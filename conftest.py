@@ -7,6 +7,9 @@ them beside tests/.
 
 The blocks render, so they need an OpenGL context: a machine without one skips them, unless
 ``BLOCKHASH_REQUIRE_GL`` names a backend (as in CI).
+
+The suite runs in parallel processes (pytest-xdist, ``-n auto --dist loadfile``): each file's
+tests in one process, in order, so the blocks of a page share their namespace.
 """
 
 import os

@@ -7,6 +7,7 @@ their docstring says why not.
 """
 
 import ast
+import shutil
 from pathlib import Path
 
 import pytest
@@ -88,7 +89,20 @@ def test_long_modules_say_why(path):
                                     f"docstring '{LONG_REASON} ...'")
 
 
-def test_import_check_sees_a_backward_import(tmp_path):
+@pytest.fixture
+def tree_copy(tmp_path, monkeypatch):
+    """A copy of blockhash/ and tools/ that the checks read instead of the checkout, so that a
+    probe module written into it reaches no other test (the suite runs in parallel processes:
+    another would import it, list it or hash it into the source digest)."""
+    ignore = shutil.ignore_patterns("__pycache__")
+    shutil.copytree(PACKAGE, tmp_path / "blockhash", ignore=ignore)
+    shutil.copytree(ROOT / "tools", tmp_path / "tools", ignore=ignore)
+    monkeypatch.setitem(globals(), "ROOT", tmp_path)
+    monkeypatch.setitem(globals(), "PACKAGE", tmp_path / "blockhash")
+    return tmp_path
+
+
+def test_import_check_sees_a_backward_import(tree_copy):
     """The checker itself can fail: an index module importing the renderer is caught."""
     fake = PACKAGE / "index" / "_probe_backward.py"
     try:
@@ -161,7 +175,7 @@ def test_tests_are_laid_out_by_package():
         assert (PACKAGE / rel / "__init__.py").is_file(), f"tests/{rel}/ mirrors no blockhash/{rel}/"
 
 
-def test_the_circle_and_private_name_checks_can_fail():
+def test_the_circle_and_private_name_checks_can_fail(tree_copy):
     """Two probe modules that import each other (one lazily) make a circle, and one takes
     the other's private name: both checks see it."""
     a, b = PACKAGE / "index" / "_probe_a.py", PACKAGE / "index" / "_probe_b.py"
@@ -244,7 +258,7 @@ def test_every_import_names_a_module_of_the_tree(folder):
     assert not missing, f"imports of modules the tree does not hold: {missing}"
 
 
-def test_the_shim_checks_can_fail():
+def test_the_shim_checks_can_fail(tree_copy):
     """A module that puts a finder on sys.meta_path, and an import of an old module name, are
     both caught."""
     shim = PACKAGE / "_probe_shim.py"
