@@ -41,6 +41,12 @@ def cover_gather(index, k: int, radii=None, *, steps: int = OCTAVE_STEPS) -> Cov
     return per_index[key]
 
 
+def drop_gather(index, k: int, radii=None, *, steps: int = OCTAVE_STEPS) -> None:
+    """Let go of :func:`cover_gather`'s gather of these arguments (a gather used once, such as
+    a pass's gather of every photon for the points seen in mirrors)."""
+    _GATHERS.get(index, {}).pop((int(k), radii, int(steps)), None)
+
+
 def forget_gathers(index) -> None:
     """Drop the gathers built on ``index`` (an index kept for the next frame of an animation
     gathers with the next frame's radii; the last frame's would otherwise stay with it)."""

@@ -56,11 +56,11 @@ def neighbours_for(k: int) -> int:
 def own_radii2(index, k: int) -> np.ndarray:
     """(n,) float64 squared radius of every photon (input order), for an estimate with k
     neighbours (module docstring).  Computed once per index and k, by the octree search."""
-    def jth(pos, rank):
+    def jth(rank):
         from blockhash.index.lookups.octree_knn import jth_distances
 
         codes = index.records.records[:, :3]  # in Hilbert order
-        out = np.empty(len(pos))
+        out = np.empty(len(index))
         out[index.order] = jth_distances(codes, index.quantizer.decode(codes), rank,
                                          index.quantizer)
         return out
@@ -71,14 +71,15 @@ def exact_radii2(index, k: int) -> np.ndarray:
     """:func:`own_radii2` with the exact j-th nearest other photon (scipy's cKDTree)."""
     from scipy.spatial import cKDTree
 
-    def jth(pos, rank):
+    def jth(rank):
+        pos = np.asarray(index.positions, dtype=np.float64)
         d, _ = cKDTree(pos).query(pos, k=[rank + 1], workers=-1)
         return d[:, 0]
     return _radii2(index, neighbours_for(k), jth, "exact")
 
 
 def _radii2(index, j: int, jth, kind: str) -> np.ndarray:
-    """Squared radii from ``jth(positions, rank)``, the distance to each photon's rank-th
+    """Squared radii from ``jth(rank)``, the distance to each photon's rank-th
     nearest other photon (its (rank + 1)-th nearest, itself first), floored at the map's
     position error; in float32 steps, as the shader reads them.  Cached per index, j and
     ``kind``."""
@@ -86,13 +87,12 @@ def _radii2(index, j: int, jth, kind: str) -> np.ndarray:
     per_index = _CACHE.setdefault(index, {})
     if (kind, j) in per_index:
         return per_index[kind, j]
-    pos = np.asarray(index.positions, dtype=np.float64)
-    n = len(pos)
+    n = len(index)
     rank = min(j, n - 1)
     if rank < 1:
         r2 = np.full(n, np.inf)
     else:
-        r2 = np.maximum(jth(pos, rank) ** 2, min_r2(index)).astype(np.float32).astype(np.float64)
+        r2 = np.maximum(jth(rank) ** 2, min_r2(index)).astype(np.float32).astype(np.float64)
     per_index[kind, j] = r2
     return r2
 

@@ -39,30 +39,44 @@ def splat_subpixel(photons, r2: np.ndarray, pin, rays, materials, *, footprint: 
     keep = np.ones(n, dtype=bool)
     if not n or footprint <= 0 or photons.objects is None:
         return image.reshape(pin.height, pin.width, 3), keep
-    x = np.asarray(photons.positions, np.float64)
+    material = material_arrays(materials)
+    for first in range(0, n, CHUNK):  # float64 working arrays of CHUNK photons at a time
+        rows = slice(first, min(n, first + CHUNK))
+        _splat_rows(photons, rows, r2[rows], pin, rays, material, footprint, image, keep[rows])
+    return image.reshape(pin.height, pin.width, 3), keep
+
+
+#: Photons splatted at a time: the working arrays (about 200 bytes a photon) stay a few
+#: tens of MiB whatever the map's size.
+CHUNK = 1 << 17
+
+
+def _splat_rows(photons, rows: slice, r2, pin, rays, material, footprint, image, keep) -> None:
+    """Add the splat of ``photons[rows]`` to ``image`` (flat, (h w, 3)); clear ``keep`` (that
+    slice of the map's mask) where a photon is splatted."""
+    x = np.asarray(photons.positions[rows], np.float64)
     to_eye = pin.eye - x
     d2 = np.einsum("ij,ij->i", to_eye, to_eye)
     pixel_angle = 2.0 * pin.tan_y / pin.height
     small = 4.0 * r2 < (footprint * pixel_angle) ** 2 * d2
     idx = np.flatnonzero(small)
     if not idx.size:
-        return image.reshape(pin.height, pin.width, 3), keep
+        return
     wo = to_eye[idx] / np.sqrt(d2[idx])[:, None]
-    ns = np.asarray(photons.normals, np.float64)[idx]
+    ns = np.asarray(photons.normals[rows][idx], np.float64)
     cos_x = np.einsum("ij,ij->i", ns, wo)
     pix, cos_c = pin.project(x[idx])
     ok = (cos_x > 0) & (pix >= 0)
     ok[ok] = rays.visible(x[idx[ok]], ns[ok], np.broadcast_to(pin.eye, (int(ok.sum()), 3)))
     idx, wo, ns, cos_x, pix, cos_c = idx[ok], wo[ok], ns[ok], cos_x[ok], pix[ok], cos_c[ok]
     if not idx.size:
-        return image.reshape(pin.height, pin.width, 3), keep
-    kd, ks, e = material_arrays(materials)
-    obj = photons.objects[idx]
-    f = phong_brdf(-np.asarray(photons.directions, np.float64)[idx], wo, ns, kd[obj], ks[obj],
-                   e[obj])
+        return
+    kd, ks, e = material
+    obj = photons.objects[rows][idx]
+    f = phong_brdf(-np.asarray(photons.directions[rows][idx], np.float64), wo, ns, kd[obj],
+                   ks[obj], e[obj])
     weight = cos_x / (pin.pixel_area * cos_c ** 3 * d2[idx])
-    contrib = np.asarray(photons.powers, np.float64)[idx] * f * weight[:, None]
+    contrib = np.asarray(photons.powers[rows][idx], np.float64) * f * weight[:, None]
     for c in range(3):
-        image[:, c] = np.bincount(pix, contrib[:, c], minlength=len(image))
+        image[:, c] += np.bincount(pix, contrib[:, c], minlength=len(image))
     keep[idx] = False
-    return image.reshape(pin.height, pin.width, 3), keep

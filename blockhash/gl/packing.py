@@ -57,15 +57,21 @@ def upload(ctx, data: np.ndarray, components: int, what: str, *, dtype: str = "u
     max_size = ctx.info["GL_MAX_TEXTURE_SIZE"]
     flat = np.ascontiguousarray(data).reshape(-1, components)
     width, height, wlog2 = texture_shape(len(flat), max_size)
-    padded = np.zeros((width * height, components), dtype=flat.dtype)
-    padded[:len(flat)] = flat
     if pooled:
         from blockhash.gl.pool import pooled_texture
 
         tex = pooled_texture(ctx, what, width, height, components, dtype)
-        tex.write(padded.tobytes(), viewport=(0, 0, width, height))
     else:
-        tex = ctx.texture((width, height), components, padded.tobytes(), dtype=dtype)
+        tex = ctx.texture((width, height), components, dtype=dtype)
+    # The full rows straight from ``data`` (no padded copy of the whole array); the last
+    # row, padded with zeros, on its own.
+    full = len(flat) // width
+    if full:
+        tex.write(flat[:full * width], viewport=(0, 0, width, full))
+    if full < height:
+        last = np.zeros((width, components), dtype=flat.dtype)
+        last[:len(flat) - full * width] = flat[full * width:]
+        tex.write(last, viewport=(0, full, width, 1))
     check_gl(ctx, f"allocating the {what} texture ({width} x {height} x {components} x 4 bytes)")
     tex.filter = (ctx.NEAREST, ctx.NEAREST)
     tex.repeat_x = tex.repeat_y = False

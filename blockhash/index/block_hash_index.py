@@ -174,7 +174,9 @@ class BlockHashIndex:
     def __init__(self, positions, *, k: int = 50, A: int = 8, preset: str = "default",
                  L=None, P=None, B=None, layout=None, builder: str = "bulk",
                  directions=None, normals=None, powers=None, tables: bool = True):
-        pos = as_points(positions, "positions", allow_empty=False)
+        # float32 photons (a traced map's) are read as they are, not copied to float64
+        pos = as_points(positions, "positions", allow_empty=False, dtype=np.float32 if getattr(
+            positions, "dtype", None) == np.float32 else np.float64)
         timings = {}
         t0 = time.perf_counter()
         self.params = resolve_params(pos, k=k, A=A, preset=preset, L=L, P=P, B=B, layout=layout)
@@ -190,6 +192,7 @@ class BlockHashIndex:
         sorted_records = np.take(records.records, self.order, axis=0)  # 3x faster than [order]
         self.records = PhotonRecords._own(sorted_records, records.quantizer, records.power_scale)
         self.quantizer = records.quantizer
+        del records, codes, leaves, pos  # the input order's records go before the positions come
         self._positions = self.quantizer.decode(np.ascontiguousarray(sorted_records[:, :3]))
         self._cells = None
         self.counters: dict[str, float] = {}

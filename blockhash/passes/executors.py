@@ -135,13 +135,14 @@ class _InProcessSession(Session):
         emitted = self.flight[p]
         self.renderer.index = self.renderer.radii = None  # the last pass's go first
         setup = self.renderer.setup
-        traced = self.ahead[1].result() if self.ahead and self.ahead[0] == p else None
+        ahead = self.ahead[1].result() if self.ahead and self.ahead[0] == p else None
         self.ahead = None
         later = [q for q in self.flight if q > p]
         if self.tracer is not None and later and self.flight[min(later)] is not None:
             q = min(later)
-            self.ahead = (q, self.tracer.submit(trace_pass, setup, q, self.flight[q]))
-        contribution = run_pass(setup, p, emitted, traced=traced)
+            self.ahead = (q, self.tracer.submit(_Ahead, setup, q, self.flight[q]))
+        # run_pass holds the photons alone (they are freed once indexed, not kept here)
+        contribution = run_pass(setup, p, emitted, traced=ahead.take() if ahead else None)
         del self.flight[p]
         yield p, contribution
 
@@ -150,6 +151,18 @@ class _InProcessSession(Session):
         if self.tracer is not None:
             self.tracer.shutdown(wait=True, cancel_futures=True)
         self.ahead = None
+
+
+class _Ahead:
+    """A pass's :func:`trace_pass`, run on the tracing thread, until :meth:`take` hands it
+    over (and lets go of it)."""
+
+    def __init__(self, setup, p: int, emitted):
+        self.traced = trace_pass(setup, p, emitted)
+
+    def take(self):
+        traced, self.traced = self.traced, None
+        return traced
 
 
 class _PoolSession(Session):

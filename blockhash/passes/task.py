@@ -26,7 +26,7 @@ import numpy as np
 
 from blockhash.errors import InputError
 from blockhash.frame.camera_samples import camera_samples, only
-from blockhash.frame.cover_estimate import cover_gather, forget_gathers
+from blockhash.frame.cover_estimate import cover_gather, drop_gather, forget_gathers
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.options import LookupOptions, resolve_method
 from blockhash.frame.shading import SceneRays, direct_light
@@ -90,9 +90,11 @@ class RenderSetup:
     :mod:`blockhash.gl`).  ``traced``: a traced photon map, rendered as pass 0 (one pass)."""
 
     def __init__(self, scene, settings: PassSettings, traced=None):
+        from blockhash.passes.heap import return_large_blocks
         from blockhash.photons.tracing import PhotonSource
         from blockhash.scene.materials import receiver_materials
 
+        return_large_blocks()  # a pass's arrays unmapped when freed, not kept by the heap
         self.scene, self.settings, self.traced = scene, settings, traced
         if traced is None:
             as_int(settings.count, "photons", minimum=1)
@@ -222,7 +224,9 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
     timings: dict = {}
     t0 = time.perf_counter()
     photons, timings["trace"] = traced or trace_pass(setup, p, emitted)
+    traced = None  # the photons are held here alone, and freed once indexed and splatted
     stored = len(photons.positions) if photons is not None else 0
+    shot = photons.emitted if photons is not None else 0
     scale = shrink(p, s.schedule.alpha)
     info: dict = {}
     if p == 0 and photons is not None:
@@ -230,6 +234,7 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
                                 if isinstance(v, (int, float, str))
                                 or k == "specular_objects"}
     built = _index(setup, photons, p, scale, timings, info)
+    photons = None
     t = time.perf_counter()
     points, seen = camera_samples(setup.scene, setup.rays, s.side, p, backend=s.backend)
     timings["gbuffer"] = time.perf_counter() - t
@@ -243,9 +248,8 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
     direct = box_filter(points.gather(direct), s.side)
     timings["total"] = time.perf_counter() - t0
     index, radii = built[0], built[1]
-    return PassContribution(p, direct, caustic, photons.emitted if photons is not None else 0,
-                            stored, scale, timings, info, index, radii, indirect,
-                            indirect_emitted)
+    return PassContribution(p, direct, caustic, shot, stored, scale, timings, info, index, radii,
+                            indirect, indirect_emitted)
 
 
 def _layer(setup: RenderSetup, built, points, seen) -> np.ndarray:
@@ -258,6 +262,7 @@ def _layer(setup: RenderSetup, built, points, seen) -> np.ndarray:
         # Points seen in a mirror or through glass gather every photon: the splat reached
         # only the pixels that see its photons directly.
         image = estimate(setup, whole[0], only(points, ~seen), whole[1])
+        drop_gather(whole[0], setup.settings.k, whole[1])  # used once: freed before the next
         if index is not None:
             image += estimate(setup, index, only(points, seen), radii)
     elif index is not None:

@@ -36,7 +36,7 @@ import numpy as np
 
 from blockhash.photons.directions import frames, sample_cones
 from blockhash.photons.emission import orthonormal_basis
-from blockhash.photons.paths import CausticPhotons, specular_step
+from blockhash.photons.paths import CausticPhotons, compact, joined, specular_step
 from blockhash.scene.optics import choice_uniforms
 from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, surface_hits
 
@@ -113,11 +113,27 @@ class IndirectSource:
         """Photons ``start .. start + count - 1`` shot; those stored at a second or later
         diffuse vertex, powers divided by ``count``."""
         t0 = time.perf_counter()
-        b = self.batch(count, seed=seed, start=start)
-        stats = {"emitted": count, "stored": len(b.positions), **b.counts,
+        chunks, counts = [], {}
+        for got, c in self._batches(count, seed, start):
+            chunks += [compact(*part[:5]) for part in got]  # the map's dtypes, batch by batch
+            counts = {k: counts.get(k, 0) + v for k, v in c.items()}
+        if chunks:
+            pos, dirs, nrm, powers, obj = joined(chunks)
+            powers /= np.float32(count)
+        else:
+            pos = dirs = nrm = powers = np.zeros((0, 3), dtype=np.float32)
+            obj = np.zeros(0, dtype=np.int32)
+        stats = {"emitted": count, "stored": len(pos), **counts,
                  "seconds": time.perf_counter() - t0}
-        return CausticPhotons(b.positions, b.directions, b.normals, b.weights / float(count),
-                              count, stats, b.objects)
+        return CausticPhotons(pos, dirs, nrm, powers, count, stats, obj)
+
+    def _batches(self, count: int, seed: int, start: int):
+        """(stored parts, counts) of each :data:`BATCH` photons of ``start .. start + count
+        - 1``, traced in turn."""
+        for first in range(start, start + count, BATCH):
+            n = min(BATCH, start + count - first)
+            o, d, w = self._emission(seed, first, n)
+            yield self._trace(o, d, w, seed, first)
 
     def batch(self, count: int, *, seed: int, start: int = 0) -> SimpleNamespace:
         """The stored photons of photons ``start .. start + count - 1`` as the light tracer
@@ -127,10 +143,7 @@ class IndirectSource:
         :data:`BATCH` photons at a time (each photon's numbers are its own, so the result does
         not depend on it)."""
         parts, counts = [], {}
-        for first in range(start, start + count, BATCH):
-            n = min(BATCH, start + count - first)
-            o, d, w = self._emission(seed, first, n)
-            got, c = self._trace(o, d, w, seed, first)
+        for got, c in self._batches(count, seed, start):
             parts += got
             counts = {k: counts.get(k, 0) + v for k, v in c.items()}
         if parts:

@@ -24,17 +24,17 @@ class CausticPhotons:
 
     Attributes
     ----------
-    positions : (n, 3) float64
+    positions : (n, 3) float32 (traced maps; float64 where a caller built one so)
         Hit points on the receiving (non-specular) surface, in scene units.
-    directions : (n, 3) float64
+    directions : (n, 3) float32
         Unit direction of travel when the photon arrives (pointing *into* the surface).
-    normals : (n, 3) float64
+    normals : (n, 3) float32
         Unit shading normal of the receiver at the hit (barycentric interpolation of
         the mesh's ``vertex_normals``), flipped together with the geometric normal so
         that it lies on the side the photon came from: ``dot(geometric normal,
         direction) < 0``, and ``dot(normals, directions) < 0`` except where smooth
         shading normals lean past a grazing photon.
-    powers : (n, 3) float64
+    powers : (n, 3) float32
         Flux carried by each photon, watts RGB; ``powers.sum(0)`` estimates the
         caustic flux reaching diffuse surfaces.
     emitted : int
@@ -57,7 +57,7 @@ class CausticPhotons:
     powers: np.ndarray
     emitted: int
     stats: dict = field(default_factory=dict)
-    #: (n,) int64 receiving object of each photon (index into the scene's objects), when the
+    #: (n,) int32 receiving object of each photon (index into the scene's objects), when the
     #: tracer knows it (None for a map built elsewhere).
     objects: np.ndarray | None = None
 
@@ -78,6 +78,33 @@ class CausticPhotons:
         flux = ", ".join(f"{p:.4g}" for p in self.total_power)
         return (f"CausticPhotons(n={len(self):,}, emitted={self.emitted:,}, "
                 f"flux=({flux}) W, stopped_by={self.stats.get('stopped_by')!r})")
+
+
+#: What a traced map keeps of each stored photon (:func:`compact`): float32 position,
+#: direction, normal and power and an int32 object, 52 bytes (the records the index reads
+#: hold 24; float64 would be 104).
+STORED_FLOAT = np.float32
+STORED_OBJECT = np.int32
+
+
+def compact(positions, directions, normals, weights, objects) -> tuple:
+    """One batch's stored photons in the dtypes a map keeps (:data:`STORED_FLOAT`)."""
+    f = STORED_FLOAT
+    return (positions.astype(f), directions.astype(f), normals.astype(f), weights.astype(f),
+            objects.astype(STORED_OBJECT))
+
+
+def joined(chunks: list) -> list:
+    """The columns of ``chunks`` (a list of equal-length tuples of arrays, emptied here), each
+    concatenated, a column's chunks freed as soon as it is joined: the peak is the chunks and
+    one joined column, not twice the map."""
+    columns = list(zip(*chunks))
+    chunks.clear()
+    out = []
+    for i in range(len(columns)):
+        out.append(np.concatenate(columns[i]))
+        columns[i] = None
+    return out
 
 
 # --------------------------------------------------------------------------- tracing

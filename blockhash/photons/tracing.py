@@ -60,6 +60,8 @@ from blockhash.photons.paths import (  # noqa: F401 (the map and its fates, impo
     STORED,
     Batch,
     CausticPhotons,
+    compact,
+    joined,
     trace_batch,
 )
 from blockhash.scene.raycast import EmbreeGeometry
@@ -315,32 +317,33 @@ class _Run:
     def __init__(self, lights: int):
         self.fates = np.zeros(len(FATE_NAMES), dtype=np.int64)
         self.light_counts = np.zeros(lights, dtype=np.int64)
-        self.chunks: list[Batch] = []
+        self.chunks: list[tuple] = []  # each batch's stored photons, compact
         self.stored = self.fallbacks = self.rays = self.batches = self.traced = self.emitted = 0
+        self.max_depth = 0
         self.stopped_by = "cap"
 
     def add(self, batch: Batch, light: np.ndarray) -> None:
         self.fates += np.bincount(batch.fate, minlength=len(FATE_NAMES))
         self.light_counts += np.bincount(light, minlength=len(self.light_counts))
         self.fallbacks += int(batch.fallbacks.sum())
-        self.chunks.append(batch)
+        self.chunks.append(compact(batch.positions, batch.directions, batch.normals,
+                                   batch.weights, batch.objects))
+        if len(batch.depth):
+            self.max_depth = max(self.max_depth, int(batch.depth.max()))
         self.stored += len(batch.stored)
 
     def photons(self, source: PhotonSource, t0: float) -> CausticPhotons:
-        """The stored photons, powers divided by the photons emitted."""
+        """The stored photons, powers divided by the photons emitted (the batches' chunks
+        are joined and freed here: a run makes its map once)."""
         if self.stored == 0:
-            z = np.zeros((0, 3))
+            z = np.zeros((0, 3), dtype=np.float32)
             return CausticPhotons(z, z.copy(), z.copy(), z.copy(), self.emitted,
                                   self._stats(source, 0, t0))
-        chunks = self.chunks
-        powers = np.concatenate([c.weights for c in chunks]) / float(self.emitted)
-        depth = np.concatenate([c.depth for c in chunks])
-        return CausticPhotons(positions=np.concatenate([c.positions for c in chunks]),
-                              directions=np.concatenate([c.directions for c in chunks]),
-                              normals=np.concatenate([c.normals for c in chunks]),
+        positions, directions, normals, powers, objects = joined(self.chunks)
+        powers /= np.float32(self.emitted)
+        return CausticPhotons(positions=positions, directions=directions, normals=normals,
                               powers=powers, emitted=self.emitted,
-                              stats=self._stats(source, int(depth.max()), t0),
-                              objects=np.concatenate([c.objects for c in chunks]).astype(np.int64))
+                              stats=self._stats(source, self.max_depth, t0), objects=objects)
 
     def _stats(self, source: PhotonSource, max_depth: int, t0: float) -> dict:
         fates = self.fates

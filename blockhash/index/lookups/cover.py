@@ -53,7 +53,7 @@ import numpy as np
 
 from blockhash.errors import InputError
 from blockhash.index.lookups.cells import cuckoo_get, cuckoo_slots
-from blockhash.index.records.codec import decode_directions, unpack_records
+from blockhash.index.records.codec import decode_directions
 from blockhash.index.records.octahedral import octahedral_tables
 from blockhash.index.records.radixsort import stable_argsort
 
@@ -151,6 +151,11 @@ def cover_margin(quantizer) -> float:
     return 2.0 * float(np.asarray(quantizer.decode_error).max()) / step + 4096.0
 
 
+#: Records :meth:`CoverGather.build` works on at a time (its working arrays stay a few tens
+#: of MiB whatever the map's size).
+BUILD_ROWS = 1 << 17
+
+
 @dataclass(frozen=True)
 class CoverGather:
     """The cover gather of one photon map (module docstring).
@@ -210,37 +215,47 @@ class CoverGather:
             raise InputError(f"{len(sides)} octaves > {MAX_OCTAVES} that the cover shader holds")
         q = index.quantizer
         slot_r2 = r2[index.order]                         # in record (Hilbert) order
-        keep = np.isfinite(slot_r2)
-        rec = index.records.records[keep]
-        h_codes = np.sqrt(slot_r2[keep]) / float(np.asarray(q.step, np.float64).max())
-        need = 2.0 * (h_codes * (1.0 + 2.0**-20) + cover_margin(q))
-        octave = np.minimum(np.searchsorted(sides, need, side="left"), len(sides) - 1)
+        kept = np.flatnonzero(np.isfinite(slot_r2))
         halves = octave_halves(sides)
         fines = octave_fine(halves, fine)
-        _, dcodes, ncodes, _ = unpack_records(rec)
         if axis is None:
-            axis = fine_axis(decode_directions(ncodes))
+            axis = fine_axis(decode_directions((index.records.records[kept, 3] >> 16)
+                                               .astype(np.uint16)))
         elif axis not in (0, 1, 2):
             raise InputError(f"axis={axis!r} must be 0, 1 or 2 (x, y or z), or None to choose")
-        codes = rec[:, list(axis_order(axis))].astype(np.int64)
-        cell = np.stack([codes[:, 0] // sides[octave], codes[:, 1] // sides[octave],
-                         codes[:, 2] // fines[octave]], axis=1)
-        # One 63-bit key per record, its cell's, sorted stably: the Hilbert order stays within
-        # each cell (a radix sort, 6x faster than np.lexsort), and the fine cells of a column
-        # follow one another.
-        key = window_key64.py_func(octave, cell[:, 0], cell[:, 1], cell[:, 2])
+        # Each record's octave and its cell's 63-bit key, BUILD_ROWS records at a time; the
+        # keys sorted stably: the Hilbert order stays within each cell (a radix sort, 6x
+        # faster than np.lexsort), and the fine cells of a column follow one another.
+        m = len(kept)
+        octave = np.empty(m, dtype=np.int64)
+        key = np.empty(m, dtype=np.uint64)
+        step = float(np.asarray(q.step, np.float64).max())
+        margin = cover_margin(q)
+        for a in range(0, m, BUILD_ROWS):
+            rows = slice(a, min(m, a + BUILD_ROWS))
+            rec = index.records.records[kept[rows]]
+            h_codes = np.sqrt(slot_r2[kept[rows]]) / step
+            need = 2.0 * (h_codes * (1.0 + 2.0**-20) + margin)
+            o = np.minimum(np.searchsorted(sides, need, side="left"), len(sides) - 1)
+            codes = rec[:, list(axis_order(axis))].astype(np.int64)
+            octave[rows] = o
+            key[rows] = window_key64.py_func(o, codes[:, 0] // sides[o], codes[:, 1] // sides[o],
+                                             codes[:, 2] // fines[o])
         order = stable_argsort(key)
-        rec, octave, key = rec[order], octave[order], key[order]
-        dcodes, ncodes = dcodes[order], ncodes[order]
-        photon = index.order[np.flatnonzero(keep)[order]]
-        m = len(rec)
+        key, octave = key[order], octave[order]
+        kept = kept[order]
+        del order
+        photon = index.order[kept]
         records = np.zeros((m, RECORD_WORDS), dtype=np.uint32)
-        records[:, :3] = q.decode(rec[:, :3]).view(np.uint32)
-        records[:, 3] = slot_r2[keep][order].astype(np.float32).view(np.uint32)
         toward, normal = octahedral_tables()
-        records[:, 4] = toward[dcodes]
-        records[:, 5] = normal[ncodes]
-        records[:, 6:8] = rec[:, 4:6]
+        for a in range(0, m, BUILD_ROWS):
+            rows = slice(a, min(m, a + BUILD_ROWS))
+            rec = index.records.records[kept[rows]]
+            records[rows, :3] = q.decode(rec[:, :3]).view(np.uint32)
+            records[rows, 3] = slot_r2[kept[rows]].astype(np.float32).view(np.uint32)
+            records[rows, 4] = toward[rec[:, 3] & 0xFFFF]
+            records[rows, 5] = normal[rec[:, 3] >> 16]
+            records[rows, 6:8] = rec[:, 4:6]
         entries, max_count = _windows(key, len(sides), int(fine))
         slots, buckets = cuckoo_slots(entries, "cover gather's window table")
         return cls(records=records, photon=photon.astype(np.int64), octave=octave, slots=slots,

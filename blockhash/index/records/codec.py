@@ -38,6 +38,9 @@ from blockhash.validate import as_points
 
 #: 32-bit words per photon record (Figure 4): x, y, z, d|n, c1|c2, c3|c4.
 WORDS_PER_PHOTON = 6
+#: Photons :meth:`PhotonRecords.encode` encodes at a time (its float64 working arrays, some
+#: 150 bytes a photon, stay a few tens of MiB whatever the map's size).
+ENCODE_ROWS = 1 << 17
 #: theta in [0, pi] and phi in [0, 2 pi) get one byte each (Jensen's polar code).
 THETA_STEP = np.pi / 256
 PHI_STEP = 2 * np.pi / 256
@@ -54,6 +57,11 @@ _THETA_C = (np.arange(256) + 0.5) * THETA_STEP
 _PHI_C = (np.arange(256) + 0.5) * PHI_STEP
 _SIN_T, _COS_T = np.sin(_THETA_C), np.cos(_THETA_C)
 _SIN_P, _COS_P = np.sin(_PHI_C), np.cos(_PHI_C)
+
+
+def _float_dtype(value):
+    """float32 for float32 input (kept, not copied to float64), else float64."""
+    return np.float32 if getattr(value, "dtype", None) == np.float32 else np.float64
 
 
 def _unit_vectors(value, name: str) -> np.ndarray:
@@ -176,13 +184,7 @@ def encode_powers(powers, *, scale=None) -> tuple[np.ndarray, float]:
     if p.shape[1] == 3:
         p = np.concatenate([p, np.zeros((len(p), 1))], axis=1)
     peak = float(np.abs(p).max()) if p.size else 0.0
-    if scale is None:
-        scale = 1.0 if peak == 0.0 else float(2.0 ** np.floor(np.log2(peak)))
-        if not SCALE_MIN <= scale <= SCALE_MAX:
-            raise InputError(f"powers peak at {peak:.6g} W, outside float32's normal range "
-                             f"[{SCALE_MIN:.3g}, {SCALE_MAX:.3g}] that the shader decodes in; "
-                             "express the powers in other units")
-    scale = _check_scale(scale)
+    scale = _check_scale(_derived_scale(peak) if scale is None else scale)
     with np.errstate(over="ignore"):
         half = (p / scale).astype(np.float16)
     if np.isinf(half).any():
@@ -190,6 +192,16 @@ def encode_powers(powers, *, scale=None) -> tuple[np.ndarray, float]:
                          f"(max {FLOAT16_MAX:g}); use scale >= {peak / FLOAT16_MAX:.6g} "
                          "or scale=None")
     return half.view(np.uint16), scale
+
+
+def _derived_scale(peak: float) -> float:
+    """The power of two with ``peak / scale`` in [1, 2) (1.0 for a peak of 0)."""
+    scale = 1.0 if peak == 0.0 else float(2.0 ** np.floor(np.log2(peak)))
+    if not SCALE_MIN <= scale <= SCALE_MAX:
+        raise InputError(f"powers peak at {peak:.6g} W, outside float32's normal range "
+                         f"[{SCALE_MIN:.3g}, {SCALE_MAX:.3g}] that the shader decodes in; "
+                         "express the powers in other units")
+    return scale
 
 
 def decode_powers(bits, scale, *, dtype=np.float32) -> np.ndarray:
@@ -290,6 +302,11 @@ class PhotonRecords:
         powers : (n, 3) or (n, 4) float, optional
             Watts per channel; default 1 W in each of R, G, B and 0 in c4.
         """
+        if len(positions) > ENCODE_ROWS:
+            try:  # float64 working arrays of ENCODE_ROWS photons at a time
+                return cls._encode_rows(positions, directions, normals, powers)
+            except InputError:
+                pass  # the whole arrays' checks below name the offending row
         p = as_points(positions, "positions", dtype=np.float64)
         if len(p) == 0:
             raise InputError("positions has shape (0, 3); a photon map needs at least one photon")
@@ -319,6 +336,42 @@ class PhotonRecords:
             bits, scale = encode_powers(given["powers"])
         quantizer = Quantizer.for_points(p)
         rec = pack_records(quantizer.encode(p), d_codes, n_codes, bits)
+        return cls._own(rec, quantizer, scale)
+
+    @classmethod
+    def _encode_rows(cls, positions, directions, normals, powers) -> "PhotonRecords":
+        """:meth:`encode`, :data:`ENCODE_ROWS` photons at a time, into one array of records:
+        the same records (every field is encoded photon by photon, with the quantizer and
+        power scale of all photons).  Raises InputError on any bad input, which
+        :meth:`encode` then reports as its whole-array checks do."""
+        p = as_points(positions, "positions", dtype=_float_dtype(positions))
+        n = len(p)
+        for name, value in (("directions", directions), ("normals", normals), ("powers", powers)):
+            if value is not None and len(value) != n:
+                raise InputError(f"{name}: one row per photon")
+        quantizer = Quantizer.for_points(p)
+        scale = 1.0
+        if powers is not None:
+            raw = np.asarray(powers)
+            if raw.dtype.kind not in "fiu" or raw.ndim != 2 or raw.shape[1] not in (3, 4):
+                raise InputError("powers: (n, 3) or (n, 4) reals")
+            scale = _derived_scale(float(np.abs(raw).max()))
+        rec = np.empty((n, WORDS_PER_PHOTON), dtype=np.uint32)
+
+        def codes(value, name, default, rows):
+            if value is None:
+                return np.full(rows.stop - rows.start,
+                               _polar_codes(np.array([default], dtype=np.float64))[0])
+            return _polar_codes(_unit_vectors(value[rows], name))
+
+        one = encode_powers(np.ones((1, 3)))[0]
+        for a in range(0, n, ENCODE_ROWS):
+            rows = slice(a, min(n, a + ENCODE_ROWS))
+            bits = (np.broadcast_to(one, (rows.stop - a, 4)) if powers is None
+                    else encode_powers(powers[rows], scale=scale)[0])
+            rec[rows] = pack_records(quantizer.encode(p[rows]),
+                                     codes(directions, "directions", [0.0, -1.0, 0.0], rows),
+                                     codes(normals, "normals", [0.0, 1.0, 0.0], rows), bits)
         return cls._own(rec, quantizer, scale)
 
     @classmethod

@@ -64,10 +64,12 @@ class Quantizer:
     @classmethod
     def for_points(cls, positions) -> "Quantizer":
         """The quantizer of the padded bounding box of ``positions`` ((n, 3), n >= 1)."""
-        p = as_points(positions, "positions", dtype=np.float64)
+        # float32 positions are read as they are (their bounds are exact in float64)
+        p = as_points(positions, "positions", dtype=np.float32 if getattr(
+            positions, "dtype", None) == np.float32 else np.float64)
         if len(p) == 0:
             raise InputError("positions is empty; a photon map needs at least one photon")
-        lo, hi = _bounds(p)
+        lo, hi = (b.astype(np.float64) for b in _bounds(p))
         extent = hi - lo
         # A degenerate axis (all photons on one plane) still gets a box of non-zero
         # size, scaled to the largest extent so that the step stays meaningful.
