@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from blockhash.photons.bounce import bounce
 from blockhash.scene.optics import choice_uniforms, scatter
 from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, reflect, surface_hits
 
@@ -151,47 +152,41 @@ def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int, 
     zero = ~np.any(weights > 0.0, axis=1)
     fate[zero] = OUTSIDE_SPOT
     idx = np.flatnonzero(~zero)
-    o, d, w = origins[idx], dirs[idx], weights[idx]
-    choices = choice_uniforms(seed, start, n) if geom.is_dielectric.any() else None
+    d = np.ascontiguousarray(dirs[idx], dtype=np.float64)
+    w = np.ascontiguousarray(weights[idx], dtype=np.float64)
+    choices = (choice_uniforms(seed, start, n) if geom.is_dielectric.any()
+               else np.zeros((1, 1)))
     events = np.zeros(n, dtype=np.int64)  # dielectric events so far, per photon
     parts = []
     rays = 0
     offset = RAY_OFFSET * geom.scale
     # Start at the offset along the ray, as after a bounce: a light lying on a surface (a
     # lamp on the floor) would otherwise hit that surface at t = 0 with every photon.
-    o = o + d * offset
-    for bounce in range(max_bounces + 1):
-        if idx.size == 0:
+    o = origins[idx] + d * offset
+    tables = (geom.triangles, geom.vertex_normals, geom.face_normals, geom.face_object,
+              geom.is_specular, geom.is_dielectric, geom.one_sided, geom.reflectance, geom.ior,
+              geom.tint)
+    for b in range(max_bounces + 1):
+        live = idx.size
+        if live == 0:
             break
-        rays += idx.size
+        rays += live
         hit, face, u, v = geom.intersect(o, d)
-        fate[idx[~hit]] = MISSED if bounce == 0 else ESCAPED
-        idx, d, w = idx[hit], d[hit], w[hit]
-        spec = geom.is_specular[geom.face_object[face]]
-        diffuse = ~spec
-        if bounce == 0:
-            fate[idx[diffuse]] = DIRECT  # direct light: the renderer's shadow rays do it
-        elif diffuse.any():
-            back = diffuse & geom.one_sided[geom.face_object[face]]
-            if back.any():  # a one-sided receiver met from behind reflects nothing
-                back[back] = ~entering(geom, face[back], d[back])
-                fate[idx[back]] = ABSORBED
-                diffuse &= ~back
-            fate[idx[diffuse]] = STORED
-            p, ns, ng = surface_hits(geom, face[diffuse], u[diffuse], v[diffuse], d[diffuse])
-            parts.append((idx[diffuse], p, d[diffuse], ns, w[diffuse],
-                          np.full(len(p), bounce, dtype=np.uint8),
-                          geom.face_object[face[diffuse]], ng))
-        if bounce == max_bounces:
-            fate[idx[spec]] = MAX_BOUNCES
-            break
-        absorbed, (idx, d, w, p, ng, side) = specular_step(
-            geom, idx[spec], d[spec], w[spec], face[spec], u[spec], v[spec], choices, events,
-            fallbacks)
-        fate[absorbed] = ABSORBED
-        o = p + ng * (side * offset)[:, None]
+        stored = (np.empty(live, dtype=np.int64), np.empty((live, 3)), np.empty((live, 3)),
+                  np.empty((live, 3)), np.empty((live, 3)), np.empty(live, dtype=np.int64),
+                  np.empty((live, 3)))
+        o = np.empty((live, 3))
+        going, kept = bounce(b == 0, b == max_bounces, idx, d, w, hit, face, u, v, *tables,
+                             choices, events, fallbacks, fate, offset, o, *stored)
+        if kept:
+            s_idx, s_p, s_d, s_n, s_w, s_obj, s_ng = (a[:kept] for a in stored)
+            parts.append((s_idx, s_p, s_d, s_n, s_w, np.full(kept, b, dtype=np.uint8), s_obj,
+                          s_ng))
+        idx, d, w, o = idx[:going], d[:going], w[:going], o[:going]
 
-    if parts:
+    if len(parts) == 1:  # each bounce's photons are in photon order already
+        s_idx, s_p, s_d, s_n, s_w, s_depth, s_obj, s_ng = parts[0]
+    elif parts:
         cat = [np.concatenate(a) for a in zip(*parts)]
         order = np.argsort(cat[0], kind="stable")
         s_idx, s_p, s_d, s_n, s_w, s_depth, s_obj, s_ng = (a[order] for a in cat)

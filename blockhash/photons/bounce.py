@@ -1,0 +1,159 @@
+"""What a caustic photon does at its hit, compiled: one pass over a bounce's rays after the
+ray cast (:func:`bounce`), for :func:`blockhash.photons.paths.trace_batch`.
+
+Per ray: a miss escapes; a diffuse hit is direct light on the first bounce, absorbed on a
+one-sided receiver's back face, else stored; a mirror reflects (its reflectance on the
+weight; about the geometric normal where the shading normal sends the ray into the
+surface); glass reflects or refracts with the Fresnel probability (:mod:`blockhash.scene.optics`,
+the same formulas, scalar); a ray whose weight falls to 0 is absorbed.  The rays that go on
+are written, in order, to the front of the next bounce's arrays: no boolean mask, fancy
+index or temporary array per step, which the numpy version spent as much time on as embree
+on its rays (BENCHMARKS.md, "What a photon costs").
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+# Photon fates (blockhash.photons.paths)
+STORED, OUTSIDE_SPOT, MISSED, DIRECT, ESCAPED, ABSORBED, MAX_BOUNCES = range(7)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _reflect(d0, d1, d2, n0, n1, n2):
+    k = 2.0 * ((d0 * n0 + d1 * n1) + d2 * n2)
+    return d0 - k * n0, d1 - k * n1, d2 - k * n2
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _fresnel(cos_i, eta):
+    cos_i = min(max(cos_i, 0.0), 1.0)
+    sin2_t = eta * eta * (1.0 - cos_i * cos_i)
+    if sin2_t >= 1.0:
+        return 1.0
+    cos_t = np.sqrt(max(1.0 - sin2_t, 0.0))
+    a = eta * cos_i + cos_t
+    b = cos_i + eta * cos_t
+    if a == 0.0 or b == 0.0:
+        return 1.0
+    rs = (eta * cos_i - cos_t) / a
+    rp = (cos_i - eta * cos_t) / b
+    return 0.5 * (rs * rs + rp * rp)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _refract(d0, d1, d2, n0, n1, n2, eta):
+    """(t0, t1, t2, total internal reflection)."""
+    cos_i = min(max(-((d0 * n0 + d1 * n1) + d2 * n2), 0.0), 1.0)
+    sin2_t = eta * eta * (1.0 - cos_i * cos_i)
+    cos_t = np.sqrt(max(1.0 - sin2_t, 0.0))
+    k = eta * cos_i - cos_t
+    t0, t1, t2 = eta * d0 + k * n0, eta * d1 + k * n1, eta * d2 + k * n2
+    length = max(np.sqrt((t0 * t0 + t1 * t1) + t2 * t2), 1e-300)
+    return t0 / length, t1 / length, t2 / length, sin2_t >= 1.0
+
+
+@numba.njit(cache=True, nogil=True)
+def bounce(first, last, idx, d, w, hit, face, u, v, tri, vn, fn, face_object, specular,
+           dielectric, one_sided, reflectance, ior, tint, choices, events, fallbacks, fate,
+           offset, o_next, s_idx, s_p, s_d, s_n, s_w, s_obj, s_ng):
+    """One bounce of rays ``idx`` (photon numbers in the batch) along ``d`` with weights
+    ``w``: ``hit`` (n,) their ray cast's hits, ``face``, ``u``, ``v`` those of the hit rays,
+    in order.  ``first``: the light's own rays (a diffuse hit is direct light); ``last``: the
+    last bounce (a specular hit exceeds max_bounces).  Writes ``fate``, ``fallbacks``,
+    ``events``; the stored photons to ``s_*`` (from 0); the rays that go on over the front of
+    ``idx``, ``d``, ``w`` and their new origins to ``o_next``.  Returns (rays going on,
+    photons stored)."""
+    n_next = 0
+    n_stored = 0
+    j = -1
+    cols = choices.shape[1]
+    for i in range(idx.shape[0]):
+        pid = idx[i]
+        if not hit[i]:
+            fate[pid] = MISSED if first else ESCAPED
+            continue
+        j += 1
+        f = face[j]
+        obj = face_object[f]
+        d0, d1, d2 = d[i, 0], d[i, 1], d[i, 2]
+        if not specular[obj] and first:
+            fate[pid] = DIRECT  # direct light: the renderer's shadow rays do it
+            continue
+        # the hit point and normals (blockhash.scene.raycast.surface_hits)
+        b0, b1, b2 = 1.0 - u[j] - v[j], u[j], v[j]
+        g0, g1, g2 = fn[f, 0], fn[f, 1], fn[f, 2]
+        outer = (d0 * g0 + d1 * g1) + d2 * g2 < 0.0  # met from the face's outer side
+        s = -1.0 if (d0 * g0 + d1 * g1) + d2 * g2 > 0.0 else 1.0
+        p0 = (b0 * tri[f, 0, 0] + b1 * tri[f, 1, 0]) + b2 * tri[f, 2, 0]
+        p1 = (b0 * tri[f, 0, 1] + b1 * tri[f, 1, 1]) + b2 * tri[f, 2, 1]
+        p2 = (b0 * tri[f, 0, 2] + b1 * tri[f, 1, 2]) + b2 * tri[f, 2, 2]
+        n0 = (b0 * vn[f, 0, 0] + b1 * vn[f, 1, 0]) + b2 * vn[f, 2, 0]
+        n1 = (b0 * vn[f, 0, 1] + b1 * vn[f, 1, 1]) + b2 * vn[f, 2, 1]
+        n2 = (b0 * vn[f, 0, 2] + b1 * vn[f, 1, 2]) + b2 * vn[f, 2, 2]
+        length = np.sqrt((n0 * n0 + n1 * n1) + n2 * n2)
+        if length < 1e-12:
+            n0, n1, n2, length = g0, g1, g2, 1.0
+        k = s / length
+        n0, n1, n2 = n0 * k, n1 * k, n2 * k
+        g0, g1, g2 = g0 * s, g1 * s, g2 * s
+        if not specular[obj]:
+            if one_sided[obj] and not outer:
+                fate[pid] = ABSORBED  # a one-sided receiver met from behind reflects nothing
+                continue
+            fate[pid] = STORED
+            s_idx[n_stored] = pid
+            s_p[n_stored, 0], s_p[n_stored, 1], s_p[n_stored, 2] = p0, p1, p2
+            s_d[n_stored, 0], s_d[n_stored, 1], s_d[n_stored, 2] = d0, d1, d2
+            s_n[n_stored, 0], s_n[n_stored, 1], s_n[n_stored, 2] = n0, n1, n2
+            s_ng[n_stored, 0], s_ng[n_stored, 1], s_ng[n_stored, 2] = g0, g1, g2
+            for c in range(3):
+                s_w[n_stored, c] = w[i, c]
+            s_obj[n_stored] = obj
+            n_stored += 1
+            continue
+        if last:
+            fate[pid] = MAX_BOUNCES
+            continue
+        w0, w1, w2 = w[i, 0], w[i, 1], w[i, 2]
+        side = 1.0  # +1: leave on the incoming side, -1: pass through
+        if not dielectric[obj]:
+            w0, w1, w2 = (w0 * reflectance[obj, 0], w1 * reflectance[obj, 1],
+                          w2 * reflectance[obj, 2])
+            r0, r1, r2 = _reflect(d0, d1, d2, n0, n1, n2)
+            if (r0 * g0 + r1 * g1) + r2 * g2 <= 0.0:  # the shading normal sent it in
+                r0, r1, r2 = _reflect(d0, d1, d2, g0, g1, g2)
+                fallbacks[pid] += 1
+        else:
+            uc = choices[pid, events[pid] % cols]
+            events[pid] += 1
+            eta = 1.0 / ior[obj] if outer else ior[obj]
+            through = uc >= _fresnel(-((d0 * n0 + d1 * n1) + d2 * n2), eta)
+            r0, r1, r2 = _reflect(d0, d1, d2, n0, n1, n2)
+            if through:
+                t0, t1, t2, tir = _refract(d0, d1, d2, n0, n1, n2, eta)
+                if (t0 * g0 + t1 * g1) + t2 * g2 >= 0.0:  # wrong side: about the geometric one
+                    t0, t1, t2, tir = _refract(d0, d1, d2, g0, g1, g2, eta)
+                if tir:
+                    through = False
+                else:
+                    r0, r1, r2 = t0, t1, t2
+            if not through and (r0 * g0 + r1 * g1) + r2 * g2 <= 0.0:
+                r0, r1, r2 = _reflect(d0, d1, d2, g0, g1, g2)
+            if through:
+                w0, w1, w2 = w0 * tint[obj, 0], w1 * tint[obj, 1], w2 * tint[obj, 2]
+                side = -1.0
+        if not (w0 > 0.0 or w1 > 0.0 or w2 > 0.0):
+            fate[pid] = ABSORBED
+            continue
+        length = np.sqrt((r0 * r0 + r1 * r1) + r2 * r2)
+        idx[n_next] = pid
+        d[n_next, 0], d[n_next, 1], d[n_next, 2] = r0 / length, r1 / length, r2 / length
+        w[n_next, 0], w[n_next, 1], w[n_next, 2] = w0, w1, w2
+        t = side * offset
+        o_next[n_next, 0] = p0 + g0 * t
+        o_next[n_next, 1] = p1 + g1 * t
+        o_next[n_next, 2] = p2 + g2 * t
+        n_next += 1
+    return n_next, n_stored
