@@ -149,6 +149,17 @@ def test_pass_memory_writes_the_peaks_of_each_pass_count(tmp_path):
 
 
 @pytest.mark.gl
+def test_pass_memory_gives_the_bytes_a_stored_photon_between_photon_counts(tmp_path):
+    text = run_tool("pass_memory.py", ["--photons", "2000,6000", "--passes", "1",
+                                       "--size", "24", "--overlap", "off"], tmp_path)
+    assert [r[2] for r in table_rows(text, "default")[:2]] == ["2,000", "6,000"]
+    slope = [line for line in text.splitlines() if "2,000 -> 6,000" in line]
+    assert len(slope) == 1 and "(1 in flight)" in text
+    per_photon = float(slope[0].split("|")[4])
+    assert -10_000 < per_photon < 10_000  # bytes: 4,000 photons move the peak by little
+
+
+@pytest.mark.gl
 def test_light_kinds_measures_each_kind_and_holds_two_to_mitsuba(tmp_path, needs_mitsuba):
     out = tmp_path / "lights.json"
     text = run_tool("light_kinds.py", ["--photons", "5000", "--size", "24", "--passes", "2",

@@ -8,7 +8,12 @@ peak should not grow with the passes.  ``--marks`` prints the peak after those p
 (in this process only); ``--env NAME=VALUE`` runs every count again under that environment
 (e.g. glibc's ``MALLOC_MMAP_THRESHOLD_``), beside the plain one.
 
-usage: python tools/pass_memory.py [--scene scenes/ring.toml] [--photons 1000000]
+Several ``--photons`` counts give the slope: the peak's growth between two counts over the
+growth of the photons stored a pass, in bytes a stored photon (of the process, or of the
+largest worker with ``--workers``); the passes in flight in one process are 2 with the next
+pass traced ahead (``--overlap on``, the default) and 1 without.
+
+usage: python tools/pass_memory.py [--scene scenes/ring.toml] [--photons 20000,1000000,3000000]
                                    [--passes 2,100] [--size 512] [--marks 1,5,10]
                                    [--method auto|cpu] [--workers 0|N]
                                    [--env MALLOC_MMAP_THRESHOLD_=131072 ...]
@@ -45,9 +50,9 @@ print(json.dumps({"passes": r.passes, "seconds": time.perf_counter() - t,
 """
 
 
-def run(args, n: int, env: dict) -> dict:
+def run(args, photons: int, n: int, env: dict) -> dict:
     out = subprocess.run([sys.executable, "-c", CHILD, str(args.scene), str(args.size),
-                          str(args.photons), str(n), ",".join(map(str, args.marks)), args.method,
+                          str(photons), str(n), ",".join(map(str, args.marks)), args.method,
                           str(args.workers), args.overlap],
                          capture_output=True, text=True, check=True, env={**os.environ, **env})
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -56,7 +61,7 @@ def run(args, n: int, env: dict) -> dict:
 def main(argv=None):
     p = ToolParser(__doc__, __file__)
     p.scenes("scenes/ring.toml", many=False)
-    p.photons(1_000_000, help="photons per pass")
+    p.photons([1_000_000], many=True, help="photons per pass (several: the slope between them)")
     p.add_argument("--passes", type=listing(count), default=[2, 100],
                    help="pass counts, each a render of its own (default 2,100)")
     p.size(512)
@@ -77,15 +82,29 @@ def main(argv=None):
     print(f"| environment | passes | photons per pass | peak RSS (MiB), {where} | against the first "
           f"count | largest worker's peak (MiB) | peaks after passes {shown} (MiB) | "
           "s per pass |\n" + "| --- " * 8 + "|")
+    key = "worker_peak_mib" if args.workers else "peak_mib"
+    slopes = []
     for name, env in settings:
-        rows = [run(args, n, env) for n in args.passes]
-        key = "worker_peak_mib" if args.workers else "peak_mib"
-        for r in rows:
-            marks = ", ".join(f"{v:.0f}" for v in r["peaks_at"].values()) or "-"
-            worker = f"{r['worker_peak_mib']:.0f}" if args.workers else "-"
-            print(f"| {name} | {r['passes']} | {args.photons:,} | {r['peak_mib']:.0f} | "
-                  f"{r[key] / rows[0][key]:.3f} | {worker} | {marks} | "
-                  f"{r['seconds'] / r['passes']:.2f} |", flush=True)
+        firsts = []
+        for photons in args.photons:
+            rows = [run(args, photons, n, env) for n in args.passes]
+            firsts.append(rows[0])
+            for r in rows:
+                marks = ", ".join(f"{v:.0f}" for v in r["peaks_at"].values()) or "-"
+                worker = f"{r['worker_peak_mib']:.0f}" if args.workers else "-"
+                print(f"| {name} | {r['passes']} | {photons:,} | {r['peak_mib']:.0f} | "
+                      f"{r[key] / rows[0][key]:.3f} | {worker} | {marks} | "
+                      f"{r['seconds'] / r['passes']:.2f} |", flush=True)
+        for a, b in zip(firsts, firsts[1:]):
+            grown = (b["stored"] / b["passes"] - a["stored"] / a["passes"])
+            slopes.append((name, a, b, (b[key] - a[key]) * 2**20 / grown))
+    if slopes:
+        flight = 1 if args.workers or args.overlap == "off" else 2
+        print(f"\n| environment | passes | photons stored a pass | bytes a stored photon | "
+              f"a pass in flight ({flight} in flight) |\n" + "| --- " * 5 + "|")
+        for name, a, b, slope in slopes:
+            print(f"| {name} | {a['passes']} | {a['stored'] / a['passes']:,.0f} -> "
+                  f"{b['stored'] / b['passes']:,.0f} | {slope:.0f} | {slope / flight:.0f} |")
     return 0
 
 

@@ -37,8 +37,8 @@ def frames(axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def sample_cones(axes, t1, t2, cos_half, u1, u2) -> np.ndarray:
     """(n, 3) directions uniform in solid angle inside per-photon cones.
 
-    ``axes``, ``t1``, ``t2`` are (n, 3) orthonormal frames, ``cos_half`` (n,),
-    ``u1``, ``u2`` (n,) uniforms in [0, 1).
+    ``axes``, ``t1``, ``t2`` are (n, 3) orthonormal frames, ``cos_half`` (n,) (or one frame
+    and half-angle for all, (1, 3) and (1,)), ``u1``, ``u2`` (n,) uniforms in [0, 1).
     """
     cos_t = 1.0 - u1 * (1.0 - cos_half)
     sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t * cos_t))

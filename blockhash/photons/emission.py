@@ -276,7 +276,10 @@ class Emitter:
         t2 = np.array([c.t2 for c in self.cones])
         cos_h = np.array([c.cos_half for c in self.cones])
         u1, u2 = self._cells(k, u)
-        dirs = sample_cones(axes[k], t1[k], t2[k], cos_h[k], u1, u2)
+        if len(self.cones) == 1:  # one cone: its frame broadcast, not gathered per photon
+            dirs = sample_cones(axes, t1, t2, cos_h, u1, u2)
+        else:
+            dirs = sample_cones(axes[k], t1[k], t2[k], cos_h[k], u1, u2)
         light = np.array([c.light for c in self.cones], dtype=np.int64)[k]
         origins = np.array(self.positions)[light]
         # mixture density q(w) = sum over cones c whose live cells hold w of
