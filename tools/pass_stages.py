@@ -9,9 +9,12 @@ G-buffer + direct, caustic), photons stored per second of tracing, and stored ph
 second end to end (stored photons over the pass's total), with this checkout's ratio to the
 baseline's on the line below each baseline row.
 
+``--indirect off`` leaves the indirect layer out (a baseline from before it had none), so
+that both sides do the same work on scenes whose diffuse surfaces light one another.
+
 usage: python tools/pass_stages.py --baseline /tmp/blockhash-6c34444
            [--scenes ring,venus,glass,corner] [--sizes 256,512] [--photons 200000,1000000]
-           [--warm 1] [--passes 3] [--json docs/pass-stages.json]
+           [--warm 1] [--passes 3] [--indirect on|off] [--json docs/pass-stages.json]
 """
 
 import json
@@ -30,9 +33,12 @@ STAGES = ("trace", "index", "photon radii", "pixel splat", "cover gather", "gbuf
 CHILD = r"""
 import json, sys
 import blockhash
-scene_path, size, photons, warm, passes = sys.argv[1:6]
+scene_path, size, photons, warm, passes, indirect = sys.argv[1:7]
 scene = blockhash.load_scene(scene_path).with_size(int(size), int(size))
-r = blockhash.Renderer(scene, photons=int(photons))
+try:
+    r = blockhash.Renderer(scene, photons=int(photons), indirect=indirect == "on")
+except TypeError:  # a baseline from before the indirect layer
+    r = blockhash.Renderer(scene, photons=int(photons))
 rows = []
 def keep(s):
     if len(rows) + int(warm) < r.passes:
@@ -50,10 +56,11 @@ else:
 print(json.dumps(rows))
 """
 
-def run(checkout: Path, scene: str, size: int, photons: int, warm: int, passes: int) -> dict:
+def run(checkout: Path, scene: str, size: int, photons: int, warm: int, passes: int,
+        indirect: str = "on") -> dict:
     env = {**os.environ, "PYTHONPATH": str(Path(checkout).resolve())}
     proc = subprocess.run([sys.executable, "-c", CHILD, scene, str(size), str(photons), str(warm),
-                           str(passes)], capture_output=True, text=True, env=env,
+                           str(passes), indirect], capture_output=True, text=True, env=env,
                           cwd=tempfile.gettempdir())
     if proc.returncode:
         raise SystemExit(f"{checkout} on {scene} failed:\n{proc.stderr[-3000:]}")
@@ -76,6 +83,8 @@ def main(argv=None):
     p.photons([200_000, 1_000_000], many=True, help="photons per pass")
     p.add_argument("--warm", type=int, default=1, help="passes left out first (default 1)")
     p.add_argument("--passes", type=count, default=3, help="passes averaged (default 3)")
+    p.add_argument("--indirect", choices=("on", "off"), default="on", help="the indirect layer "
+                   "where the scene has it (on, the default) or left out")
     p.json_output()
     args = p.parse_args(argv)
     cols = ("trace", "index", "photon radii", "pixel splat", "cover gather", "gbuffer + direct",
@@ -90,7 +99,8 @@ def main(argv=None):
             for photons in args.photons:
                 res = {}
                 for label, checkout in (("baseline", args.baseline), ("this", ROOT)):
-                    res[label] = run(checkout, scene, size, photons, args.warm, args.passes)
+                    res[label] = run(checkout, scene, size, photons, args.warm, args.passes,
+                                     args.indirect)
                     s = res[label]["seconds"]
                     vals = (s["trace"], s["index"], s["photon radii"], s["pixel splat"],
                             s["cover gather"], s["gbuffer"] + s["direct"], s["caustic"])

@@ -193,7 +193,6 @@ class BlockHashIndex:
         self.records = PhotonRecords._own(sorted_records, records.quantizer, records.power_scale)
         self.quantizer = records.quantizer
         del records, codes, leaves, pos  # the input order's records go before the positions come
-        self._positions = self.quantizer.decode(np.ascontiguousarray(sorted_records[:, :3]))
         self._cells = None
         self.counters: dict[str, float] = {}
         timings["total"] = time.perf_counter() - t0
@@ -208,6 +207,10 @@ class BlockHashIndex:
                               "stats"})
 
     def __getattr__(self, name):
+        if name == "_positions":  # (n, 3) float32 decoded positions in Hilbert order, on use
+            # (the cover gather decodes its records itself: a render's index never holds them)
+            self._positions = self.quantizer.decode(np.ascontiguousarray(self.records.records[:, :3]))
+            return self._positions
         if name in BlockHashIndex._TABLE_ATTRS and not self.__dict__.get("_tables_built", True):
             self._build_tables()
             return getattr(self, name)

@@ -261,10 +261,13 @@ def _layer(setup: RenderSetup, built, points, seen) -> np.ndarray:
     if splat is not None and not seen.all():
         # Points seen in a mirror or through glass gather every photon: the splat reached
         # only the pixels that see its photons directly.
-        image = estimate(setup, whole[0], only(points, ~seen), whole[1])
-        drop_gather(whole[0], setup.settings.k, whole[1])  # used once: freed before the next
+        # Each gather is used once here and let go before the next is built, so that the
+        # two are never held together.
         if index is not None:
-            image += estimate(setup, index, only(points, seen), radii)
+            image = estimate(setup, index, only(points, seen), radii)
+            drop_gather(index, setup.settings.k, radii)
+        image += estimate(setup, whole[0], only(points, ~seen), whole[1])
+        drop_gather(whole[0], setup.settings.k, whole[1])
     elif index is not None:
         image = estimate(setup, index, points, radii)
     image = box_filter(points.gather(image), side)

@@ -16,6 +16,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from blockhash.scene.raycast import hit_frame
+
 # Photon fates (blockhash.photons.paths)
 STORED, OUTSIDE_SPOT, MISSED, DIRECT, ESCAPED, ABSORBED, MAX_BOUNCES = range(7)
 
@@ -81,23 +83,8 @@ def bounce(first, last, idx, d, w, hit, face, u, v, tri, vn, fn, face_object, sp
         if not specular[obj] and first:
             fate[pid] = DIRECT  # direct light: the renderer's shadow rays do it
             continue
-        # the hit point and normals (blockhash.scene.raycast.surface_hits)
-        b0, b1, b2 = 1.0 - u[j] - v[j], u[j], v[j]
-        g0, g1, g2 = fn[f, 0], fn[f, 1], fn[f, 2]
-        outer = (d0 * g0 + d1 * g1) + d2 * g2 < 0.0  # met from the face's outer side
-        s = -1.0 if (d0 * g0 + d1 * g1) + d2 * g2 > 0.0 else 1.0
-        p0 = (b0 * tri[f, 0, 0] + b1 * tri[f, 1, 0]) + b2 * tri[f, 2, 0]
-        p1 = (b0 * tri[f, 0, 1] + b1 * tri[f, 1, 1]) + b2 * tri[f, 2, 1]
-        p2 = (b0 * tri[f, 0, 2] + b1 * tri[f, 1, 2]) + b2 * tri[f, 2, 2]
-        n0 = (b0 * vn[f, 0, 0] + b1 * vn[f, 1, 0]) + b2 * vn[f, 2, 0]
-        n1 = (b0 * vn[f, 0, 1] + b1 * vn[f, 1, 1]) + b2 * vn[f, 2, 1]
-        n2 = (b0 * vn[f, 0, 2] + b1 * vn[f, 1, 2]) + b2 * vn[f, 2, 2]
-        length = np.sqrt((n0 * n0 + n1 * n1) + n2 * n2)
-        if length < 1e-12:
-            n0, n1, n2, length = g0, g1, g2, 1.0
-        k = s / length
-        n0, n1, n2 = n0 * k, n1 * k, n2 * k
-        g0, g1, g2 = g0 * s, g1 * s, g2 * s
+        outer = (d0 * fn[f, 0] + d1 * fn[f, 1]) + d2 * fn[f, 2] < 0.0  # met from outside
+        p0, p1, p2, n0, n1, n2, g0, g1, g2 = hit_frame(tri, vn, fn, f, u[j], v[j], d0, d1, d2)
         if not specular[obj]:
             if one_sided[obj] and not outer:
                 fate[pid] = ABSORBED  # a one-sided receiver met from behind reflects nothing

@@ -117,24 +117,31 @@ def surface_hits(geom: EmbreeGeometry, face, u, v, d):
     return p, ns, ng
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def hit_frame(tri, vn, fn, f, u, v, d0, d1, d2):
+    """One hit on face ``f`` (barycentrics ``u``, ``v``) of a ray along (d0, d1, d2): the
+    point, the shading normal and the geometric normal, both facing the ray (9 scalars)."""
+    b0, b1, b2 = 1.0 - u - v, u, v
+    g0, g1, g2 = fn[f, 0], fn[f, 1], fn[f, 2]
+    s = -1.0 if (d0 * g0 + d1 * g1) + d2 * g2 > 0.0 else 1.0
+    p0 = (b0 * tri[f, 0, 0] + b1 * tri[f, 1, 0]) + b2 * tri[f, 2, 0]
+    p1 = (b0 * tri[f, 0, 1] + b1 * tri[f, 1, 1]) + b2 * tri[f, 2, 1]
+    p2 = (b0 * tri[f, 0, 2] + b1 * tri[f, 1, 2]) + b2 * tri[f, 2, 2]
+    n0 = (b0 * vn[f, 0, 0] + b1 * vn[f, 1, 0]) + b2 * vn[f, 2, 0]
+    n1 = (b0 * vn[f, 0, 1] + b1 * vn[f, 1, 1]) + b2 * vn[f, 2, 1]
+    n2 = (b0 * vn[f, 0, 2] + b1 * vn[f, 1, 2]) + b2 * vn[f, 2, 2]
+    length = np.sqrt((n0 * n0 + n1 * n1) + n2 * n2)
+    if length < 1e-12:
+        n0, n1, n2, length = g0, g1, g2, 1.0
+    k = s / length
+    return p0, p1, p2, n0 * k, n1 * k, n2 * k, g0 * s, g1 * s, g2 * s
+
+
 @numba.njit(cache=True, nogil=True)
 def _surface_hits(tri, vn, fn, face, u, v, d, p, ns, ng):
     # Serial, and scalars only: a few dozen flops a hit are less than the threads' start and
     # join (with the cores shared, parallel=True made this kernel 40% of the photon tracing),
     # and an array made per hit (np.empty(3)) would be a heap allocation per iteration.
     for i in range(len(face)):
-        f = face[i]
-        b0, b1, b2 = 1.0 - u[i] - v[i], u[i], v[i]
-        g0, g1, g2 = fn[f, 0], fn[f, 1], fn[f, 2]
-        s = -1.0 if (d[i, 0] * g0 + d[i, 1] * g1) + d[i, 2] * g2 > 0.0 else 1.0
-        for c in range(3):
-            p[i, c] = (b0 * tri[f, 0, c] + b1 * tri[f, 1, c]) + b2 * tri[f, 2, c]
-        n0 = (b0 * vn[f, 0, 0] + b1 * vn[f, 1, 0]) + b2 * vn[f, 2, 0]
-        n1 = (b0 * vn[f, 0, 1] + b1 * vn[f, 1, 1]) + b2 * vn[f, 2, 1]
-        n2 = (b0 * vn[f, 0, 2] + b1 * vn[f, 1, 2]) + b2 * vn[f, 2, 2]
-        length = np.sqrt((n0 * n0 + n1 * n1) + n2 * n2)
-        if length < 1e-12:
-            n0, n1, n2, length = g0, g1, g2, 1.0
-        k = s / length
-        ns[i, 0], ns[i, 1], ns[i, 2] = n0 * k, n1 * k, n2 * k
-        ng[i, 0], ng[i, 1], ng[i, 2] = g0 * s, g1 * s, g2 * s
+        (p[i, 0], p[i, 1], p[i, 2], ns[i, 0], ns[i, 1], ns[i, 2], ng[i, 0], ng[i, 1],
+         ng[i, 2]) = hit_frame(tri, vn, fn, face[i], u[i], v[i], d[i, 0], d[i, 1], d[i, 2])
