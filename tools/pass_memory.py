@@ -23,8 +23,14 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
+from pathlib import Path
 
 from blockhash.studies.command import ToolParser, count, listing
+
+#: The checkout measured: this tool's own (its child runs outside any checkout, so that no
+#: other ``blockhash`` on the path is imported).
+ROOT = Path(__file__).resolve().parents[1]
 
 CHILD = """
 import json, resource, sys, time
@@ -51,10 +57,11 @@ print(json.dumps({"passes": r.passes, "seconds": time.perf_counter() - t,
 
 
 def run(args, photons: int, n: int, env: dict) -> dict:
-    out = subprocess.run([sys.executable, "-c", CHILD, str(args.scene), str(args.size),
+    out = subprocess.run([sys.executable, "-c", CHILD, str(Path(args.scene).resolve()), str(args.size),
                           str(photons), str(n), ",".join(map(str, args.marks)), args.method,
                           str(args.workers), args.overlap],
-                         capture_output=True, text=True, check=True, env={**os.environ, **env})
+                         capture_output=True, text=True, check=True, cwd=tempfile.gettempdir(),
+                         env={**os.environ, "PYTHONPATH": str(ROOT), **env})
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
