@@ -248,3 +248,17 @@ def test_profile_frames_prints_the_frames_seconds_and_their_functions(tmp_path):
                                           "--frames", "2", "--top", "5"], tmp_path)
     assert text.startswith("seconds a frame: 1: ")
     assert "render_frames" in text and "cumulative" in text
+
+
+@pytest.mark.gl
+def test_stage_memory_gives_each_stage_beside_a_baseline(tmp_path):
+    out = tmp_path / "stages.json"
+    text = run_tool("stage_memory.py", ["--baseline", ROOT, "--scenes", "ring", "--size", "24",
+                                        "--photons", "3000", "--json", out], tmp_path)
+    rows = table_rows(text, "ring")
+    assert [r[1] for r in rows] == ["baseline", "this"]
+    res = json.loads(out.read_text())["rows"][0]
+    # the same checkout on both sides: the same photons; every stage measured
+    assert res["baseline"]["stored"] == res["this"]["stored"] > 0
+    assert set(res["this"]["stages"]) == {"trace", "index", "photon radii", "pixel splat",
+                                          "cover gather", "estimate"}
