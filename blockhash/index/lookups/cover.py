@@ -151,8 +151,7 @@ def cover_margin(quantizer) -> float:
     return 2.0 * float(np.asarray(quantizer.decode_error).max()) / step + 4096.0
 
 
-#: Records :meth:`CoverGather.build` works on at a time (its working arrays stay a few tens
-#: of MiB whatever the map's size).
+#: Records :meth:`CoverGather.build` works on at a time (a few tens of MiB of working arrays).
 BUILD_ROWS = 1 << 17
 
 
@@ -229,8 +228,7 @@ class CoverGather:
         m = len(kept)
         octave = np.empty(m, dtype=np.int64)
         key = np.empty(m, dtype=np.uint64)
-        step = float(np.asarray(q.step, np.float64).max())
-        margin = cover_margin(q)
+        step, margin = float(np.asarray(q.step, np.float64).max()), cover_margin(q)
         for a in range(0, m, BUILD_ROWS):
             rows = slice(a, min(m, a + BUILD_ROWS))
             rec = index.records.records[kept[rows]]
@@ -242,9 +240,7 @@ class CoverGather:
             key[rows] = window_key64.py_func(o, codes[:, 0] // sides[o], codes[:, 1] // sides[o],
                                              codes[:, 2] // fines[o])
         order = stable_argsort(key)
-        key, octave = key[order], octave[order]
-        kept = kept[order]
-        del order
+        key, octave, kept, order = key[order], octave[order], kept[order], None
         photon = index.order[kept]
         records = np.zeros((m, RECORD_WORDS), dtype=np.uint32)
         toward, normal = octahedral_tables()
