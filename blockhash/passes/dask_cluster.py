@@ -74,25 +74,41 @@ class _DaskSession(Session):
         try:
             self.workers = check_workers(self.client, renderer.settings.backend)
             self.slots = 2 * self.workers  # each worker's next pass queued
-            digest, data = worker.pack(renderer.spec)
-            [self.spec] = self.client.scatter([data], broadcast=True, hash=False)
-            self.digest = digest
+            self.digest, self.data = worker.pack(renderer.spec)
+            self.emitted, self.scatters = {}, 0
+            self._scatter()
         except BaseException:
             self.client.close()
             raise
 
+    def _scatter(self) -> None:
+        """The render's spec on every worker (again, once a worker that held the only copy
+        died: the passes that needed it are cancelled by the scheduler)."""
+        [self.spec] = self.client.scatter([self.data], broadcast=True, hash=False)
+        self.scatters += 1
+
     def submit(self, p: int, emitted) -> None:
         from blockhash.passes import worker
 
+        self.emitted[p] = emitted
         self.flight[p] = self.client.submit(worker.run_spec, self.digest, self.spec, p, emitted,
                                             pure=False, retries=0, key=f"blockhash-pass-{p}-"
-                                            f"{self.digest}-{id(self)}")
+                                            f"{self.digest}-{id(self)}-{self.scatters}")
 
     def results(self):
         from distributed import wait
 
         with self.client.as_current():
-            done, _ = wait(list(self.flight.values()), return_when="FIRST_COMPLETED")
+            try:
+                done, _ = wait(list(self.flight.values()), return_when="FIRST_COMPLETED")
+            except Exception:  # noqa: BLE001 - passes cancelled with a lost spec run again
+                lost = [p for p, future in self.flight.items() if future.cancelled()]
+                if not lost:
+                    raise
+                self._scatter()
+                for p in lost:
+                    self.submit(p, self.emitted[p])
+                return
         for p, future in sorted(self.flight.items()):
             if future not in done:
                 continue
@@ -101,7 +117,7 @@ class _DaskSession(Session):
             except Exception as exc:  # noqa: BLE001 - any error of a pass ends the render
                 raise PassFailed(p, f"on the Dask cluster at {self.client.scheduler.address}",
                                  exc) from exc
-            del self.flight[p]
+            del self.flight[p], self.emitted[p]
             yield p, contribution
 
     def close(self) -> None:

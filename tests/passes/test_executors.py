@@ -193,6 +193,29 @@ def test_a_dask_worker_killed_mid_render_costs_time_not_the_image(scene, one_pro
     assert_same_image(r, ref)
 
 
+def test_the_only_worker_killed_mid_render_loses_the_spec_and_the_render_scatters_it_again(
+        scene, one_process):
+    """One worker: killing it loses the only copy of the scattered spec, which cancels the
+    passes in flight; the render scatters the spec to the restarted worker and runs them."""
+    distributed = pytest.importorskip("distributed")
+    from blockhash.passes.dask_cluster import DaskCluster
+
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  dashboard_address=":0") as single:
+        with distributed.Client(single.scheduler_address, set_as_default=False) as client:
+            [pid] = client.run(os.getpid).values()
+        killed = []
+
+        def kill(renderer, stats, elapsed, session):
+            if stats.index == 1 and not killed:
+                os.kill(pid, signal.SIGKILL)  # its nanny starts another, without the spec
+                killed.append(session)
+        r, _ = _render(scene, DaskCluster(single.scheduler_address), passes=PASSES,
+                       on_pass=kill)
+    assert killed and killed[0].scatters >= 2  # scattered again
+    assert_same_image(r, one_process)
+
+
 def test_a_pass_that_raises_on_a_worker_stops_the_render_with_its_number(scene, threads_cluster,
                                                                           monkeypatch):
     from blockhash.passes import task

@@ -5,6 +5,7 @@ camera-only animation shared, bad keys refused by name."""
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -120,8 +121,11 @@ def test_ctrl_c_keeps_the_frames_done(tmp_path):
         "from blockhash.cli import main\n"
         f"sys.exit(main(['render', {str(SCENES / 'ring_sweep.toml')!r}, '--frames', '0:6', "
         f"'--size', '24x24', '--photons', '2000', '--passes', '1', '-o', {str(tmp_path / 's.exr')!r}]))\n")
+    # SIGINT as a terminal leaves it (a test process may have inherited it ignored, which
+    # Python's own handler then is not installed over)
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
-                         env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"})
+                         env={**os.environ, "PYTHONDONTWRITEBYTECODE": "1"},
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     assert run.returncode == 130, run.stderr[-2000:]
     assert "kept 2 frame(s)" in run.stderr
     assert sorted(p.name for p in tmp_path.glob("s-*.exr")) == ["s-0000.exr", "s-0001.exr"]
