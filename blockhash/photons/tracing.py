@@ -58,10 +58,10 @@ from blockhash.photons.paths import (  # noqa: F401 (the map and its fates, impo
     OUTSIDE_SPOT,
     RAY_OFFSET,
     STORED,
+    STORED_FLOAT,
+    STORED_OBJECT,
     Batch,
     CausticPhotons,
-    compact,
-    joined,
     trace_batch,
 )
 from blockhash.scene.raycast import EmbreeGeometry
@@ -262,7 +262,7 @@ class PhotonSource:
     def _shoot(self, seed, first, target, cap, batch_size, progress) -> "_Run":
         """Shoot photons ``first`` onward until ``target`` are stored (None: until ``cap``
         photons are shot) or ``cap`` are shot."""
-        run = _Run(len(self.lights))
+        run = _Run(len(self.lights), cap if target is None else target)
         start = 0
         bar = None
         if progress:
@@ -314,10 +314,14 @@ class PhotonSource:
 class _Run:
     """The batches of one :meth:`PhotonSource._shoot` and their counters."""
 
-    def __init__(self, lights: int):
+    def __init__(self, lights: int, capacity: int):
         self.fates = np.zeros(len(FATE_NAMES), dtype=np.int64)
         self.light_counts = np.zeros(lights, dtype=np.int64)
-        self.chunks: list[tuple] = []  # each batch's stored photons, compact
+        # The map's columns at the most photons the run can store, filled batch by batch and
+        # cut to those stored (pages never written are never resident): no batch's chunk is
+        # left behind in the tracing thread's heap (STORED_FLOAT: 52 bytes a photon).
+        self.columns = [np.empty((capacity, 3), dtype=STORED_FLOAT) for _ in range(4)]
+        self.columns.append(np.empty(capacity, dtype=STORED_OBJECT))
         self.stored = self.fallbacks = self.rays = self.batches = self.traced = self.emitted = 0
         self.max_depth = 0
         self.stopped_by = "cap"
@@ -326,20 +330,25 @@ class _Run:
         self.fates += np.bincount(batch.fate, minlength=len(FATE_NAMES))
         self.light_counts += np.bincount(light, minlength=len(self.light_counts))
         self.fallbacks += int(batch.fallbacks.sum())
-        self.chunks.append(compact(batch.positions, batch.directions, batch.normals,
-                                   batch.weights, batch.objects))
+        rows = slice(self.stored, self.stored + len(batch.stored))
+        for column, values in zip(self.columns, (batch.positions, batch.directions,
+                                                 batch.normals, batch.weights, batch.objects)):
+            column[rows] = values
         if len(batch.depth):
             self.max_depth = max(self.max_depth, int(batch.depth.max()))
         self.stored += len(batch.stored)
 
     def photons(self, source: PhotonSource, t0: float) -> CausticPhotons:
-        """The stored photons, powers divided by the photons emitted (the batches' chunks
-        are joined and freed here: a run makes its map once)."""
+        """The stored photons, powers divided by the photons emitted (the columns cut to
+        them in place: a run makes its map once)."""
         if self.stored == 0:
             z = np.zeros((0, 3), dtype=np.float32)
             return CausticPhotons(z, z.copy(), z.copy(), z.copy(), self.emitted,
                                   self._stats(source, 0, t0))
-        positions, directions, normals, powers, objects = joined(self.chunks)
+        for column in self.columns:  # realloc: shrinks a mapped block where it lies
+            column.resize((self.stored,) + column.shape[1:], refcheck=False)
+        positions, directions, normals, powers, objects = self.columns
+        self.columns = []
         powers /= np.float32(self.emitted)
         return CausticPhotons(positions=positions, directions=directions, normals=normals,
                               powers=powers, emitted=self.emitted,
