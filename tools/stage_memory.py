@@ -2,7 +2,8 @@
 another commit's (a ``git worktree``), in the same run.
 
 Each checkout runs in a fresh process (``run_pass`` in this process: one pass in flight, no
-overlap): pass 0, then pass 1 measured.  Before each stage of pass 1 the process's peak
+overlap): pass 0, then pass 1 measured, after glibc's ``malloc_trim`` has handed the heap's free
+memory back (else pass 1 reuses pass 0's freed arrays without growing, and a stage reads 0).  Before each stage of pass 1 the process's peak
 resident set is reset (Linux: ``/proc/self/clear_refs``), after it the peak is read
 (``VmHWM``): the row gives each stage's peak above the resident set at the start of the pass,
 over the photons stored, and the resident set the stage leaves behind.  Stages: the trace, the
@@ -63,6 +64,9 @@ wrap(holder, "estimate", "estimate")
 setup.caustic = dataclasses.replace(setup.caustic, estimate=holder.estimate)
 first = T.run_pass(setup, 0)
 emitted, first = first.emitted, None
+import ctypes, gc
+gc.collect()
+ctypes.CDLL("libc.so.6").malloc_trim(0)  # the heap's free memory back: pass 1 grows from here
 start = [status("VmRSS")]
 on[0] = True
 c = T.run_pass(setup, 1, emitted)
