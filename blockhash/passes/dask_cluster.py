@@ -10,9 +10,11 @@ and manages no machine.
 Before the first pass, every worker is asked for its machine, then for its blockhash version,
 source digest and GL context (:func:`.worker.identity`), given its share of its machine's cores
 for llvmpipe's and numba's threads (unless its environment sets ``LP_NUM_THREADS``); a worker
-that differs from this process or has no GL is refused, by name.  The render's spec (scene, settings) is scattered to the workers once; a pass
-is one task, ``retries=0`` so that a pass that raises ends the render, while a pass whose
-worker dies is run again elsewhere by the scheduler (Dask's ``allowed-failures``).
+that differs from this process or has no GL is refused, by name.  The render's spec (scene,
+settings) is scattered to the workers once (again, with the passes that needed it, if every
+worker holding it dies); a pass is one task, ``retries=0`` so that a pass that raises ends
+the render, while a pass whose worker dies is run again elsewhere by the scheduler (Dask's
+``allowed-failures``).
 """
 
 from __future__ import annotations
