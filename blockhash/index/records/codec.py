@@ -302,7 +302,7 @@ class PhotonRecords:
         powers : (n, 3) or (n, 4) float, optional
             Watts per channel; default 1 W in each of R, G, B and 0 in c4.
         """
-        if len(positions) > ENCODE_ROWS:
+        if getattr(positions, "__len__", None) and len(positions) > ENCODE_ROWS:
             try:  # float64 working arrays of ENCODE_ROWS photons at a time
                 return cls._encode_rows(positions, directions, normals, powers)
             except InputError:

@@ -391,3 +391,33 @@ def test_bad_input_raises_an_error_naming_parameter_value_and_way_out(case):
     call, exc, match = CASES[case]
     with pytest.raises(exc, match=match):
         call()
+
+
+def test_encoding_a_chunk_at_a_time_gives_the_whole_arrays_records(monkeypatch):
+    """A large map is encoded ENCODE_ROWS photons at a time: the same records and scale as the
+    whole arrays at once, float32 or float64 input; a bad row past the first chunk is named
+    by its index in the whole map."""
+    import blockhash.index.records.codec as codec
+
+    rng = np.random.default_rng(5)
+    n = 5000
+    pos = rng.random((n, 3)) * 7 - 2
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    w = rng.random((n, 3)) * 3e-3
+    for p in (pos, pos.astype(np.float32)):
+        whole = codec.PhotonRecords.encode(p, directions=d, normals=d[::-1], powers=w)
+        monkeypatch.setattr(codec, "ENCODE_ROWS", 1024)
+        rows = codec.PhotonRecords.encode(p, directions=d, normals=d[::-1], powers=w)
+        monkeypatch.setattr(codec, "ENCODE_ROWS", 1 << 17)
+        np.testing.assert_array_equal(rows.records, whole.records)
+        assert rows.power_scale == whole.power_scale
+    monkeypatch.setattr(codec, "ENCODE_ROWS", 1024)
+    bad = d.copy()
+    bad[3000] = 0.0
+    with pytest.raises(InputError, match=r"directions\[3000\]"):
+        codec.PhotonRecords.encode(pos, directions=bad)
+    nan = w.copy()
+    nan[4100, 1] = np.nan
+    with pytest.raises(InputError, match=r"powers\[4100\]"):
+        codec.PhotonRecords.encode(pos, powers=nan)
