@@ -21,8 +21,8 @@ import os
 #: Bytes above which a block is mapped on its own (fixing it stops glibc's dynamic raising).
 #: The arrays of a whole map (4 bytes a photon of 10^6 photons and up) are mapped; a batch's
 #: and a chunk's working arrays (2^16 to 2^17 photons) stay below and reuse the heap: at
-#: 256 KiB their mapping and page faults slowed the tracer 1.6x
-#: (``python tools/pass_memory.py --env MALLOC_MMAP_THRESHOLD_=262144`` beside the default).
+#: 256 KiB their mapping and page faults made a pass 1.17-1.33x as long (BENCHMARKS.md,
+#: "What a photon costs").
 MMAP_THRESHOLD = 4 * 1024 * 1024
 #: mallopt's parameter number for the threshold (malloc.h).
 M_MMAP_THRESHOLD = -3
