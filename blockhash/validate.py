@@ -62,6 +62,18 @@ def as_int(value, name: str, *, minimum: int | None = None, maximum: int | None 
     return value
 
 
+#: What ``indirect=True`` and ``False`` do, for the one message that refuses anything else.
+INDIRECT = ("render the light between diffuse surfaces where the scene has it", "leave it out")
+
+
+def as_flag(value, name: str, meaning: tuple[str, str]) -> bool:
+    """``value`` if it is a bool; else InputError naming ``name`` and what True and False do
+    (``meaning``)."""
+    if not isinstance(value, bool):
+        raise InputError(f"{name}={value!r}: expected True ({meaning[0]}) or False ({meaning[1]})")
+    return value
+
+
 def old_keywords(call: str, given: dict, known: tuple, instead: str) -> None:
     """Keywords a call still takes for one release: TypeError for any not in ``known``,
     else a DeprecationWarning naming ``instead``, the form to use (warned at the caller's

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from blockhash.errors import InputError
 from blockhash.passes.executors import InProcess
 from blockhash.passes.schedule import Schedule
+from blockhash.validate import INDIRECT, as_flag
 
 #: Passes of the default render (with one sample per pixel per pass and the scene's photons
 #: per pass): chosen on the ring scene at 512 x 512 against the single render (BENCHMARKS.md, "The render in passes").
@@ -65,10 +66,7 @@ class RenderPlan:
     indirect: bool = True
 
     def __post_init__(self):
-        if not isinstance(self.indirect, bool):
-            raise InputError(f"indirect={self.indirect!r}: expected True (render the light "
-                             "between diffuse surfaces where the scene has it) or False (leave "
-                             "it out)")
+        as_flag(self.indirect, "indirect", INDIRECT)
         if self.passes is not None and (isinstance(self.passes, bool) or
                                         not isinstance(self.passes, int) or self.passes < 1):
             raise InputError.about("{passes}{value!r}: a render runs at least one pass; give "

@@ -36,7 +36,7 @@ from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.passes.schedule import FixedRadii, PassRadii, Schedule, shrink
 from blockhash.passes.stages import caustic_stage  # noqa: F401 (importable from here)
 from blockhash.scene.camera import Pinhole
-from blockhash.validate import as_int
+from blockhash.validate import INDIRECT, as_flag, as_int
 
 
 @dataclass(frozen=True)
@@ -65,9 +65,7 @@ class PassSettings:
         """The settings of ``scene`` with these overrides (``photons``: photons stored per
         pass, or None for the scene's; a traced map is given to :class:`RenderSetup`;
         ``indirect``: trace the indirect photons where the scene has diffuse interreflection)."""
-        if not isinstance(indirect, bool):
-            raise InputError(f"indirect={indirect!r}: expected True (render the light between "
-                             "diffuse surfaces where the scene has it) or False (leave it out)")
+        as_flag(indirect, "indirect", INDIRECT)
         settings = scene.photons
         k = settings.k if lookup.k is None else lookup.k
         method = resolve_method(lookup.method, estimate.estimate)
