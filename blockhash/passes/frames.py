@@ -118,14 +118,17 @@ class FrameCache(dict):
             self.bytes += size
 
 
-def _nbytes(value) -> int:
-    """Bytes of the arrays a kept value holds (a photon map, an index, radii)."""
-    if value is None:
-        return 0
+def _nbytes(value, depth: int = 3) -> int:
+    """Bytes of the arrays a kept value holds (a photon map, an index and what it holds, such
+    as its records, radii), followed ``depth`` levels into objects, tuples and dicts."""
     if isinstance(value, np.ndarray):
         return value.nbytes
-    total = 0
-    for attr in vars(value).values() if hasattr(value, "__dict__") else ():
-        if isinstance(attr, np.ndarray):
-            total += attr.nbytes
-    return total
+    if depth == 0 or value is None or isinstance(value, (str, bytes, int, float)):
+        return 0
+    if isinstance(value, dict):
+        items = value.values()
+    elif isinstance(value, (tuple, list)):
+        items = value
+    else:
+        items = vars(value).values() if hasattr(value, "__dict__") else ()
+    return sum(_nbytes(v, depth - 1) for v in items)

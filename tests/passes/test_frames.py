@@ -187,3 +187,21 @@ def test_frame_ranges_and_a_still_refused():
             frame_range(bad, 5)
     with pytest.raises(InputError, match="has no \\[animation\\] table"):
         render_frames(load_scene(SCENES / "ring.toml"), [0])
+
+
+def test_the_frame_cache_counts_the_arrays_an_index_holds():
+    """An index's records and order count toward the cache's limit (they are most of its
+    bytes), and a value past the limit is not kept."""
+    from blockhash.index.block_hash_index import BlockHashIndex
+    from blockhash.passes.frames import FrameCache
+
+    index = BlockHashIndex(np.random.default_rng(0).random((10_000, 3)).astype(np.float32),
+                           tables=False)
+    r2 = np.ones(10_000)
+    held = index.records.records.nbytes + index.order.nbytes + r2.nbytes
+    cache = FrameCache(limit=10**9)
+    cache.keep(("caustic", 0), (index, r2))
+    assert cache.bytes >= held
+    small = FrameCache(limit=held - 1)
+    small.keep(("caustic", 0), (index, r2))
+    assert ("caustic", 0) not in small and small.bytes == 0
