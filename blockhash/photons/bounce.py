@@ -56,6 +56,75 @@ def _refract(d0, d1, d2, n0, n1, n2, eta):
     return t0 / length, t1 / length, t2 / length, sin2_t >= 1.0
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _event(pid, obj, outer, d0, d1, d2, n0, n1, n2, g0, g1, g2, w0, w1, w2, dielectric,
+           reflectance, ior, tint, choices, events, fallbacks):
+    """Photon ``pid``'s specular event on object ``obj`` (met from its outer side or not),
+    along (d0, d1, d2), shading and geometric normals facing it: (the new unit direction, the
+    new weight, +1 leaving on the incoming side or -1 passing through)."""
+    side = 1.0
+    if not dielectric[obj]:
+        w0, w1, w2 = (w0 * reflectance[obj, 0], w1 * reflectance[obj, 1],
+                      w2 * reflectance[obj, 2])
+        r0, r1, r2 = _reflect(d0, d1, d2, n0, n1, n2)
+        if (r0 * g0 + r1 * g1) + r2 * g2 <= 0.0:  # the shading normal sent it in
+            r0, r1, r2 = _reflect(d0, d1, d2, g0, g1, g2)
+            fallbacks[pid] += 1
+    else:
+        uc = choices[pid, events[pid] % choices.shape[1]]
+        events[pid] += 1
+        eta = 1.0 / ior[obj] if outer else ior[obj]
+        through = uc >= _fresnel(-((d0 * n0 + d1 * n1) + d2 * n2), eta)
+        r0, r1, r2 = _reflect(d0, d1, d2, n0, n1, n2)
+        if through:
+            t0, t1, t2, tir = _refract(d0, d1, d2, n0, n1, n2, eta)
+            if (t0 * g0 + t1 * g1) + t2 * g2 >= 0.0:  # wrong side: about the geometric one
+                t0, t1, t2, tir = _refract(d0, d1, d2, g0, g1, g2, eta)
+            if tir:
+                through = False
+            else:
+                r0, r1, r2 = t0, t1, t2
+        if not through and (r0 * g0 + r1 * g1) + r2 * g2 <= 0.0:
+            r0, r1, r2 = _reflect(d0, d1, d2, g0, g1, g2)
+        if through:
+            w0, w1, w2 = w0 * tint[obj, 0], w1 * tint[obj, 1], w2 * tint[obj, 2]
+            side = -1.0
+    length = np.sqrt((r0 * r0 + r1 * r1) + r2 * r2)
+    return r0 / length, r1 / length, r2 / length, w0, w1, w2, side
+
+
+@numba.njit(cache=True, nogil=True)
+def specular_events(idx, d, w, face, u, v, tri, vn, fn, face_object, dielectric, reflectance,
+                    ior, tint, choices, events, fallbacks, p, ng, side, absorbed):
+    """One specular event for each ray ``idx`` (on mirrors and glass only: the hits ``face``,
+    ``u``, ``v``): the rays that go on written over the front of ``idx``, ``d``, ``w``, their
+    hit points, geometric normals (facing where they came from) and sides to ``p``, ``ng``,
+    ``side``; those whose weight fell to 0 to ``absorbed``.  Returns (going on, absorbed)."""
+    n_next = 0
+    n_dead = 0
+    for i in range(idx.shape[0]):
+        pid = idx[i]
+        f = face[i]
+        d0, d1, d2 = d[i, 0], d[i, 1], d[i, 2]
+        outer = (d0 * fn[f, 0] + d1 * fn[f, 1]) + d2 * fn[f, 2] < 0.0
+        p0, p1, p2, n0, n1, n2, g0, g1, g2 = hit_frame(tri, vn, fn, f, u[i], v[i], d0, d1, d2)
+        r0, r1, r2, w0, w1, w2, s = _event(
+            pid, face_object[f], outer, d0, d1, d2, n0, n1, n2, g0, g1, g2, w[i, 0], w[i, 1],
+            w[i, 2], dielectric, reflectance, ior, tint, choices, events, fallbacks)
+        if not (w0 > 0.0 or w1 > 0.0 or w2 > 0.0):
+            absorbed[n_dead] = pid
+            n_dead += 1
+            continue
+        idx[n_next] = pid
+        d[n_next, 0], d[n_next, 1], d[n_next, 2] = r0, r1, r2
+        w[n_next, 0], w[n_next, 1], w[n_next, 2] = w0, w1, w2
+        p[n_next, 0], p[n_next, 1], p[n_next, 2] = p0, p1, p2
+        ng[n_next, 0], ng[n_next, 1], ng[n_next, 2] = g0, g1, g2
+        side[n_next] = s
+        n_next += 1
+    return n_next, n_dead
+
+
 @numba.njit(cache=True, nogil=True)
 def bounce(first, last, idx, d, w, hit, face, u, v, tri, vn, fn, face_object, specular,
            dielectric, one_sided, reflectance, ior, tint, choices, events, fallbacks, fate,
@@ -70,7 +139,6 @@ def bounce(first, last, idx, d, w, hit, face, u, v, tri, vn, fn, face_object, sp
     n_next = 0
     n_stored = 0
     j = -1
-    cols = choices.shape[1]
     for i in range(idx.shape[0]):
         pid = idx[i]
         if not hit[i]:
@@ -103,40 +171,14 @@ def bounce(first, last, idx, d, w, hit, face, u, v, tri, vn, fn, face_object, sp
         if last:
             fate[pid] = MAX_BOUNCES
             continue
-        w0, w1, w2 = w[i, 0], w[i, 1], w[i, 2]
-        side = 1.0  # +1: leave on the incoming side, -1: pass through
-        if not dielectric[obj]:
-            w0, w1, w2 = (w0 * reflectance[obj, 0], w1 * reflectance[obj, 1],
-                          w2 * reflectance[obj, 2])
-            r0, r1, r2 = _reflect(d0, d1, d2, n0, n1, n2)
-            if (r0 * g0 + r1 * g1) + r2 * g2 <= 0.0:  # the shading normal sent it in
-                r0, r1, r2 = _reflect(d0, d1, d2, g0, g1, g2)
-                fallbacks[pid] += 1
-        else:
-            uc = choices[pid, events[pid] % cols]
-            events[pid] += 1
-            eta = 1.0 / ior[obj] if outer else ior[obj]
-            through = uc >= _fresnel(-((d0 * n0 + d1 * n1) + d2 * n2), eta)
-            r0, r1, r2 = _reflect(d0, d1, d2, n0, n1, n2)
-            if through:
-                t0, t1, t2, tir = _refract(d0, d1, d2, n0, n1, n2, eta)
-                if (t0 * g0 + t1 * g1) + t2 * g2 >= 0.0:  # wrong side: about the geometric one
-                    t0, t1, t2, tir = _refract(d0, d1, d2, g0, g1, g2, eta)
-                if tir:
-                    through = False
-                else:
-                    r0, r1, r2 = t0, t1, t2
-            if not through and (r0 * g0 + r1 * g1) + r2 * g2 <= 0.0:
-                r0, r1, r2 = _reflect(d0, d1, d2, g0, g1, g2)
-            if through:
-                w0, w1, w2 = w0 * tint[obj, 0], w1 * tint[obj, 1], w2 * tint[obj, 2]
-                side = -1.0
+        r0, r1, r2, w0, w1, w2, side = _event(
+            pid, obj, outer, d0, d1, d2, n0, n1, n2, g0, g1, g2, w[i, 0], w[i, 1], w[i, 2],
+            dielectric, reflectance, ior, tint, choices, events, fallbacks)
         if not (w0 > 0.0 or w1 > 0.0 or w2 > 0.0):
             fate[pid] = ABSORBED
             continue
-        length = np.sqrt((r0 * r0 + r1 * r1) + r2 * r2)
         idx[n_next] = pid
-        d[n_next, 0], d[n_next, 1], d[n_next, 2] = r0 / length, r1 / length, r2 / length
+        d[n_next, 0], d[n_next, 1], d[n_next, 2] = r0, r1, r2
         w[n_next, 0], w[n_next, 1], w[n_next, 2] = w0, w1, w2
         t = side * offset
         o_next[n_next, 0] = p0 + g0 * t

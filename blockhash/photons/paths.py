@@ -9,9 +9,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from blockhash.photons.bounce import bounce
-from blockhash.scene.optics import choice_uniforms, scatter
-from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, reflect, surface_hits
+from blockhash.photons.bounce import bounce, specular_events
+from blockhash.scene.optics import choice_uniforms
+from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry
 
 # Photon fates (per emitted photon); index into FATE_NAMES.
 STORED, OUTSIDE_SPOT, MISSED, DIRECT, ESCAPED, ABSORBED, MAX_BOUNCES = range(7)
@@ -142,8 +142,8 @@ def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int, 
 
     Shared by the photon map (:func:`trace_caustic_photons`) and the light tracer
     (:mod:`blockhash.reference.lighttrace`); ``weights`` are not yet divided by the photons emitted.  At a
-    dielectric a photon reflects or refracts with the Fresnel probabilities
-    (:func:`blockhash.scene.optics.scatter`), drawing its choices from :func:`blockhash.scene.optics.choice_uniforms` of
+    dielectric a photon reflects or refracts with the Fresnel probabilities (the formulas of
+    :func:`blockhash.scene.optics.scatter`, compiled in :mod:`.bounce`), drawing its choices from :func:`blockhash.scene.optics.choice_uniforms` of
     ``seed`` for photon ``start + i``, so a photon's path does not depend on the batch.
     """
     n = len(origins)
@@ -203,37 +203,21 @@ def specular_step(geom: EmbreeGeometry, idx, d, w, face, u, v, choices, events, 
     their hits (``face``, barycentrics ``u``, ``v``) on mirrors and glass: a mirror reflects
     (its reflectance on the weight; the geometric normal where the shading normal would send
     the photon into the surface, counted in ``fallbacks``), glass reflects or refracts by the
-    Fresnel probabilities from ``choices`` (the photon's ``events``-th column, counted on).
-    Returns (the photons absorbed, whose weight fell to 0, and (idx, new directions, weights,
-    hit points, geometric normals on the side they came from, +1 / -1 for leaving on that
-    side or passing through) of the others)."""
-    p, ns, ng = surface_hits(geom, face, u, v, d)
-    obj = geom.face_object[face]
-    glass = geom.is_dielectric[obj]
-    r = np.empty_like(d)
-    side = np.ones(len(d))  # +1: leave on the incoming side, -1: pass through
-    mirror = ~glass
-    if mirror.any():
-        w[mirror] = w[mirror] * geom.reflectance[obj[mirror]]
-        rm = reflect(d[mirror], ns[mirror])
-        under = np.einsum("ij,ij->i", rm, ng[mirror]) <= 0.0  # shading normal sent it in
-        if under.any():
-            mi = np.flatnonzero(mirror)[under]
-            rm[under] = reflect(d[mi], ng[mi])
-            fallbacks[idx[mi]] += 1
-        r[mirror] = rm / np.sqrt(np.einsum("ij,ij->i", rm, rm))[:, None]
-    if glass.any():
-        gi = np.flatnonzero(glass)
-        pid = idx[gi]
-        uc = choices[pid, events[pid] % choices.shape[1]]
-        events[pid] += 1
-        og = obj[gi]
-        r[gi], through, factor = scatter(d[gi], ns[gi], ng[gi], entering(geom, face[gi], d[gi]),
-                                         geom.ior[og], geom.tint[og], uc)
-        w[gi] = w[gi] * factor
-        side[gi[through]] = -1.0
-    dead = ~np.any(w > 0.0, axis=1)
-    if not dead.any():
-        return idx[:0], (idx, r, w, p, ng, side)
-    live = ~dead
-    return idx[dead], (idx[live], r[live], w[live], p[live], ng[live], side[live])
+    Fresnel probabilities from ``choices`` (the photon's ``events``-th column, counted on);
+    the compiled :func:`blockhash.photons.bounce.specular_events`, as the caustic tracer's
+    bounce makes it.  Returns (the photons absorbed, whose weight fell to 0, and (idx, new
+    directions, weights, hit points, geometric normals on the side they came from, +1 / -1
+    for leaving on that side or passing through) of the others)."""
+    m = len(idx)
+    idx = np.array(idx, dtype=np.int64)
+    d, w = np.array(d, dtype=np.float64), np.array(w, dtype=np.float64)
+    p, ng, side = np.empty((m, 3)), np.empty((m, 3)), np.empty(m)
+    absorbed = np.empty(m, dtype=np.int64)
+    going, dead = specular_events(
+        idx, d, w, np.ascontiguousarray(face, dtype=np.int64), np.ascontiguousarray(u, np.float64),
+        np.ascontiguousarray(v, np.float64), geom.triangles, geom.vertex_normals,
+        geom.face_normals, geom.face_object, geom.is_dielectric, geom.reflectance, geom.ior,
+        geom.tint, np.zeros((1, 1)) if choices is None else choices, events, fallbacks, p, ng,
+        side, absorbed)
+    return absorbed[:dead], (idx[:going], d[:going], w[:going], p[:going], ng[:going],
+                             side[:going])
