@@ -35,9 +35,10 @@ import json, sys
 import blockhash
 scene_path, size, photons, warm, passes, indirect = sys.argv[1:7]
 scene = blockhash.load_scene(scene_path).with_size(int(size), int(size))
-try:
+import inspect
+if "indirect" in inspect.signature(blockhash.Renderer).parameters:
     r = blockhash.Renderer(scene, photons=int(photons), indirect=indirect == "on")
-except TypeError:  # a baseline from before the indirect layer
+else:  # a baseline from before the indirect layer
     r = blockhash.Renderer(scene, photons=int(photons))
 rows = []
 def keep(s):
