@@ -295,7 +295,7 @@ def needs_indirect(source: IndirectSource, seed: int):
     diff = ~geom.is_specular[geom.face_object[face]]  # face, u, v: the hits' only
     rows = np.flatnonzero(hit)[diff]
     if not len(rows):
-        return False, {"pilot": PILOT, "diffuse_to_diffuse": 0, "stored_flux": 0.0}
+        return None, {"pilot": PILOT, "diffuse_to_diffuse": 0}
     f = face[diff]
     p, ns, ng = surface_hits(geom, f, u[diff], v[diff], d[rows])
     counts = {"roulette": 0}

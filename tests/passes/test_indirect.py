@@ -113,6 +113,20 @@ def test_the_ceiling_lit_only_by_the_floor_is_lit_and_left_out_on_request(tmp_pa
         assert names == layers
 
 
+def test_a_light_that_meets_no_diffuse_surface_traces_no_indirect_photon():
+    """A spot light turned away from the only surface: no pilot photon meets a diffuse
+    surface at all, and the render goes on with no indirect layer (the pilot's first answer,
+    before any photon leaves a surface)."""
+    from blockhash.passes.task import PassSettings, RenderSetup
+
+    away = FACING.replace("direction = [0.0, -1.0, 0.0]", "direction = [1.0, 0.0, 0.0]")
+    away = away.replace("cone_deg = 60.0", "cone_deg = 10.0")
+    away = away[:away.index("[[objects]]\nname = \"ceiling\"")]  # the floor alone
+    scene = parse_scene(away)
+    setup = RenderSetup(scene, PassSettings.of(scene, photons=1000))
+    assert setup.indirect is None and setup.indirect_note.startswith("none: no photon of a")
+
+
 @pytest.mark.parametrize("name", ["ring", "glass", "sun"])
 def test_a_scene_whose_diffuse_surfaces_cannot_light_one_another_traces_none(name):
     """One floor (under a mirror ring, a glass ball): no photon leaving it meets another
