@@ -53,7 +53,7 @@ import numpy as np
 
 from blockhash.errors import InputError
 from blockhash.index.lookups.cells import cuckoo_get, cuckoo_slots
-from blockhash.index.records.codec import decode_directions
+from blockhash.index.records.codec import POLAR_UNIT_VECTORS
 from blockhash.index.records.octahedral import octahedral_tables
 from blockhash.index.records.radixsort import stable_argsort
 
@@ -107,12 +107,13 @@ def octave_fine(halves: np.ndarray, fine: int = FINE) -> np.ndarray:
     return -(-2 * halves.astype(np.int64) // int(fine))
 
 
-def fine_axis(normals: np.ndarray) -> int:
-    """The axis the photons' surfaces run along most: the smallest mean ``|n_a|`` of their
-    stored unit normals ((n, 3)), the first of equals (x on a floor)."""
-    if not len(normals):
+def fine_axis(normals: np.ndarray, counts=None) -> int:
+    """The axis the photons' surfaces run along most: the smallest mean ``|n_a|`` of their unit
+    normals ((n, 3), or a table of them, ``counts`` photons each), x on a floor (first of ties)."""
+    if not len(normals) or counts is not None and not np.sum(counts):
         return 0
-    return int(np.argmin(np.abs(np.asarray(normals, np.float64)).mean(axis=0)))
+    return int(np.argmin(np.average(np.abs(np.asarray(normals, np.float64)), axis=0,
+                                    weights=counts)))
 
 
 def axis_order(fine: int) -> tuple[int, int, int]:
@@ -218,8 +219,8 @@ class CoverGather:
         halves = octave_halves(sides)
         fines = octave_fine(halves, fine)
         if axis is None:
-            axis = fine_axis(decode_directions((index.records.records[kept, 3] >> 16)
-                                               .astype(np.uint16)))
+            codes = (index.records.records[kept, 3] >> 16).astype(np.uint16)  # the normals'
+            axis = fine_axis(POLAR_UNIT_VECTORS, np.bincount(codes, minlength=len(POLAR_UNIT_VECTORS)))
         elif axis not in (0, 1, 2):
             raise InputError(f"axis={axis!r} must be 0, 1 or 2 (x, y or z), or None to choose")
         # Each record's octave and its cell's 63-bit key, BUILD_ROWS records at a time; the

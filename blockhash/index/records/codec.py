@@ -132,6 +132,10 @@ def decode_directions(codes) -> np.ndarray:
     return np.stack([s * _COS_P[p], _COS_T[t], s * _SIN_P[p]], axis=1).astype(np.float32)
 
 
+#: (65536, 3) float32: the unit vector each 16-bit polar code stands for.
+POLAR_UNIT_VECTORS = decode_directions(np.arange(1 << 16, dtype=np.uint16))
+
+
 def _check_scale(scale, name: str = "scale") -> float:
     if isinstance(scale, bool) or not isinstance(scale, numbers.Real):
         raise InputTypeError(f"{name} must be a real number; got {scale!r} "

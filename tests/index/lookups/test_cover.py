@@ -163,6 +163,24 @@ def test_the_fine_axis_runs_along_the_surface(normal, fine):
     n = np.tile(np.asarray(normal, np.float64), (50, 1))
     assert fine_axis(n) == fine
     assert fine_axis(np.zeros((0, 3))) == 0
+    # a table of normals with counts (the gather's histogram of codes) is the same mean
+    table = np.vstack([n[0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    assert fine_axis(table, np.array([50, 0, 0])) == fine
+    assert fine_axis(table, np.zeros(3, int)) == 0
+
+
+def test_the_gathers_fine_axis_from_codes_is_that_of_the_decoded_normals(rng):
+    """The build reads the fine axis from a histogram of the records' normal codes: the axis
+    of every photon's decoded normal."""
+    from blockhash.index.lookups.cover import CoverGather, fine_axis
+    from blockhash.index.records.codec import decode_directions
+
+    for normal in ((0.2, 0.9, 0.1), (0.9, 0.1, 0.3), (0.1, 0.3, 0.9)):
+        n = np.asarray(normal) + 0.3 * rng.standard_normal((3000, 3))
+        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        index = BlockHashIndex(rng.random((3000, 3)), normals=n, tables=False)
+        want = fine_axis(decode_directions((index.records.records[:, 3] >> 16).astype(np.uint16)))
+        assert CoverGather.build(index, np.full(3000, 1e-4)).axis == want
 
 
 @pytest.mark.parametrize("plane", ["xz", "xy", "yz"])
