@@ -292,14 +292,10 @@ def _indirect_layer(setup: RenderSetup, p: int, scale: float, points, seen, timi
         info["indirect"] = setup.indirect_note
         info["indirect_stats"] = {k: v for k, v in photons.stats.items()
                                   if isinstance(v, (int, float, str))}
-    if len(photons.positions) < setup.settings.k:
-        h, w = setup.pin.height, setup.pin.width
-        image = np.zeros((h, w, 3), dtype=np.float32)
-    else:
-        built = _index(setup, photons, p, scale, stages, {}, name="indirect")
-        t = time.perf_counter()
-        image = _layer(setup, built, points, seen)
-        stages["estimate"] = time.perf_counter() - t
+    built = _index(setup, photons, p, scale, stages, {}, name="indirect")
+    t = time.perf_counter()
+    image = _layer(setup, built, points, seen)
+    stages["estimate"] = time.perf_counter() - t
     for name, sec in stages.items():
         timings[f"indirect {name}"] = sec
     return image, photons.emitted
@@ -315,10 +311,15 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
     stored = 0 if photons is None else len(photons.positions)
     if stored == 0:
         return None, None, None, None
-    if p == 0 and stored < s.k:
+    if p == 0 and name == "caustic" and stored < s.k:
         raise InputError.about("only {stored} caustic photons were stored, fewer than {k}{value}; "
                                "trace more photons ({photons}) or lower {k}", stored=stored,
                                value=s.k)
+    if stored < s.k and not stage.cover:  # the conserving estimate takes any count
+        raise InputError.about(
+            "pass {p} stored only {stored} {name} photons, fewer than the {k}{value} neighbours "
+            "the k-nearest estimate reads; trace more photons a pass ({photons}), lower {k}, or "
+            "use the conserving estimate", p=p, stored=stored, name=name, value=s.k)
     kept = setup.cache.get((name, p)) if setup.cache is not None else None
     t = time.perf_counter()
     if kept is not None:
@@ -327,7 +328,8 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
     else:
         # The cover gather reads the records in Hilbert order only: the hash tables are
         # built on first use (a caller's k-nearest query), not here.
-        index = BlockHashIndex(photons.positions, k=s.k, A=s.A, directions=photons.directions,
+        index = BlockHashIndex(photons.positions, k=min(s.k, stored), A=s.A,
+                               directions=photons.directions,
                                normals=photons.normals, powers=photons.powers,
                                tables=not stage.cover)
     timings["index"] = time.perf_counter() - t

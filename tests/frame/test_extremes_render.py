@@ -1,6 +1,7 @@
 """The renderer at the extremes of its scenes and images (docs/extremes.md): tiny images,
 few photons, every case either a finite non-negative image or a clear error."""
 
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,6 +11,8 @@ from conftest import small_ring_scene as scene
 from blockhash import CapacityError, InputError
 from blockhash.frame.gbuffer import rasterize
 from blockhash.passes.pipeline import NoCausticWarning, render_scene
+
+RING = Path(__file__).resolve().parents[2] / "scenes" / "ring.toml"
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
 
@@ -75,6 +78,24 @@ def test_fewer_photons_than_k_is_a_clear_error():
     with pytest.raises(InputError, match=r"only 5 caustic photons were stored, fewer than k=8; "
                                          r"trace more photons"):
         render_scene(scene(), photons=5, size=(4, 4))
+
+
+def test_a_later_pass_storing_fewer_photons_than_k_renders_or_says_why():
+    """Pass 0 stores k photons; a later pass emits as many and may store fewer.  The
+    conserving estimate takes any count (its radii reach the farthest photon); a k-nearest
+    estimate cannot, and says which pass."""
+    import blockhash
+
+    context_or_skip("egl")
+    ring = blockhash.load_scene(RING).with_size(8, 8)
+    # seed 0: pass 1 stores 45 of the 50 photons pass 0 stored (the index refused k=50)
+    image = blockhash.render(ring, photons=50, seed=0, plan=blockhash.RenderPlan(passes=2))
+    assert image.info["passes"] == 2 and image.info["photons_stored"] == 95
+    assert np.isfinite(image.caustic).all() and image.caustic.sum() > 0
+    with pytest.raises(InputError, match=r"pass 1 stored only 45 caustic photons, fewer than "
+                                         r"the k=50 neighbours the k-nearest estimate reads"):
+        blockhash.render(ring, photons=50, seed=0, plan=blockhash.RenderPlan(passes=2),
+                         estimate=blockhash.EstimateOptions(estimate="paper"))
 
 
 @pytest.mark.parametrize("size", [(1, 1), (256, 2), (1, 64)])
