@@ -32,6 +32,7 @@ def _setup(namespace):
         if not os.environ.get("BLOCKHASH_REQUIRE_GL"):
             pytest.skip(f"no OpenGL context for the page's examples: {exc}")
         raise
+    namespace["__name__"] = "__main__"  # a page's blocks run as the script a user pastes them into
     namespace["_cwd"] = os.getcwd()
     os.chdir(ROOT)
 

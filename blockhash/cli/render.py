@@ -27,7 +27,7 @@ from blockhash.validate import writable_path
 
 def cmd_render(args) -> int:
     from blockhash.frame.options import LookupOptions
-    from blockhash.passes.executors import PassFailed
+    from blockhash.passes.executors import PassFailed, WorkersFailed
     from blockhash.passes.pipeline import make_renderer
     from blockhash.passes.plan import TargetOutOfReach
     from blockhash.passes.run import run_passes
@@ -64,7 +64,7 @@ def cmd_render(args) -> int:
         except KeyboardInterrupt:
             progress.close()
             return _stop_early(renderer, out, "interrupted (Ctrl-C)", INTERRUPTED)
-        except (TargetOutOfReach, PassFailed) as exc:
+        except (TargetOutOfReach, PassFailed, WorkersFailed) as exc:
             progress.close()
             return _stop_early(renderer, out, f"error: {exc.spelled(FLAGS)}", 2)
         progress.close()

@@ -15,10 +15,15 @@ Each is a small frozen description (it travels in :class:`~.plan.RenderPlan`' ``
 A worker process builds the render's setup once (:mod:`.worker`) from the scene sent as data,
 and reuses it, its GL context and its compiled programs for every pass it runs.  A worker that
 dies costs the passes it held: they are handed out again, so no pass is lost or counted twice.
+A pool that keeps breaking ends the render instead (:class:`WorkersFailed`): a pass whose
+worker died :data:`MAX_WORKER_DEATHS` times, or :data:`MAX_START_FAILURES` pools in a row whose
+workers died before they started (at once, naming the missing ``if __name__ == "__main__":``
+guard, when the workers died re-running an unguarded script).
 """
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 from blockhash.errors import BlockHashError, InputError
@@ -28,14 +33,27 @@ from blockhash.passes.worker import cores
 
 #: A pass whose worker died this many times ends the render (it is not the worker's fault).
 MAX_WORKER_DEATHS = 3
+#: Pools in a row whose workers died before they started end the render.
+MAX_START_FAILURES = 3
 
 
 class PassFailed(BlockHashError, RuntimeError):
-    """A pass raised: the message names the pass and where it ran; the cause is chained."""
+    """A pass raised: the message names the pass and where it ran; the cause is chained.
+    ``image``: the passes merged before it (:func:`blockhash.render` sets it)."""
+
+    image = None
 
     def __init__(self, pass_index: int, where: str, cause: BaseException):
         super().__init__(f"pass {pass_index} failed {where}: {type(cause).__name__}: {cause}")
         self.pass_index, self.where, self.cause = pass_index, where, cause
+
+
+class WorkersFailed(BlockHashError, RuntimeError):
+    """Local worker processes kept dying: the message names why (the missing main guard, the
+    workers' exit codes or the exception that stopped them).  ``image``: the passes merged
+    before (:func:`blockhash.render` sets it)."""
+
+    image = None
 
 
 def worker_count(value) -> int:
@@ -173,17 +191,22 @@ class _PoolSession(Session):
         super().__init__()
         self.workers = count
         self.slots = 2 * count  # each worker's next pass queued: none waits on the driver
-        self.spec = worker.pack(renderer.spec)
+        self.spec = worker.spec_file(worker.pack(renderer.spec))  # (digest, path); removed on close
         self.threads = max(1, cores() // count)
         self.deaths: dict[int, int] = {}
+        self.start_failures = 0  # pools in a row broken by workers that never started
+        import multiprocessing
+
+        self.context = multiprocessing.get_context("spawn")
+        self.reports = self.context.SimpleQueue()  # what each worker's start says (worker.start)
+        self.started: dict[int, str | None] = {}  # pid -> None (started) or the start's error
         self.pool = self._pool()
 
     def _pool(self):
-        import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        return ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                   initializer=worker.start, initargs=(self.spec, self.threads))
+        return ProcessPoolExecutor(self.workers, mp_context=self.context, initializer=worker.start,
+                                   initargs=(self.spec, self.threads, self.reports))
 
     def submit(self, p: int, emitted) -> None:
         future = self.pool.submit(worker.run, p, emitted)
@@ -211,14 +234,42 @@ class _PoolSession(Session):
         if broken:
             self._restart(broken)
 
+    def _dead(self) -> tuple[list[tuple[int, str]], list[tuple[int, str]]]:
+        """The broken pool's dead workers as (those that never started, those that did), each
+        (exit code, what its start reported)."""
+        while not self.reports.empty():
+            pid, error = self.reports.get()
+            self.started[pid] = error
+        never, did = [], []
+        for process in list(getattr(self.pool, "_processes", {}).values()):
+            process.join(5)  # the pool is broken: its workers are ending
+            if process.exitcode is None:
+                continue
+            started = process.pid in self.started and self.started[process.pid] is None
+            (did if started else never).append((process.exitcode, self.started.get(process.pid)))
+        return never, did
+
     def _restart(self, broken) -> None:
-        """A worker died: a new pool, and every pass the old one held handed out again."""
-        for p in broken:
+        """A worker died: a new pool, and every pass the old one held handed out again; a pool
+        that keeps breaking ends the render (:class:`WorkersFailed`)."""
+        never, did = self._dead()
+        if any(code == worker.MAIN_GUARD_EXIT for code, _ in never):
+            raise WorkersFailed(main_guard_message())
+        at_start = bool(never) and not did  # no worker of the pool started: no pass ran
+        self.start_failures = self.start_failures + 1 if at_start else 0
+        if self.start_failures >= MAX_START_FAILURES:
+            raise WorkersFailed(
+                f"local worker processes died before they started, {self.start_failures} pools "
+                f"in a row ({_exits(never)}); their tracebacks are on this process's standard "
+                "error.  Render in this process (leave out --workers, or executor=) to see "
+                "the error directly")
+        for p in [] if at_start else broken:
             self.deaths[p] = self.deaths.get(p, 0) + 1
             if self.deaths[p] >= MAX_WORKER_DEATHS:
                 raise PassFailed(p, "in a local worker process", RuntimeError(
-                    f"its worker process died {self.deaths[p]} times (killed, or out of "
-                    "memory); lower the photons per pass or the workers"))
+                    f"its worker process died {self.deaths[p]} times (last: "
+                    f"{_exits(did or never)}; killed, or out of memory); lower the photons "
+                    "per pass or the workers"))
         self.pool.shutdown(wait=False, cancel_futures=True)
         self.pool = self._pool()
         again = {p: f.emitted for p, f in self.flight.items()}
@@ -229,6 +280,8 @@ class _PoolSession(Session):
     def close(self) -> None:
         for future in self.flight.values():
             future.cancel()
+        self.reports.close()
+        os.unlink(self.spec[1])
         super().close()
         processes = list(getattr(self.pool, "_processes", {}).values())  # the pool's own
         self.pool.shutdown(wait=False, cancel_futures=True)
@@ -236,3 +289,38 @@ class _PoolSession(Session):
             process.terminate()
         for process in processes:
             process.join(5)
+
+
+def _exits(dead) -> str:
+    """Dead workers' (exit code, start error) pairs in words, each once; without the SIGTERM
+    a broken pool ends its other workers with, where another cause is there."""
+    import signal
+
+    causes = [(code, error) for code, error in dead if code != -signal.SIGTERM] or dead
+    words = sorted({exit_reason(code) + (f": {error}" if error else "") for code, error in causes})
+    return "; ".join(words) or "exit unknown"
+
+
+def exit_reason(code: int) -> str:
+    """A process's exit code in words: ``exit code 1``, ``killed by SIGKILL``."""
+    if code < 0:
+        import signal
+
+        try:
+            return f"killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit code {code}"
+
+
+def main_guard_message() -> str:
+    """Why local workers cannot start from a script without a main guard, and the fix."""
+    import sys
+
+    main = getattr(sys.modules.get("__main__"), "__file__", None) or "the main module"
+    return (f"local worker processes could not start: each worker imports {main} again (the "
+            "'spawn' start method), and it starts a render when imported.  Put the script's "
+            "rendering under a main guard:\n\n"
+            "    if __name__ == \"__main__\":\n"
+            "        image = blockhash.render(scene, plan=RenderPlan(executor=LocalWorkers(2)))\n\n"
+            "(docs/workers.md, 'Local workers from a script')")

@@ -27,6 +27,7 @@ from blockhash.frame.options import LookupOptions
 from blockhash.frame.result import RenderResult  # noqa: F401 (importable from here)
 from blockhash.frame.shading import SceneRays, direct_light
 from blockhash.frame.subpixel import box_filter
+from blockhash.passes.executors import PassFailed, WorkersFailed
 from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import NoCausticWarning, Renderer  # noqa: F401 (importable from here)
 from blockhash.passes.run import run_passes
@@ -73,6 +74,13 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
         over passes), ``info`` (passes, photons, estimated error, why it stopped), the last
         pass's ``index``, ``spp`` and ``passes``.  The image size is the camera's
         (``Scene.with_size`` for another).
+
+    Raises
+    ------
+    PassFailed, WorkersFailed
+        A pass raised, or local workers kept dying (:mod:`blockhash.passes.executors`); the
+        exception's ``image`` is the image of the passes merged before (None before the
+        first), as the command line writes it.
     """
     if not isinstance(estimate, EstimateOptions):
         raise InputError(f"estimate must be an EstimateOptions; got {type(estimate).__name__} "
@@ -85,7 +93,11 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
                          "(e.g. plan=RenderPlan(passes=16) or RenderPlan(passes=None, seconds=30))")
     renderer, plan = make_renderer(scene, photons=photons, spp=spp, seed=seed,
                                    estimate=estimate, lookup=lookup, backend=backend, plan=plan)
-    run_passes(renderer, plan)
+    try:
+        run_passes(renderer, plan)
+    except (PassFailed, WorkersFailed) as exc:
+        exc.image = renderer.image if renderer.passes else None  # the passes merged before
+        raise
     return renderer.image
 
 

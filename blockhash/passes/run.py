@@ -10,6 +10,7 @@ from __future__ import annotations
 import time
 
 from blockhash.passes.plan import RenderPlan
+from blockhash.passes.worker import refuse_while_importing_main
 
 
 def run_passes(renderer, plan: RenderPlan, *, on_pass=None, on_wait=None):
@@ -17,7 +18,9 @@ def run_passes(renderer, plan: RenderPlan, *, on_pass=None, on_wait=None):
     ``on_pass(renderer, stats, elapsed, session)`` after every pass merged, ``on_wait(session)``
     after passes are handed out.  Returns the reason it stopped (also in
     ``renderer.info['stopped_by']``); Ctrl-C and a pass that raised leave the film with the
-    passes merged so far."""
+    passes merged so far.  A spawned worker process that reaches a render while importing its
+    parent's script (no main guard) ends here (:func:`.worker.refuse_while_importing_main`)."""
+    refuse_while_importing_main()
     t0 = time.perf_counter()
     with plan.executor.open(renderer) as session:
         renderer.info["workers"] = session.workers

@@ -33,6 +33,21 @@ def pack(spec) -> tuple[str, bytes]:
     return hashlib.sha256(data).hexdigest()[:16], data
 
 
+def spec_file(packed: tuple[str, bytes]) -> tuple[str, str]:
+    """(digest, path of a temporary file holding the pickled spec): what a local pool's
+    workers are started with.  Not the spec itself: a spawned process reads its start
+    arguments only after importing its parent's main module, and a worker that dies there
+    (an unguarded script) would leave its parent blocked writing a spec larger than a pipe
+    holds (multiprocessing closes the pipe's read end only after the write)."""
+    import tempfile
+
+    digest, data = packed
+    with tempfile.NamedTemporaryFile(prefix=f"blockhash-spec-{digest}-", suffix=".pickle",
+                                     delete=False) as f:
+        f.write(data)
+    return digest, f.name
+
+
 def setup_for(digest: str, data: bytes | None = None):
     """The setup of the spec with ``digest`` in this process, built from ``data`` on first use."""
     from blockhash.passes.task import RenderSetup
@@ -72,14 +87,45 @@ def _pass_thread_start() -> None:
         set_num_threads(min(threads, config.NUMBA_NUM_THREADS))
 
 
-def start(spec: tuple[str, bytes], threads: int) -> None:
-    """A local pool's initializer: the render's spec and this process's share of the cores.
-    Ctrl-C is the driver's to handle (it writes the image so far and stops the workers)."""
+def start(spec: tuple[str, str], threads: int, reports=None) -> None:
+    """A local pool's initializer: the render's spec (digest, file: :func:`spec_file`) and
+    this process's share of the cores;
+    ``reports`` (a queue) hears ``(pid, None)`` once this process has started, or ``(pid,
+    error)`` where its start raised.  Ctrl-C is the driver's to handle (it writes the image so
+    far and stops the workers)."""
     import signal
 
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    share_cores(threads)
-    _SPEC["digest"], _SPEC["data"] = spec
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        share_cores(threads)
+        digest, path = spec
+        with open(path, "rb") as f:
+            _SPEC["digest"], _SPEC["data"] = digest, f.read()
+    except Exception as exc:
+        if reports is not None:
+            reports.put((os.getpid(), f"{type(exc).__name__}: {exc}"))
+        raise
+    if reports is not None:
+        reports.put((os.getpid(), None))
+
+
+#: A spawned process exits with this code where its main module starts a render on import.
+MAIN_GUARD_EXIT = 78
+
+
+def refuse_while_importing_main() -> None:
+    """End this process (exit :data:`MAIN_GUARD_EXIT`) if it is a spawned worker still
+    importing its parent's main module: a script without an ``if __name__ == "__main__":``
+    guard renders on import, and every worker would start a render (and workers) of its own.
+    The render that started the workers names the cause (:class:`.executors.WorkersFailed`)."""
+    import multiprocessing
+    import sys
+
+    if getattr(multiprocessing.current_process(), "_inheriting", False):  # as multiprocessing checks
+        main = getattr(sys.modules.get("__mp_main__"), "__file__", None) or "its main module"
+        print(f"blockhash: worker process {os.getpid()} stops: importing {main} started a render "
+              "(the script has no if __name__ == \"__main__\": guard)", file=sys.stderr)
+        raise SystemExit(MAIN_GUARD_EXIT)
 
 
 def run(p: int, emitted):

@@ -13,7 +13,15 @@ import pytest
 import blockhash
 from blockhash.errors import InputError
 from blockhash.passes import worker
-from blockhash.passes.executors import InProcess, LocalWorkers, PassFailed, worker_count
+from blockhash.passes.executors import (
+    MAX_START_FAILURES,
+    MAX_WORKER_DEATHS,
+    InProcess,
+    LocalWorkers,
+    PassFailed,
+    WorkersFailed,
+    worker_count,
+)
 from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import Renderer
 from blockhash.passes.run import run_passes
@@ -99,6 +107,65 @@ def test_a_local_worker_killed_mid_render_costs_time_not_the_image(scene, one_pr
     r, _ = _render(scene, LocalWorkers(2), on_pass=kill_one)
     assert killed
     assert_same_image(r, one_process)
+
+
+# Stand-ins for worker.start and worker.run, run in the pool's spawned processes (pickled by
+# reference to this module): after pass 1, a file named by $BLOCKHASH_TEST_BROKEN marks the
+# workers broken; a marked worker dies in any later pass, and at start-up.
+
+def _marked():
+    return Path(os.environ["BLOCKHASH_TEST_BROKEN"]).exists()
+
+
+def _start_unless_marked(*args):
+    if _marked():
+        os.kill(os.getpid(), signal.SIGKILL)
+    worker.start(*args)
+
+
+def _run_then_mark(p, emitted):
+    if p >= 2 and _marked():
+        os.kill(os.getpid(), signal.SIGKILL)
+    contribution = worker.run(p, emitted)
+    if p == 1:
+        Path(os.environ["BLOCKHASH_TEST_BROKEN"]).touch()
+    return contribution
+
+
+@pytest.fixture
+def broken_after_pass_1(monkeypatch, tmp_path):
+    monkeypatch.setenv("BLOCKHASH_TEST_BROKEN", str(tmp_path / "broken"))
+    monkeypatch.setattr(worker, "run", _run_then_mark)
+    return monkeypatch
+
+
+def test_a_pass_whose_worker_keeps_dying_ends_the_render_keeping_the_passes_before(
+        scene, one_process, broken_after_pass_1):
+    with pytest.raises(PassFailed, match=rf"pass \d failed in a local worker process: .*died "
+                       rf"{MAX_WORKER_DEATHS} times \(last: .*killed by SIGKILL") as caught:
+        blockhash.render(scene, photons=PHOTONS, plan=RenderPlan(passes=PASSES, executor=LocalWorkers(2)))
+    image = caught.value.image
+    assert 2 <= image.passes < PASSES and image.passes == caught.value.pass_index
+    want = Renderer(scene, photons=PHOTONS)
+    run_passes(want, RenderPlan(passes=image.passes))
+    np.testing.assert_array_equal(image.caustic, want.image.caustic)  # the passes merged before
+
+
+def test_workers_that_die_at_start_up_on_every_replacement_end_the_render(
+        scene, broken_after_pass_1):
+    broken_after_pass_1.setattr(worker, "start", _start_unless_marked)
+    t0 = time.perf_counter()
+    with pytest.raises(WorkersFailed, match=rf"died before they started, {MAX_START_FAILURES} "
+                       r"pools in a row \(killed by SIGKILL\)") as caught:
+        blockhash.render(scene, photons=PHOTONS, plan=RenderPlan(passes=PASSES, executor=LocalWorkers(2)))
+    assert time.perf_counter() - t0 < 120  # not a pool replaced without end
+    assert caught.value.image.passes >= 2  # passes 0 and 1 ran before the workers broke
+
+
+def test_exit_codes_are_named():
+    from blockhash.passes.executors import exit_reason
+
+    assert exit_reason(-9) == "killed by SIGKILL" and exit_reason(3) == "exit code 3"
 
 
 def test_worker_counts_are_checked():
