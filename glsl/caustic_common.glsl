@@ -19,10 +19,17 @@ vec3 caustic_polar(uint code) {
     return vec3(sin(theta) * cos(phi), cos(theta), sin(theta) * sin(phi));
 }
 
+// cos^e alpha of the Phong lobe for c = max(cos alpha, 0) >= 0 and e >= 0, with 0^0 = 1 as the
+// CPU's c ** e: GLSL leaves pow(0, 0) undefined, and NVIDIA's exp2(e * log2(c)) makes it NaN,
+// which a diffuse receiver's ks = 0 does not cancel (0 * NaN is NaN).
+float caustic_lobe(float c, float e) {
+    return e > 0.0 ? pow(c, e) : 1.0;
+}
+
 vec3 caustic_phong(vec3 wi, vec3 wo, vec3 n, vec3 kd, vec3 ks, float e) {
     vec3 r = 2.0 * dot(n, wi) * n - wi;
     float c = max(dot(r, wo), 0.0);
-    return kd / CAUSTIC_PI + ks * ((e + 2.0) / (2.0 * CAUSTIC_PI)) * pow(c, e);
+    return kd / CAUSTIC_PI + ks * ((e + 2.0) / (2.0 * CAUSTIC_PI)) * caustic_lobe(c, e);
 }
 
 // Filter weight from t^2 = (d / r)^2, normalised to mean 1 over the unit disc.

@@ -44,7 +44,7 @@ vec3 caustic_cover_term(uvec4 w, vec3 d, float d2, float h2) {
     vec2 c34 = unpackHalf2x16(w.w);
     vec3 power = vec3(c12, c34.x) * bh_power_scale;
     float c = max(2.0 * win * dot(cc_n, cc_wo) - dot(wi, cc_wo), 0.0);
-    vec3 f = cc_diffuse + cc_specular * pow(c, cc_e);
+    vec3 f = cc_diffuse + cc_specular * caustic_lobe(c, cc_e);
     float inv = 1.0 / h2;
     return (caustic_filter(d2 * inv) * inv) * f * power;
 }

@@ -200,3 +200,14 @@ def mitsuba_or_skip():
         if os.environ.get("BLOCKHASH_REQUIRE_MITSUBA"):
             pytest.fail(f"BLOCKHASH_REQUIRE_MITSUBA is set but {why}")
         pytest.skip(why)
+
+
+@pytest.fixture(params=["plain", "strict"])
+def gl_mode(request):
+    """Each test that takes it runs twice: as usual, and in strict GL (blockhash/gl/strict.py:
+    textures poisoned with NaN before they are written, GLSL's undefined operations NaN, as a
+    GPU may give them), where its results must hold as well."""
+    from blockhash.gl.strict import strict
+
+    with strict(request.param == "strict"):
+        yield request.param

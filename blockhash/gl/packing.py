@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from blockhash.errors import CapacityError
+from blockhash.gl import strict
 from blockhash.gl.context import check_gl
 from blockhash.index.records.blocks import COUNT_WORD, block_boxes  # noqa: F401 (block_boxes: re-exported)
 
@@ -63,6 +64,7 @@ def upload(ctx, data: np.ndarray, components: int, what: str, *, dtype: str = "u
         tex = pooled_texture(ctx, what, width, height, components, dtype)
     else:
         tex = ctx.texture((width, height), components, dtype=dtype)
+        strict.poison(tex)
     # The full rows straight from ``data`` (no padded copy of the whole array); the last
     # row, padded with zeros, on its own.
     full = len(flat) // width

@@ -13,6 +13,7 @@ context gets a texture of its own, released as usual (:func:`give_back`).
 
 from __future__ import annotations
 
+from blockhash.gl import strict
 from blockhash.gl.context import check_gl
 
 #: Spare rows allocated when a pooled texture grows, as a share of the rows asked for.
@@ -37,6 +38,7 @@ def pooled_texture(ctx, role: str, width: int, height: int, components: int, dty
         tex = ctx.texture((width, height), components, dtype=dtype)  # a second holder
         check_gl(ctx, f"allocating the {role} texture ({width} x {height} x {components})")
         tex.extra = {"pooled": False}
+        strict.poison(tex)
         return tex
     if tex is None or tex.height < height or (exact and tex.height != height):
         if tex is not None:
@@ -47,6 +49,7 @@ def pooled_texture(ctx, role: str, width: int, height: int, components: int, dty
         check_gl(ctx, f"allocating the {role} texture ({width} x {rows} x {components})")
         pool[key] = tex
     tex.extra = {"pooled": True, "busy": True}
+    strict.poison(tex)  # its stale rows too
     return tex
 
 

@@ -20,6 +20,7 @@ from importlib import resources
 from pathlib import Path
 
 from blockhash.errors import GLUnavailableError, InputError, ShaderCompileError
+from blockhash.gl import strict
 
 GLSL_VERSION = "#version 450 core"
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
@@ -258,7 +259,7 @@ def compile_program(ctx, fragment: str, defines: dict[str, object], *, vertex: s
     """
     import moderngl
 
-    src = preprocess(fragment, define_block(defines))
+    src = preprocess(fragment, define_block(defines) + "\n" + strict.prologue())
     for record in _RECORDS:
         record.append(Compiled(fragment, dict(defines), src.text))
     key = (id(ctx), fragment, src.text, vertex)

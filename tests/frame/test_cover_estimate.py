@@ -161,3 +161,36 @@ def test_splatting_equals_the_gather_where_the_camera_sees_the_receiver(ring_sce
     seen_in_mirror = (pts.material >= 0) & ~direct
     assert seen_in_mirror.any() and cover[seen_in_mirror].sum() > 0
     assert splat[seen_in_mirror].sum() < 0.3 * cover[seen_in_mirror].sum()
+
+
+def test_hostile_photons_and_points_stay_finite_and_equal_the_cpu(gl_mode):
+    """In strict GL too (poisoned textures, undefined operations NaN): a diffuse receiver
+    (exponent 0: pow(0, 0)) beside a glossy one, zero-power photons, a pile of identical
+    photons (zero own radii), shading points far from every photon (empty windows) and on the
+    photons' cell borders (the windows' edges)."""
+    context_or_skip("egl")
+    from blockhash.frame.caustic import ShadingPoints
+
+    rng = np.random.default_rng(4)
+    n = 4_000
+    pos = np.stack([rng.random(n), np.zeros(n), rng.random(n)], axis=1)
+    pos[:200] = (0.5, 0.0, 0.5)  # a pile: its photons' own radii are 0
+    powers = rng.uniform(0.5, 1.5, (n, 3)) * FLUX / n
+    powers[::5] = 0.0  # zero-power photons
+    dirs = np.tile([0.3, -1.0, 0.1], (n, 1)) / np.sqrt(1.1)
+    index = BlockHashIndex(pos, k=50, A=8, directions=dirs, powers=powers)
+    gather = cover_gather(index, 50)
+    # Far points beyond [0, 1]; seen from a grazing direction away from the photons' mirror
+    # direction, so that the Phong lobe's cosine is 0.
+    base = grid_points(24, 24, lo=-0.5, hi=1.5, view=(-0.99, 0.141, 0.0))
+    position = base.position.copy()
+    position[:4, :, 0] = np.float32(0.5)  # rows through the pile, on a cell border of x
+    position[4:8, :, 0] = np.float32(index.positions[1000, 0])  # on a photon's own x
+    material = np.zeros((24, 24), np.int32)
+    material[:, ::2] = 1  # every other column diffuse (ks = 0, exponent 0)
+    pts = ShadingPoints(position, base.normal, base.view, material, base.weight)
+    mats = [MATS[0], ((KD,) * 3, (0.0, 0.0, 0.0), 0.0)]
+    cpu = estimate_cover_cpu(gather, pts, mats)
+    gl = CausticPass(index, backend="egl", gather="cover").render(pts, mats)
+    assert np.isfinite(gl).all() and (cpu > 0).any() and (cpu == 0).any()
+    np.testing.assert_allclose(gl, cpu, rtol=2e-5, atol=1e-6 * cpu.max())

@@ -26,7 +26,7 @@ def assert_sane(result, *, caustic=True):
 
 
 @pytest.mark.parametrize("case", ["camera-inside-ring", "light-inside-ring"])
-def test_extreme_placements_render_finite_images(case):
+def test_extreme_placements_render_finite_images(case, gl_mode):
     context_or_skip("egl")
     kw = {"camera-inside-ring": dict(eye="[0.0, 0.15, 0.1]", target="[0.3, 0.0, -0.3]"),
           "light-inside-ring": dict(light="[0.1, 0.2, 0.0]")}[case]
@@ -80,7 +80,7 @@ def test_fewer_photons_than_k_is_a_clear_error():
         render_scene(scene(), photons=5, size=(4, 4))
 
 
-def test_a_later_pass_storing_fewer_photons_than_k_renders_or_says_why():
+def test_a_later_pass_storing_fewer_photons_than_k_renders_or_says_why(gl_mode):
     """Pass 0 stores k photons; a later pass emits as many and may store fewer.  The
     conserving estimate takes any count (its radii reach the farthest photon); a k-nearest
     estimate cannot, and says which pass."""

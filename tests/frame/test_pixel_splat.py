@@ -43,7 +43,7 @@ def test_a_small_photon_the_camera_sees_adds_its_flux_over_the_pixel_to_its_pixe
     assert np.count_nonzero(flat.sum(1)) == 1  # nothing anywhere else
 
 
-def test_the_footprint_bounds_the_disc_and_zero_splats_nothing(view):
+def test_the_footprint_bounds_the_disc_and_zero_splats_nothing(view, gl_mode):
     pin, rays, materials = view
     photons = _photons([[0.0, 0.0]])
     d = float(np.linalg.norm(pin.eye - photons.positions[0]))

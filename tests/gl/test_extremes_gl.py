@@ -110,7 +110,7 @@ def test_A_beyond_the_loop_limit_is_refused_on_llvmpipe_with_the_largest_A(no_co
 
 @pytest.mark.slow
 @pytest.mark.parametrize("n", [1, 10, 11])
-def test_k_equal_to_n_and_tiny_maps_equal_the_cpu_reference(n):
+def test_k_equal_to_n_and_tiny_maps_equal_the_cpu_reference(n, gl_mode):
     context_or_skip("egl")
     pts = np.random.default_rng(n).random((n, 3))
     index = BlockHashIndex(pts, k=1, A=1)
@@ -188,7 +188,7 @@ def shading_points(positions):
 
 
 @pytest.mark.parametrize("watts", [1e-9, 1e9])
-def test_tiny_radius_and_missing_photons_give_finite_pixels(watts):
+def test_tiny_radius_and_missing_photons_give_finite_pixels(watts, gl_mode):
     context_or_skip("egl")
     rng = np.random.default_rng(0)
     pos = np.concatenate([np.full((20, 3), 0.5), rng.random((180, 3))])
