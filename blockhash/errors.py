@@ -75,6 +75,12 @@ class _Name(str):
         return format(str(self), spec)
 
 
+class NonFiniteError(BlockHashError, FloatingPointError):
+    """An image layer holds NaN or infinity (a renderer's or a driver's fault, never written
+    to a file): the message names the layer, where it came from, how many pixels and the
+    first."""
+
+
 class InputTypeError(BlockHashError, TypeError):
     """An array or parameter had the wrong type or dtype."""
 

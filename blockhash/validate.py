@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from blockhash.errors import InputError, InputTypeError
+from blockhash.errors import InputError, InputTypeError, NonFiniteError
 
 
 def as_points(value, name: str, *, dtype=np.float64, allow_empty: bool = True,
@@ -101,3 +101,19 @@ def writable_path(path, flag: str) -> Path:
     if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
         raise InputError(f"{flag} {path}: not writable (permission denied); give a writable path")
     return path
+
+
+def finite_image(image, layer: str, source: str, way_out: str) -> None:
+    """Raise :class:`~blockhash.errors.NonFiniteError` if the (h, w, c) ``image`` holds NaN or
+    infinity, naming the ``layer``, its ``source`` (a pass and its process, a file), how many
+    pixels and the first pixel's coordinates (x right, y down from the top left)."""
+    bad = ~np.isfinite(np.asarray(image))
+    if bad.ndim == 3:
+        bad = bad.any(axis=2)
+    if not bad.any():
+        return
+    y, x = (int(v) for v in np.argwhere(bad)[0])
+    count = int(bad.sum())
+    raise NonFiniteError(f"{source}: the {layer} layer has {count:,} non-finite pixel"
+                         f"{'s' if count > 1 else ''} (NaN or infinity) of {bad.size:,}, the first "
+                         f"at x={x}, y={y}; {way_out}")

@@ -16,7 +16,7 @@ from blockhash.cli.args import FLAGS, INTERRUPTED
 from blockhash.cli.args import size as _size
 from blockhash.cli.estimate import add_arguments as add_estimate_arguments
 from blockhash.cli.estimate import options_from
-from blockhash.errors import InputError
+from blockhash.errors import InputError, NonFiniteError
 from blockhash.frame.options import METHODS
 from blockhash.gl.context import BACKENDS
 from blockhash.scene.camera import DEFAULT_SPP
@@ -64,7 +64,7 @@ def cmd_render(args) -> int:
         except KeyboardInterrupt:
             progress.close()
             return _stop_early(renderer, out, "interrupted (Ctrl-C)", INTERRUPTED)
-        except (TargetOutOfReach, PassFailed, WorkersFailed) as exc:
+        except (TargetOutOfReach, PassFailed, WorkersFailed, NonFiniteError) as exc:
             progress.close()
             return _stop_early(renderer, out, f"error: {exc.spelled(FLAGS)}", 2)
         progress.close()

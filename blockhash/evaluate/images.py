@@ -13,14 +13,19 @@ import numpy as np
 import OpenImageIO as oiio
 
 from blockhash.errors import InputError
+from blockhash.validate import finite_image
 
 CHANNELS = ("R", "G", "B")
+#: The writers refuse NaN and infinity: no file holds them.
+WAY_OUT = "nothing was written; an image file holds finite values only (np.nan_to_num first, to write it anyway)"
 
 
 def write_exr(path, layers: dict[str, np.ndarray], attributes: dict | None = None) -> None:
     """Write ``{name: (h, w, 3) float}`` as one float EXR with channels name.R/G/B, and
     ``attributes`` (``{"blockhash:spp": 4}``) as header metadata."""
     names = list(layers)
+    for name in names:
+        finite_image(layers[name], name, f"write_exr {path}", WAY_OUT)
     h, w, _ = layers[names[0]].shape
     # Contiguous whatever the inputs' strides: OpenImageIO refuses non-contiguous channels.
     data = np.ascontiguousarray(np.concatenate([np.asarray(layers[n], dtype=np.float32)
@@ -64,6 +69,7 @@ def tone_map(image: np.ndarray, *, percentile: float = 99.5) -> np.ndarray:
 
 def write_png(path, image: np.ndarray) -> None:
     """Tone-map (h, w, 3) radiance and write it as an 8-bit sRGB image."""
+    finite_image(image, "image", f"write_png {path}", WAY_OUT)
     write_rgb8(path, tone_map(image))
 
 

@@ -26,6 +26,13 @@ from __future__ import annotations
 import numpy as np
 
 from blockhash.errors import InputError
+from blockhash.validate import finite_image
+
+#: What a user can do about a pass that rendered NaN or infinity.
+NON_FINITE_WAY_OUT = ("nothing was merged or written from it.  This is a renderer or GL driver "
+                      "fault: render the scene with --method cpu (the CPU reference of the same "
+                      "estimate) to tell which, and python tools/gpu_conformance.py on this "
+                      "device; report it with the scene and the device (blockhash info)")
 
 
 class Film:
@@ -45,15 +52,21 @@ class Film:
         self.indirect_weight = 0.0
 
     def add(self, direct: np.ndarray, caustic: np.ndarray, emitted: int,
-            indirect: np.ndarray | None = None, indirect_emitted: int = 0) -> None:
+            indirect: np.ndarray | None = None, indirect_emitted: int = 0, *,
+            source: str = "a pass") -> None:
         """One pass's pixel means; ``emitted`` its photons shot (0 when the scene has no
         specular object, and then every pass weighs the same); ``indirect`` its indirect
-        layer (None: the render has none) of ``indirect_emitted`` photons shot."""
+        layer (None: the render has none) of ``indirect_emitted`` photons shot.  A layer with
+        NaN or infinity is refused (:class:`~blockhash.errors.NonFiniteError` naming
+        ``source``, the pass and where it ran), the film left as it was."""
         direct = np.asarray(direct, dtype=np.float64)
         caustic = np.asarray(caustic, dtype=np.float64)
         if direct.shape != self.direct.shape or caustic.shape != self.caustic.shape:
             raise InputError(f"a pass of shape {direct.shape} / {caustic.shape} does not fit the "
                              f"film's {self.direct.shape}; every pass renders the same image size")
+        for layer, values in (("direct", direct), ("caustic", caustic), ("indirect", indirect)):
+            if values is not None:
+                finite_image(values, layer, source, NON_FINITE_WAY_OUT)
         if emitted < 0:
             raise InputError(f"emitted={emitted}: a pass emits a non-negative count of photons")
         w = float(emitted) if emitted > 0 else 1.0

@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from blockhash.errors import InputError
+from blockhash.errors import InputError, NonFiniteError
 
 #: The most bytes of photons, indices and radii kept for the frames of a camera-only
 #: animation (estimated per pass from its arrays); passes past it are traced every frame.
@@ -96,7 +96,10 @@ def render_frames(scene, frames, *, photons=None, spp=None, seed=None, estimate=
                 base.cache = FrameCache(CACHE_BYTES)
             else:
                 renderer._setup = with_scene(base, scene_f)
-        run_passes(renderer, plan_f)
+        try:
+            run_passes(renderer, plan_f)
+        except NonFiniteError as exc:
+            raise NonFiniteError(f"frame {f}, {exc}") from exc
         seconds[f] = time.perf_counter() - t
         if on_frame is not None:
             on_frame(f, renderer, seconds[f])

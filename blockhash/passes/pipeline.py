@@ -20,7 +20,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from blockhash.errors import InputError
+from blockhash.errors import InputError, NonFiniteError
 from blockhash.frame.camera_samples import camera_points
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.options import LookupOptions
@@ -77,10 +77,11 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
 
     Raises
     ------
-    PassFailed, WorkersFailed
-        A pass raised, or local workers kept dying (:mod:`blockhash.passes.executors`); the
-        exception's ``image`` is the image of the passes merged before (None before the
-        first), as the command line writes it.
+    PassFailed, WorkersFailed, NonFiniteError
+        A pass raised, local workers kept dying (:mod:`blockhash.passes.executors`), or a
+        pass's layer held NaN or infinity (the film refuses it, naming the layer, the pass,
+        where it ran and its first pixel); the exception's ``image`` is the image of the
+        passes merged before (None before the first), as the command line writes it.
     """
     if not isinstance(estimate, EstimateOptions):
         raise InputError(f"estimate must be an EstimateOptions; got {type(estimate).__name__} "
@@ -95,7 +96,7 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
                                    estimate=estimate, lookup=lookup, backend=backend, plan=plan)
     try:
         run_passes(renderer, plan)
-    except (PassFailed, WorkersFailed) as exc:
+    except (PassFailed, WorkersFailed, NonFiniteError) as exc:
         exc.image = renderer.image if renderer.passes else None  # the passes merged before
         raise
     return renderer.image

@@ -128,7 +128,8 @@ class Renderer:
         return merged
 
     def _add(self, c: PassContribution) -> PassStats:
-        self.film.add(c.direct, c.caustic, c.emitted, c.indirect, c.indirect_emitted)
+        self.film.add(c.direct, c.caustic, c.emitted, c.indirect, c.indirect_emitted,
+                      source=f"pass {c.index} ({c.info.get('ran_in', 'rendered in this process')})")
         for category, message in c.info.pop("warnings", ()):  # raised in a worker process
             warnings.warn(message, category, stacklevel=4)
         if c.index == 0:

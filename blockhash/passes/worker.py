@@ -148,6 +148,8 @@ def _run(digest, data, p, emitted):
         warnings.simplefilter("always")
         contribution = run_pass(setup_for(digest, data), p, emitted).portable()
     contribution.info["warnings"] = [(w.category, str(w.message)) for w in caught]
+    where = host()
+    contribution.info["ran_in"] = f"rendered by worker process {where['pid']} on {where['host']}"
     return contribution
 
 

@@ -165,3 +165,18 @@ def test_png_alpha_is_left_out_and_grey_images_compare_as_rgb(tmp_path):
     grey = oiio.ImageBuf(oiio.ImageSpec(8, 6, 1, oiio.FLOAT))
     grey.write(str(tmp_path / "g.exr"))
     assert compare_layers(tmp_path / "g.exr", b).metrics["rgb"]["rms"] == 0
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+def test_the_image_writers_refuse_non_finite_values(tmp_path, value):
+    from blockhash.errors import NonFiniteError
+    from blockhash.evaluate.images import write_exr, write_png
+
+    image = np.ones((6, 8, 3), np.float32)
+    image[5, 7, 2] = value
+    with pytest.raises(NonFiniteError, match=r"write_exr .*a.exr: the caustic layer has 1 "
+                                             r"non-finite pixel .* first at x=7, y=5; nothing was written"):
+        write_exr(tmp_path / "a.exr", {"direct": np.ones((6, 8, 3)), "caustic": image})
+    with pytest.raises(NonFiniteError, match=r"write_png .*a.png: the image layer has 1"):
+        write_png(tmp_path / "a.png", image)
+    assert not list(tmp_path.iterdir())

@@ -392,3 +392,55 @@ def test_area_and_directional_lights_give_the_one_process_image_on_workers():
         there = Renderer(scene, photons=2000)
         run_passes(there, RenderPlan(passes=3, executor=LocalWorkers(2)))
         assert_same_image(there, here)
+
+
+# A pass whose caustic holds one NaN pixel (x=3, y=2) in pass 1: stand-ins for the pass on
+# each executor (in this process, in a spawned local worker, on a Dask worker thread).
+
+def _nan_in_pass_1(contribution):
+    if contribution.index == 1:
+        contribution.caustic[2, 3, 1] = np.nan
+    return contribution
+
+
+def _run_pass_with_nan(*args, **kw):
+    return _nan_in_pass_1(run_pass(*args, **kw))  # this module's name: the real run_pass
+
+
+def _worker_run_with_nan(p, emitted):
+    return _nan_in_pass_1(worker.run(p, emitted))
+
+
+NAN_PASS = (r"pass 1 \(rendered {where}\): the caustic layer has 1 non-finite pixel \(NaN or "
+            r"infinity\) of 1,024, the first at x=3, y=2; nothing was merged")
+
+
+def test_a_pass_with_a_nan_pixel_ends_the_render_naming_it_in_process(scene, monkeypatch):
+    from blockhash.errors import NonFiniteError
+    from blockhash.passes import executors
+
+    monkeypatch.setattr(executors, "run_pass", _run_pass_with_nan)
+    with pytest.raises(NonFiniteError, match=NAN_PASS.format(where="in this process")) as caught:
+        blockhash.render(scene, photons=PHOTONS, plan=RenderPlan(passes=3))
+    assert caught.value.image.passes == 1 and np.isfinite(caught.value.image.caustic).all()
+
+
+def test_a_pass_with_a_nan_pixel_ends_the_render_naming_its_local_worker(scene, monkeypatch):
+    from blockhash.errors import NonFiniteError
+
+    monkeypatch.setattr(worker, "run", _worker_run_with_nan)
+    with pytest.raises(NonFiniteError, match=NAN_PASS.format(where=r"by worker process \d+ on \S+")):
+        blockhash.render(scene, photons=PHOTONS, plan=RenderPlan(passes=3, executor=LocalWorkers(2)))
+
+
+def test_a_pass_with_a_nan_pixel_ends_the_render_naming_its_dask_worker(scene, monkeypatch,
+                                                                       threads_cluster):
+    from blockhash.errors import NonFiniteError
+    from blockhash.passes import task
+    from blockhash.passes.dask_cluster import DaskCluster
+
+    monkeypatch.setattr(task, "run_pass", _run_pass_with_nan)
+    worker._SETUPS.clear()
+    with pytest.raises(NonFiniteError, match=NAN_PASS.format(where=r"by worker process \d+ on \S+")):
+        blockhash.render(scene, photons=PHOTONS, plan=RenderPlan(
+            passes=3, executor=DaskCluster(threads_cluster.scheduler_address)))

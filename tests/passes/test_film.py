@@ -30,3 +30,20 @@ def test_film_means_weigh_passes_by_emitted_photons_and_estimate_their_spread():
         film.add(np.zeros((2, 2, 3)), np.zeros((2, 2, 3)), 1)
     assert Film(2, 2).estimated_error() == math.inf
 
+
+
+def test_a_layer_with_nan_or_infinity_is_refused_naming_it_and_the_film_is_unchanged():
+    from blockhash.errors import NonFiniteError
+
+    film = Film(4, 5)
+    film.add(np.ones((4, 5, 3)), np.ones((4, 5, 3)), 10)
+    bad = np.ones((4, 5, 3))
+    bad[1, 2, 0] = np.nan
+    bad[3, 4, 2] = np.inf
+    for layers, name in (((bad, np.ones((4, 5, 3))), "direct"), ((np.ones((4, 5, 3)), bad), "caustic")):
+        with pytest.raises(NonFiniteError, match=rf"pass 7 \(here\): the {name} layer has 2 "
+                                                 r"non-finite pixels .* of 20, the first at x=2, y=1"):
+            film.add(*layers, 10, source="pass 7 (here)")
+    with pytest.raises(NonFiniteError, match="the indirect layer has 2"):
+        film.add(np.ones((4, 5, 3)), np.ones((4, 5, 3)), 10, bad, 5)
+    assert film.passes == 1 and film.indirect is None and (film.caustic == 1).all()

@@ -205,3 +205,20 @@ def test_the_frame_cache_counts_the_arrays_an_index_holds():
     small = FrameCache(limit=held - 1)
     small.keep(("caustic", 0), (index, r2))
     assert ("caustic", 0) not in small and small.bytes == 0
+
+
+def test_a_frame_whose_pass_has_a_nan_pixel_is_named(monkeypatch):
+    from blockhash.errors import NonFiniteError
+    from blockhash.passes import executors
+    from blockhash.passes.task import run_pass
+
+    def nan_pass(*args, **kw):
+        c = run_pass(*args, **kw)
+        c.direct[0, 0, 0] = np.inf
+        return c
+
+    monkeypatch.setattr(executors, "run_pass", nan_pass)
+    scene = load_scene(SCENES / "ring_orbit.toml")
+    with pytest.raises(NonFiniteError, match=r"frame 0, pass 0 \(rendered in this process\): "
+                                             r"the direct layer has 1 non-finite pixel"):
+        frames_of(scene, [0, 1])
