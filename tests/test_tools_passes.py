@@ -8,6 +8,7 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 from conftest import mitsuba_or_skip, run_tool
 
@@ -262,3 +263,34 @@ def test_stage_memory_gives_each_stage_beside_a_baseline(tmp_path):
     assert res["baseline"]["stored"] == res["this"]["stored"] > 0
     assert set(res["this"]["stages"]) == {"trace", "index", "photon radii", "pixel splat",
                                           "cover gather", "estimate"}
+
+
+@pytest.mark.gl
+def test_gpu_conformance_holds_the_gl_image_to_the_cpu_reference_in_strict_gl(tmp_path):
+    out = tmp_path / "conformance.json"
+    text = run_tool("gpu_conformance.py", ["--scenes", "cbox,mirror", "--size", "24",
+                                           "--photons", "5000", "--strict", "--box-size", "24",
+                                           "--box-passes", "2", "--box-workers", "1",
+                                           "--json", out], tmp_path)
+    assert "strict GL" in text.splitlines()[0]
+    data = json.loads(out.read_text())
+    assert {r["layer"] for r in data["rows"] if r["scene"] == "cbox"} == {
+        "direct", "caustic", "indirect", "combined"}
+    assert all(r["ok"] and r["gl_finite"] and r["over"] == 0 for r in data["rows"])
+    assert data["box"]["ok"] and data["box"]["non_finite"]["indirect"] == 0
+
+
+def test_gpu_conformance_counts_values_beyond_tolerance_and_non_finite_ones():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("gpu_conformance", ROOT / "tools" / "gpu_conformance.py")
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    cpu = np.ones((4, 4, 3))
+    assert tool.compare(cpu.astype(np.float32), cpu)["ok"]
+    off = cpu.copy()
+    off[1, 1, 1] = 1.001
+    assert tool.compare(off, cpu)["over"] == 1
+    off[0, 0, 0] = np.nan
+    row = tool.compare(off, cpu)
+    assert not row["gl_finite"] and not row["ok"]
