@@ -9,6 +9,8 @@ Mapped:
 * ``<scene version>`` (required, as in Mitsuba; 2.x and 3.x; older files use Mitsuba 0.x's
   names and are refused) with ``<default name value>`` parameters (``$name`` in any
   attribute), values and transforms as :mod:`.xml_values` reads them;
+  ``<path value>`` folders searched for the files the scene names and ``<include filename>``
+  read in place (:meth:`.xml_values.XmlReader.expand`);
 * the ``perspective`` sensor, ``hdrfilm``, ``box`` rfilter, sampler (``sample_count`` to
   samples per pixel) and ``path`` / ``ptracer`` integrator (``max_depth`` to the specular
   depth), as :mod:`.sensor` maps them, clip planes included;
@@ -16,9 +18,9 @@ Mapped:
   ``rectangle`` ([-1, 1]^2 in z = 0, facing +z), ``sphere`` (``center``, ``radius`` > 0; an
   icosphere, :func:`blockhash.scene.meshes.sphere`) and ``cube`` ([-1, 1]^3), each with
   optional ``to_world`` and ``flip_normals`` and a BSDF inline or by ``<ref id>``;
-* BSDFs ``diffuse`` (``reflectance``), ``conductor`` with ``material = none``
-  (``specular_reflectance``) and ``dielectric`` (``int_ior`` a number, ``ext_ior`` 1, air
-  or vacuum, ``specular_transmittance``), possibly inside ``twosided`` (one BSDF for both
+* BSDFs ``diffuse`` (``reflectance``), ``conductor`` with ``material = none`` (Mitsuba's
+  default; ``specular_reflectance``) and ``dielectric`` (``int_ior`` a number or a name of
+  :data:`IORS`, ``ext_ior`` within 0.001 of 1, ``specular_transmittance``), possibly inside ``twosided`` (one BSDF for both
   faces).  A bare ``diffuse`` is one-sided, as in Mitsuba (``sided = "one"``: black seen or
   lit from the back, the side opposite its face normal, which ``flip_normals`` turns over);
   inside ``twosided`` it reflects on both faces.  Mirrors and glass are two-sided in
@@ -87,9 +89,15 @@ REFUSED_EMITTERS = {
     "constant": "a constant environment lights from every direction, which blockhash does "
                 "not model; use area emitters (a large emitting shape) or a directional one",
 }
-ELEMENTS = ("default", "integrator", "sensor", "bsdf", "emitter", "shape")
-#: Indices of refraction Mitsuba names for the outside that blockhash takes as 1 (vacuum).
-AIR = ("air", "vacuum")
+ELEMENTS = ("default", "path", "include", "integrator", "sensor", "bsdf", "emitter", "shape")
+#: The indices of refraction Mitsuba 3 names (its documentation's table of the dielectric
+#: BSDF, at 589 nm), for int_ior and ext_ior.
+IORS = {"vacuum": 1.0, "helium": 1.000036, "hydrogen": 1.000132, "air": 1.000277,
+        "carbon dioxide": 1.00045, "water": 1.3330, "acetone": 1.36, "ethanol": 1.361,
+        "carbon tetrachloride": 1.461, "glycerol": 1.4729, "benzene": 1.501,
+        "silicone oil": 1.52045, "bromine": 1.661, "water ice": 1.31, "fused quartz": 1.458,
+        "pyrex": 1.470, "acrylic glass": 1.49, "polypropylene": 1.49, "bk7": 1.5046,
+        "sodium chloride": 1.544, "amber": 1.55, "pet": 1.5750, "diamond": 2.419}
 
 
 class _Reader(XmlReader):
@@ -111,7 +119,7 @@ class _Reader(XmlReader):
                               sided="two" if twosided else "one")
         if kind == "conductor":
             p = self.props(el, {"material": ("string",), "specular_reflectance": ("rgb", "spectrum", "float")})
-            if p.get("material") != "none":
+            if p.get("material", "none") != "none":  # Mitsuba's default: none, a perfect mirror
                 self.fail(el, "only a conductor with <string name=\"material\" value=\"none\"/> "
                           "(a perfect mirror of specular_reflectance) is supported; measured "
                           "metals (eta, k) are not")
@@ -121,11 +129,9 @@ class _Reader(XmlReader):
             p = self.props(el, {"int_ior": ("float", "string"), "ext_ior": ("float", "string"),
                                 "specular_transmittance": ("rgb", "spectrum", "float"),
                                 "specular_reflectance": ("rgb", "spectrum", "float")})
-            ior = p.get("int_ior", 1.5046)  # Mitsuba's default, bk7
-            if isinstance(ior, str):
-                self.fail(el, f"int_ior {ior!r}: give the index of refraction as a number")
-            ext = p.get("ext_ior", "air")
-            if not (ext in AIR or (isinstance(ext, float) and abs(ext - 1.0) < 1e-3)):
+            ior = self.ior(el, "int_ior", p.get("int_ior", "bk7"))  # Mitsuba's default
+            ext = self.ior(el, "ext_ior", p.get("ext_ior", "air"))
+            if not abs(ext - 1.0) < 1e-3:
                 self.fail(el, f"ext_ior {ext!r}: blockhash's dielectrics sit in air (index 1); "
                           "give ext_ior 1")
             if "specular_reflectance" in p and not np.allclose(p["specular_reflectance"], 1.0):
@@ -134,6 +140,15 @@ class _Reader(XmlReader):
             return self.build(el, DielectricMaterial, ior=float(ior),
                                  tint=np.broadcast_to(tint, (3,)))
         self.fail(el, f"unsupported BSDF; supported: {', '.join(BSDFS)}")
+
+    def ior(self, el, name: str, value) -> float:
+        """An index of refraction: a number, or a material Mitsuba names (:data:`IORS`)."""
+        if not isinstance(value, str):
+            return float(value)
+        if value.lower() not in IORS:
+            self.fail(el, f"{name} {value!r} is not one of Mitsuba's named indices of refraction "
+                      f"({', '.join(IORS)}); give the index as a number")
+        return IORS[value.lower()]
 
     def emitter(self, el):
         kind = el.get("type")
@@ -244,10 +259,7 @@ class _Reader(XmlReader):
         if kind in ("ply", "obj"):
             if "filename" not in p:
                 self.fail(el, "missing <string name=\"filename\">")
-            full = self.path.parent / p["filename"]
-            if not full.is_file():
-                self.fail(el, f"mesh file not found: {str(full)!r} (filename "
-                          f"{p['filename']!r} is relative to the XML file's folder)")
+            full = self.resolve(el, p["filename"], "mesh file")
             try:
                 mesh = meshes.load_mesh(full, normals="flat" if p.get("face_normals") else "auto")
             except InputError as exc:
@@ -330,6 +342,7 @@ def load_mitsuba(path) -> Scene:
     if root.tag != "scene":
         r.fail(root, "expected <scene> at the top")
     _version(r, root)
+    r.expand(root)
     r.substitute(root)
     meta = _metadata(root)
     render, integrator, lights, objects, bsdfs = None, None, [], [], {}

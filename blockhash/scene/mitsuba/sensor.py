@@ -112,7 +112,8 @@ def sensor(r: XmlReader, el) -> Render:
         r.fail(el, "unsupported sensor; supported: perspective (a pinhole camera)")
     p = r.props(el, {"fov": ("float",), "fov_axis": ("string",), "focal_length": ("string",),
                      "to_world": ("transform",), "near_clip": ("float",),
-                     "far_clip": ("float",)}, children=("film", "sampler"))
+                     "far_clip": ("float",), "focus_distance": ("float",)},
+                children=("film", "sampler"))  # focus_distance: no effect on a pinhole
     width, height = DEFAULT_SIZE
     sampler = None
     films = [k for k in p["<children>"] if k.tag == "film"]
@@ -244,9 +245,32 @@ def samples(r: XmlReader, el) -> int | None:
     return spp
 
 
+#: Integrators that wrap one other and add what blockhash's layers do not hold, with what
+#: blockhash renders of them.
+WRAPPERS = {"moment": "its second moment (a variance estimate) is not rendered: blockhash renders "
+                      "the integrator inside, the pixel means",
+            "stokes": "the Stokes vector of polarised light is not rendered: blockhash renders "
+                      "the integrator inside, intensity only (Stokes component s0)"}
+
+
+class MitsubaWarning(UserWarning):
+    """A Mitsuba scene element blockhash renders otherwise than Mitsuba (the message says how)."""
+
+
 def integrator(r: XmlReader, el) -> tuple[int | None, object]:
-    """(max_depth or None, the element) of an ``<integrator>``."""
+    """(max_depth or None, the element) of an ``<integrator>``; a ``moment`` or ``stokes``
+    wrapper gives the one inside's, with one :class:`MitsubaWarning` saying what differs."""
     kind = el.get("type")
+    if kind in WRAPPERS:
+        import warnings
+
+        r.props(el, {}, children=("integrator",))
+        inner = [k for k in el if isinstance(k.tag, str)]
+        if len(inner) != 1:
+            r.fail(el, f"expected exactly one <integrator> inside the {kind} integrator")
+        warnings.warn(f"{r.where(el)}: <integrator type=\"{kind}\">: {WRAPPERS[kind]}",
+                      MitsubaWarning, stacklevel=2)
+        return integrator(r, inner[0])
     if kind not in INTEGRATORS:
         r.fail(el, f"unsupported integrator; supported: {', '.join(INTEGRATORS)} (blockhash "
                "renders direct light and caustics by photon mapping; their max_depth is read)")

@@ -102,9 +102,76 @@ class XmlReader:
         self.defaults: dict[str, str] = {}
         #: id(element) -> its attributes as written, for those that held a $name.
         self.raw: dict[int, dict] = {}
+        #: id(element) -> the file it was read from, for the elements of included files.
+        self.files: dict[int, Path] = {}
+        #: The folders of the file's <path> elements, searched (the last given first) before
+        #: the folder of the file that names a file (:meth:`resolve`).
+        self.search: list[Path] = []
+        self.kept: list = []  # included files' roots: their elements' ids stay theirs
 
     def where(self, el) -> str:
-        return f"{self.path}:{self.lines.get(id(el), '?')}"
+        return f"{self.file_of(el)}:{self.lines.get(id(el), '?')}"
+
+    def file_of(self, el) -> Path:
+        """The file ``el`` was read from (an included file's elements keep theirs)."""
+        return self.files.get(id(el), self.path)
+
+    def resolve(self, el, name: str, what: str) -> Path:
+        """The file ``name`` that ``el`` names: as given when absolute, else in each folder of
+        a ``<path>`` (the last given first), then beside the file ``el`` is in, as Mitsuba's
+        file resolver looks; an error listing where it looked when none holds it."""
+        given = Path(name)
+        places = [given] if given.is_absolute() else [d / given for d in reversed(self.search)]
+        if not given.is_absolute():
+            places.append(self.file_of(el).parent / given)
+        for place in places:
+            if place.is_file():
+                return place
+        self.fail(el, f"{what} not found: {name!r}, looked for at "
+                  + ", ".join(repr(str(p)) for p in places)
+                  + " (a relative name is searched in each <path value> folder, then beside the "
+                  "XML file); fix the name or add <path value=\"FOLDER\"/>")
+
+    def expand(self, root, stack: tuple[Path, ...] = ()) -> None:
+        """Read ``root``'s ``<path>`` elements into :attr:`search` and put each ``<include
+        filename>``'s scene in its place, recursively (an include that includes itself, even
+        through others, is an error naming the chain)."""
+        stack = stack or (self.path.resolve(),)
+        for el in list(root):
+            if el.tag == "path":
+                extra = sorted(set(el.attrib) - {"value"})
+                if extra:
+                    self.fail(el, f"unsupported attribute(s) {extra}; a <path> takes value")
+                folder = Path(self.attr(el, "value"))
+                folder = folder if folder.is_absolute() else self.file_of(el).parent / folder
+                if not folder.is_dir():
+                    self.fail(el, f"{str(folder)!r} is not a folder; a <path value> names a "
+                              "folder to search for the files the scene names")
+                self.search.append(folder)
+                root.remove(el)
+            elif el.tag == "include":
+                extra = sorted(set(el.attrib) - {"filename"})
+                if extra:
+                    self.fail(el, f"unsupported attribute(s) {extra}; an <include> takes filename")
+                target = self.resolve(el, self.attr(el, "filename"), "included file")
+                if target.resolve() in stack:
+                    chain = " -> ".join(str(p) for p in (*stack, target.resolve()))
+                    self.fail(el, f"an include cycle: {chain}; remove one of these includes")
+                sub, lines = parse(target)
+                self.kept.append(sub)
+                if sub.tag != "scene":
+                    self.fail(el, f"{target} holds <{sub.tag}> at its top; an included file "
+                              "holds a <scene> whose elements are read in place of the include")
+                self.lines.update(lines)
+                for kid in sub.iter():
+                    self.files.setdefault(id(kid), target)
+                inner = XmlReader(target, self.lines)
+                inner.files, inner.search, inner.kept = self.files, self.search, self.kept
+                inner.expand(sub, (*stack, target.resolve()))
+                at = list(root).index(el)
+                root.remove(el)
+                for offset, kid in enumerate(k for k in sub):
+                    root.insert(at + offset, kid)
 
     def fail(self, el, what: str):
         raise InputError(f"{self.where(el)}: <{el.tag}"

@@ -300,3 +300,96 @@ def test_mitsuba_reads_the_same_area_light_power(tmp_path):
     mi, loaded = mitsuba_scene(text)
     areas = [float(s.surface_area()[0]) for s in loaded.shapes() if s.is_emitter()]
     assert areas == [pytest.approx(scene.lights[1].area, rel=1e-6)]
+
+
+# ----------------------------------------------------------------- published files' elements
+
+def test_path_elements_are_searched_for_the_files_a_scene_names(tmp_path):
+    import trimesh
+
+    (tmp_path / "meshes").mkdir()
+    (tmp_path / "other").mkdir()
+    trimesh.creation.box().export(tmp_path / "meshes" / "box.ply")
+    body = '<shape type="ply"><string name="filename" value="box.ply"/><bsdf type="diffuse"/></shape>'
+    scene = load(tmp_path, top='<path value="other"/><path value="meshes"/>', body=body)
+    assert len(scene.objects) == 2
+    with pytest.raises(InputError, match=r"s.xml:10: <shape type=\"ply\">: mesh file not found: "
+                                         r"'box.ply', looked for at .*other.*s?.*add <path value"):
+        load(tmp_path, top='<path value="other"/>', body=body)
+    with pytest.raises(InputError, match=r"s.xml:1: <path>: .*nowhere' is not a folder"):
+        load(tmp_path, top='<path value="nowhere"/>')
+
+
+def test_an_include_is_read_in_place_and_its_errors_name_its_own_file(tmp_path):
+    (tmp_path / "parts").mkdir()
+    (tmp_path / "parts" / "ball.xml").write_text(
+        '<scene version="3.0.0">\n<shape type="sphere"><float name="radius" value="0.3"/>\n'
+        '<bsdf type="conductor"/></shape>\n</scene>\n')
+    scene = load(tmp_path, body='<include filename="parts/ball.xml"/>')
+    assert len(scene.objects) == 2 and scene.specular_objects
+    (tmp_path / "parts" / "bad.xml").write_text(
+        '<scene version="3.0.0">\n\n<shape type="sphere"><float name="radius" value="0"/></shape>\n</scene>\n')
+    with pytest.raises(InputError, match=r"bad.xml:3: <shape type=\"sphere\">: radius 0"):
+        load(tmp_path, body='<include filename="parts/bad.xml"/>')
+    with pytest.raises(InputError, match=r"s.xml:10: <include>: included file not found: 'gone.xml'"):
+        load(tmp_path, body='<include filename="gone.xml"/>')
+
+
+def test_an_include_that_includes_itself_is_an_error_naming_the_chain(tmp_path):
+    (tmp_path / "a.xml").write_text('<scene version="3.0.0"><include filename="b.xml"/></scene>')
+    (tmp_path / "b.xml").write_text('<scene version="3.0.0">\n<include filename="a.xml"/></scene>')
+    with pytest.raises(InputError, match=r"b.xml:2: <include>: an include cycle: .*s.xml -> .*a.xml "
+                                         r"-> .*b.xml -> .*a.xml; remove one"):
+        load(tmp_path, body='<include filename="a.xml"/>')
+
+
+@pytest.mark.parametrize("ior, value", [('"water"', 1.333), ('"diamond"', 2.419), ('"bk7"', 1.5046),
+                                        ("1.7", 1.7)])
+def test_named_indices_of_refraction_are_mitsubas(tmp_path, ior, value):
+    kind = "string" if ior.startswith('"') else "float"
+    body = (f'<shape type="sphere"><bsdf type="dielectric"><{kind} name="int_ior" value={ior if kind == "string" else chr(34) + ior + chr(34)}/>'
+            '<string name="ext_ior" value="air"/></bsdf></shape>')
+    scene = load(tmp_path, body=body)
+    assert scene.objects[-1].material.ior == pytest.approx(value)
+
+
+def test_an_unknown_named_ior_is_refused_with_the_names(tmp_path):
+    body = '<shape type="sphere"><bsdf type="dielectric"><string name="int_ior" value="glas"/></bsdf></shape>'
+    with pytest.raises(InputError, match=r"int_ior 'glas' is not one of Mitsuba's .*water.*give the index"):
+        load(tmp_path, body=body)
+
+
+@needs_mitsuba
+def test_the_named_indices_are_those_mitsuba_reads():
+    from blockhash.scene.mitsuba.importer import IORS
+
+    mi, _ = mitsuba_scene('<scene version="3.0.0"/>')
+    for name, value in IORS.items():
+        bsdf = mi.load_dict({"type": "dielectric", "int_ior": name, "ext_ior": "vacuum"})
+        assert mi.traverse(bsdf)["eta"] == pytest.approx(value, abs=1e-6), name
+
+
+def test_a_conductor_with_its_defaults_is_mitsubas_perfect_mirror(tmp_path):
+    from blockhash.scene.model import MirrorMaterial
+
+    scene = load(tmp_path, body='<shape type="sphere"><bsdf type="conductor"/></shape>')
+    material = scene.objects[-1].material
+    assert isinstance(material, MirrorMaterial) and (material.reflectance == 1.0).all()
+
+
+def test_focus_distance_on_a_pinhole_changes_nothing(tmp_path):
+    plain = load(tmp_path)
+    focused = load(tmp_path, lens='<float name="fov" value="40"/><float name="focus_distance" value="3.5"/>')
+    for field in ("eye", "target", "up", "fov_y_deg", "width", "height"):
+        assert np.array_equal(getattr(focused.camera, field), getattr(plain.camera, field)), field
+
+
+@pytest.mark.parametrize("wrapper", ["moment", "stokes"])
+def test_moment_and_stokes_render_the_integrator_inside_with_one_warning(tmp_path, wrapper):
+    top = (f'<integrator type="{wrapper}"><integrator type="path">'
+           '<integer name="max_depth" value="12"/></integrator></integrator>')
+    with pytest.warns(mitsuba_sensor.MitsubaWarning, match=rf"s.xml:1: <integrator type=\"{wrapper}\">: "
+                      r".*blockhash renders the integrator inside") as caught:
+        scene = load(tmp_path, top=top)
+    assert len(caught) == 1
+    assert scene.photons.max_bounces == 10  # the inner path's max_depth 12, followed
