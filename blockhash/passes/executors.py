@@ -261,8 +261,8 @@ class _PoolSession(Session):
             raise WorkersFailed(
                 f"local worker processes died before they started, {self.start_failures} pools "
                 f"in a row ({_exits(never)}); their tracebacks are on this process's standard "
-                "error.  Render in this process (leave out --workers, or executor=) to see "
-                "the error directly")
+                "error.  Render in this process (without local workers) to see the error "
+                "directly")
         for p in [] if at_start else broken:
             self.deaths[p] = self.deaths.get(p, 0) + 1
             if self.deaths[p] >= MAX_WORKER_DEATHS:

@@ -30,8 +30,8 @@ from blockhash.validate import finite_image
 
 #: What a user can do about a pass that rendered NaN or infinity.
 NON_FINITE_WAY_OUT = ("nothing was merged or written from it.  This is a renderer or GL driver "
-                      "fault: render the scene with --method cpu (the CPU reference of the same "
-                      "estimate) to tell which, and python tools/gpu_conformance.py on this "
+                      "fault: render the scene with the lookup method 'cpu' (the CPU reference of "
+                      "the same estimate) to tell which, and python tools/gpu_conformance.py on this "
                       "device; report it with the scene and the device (blockhash info)")
 
 
