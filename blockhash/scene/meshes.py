@@ -212,6 +212,57 @@ def sphere(*, center=(0.0, 0.0, 0.0), radius: float = 1.0,
 
 # --------------------------------------------------------------------------- ring
 
+#: Segments around the generated disk and cylinder (Mitsuba's analytic ``disk`` and
+#: ``cylinder``): their radii are widened so that the polygon's area is the circle's.
+ROUND_SEGMENTS = 256
+
+
+def _area_radius(segments: int) -> float:
+    """The radius of a regular ``segments``-gon whose area is that of the unit circle."""
+    return math.sqrt(2.0 * math.pi / (segments * math.sin(2.0 * math.pi / segments)))
+
+
+def disk(segments: int = ROUND_SEGMENTS) -> trimesh.Trimesh:
+    """Mitsuba's ``disk``: the unit disk in the plane z = 0, facing +z (a fan of
+    ``segments`` triangles with the disk's area)."""
+    segments = _check_segments("segments", segments, 3)
+    t = np.arange(segments) * (2.0 * math.pi / segments)
+    rim = np.stack([np.cos(t), np.sin(t), np.zeros(segments)], axis=1) * _area_radius(segments)
+    vertices = np.vstack([[0.0, 0.0, 0.0], rim])
+    faces = np.stack([np.zeros(segments, np.int64), 1 + np.arange(segments),
+                      1 + (np.arange(segments) + 1) % segments], axis=1)
+    return with_normals(vertices, faces, np.tile([0.0, 0.0, 1.0], (segments + 1, 1)))
+
+
+def cylinder(p0=(0.0, 0.0, 0.0), p1=(0.0, 0.0, 1.0), radius: float = 1.0,
+             segments: int = ROUND_SEGMENTS) -> trimesh.Trimesh:
+    """Mitsuba's ``cylinder``: the open tube (no caps) of ``radius`` around the axis from
+    ``p0`` to ``p1``, facing outward, shaded with smooth radial normals; ``segments`` quads
+    around, with the tube's area."""
+    p0, p1 = _check_point("p0", p0), _check_point("p1", p1)
+    radius = _check_positive("radius", radius)
+    segments = _check_segments("segments", segments, 3)
+    axis = p1 - p0
+    length = float(np.linalg.norm(axis))
+    if not length > 0.0:
+        raise InputError(f"p0 = p1 = {p0.tolist()}: a cylinder's axis has no length; give "
+                         "two different end points")
+    w = axis / length
+    u = np.cross(w, [1.0, 0.0, 0.0] if abs(w[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(w, u)
+    t = np.arange(segments) * (2.0 * math.pi / segments)
+    radial = np.cos(t)[:, None] * u + np.sin(t)[:, None] * v
+    # the polygon's perimeter is the circle's, so the tube's area is the cylinder's
+    rim = radial * radius * (math.pi / (segments * math.sin(math.pi / segments)))
+    vertices = np.vstack([p0 + rim, p1 + rim])
+    i = np.arange(segments)
+    j = (i + 1) % segments
+    faces = np.concatenate([np.stack([i, j, segments + j], axis=1),
+                            np.stack([i, segments + j, segments + i], axis=1)])
+    return with_normals(vertices, faces, np.vstack([radial, radial]))
+
+
 def _annulus_faces(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Quads between vertex index rows ``a`` and ``b`` (same length, closed
     around), as triangles wound so the normal is (b - a) x (a[j+1] - a[j])."""

@@ -14,10 +14,10 @@ Mapped:
 * the ``perspective`` sensor, ``hdrfilm``, ``box`` rfilter, sampler (``sample_count`` to
   samples per pixel) and ``path`` / ``ptracer`` integrator (``max_depth`` to the specular
   depth), as :mod:`.sensor` maps them, clip planes included;
-* shapes ``ply``, ``obj`` (``filename`` relative to the XML's folder, ``face_normals``),
-  ``rectangle`` ([-1, 1]^2 in z = 0, facing +z), ``sphere`` (``center``, ``radius`` > 0; an
-  icosphere, :func:`blockhash.scene.meshes.sphere`) and ``cube`` ([-1, 1]^3), each with
-  optional ``to_world`` and ``flip_normals`` and a BSDF inline or by ``<ref id>``;
+* shapes as :mod:`.shapes` makes them (``ply``, ``obj``, ``rectangle``, ``disk``,
+  ``cylinder``, ``sphere``, ``cube``), and a ``shapegroup``'s shapes placed by each
+  ``instance``; each with a BSDF inline or by ``<ref id>``, and an area emitter inside or a
+  top-level one by ``<ref id>``;
 * BSDFs ``diffuse`` (``reflectance``), ``conductor`` with ``material = none`` (Mitsuba's
   default; ``specular_reflectance``) and ``dielectric`` (``int_ior`` a number or a name of
   :data:`IORS`, ``ext_ior`` within 0.001 of 1, ``specular_transmittance``), possibly inside ``twosided`` (one BSDF for both
@@ -59,12 +59,11 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 from blockhash.errors import InputError
-from blockhash.scene import meshes
 from blockhash.scene.mitsuba import sensor as mitsuba_sensor
 from blockhash.scene.mitsuba.exporter import METADATA_MARK
+from blockhash.scene.mitsuba.shapes import SHAPES, placed, shape_mesh
 from blockhash.scene.mitsuba.xml_values import XmlReader, parse
 from blockhash.scene.model import (
     AreaLight,
@@ -79,7 +78,6 @@ from blockhash.scene.model import (
     SpotLight,
 )
 
-SHAPES = ("ply", "obj", "rectangle", "sphere", "cube")
 BSDFS = ("diffuse", "conductor", "dielectric", "twosided")
 EMITTERS = ("point", "spot", "directional")
 #: Emitters Mitsuba has that blockhash does not model, with the way out.
@@ -156,7 +154,7 @@ class _Reader(XmlReader):
             self.fail(el, REFUSED_EMITTERS[kind])
         if kind == "area":
             self.fail(el, "an area emitter belongs inside a <shape> (the surface that emits); "
-                      "move it into one")
+                      "move it into one, or give it an id and <ref id> it from the shape")
         if kind not in EMITTERS:
             self.fail(el, f"unsupported emitter; supported: {', '.join(EMITTERS)}, and area "
                       "inside a shape (blockhash's lights)")
@@ -196,15 +194,20 @@ class _Reader(XmlReader):
         return self.build(el, SpotLight, position=m[:3, 3], direction=axis, power=power,
                           cone_deg=cone)
 
-    def shape(self, el, bsdfs: dict, index: int):
+    def shape(self, el, bsdfs: dict, index: int, areas: dict):
+        """(object, its AreaLight or None) of a ``<shape>``; ``areas``: the top-level area
+        emitters by id, which a shape takes by ``<ref id>`` as its own."""
         kind = el.get("type")
         if kind not in SHAPES:
-            self.fail(el, f"unsupported shape; supported: {', '.join(SHAPES)}")
+            self.fail(el, f"unsupported shape; supported: {', '.join(SHAPES)}, and shapegroup "
+                      "with instance")
         allowed = {"to_world": ("transform",), "flip_normals": ("boolean",)}
         if kind in ("ply", "obj"):
             allowed |= {"filename": ("string",), "face_normals": ("boolean",)}
         if kind == "sphere":
             allowed |= {"center": ("point",), "radius": ("float",)}
+        if kind == "cylinder":
+            allowed |= {"p0": ("point",), "p1": ("point",), "radius": ("float",)}
         p = self.props(el, allowed, children=("bsdf", "ref", "emitter"))
         material = emitter = None
         for kid in p["<children>"]:
@@ -215,6 +218,12 @@ class _Reader(XmlReader):
                 continue
             if material is not None:
                 self.fail(kid, "a shape takes one BSDF; keep one")
+            if kid.tag == "ref" and self.attr(kid, "id") in areas:
+                if emitter is not None:
+                    self.fail(kid, "a shape takes one emitter; keep one")
+                emitter = areas[self.attr(kid, "id")]
+                self.used.add(id(emitter))
+                continue
             if kid.tag == "ref":
                 ref = self.attr(kid, "id")
                 if ref not in bsdfs:
@@ -226,7 +235,7 @@ class _Reader(XmlReader):
         if material is None:  # Mitsuba's default BSDF: diffuse, reflectance 0.5, one-sided
             material = self.build(el, PhongMaterial, kd=np.full(3, 0.5), ks=0.0, n=0.0,
                                   sided="one")
-        mesh = self.mesh(el, kind, p)
+        mesh = shape_mesh(self, el, kind, p)
         name = el.get("id") or f"{kind}-{index}"
         obj = self.build(el, SceneObject, name=name, mesh=mesh, material=material)
         if emitter is None:
@@ -255,41 +264,39 @@ class _Reader(XmlReader):
             self.fail(kid, f"a textured {name} is not supported: blockhash's lights emit one "
                       f"RGB value; give <rgb name=\"{name}\" value=\"r, g, b\"/>")
 
-    def mesh(self, el, kind: str, p: dict) -> trimesh.Trimesh:
-        if kind in ("ply", "obj"):
-            if "filename" not in p:
-                self.fail(el, "missing <string name=\"filename\">")
-            full = self.resolve(el, p["filename"], "mesh file")
-            try:
-                mesh = meshes.load_mesh(full, normals="flat" if p.get("face_normals") else "auto")
-            except InputError as exc:
-                self.fail(el, str(exc))
-        elif kind == "rectangle":
-            v = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]])
-            mesh = meshes.with_normals(v, [[0, 1, 2], [0, 2, 3]], np.tile([0.0, 0.0, 1.0], (4, 1)))
-        elif kind == "cube":
-            box = trimesh.creation.box(extents=(2.0, 2.0, 2.0))
-            box.unmerge_vertices()
-            mesh = meshes.with_normals(box.vertices, box.faces, np.repeat(box.face_normals, 3, axis=0))
-        else:
-            radius = p.get("radius", 1.0)
-            if not radius > 0:
-                self.fail(el, f"radius {radius:g}: a sphere's radius must be > 0; give a "
-                          "positive <float name=\"radius\"> (flip_normals turns it inside out)")
-            try:
-                mesh = meshes.sphere(center=p.get("center", np.zeros(3)), radius=radius)
-            except InputError as exc:
-                self.fail(el, str(exc))
-        if p.get("flip_normals"):
-            mesh = meshes.with_normals(mesh.vertices, mesh.faces[:, ::-1], -mesh.vertex_normals)
-        if "to_world" not in p:
-            return mesh
-        m = p["to_world"]
-        if not abs(np.linalg.det(m[:3, :3])) > 0:
-            self.fail(el, "the to_world transform is singular (a scale of 0?); fix it")
-        normal = np.linalg.inv(m[:3, :3]).T
-        return meshes.with_normals(trimesh.transform_points(mesh.vertices, m), mesh.faces,
-                                   np.asarray(mesh.vertex_normals) @ normal.T)
+    def instance(self, el, groups: dict, index: int) -> list:
+        """The objects of the ``shapegroup`` an ``<shape type="instance">`` refers to, each
+        placed by the instance's ``to_world`` (after its own) and named ``instance/shape``."""
+        p = self.props(el, {"to_world": ("transform",)}, children=("ref",))
+        refs = p["<children>"]
+        if len(refs) != 1:
+            self.fail(el, "an instance takes exactly one <ref id> to a shapegroup")
+        gid = self.attr(refs[0], "id")
+        if gid not in groups:
+            self.fail(refs[0], f"no shapegroup with id {gid!r} before it; defined: "
+                      f"{', '.join(groups) or 'none'}")
+        name = el.get("id") or f"instance-{index}"
+        return [self.build(el, SceneObject, name=f"{name}/{obj.name}",
+                           mesh=placed(self, el, obj.mesh, p.get("to_world")), material=obj.material)
+                for obj in groups[gid]]
+
+    def group(self, el, bsdfs: dict) -> list:
+        """The shapes of a ``<shape type="shapegroup">`` (drawn only through instances)."""
+        self.attr(el, "id")
+        p = self.props(el, {}, children=("shape",))
+        if not p["<children>"]:
+            self.fail(el, "an empty shapegroup; put the shapes it instances inside it")
+        out = []
+        for i, kid in enumerate(p["<children>"]):
+            if kid.get("type") in ("shapegroup", "instance"):
+                self.fail(kid, "a shapegroup holds plain shapes (Mitsuba refuses nested groups "
+                          "and instances too)")
+            obj, area = self.shape(kid, bsdfs, i, {})
+            if area is not None:
+                self.fail(kid, "an emitter inside a shapegroup (Mitsuba refuses it too); put the "
+                          "emitting shape outside the group")
+            out.append(obj)
+        return out
 
 
 def _metadata(root) -> dict:
@@ -345,7 +352,8 @@ def load_mitsuba(path) -> Scene:
     r.expand(root)
     r.substitute(root)
     meta = _metadata(root)
-    render, integrator, lights, objects, bsdfs = None, None, [], [], {}
+    render, integrator, lights, objects, bsdfs, groups, areas = None, None, [], [], {}, {}, {}
+    r.used = set()  # the top-level area emitters a shape took
     for el in root:
         if not isinstance(el.tag, str) or el.tag == "default":
             continue
@@ -360,15 +368,25 @@ def load_mitsuba(path) -> Scene:
         elif el.tag == "bsdf":
             bid = r.attr(el, "id")
             bsdfs[bid] = r.bsdf(el, bid)
+        elif el.tag == "emitter" and el.get("type") == "area" and el.get("id"):
+            areas[el.get("id")] = el  # a shape takes it by <ref id>
         elif el.tag == "emitter":
             lights.append(r.emitter(el))
+        elif el.tag == "shape" and el.get("type") == "shapegroup":
+            groups[r.attr(el, "id")] = r.group(el, bsdfs)
+        elif el.tag == "shape" and el.get("type") == "instance":
+            objects.extend(r.instance(el, groups, len(objects)))
         elif el.tag == "shape":
-            obj, area = r.shape(el, bsdfs, len(objects))
+            obj, area = r.shape(el, bsdfs, len(objects), areas)
             objects.append(obj)
             if area is not None:
                 lights.append(area)
         else:
             r.fail(el, f"unsupported element; supported: {', '.join(ELEMENTS)}")
+    for el in areas.values():
+        if id(el) not in r.used:
+            r.fail(el, "an area emitter no shape refers to: it belongs to a <shape> (the surface "
+                   f"that emits); add <ref id=\"{el.get('id')}\"/> inside that shape")
     if render is None:
         r.fail(root, "no <sensor>; add a perspective sensor")
     if not lights:

@@ -393,3 +393,86 @@ def test_moment_and_stokes_render_the_integrator_inside_with_one_warning(tmp_pat
         scene = load(tmp_path, top=top)
     assert len(caught) == 1
     assert scene.photons.max_bounces == 10  # the inner path's max_depth 12, followed
+
+
+SHAPES_BODY = {
+    "disk": '<shape type="disk"><transform name="to_world"><scale value="0.4"/><rotate x="1" angle="-90"/>'
+            '<translate y="0.5"/></transform></shape>',
+    "cylinder": '<shape type="cylinder"><point name="p0" x="0" y="0" z="0"/><point name="p1" x="0" y="0.8" z="0"/>'
+                '<float name="radius" value="0.3"/></shape>',
+}
+
+
+@pytest.mark.parametrize("kind", sorted(SHAPES_BODY))
+def test_disk_and_cylinder_have_mitsubas_area_and_facing(tmp_path, kind):
+    scene = load(tmp_path, body=SHAPES_BODY[kind])
+    mesh = scene.objects[-1].mesh
+    want = {"disk": math.pi * 0.4 ** 2, "cylinder": 2 * math.pi * 0.3 * 0.8}[kind]
+    assert mesh.area == pytest.approx(want, rel=1e-9)
+    if kind == "disk":  # facing +z turned to +y
+        np.testing.assert_allclose(mesh.face_normals, np.tile([0, 1.0, 0], (len(mesh.faces), 1)), atol=1e-12)
+    else:  # outward, the open tube's
+        radial = mesh.triangles_center * [1, 0, 1]
+        assert (np.sum(mesh.face_normals * radial, axis=1) > 0).all()
+        assert mesh.bounds[:, 1].tolist() == pytest.approx([0.0, 0.8])
+
+
+@needs_mitsuba
+@pytest.mark.parametrize("kind", sorted(SHAPES_BODY))
+def test_mitsuba_reads_the_same_disk_and_cylinder(kind):
+    mi, loaded = mitsuba_scene(xml(body=SHAPES_BODY[kind].replace(f'type="{kind}"', f'type="{kind}" id="it"', 1)))
+    [shape] = [s for s in loaded.shapes() if s.id() == "it"]
+    want = {"disk": math.pi * 0.4 ** 2, "cylinder": 2 * math.pi * 0.3 * 0.8}[kind]
+    assert float(np.ravel(shape.surface_area())[0]) == pytest.approx(want, rel=1e-5)
+
+
+def test_a_cylinder_without_length_is_refused(tmp_path):
+    body = '<shape type="cylinder"><point name="p1" x="0" y="0" z="0"/></shape>'
+    with pytest.raises(InputError, match=r"s.xml:10: <shape type=\"cylinder\">: p0 = p1 .*no length"):
+        load(tmp_path, body=body)
+
+
+GROUP = ('<shape type="shapegroup" id="pair"><shape type="sphere"><float name="radius" value="0.1"/>'
+         '<bsdf type="conductor"/></shape><shape type="cube"><transform name="to_world"><scale value="0.1"/>'
+         '<translate x="0.3"/></transform></shape></shape>'
+         '<shape type="instance" id="left"><ref id="pair"/><transform name="to_world"><translate x="-0.5" y="0.2"/></transform></shape>'
+         '<shape type="instance" id="right"><ref id="pair"/><transform name="to_world"><translate x="0.5" y="0.2"/></transform></shape>')
+
+
+def test_instances_of_a_shapegroup_place_its_shapes(tmp_path):
+    from blockhash.scene.model import MirrorMaterial
+
+    scene = load(tmp_path, body=GROUP)
+    names = [o.name for o in scene.objects]
+    assert names[1:] == ["left/sphere-0", "left/cube-1", "right/sphere-0", "right/cube-1"]
+    by = {o.name: o for o in scene.objects}
+    np.testing.assert_allclose(by["right/cube-1"].mesh.bounds.mean(axis=0), [0.8, 0.2, 0.0], atol=1e-12)
+    np.testing.assert_allclose(by["left/sphere-0"].mesh.bounds.mean(axis=0), [-0.5, 0.2, 0.0], atol=1e-3)
+    assert isinstance(by["left/sphere-0"].material, MirrorMaterial)
+    with pytest.raises(InputError, match=r"s.xml:10: <ref>: no shapegroup with id 'pairs'"):
+        load(tmp_path, body=GROUP.replace('<ref id="pair"/><transform name="to_world"><translate x="0.5"',
+                                          '<ref id="pairs"/><transform name="to_world"><translate x="0.5"'))
+
+
+@needs_mitsuba
+def test_mitsuba_places_the_instances_where_blockhash_does(tmp_path):
+    mi, loaded = mitsuba_scene(xml(body=GROUP))
+    scene = load(tmp_path, body=GROUP)
+    for name in ("left", "right"):
+        [inst] = [s for s in loaded.shapes() if s.id() == name]
+        box = inst.bbox()
+        ours = np.vstack([o.mesh.bounds for o in scene.objects if o.name.startswith(name + "/")])
+        np.testing.assert_allclose([list(box.min), list(box.max)], [ours.min(axis=0), ours.max(axis=0)],
+                                   atol=2e-3)  # the icosphere's tessellation
+
+
+def test_a_top_level_area_emitter_referred_to_by_a_shape_is_its_light(tmp_path):
+    inline = load(tmp_path, body='<shape type="disk"><emitter type="area"><rgb name="radiance" value="2"/>'
+                                 '</emitter><transform name="to_world"><translate y="1"/></transform></shape>')
+    by_ref = load(tmp_path, top='<emitter type="area" id="lamp"><rgb name="radiance" value="2"/></emitter>',
+                  body='<shape type="disk"><ref id="lamp"/><transform name="to_world"><translate y="1"/>'
+                       '</transform></shape>')
+    a, b = inline.lights[-1], by_ref.lights[-1]
+    np.testing.assert_allclose(a.power, b.power)
+    with pytest.raises(InputError, match=r"s.xml:1: <emitter type=\"area\">: an area emitter no shape refers to"):
+        load(tmp_path, top='<emitter type="area" id="lamp"/>')
