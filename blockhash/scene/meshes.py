@@ -127,13 +127,26 @@ def load_mesh(path, *, normals: str = "auto") -> trimesh.Trimesh:
     offsets = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
     vertices = np.concatenate([p[0] for p in parts])
     faces = np.concatenate([p[1] + o for p, o in zip(parts, offsets)])
+    given = np.concatenate([p[2] for p in parts]) if all(p[2] is not None for p in parts) else None
+    return mesh_from_arrays(vertices, faces, given, normals, f"the mesh file {str(path)!r}")
+
+
+def mesh_from_arrays(vertices, faces, given_normals, normals: str, what: str) -> trimesh.Trimesh:
+    """A mesh of ``vertices`` and ``faces`` read from a file (``what`` names it in errors),
+    shaded as :func:`load_mesh`'s ``normals`` says; ``given_normals``: the file's vertex
+    normals, or None."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    faces = np.asarray(faces, dtype=np.int64)
     bad = ~np.isfinite(vertices).all(axis=1)
     if bad.any():  # before trimesh merges vertices, which casts NaN to int
-        raise InputError(f"the mesh file {str(path)!r} has NaN or infinite vertex coordinates "
+        raise InputError(f"{what} has NaN or infinite vertex coordinates "
                          f"({int(bad.sum()):,} vertices, the first is vertex {int(np.argmax(bad)) + 1}); "
                          "fix the mesh")
-    if normals == "auto" and all(p[2] is not None for p in parts):
-        return with_normals(vertices, faces, np.concatenate([p[2] for p in parts]))
+    if len(faces) and (faces.min() < 0 or faces.max() >= len(vertices)):
+        raise InputError(f"{what} has a face with a vertex index outside 0..{len(vertices) - 1}; "
+                         "fix the mesh")
+    if normals == "auto" and given_normals is not None:
+        return with_normals(vertices, faces, given_normals)
     mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False, validate=False)
     if normals == "flat":
         mesh.unmerge_vertices()

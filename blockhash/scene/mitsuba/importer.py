@@ -14,7 +14,7 @@ Mapped:
 * the ``perspective`` sensor, ``hdrfilm``, ``box`` rfilter, sampler (``sample_count`` to
   samples per pixel) and ``path`` / ``ptracer`` integrator (``max_depth`` to the specular
   depth), as :mod:`.sensor` maps them, clip planes included;
-* shapes as :mod:`.shapes` makes them (``ply``, ``obj``, ``rectangle``, ``disk``,
+* shapes as :mod:`.shapes` makes them (``ply``, ``obj``, ``serialized``, ``rectangle``, ``disk``,
   ``cylinder``, ``sphere``, ``cube``), and a ``shapegroup``'s shapes placed by each
   ``instance``; each with a BSDF inline or by ``<ref id>``, and an area emitter inside or a
   top-level one by ``<ref id>``;
@@ -63,7 +63,7 @@ import numpy as np
 from blockhash.errors import InputError
 from blockhash.scene.mitsuba import sensor as mitsuba_sensor
 from blockhash.scene.mitsuba.exporter import METADATA_MARK
-from blockhash.scene.mitsuba.shapes import SHAPES, placed, shape_mesh
+from blockhash.scene.mitsuba.shapes import PROPERTIES, SHAPES, placed, shape_mesh
 from blockhash.scene.mitsuba.xml_values import XmlReader, parse
 from blockhash.scene.model import (
     AreaLight,
@@ -201,13 +201,7 @@ class _Reader(XmlReader):
         if kind not in SHAPES:
             self.fail(el, f"unsupported shape; supported: {', '.join(SHAPES)}, and shapegroup "
                       "with instance")
-        allowed = {"to_world": ("transform",), "flip_normals": ("boolean",)}
-        if kind in ("ply", "obj"):
-            allowed |= {"filename": ("string",), "face_normals": ("boolean",)}
-        if kind == "sphere":
-            allowed |= {"center": ("point",), "radius": ("float",)}
-        if kind == "cylinder":
-            allowed |= {"p0": ("point",), "p1": ("point",), "radius": ("float",)}
+        allowed = {"to_world": ("transform",), "flip_normals": ("boolean",), **PROPERTIES.get(kind, {})}
         p = self.props(el, allowed, children=("bsdf", "ref", "emitter"))
         material = emitter = None
         for kid in p["<children>"]:

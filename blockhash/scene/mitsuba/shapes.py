@@ -1,5 +1,5 @@
-"""The meshes of Mitsuba 3's shapes, as Mitsuba places them (for :mod:`.importer`): ``ply`` and
-``obj`` files (found as :meth:`.xml_values.XmlReader.resolve` looks), ``rectangle`` ([-1, 1]^2
+"""The meshes of Mitsuba 3's shapes, as Mitsuba places them (for :mod:`.importer`): ``ply``,
+``obj`` and ``serialized`` (:mod:`.serialized`, ``shape_index``) files (found as :meth:`.xml_values.XmlReader.resolve` looks), ``rectangle`` ([-1, 1]^2
 in z = 0, facing +z), ``disk`` (the unit disk there) and ``cylinder`` (``p0``, ``p1``,
 ``radius``: the open tube, facing outward), each tessellated with the analytic shape's area
 (:func:`blockhash.scene.meshes.disk`, :func:`~blockhash.scene.meshes.cylinder`), ``sphere``
@@ -13,19 +13,31 @@ import trimesh
 
 from blockhash.errors import InputError
 from blockhash.scene import meshes
+from blockhash.scene.mitsuba.serialized import read_serialized
 
-SHAPES = ("ply", "obj", "rectangle", "disk", "cylinder", "sphere", "cube")
+SHAPES = ("ply", "obj", "serialized", "rectangle", "disk", "cylinder", "sphere", "cube")
+_FILE = {"filename": ("string",), "face_normals": ("boolean",)}
+#: Each shape's own properties (beside to_world and flip_normals), as Mitsuba names them.
+PROPERTIES = {"ply": _FILE, "obj": _FILE, "serialized": {**_FILE, "shape_index": ("integer",)},
+              "sphere": {"center": ("point",), "radius": ("float",)},
+              "cylinder": {"p0": ("point",), "p1": ("point",), "radius": ("float",)}}
 
 
 def shape_mesh(r, el, kind: str, p: dict) -> trimesh.Trimesh:
     """The mesh of a ``<shape>`` of ``kind`` with properties ``p`` (read by ``r``, an
     :class:`.xml_values.XmlReader`), in world space."""
-    if kind in ("ply", "obj"):
+    if kind in ("ply", "obj", "serialized"):
         if "filename" not in p:
             r.fail(el, "missing <string name=\"filename\">")
         full = r.resolve(el, p["filename"], "mesh file")
         try:
-            mesh = meshes.load_mesh(full, normals="flat" if p.get("face_normals") else "auto")
+            if kind == "serialized":
+                vertices, faces, normals, flat = read_serialized(full, p.get("shape_index", 0))
+                mesh = meshes.mesh_from_arrays(vertices, faces, normals,
+                                               "flat" if flat or p.get("face_normals") else "auto",
+                                               f"{full} (shape_index {p.get('shape_index', 0)})")
+            else:
+                mesh = meshes.load_mesh(full, normals="flat" if p.get("face_normals") else "auto")
         except InputError as exc:
             r.fail(el, str(exc))
     elif kind == "rectangle":

@@ -476,3 +476,63 @@ def test_a_top_level_area_emitter_referred_to_by_a_shape_is_its_light(tmp_path):
     np.testing.assert_allclose(a.power, b.power)
     with pytest.raises(InputError, match=r"s.xml:1: <emitter type=\"area\">: an area emitter no shape refers to"):
         load(tmp_path, top='<emitter type="area" id="lamp"/>')
+
+
+def write_serialized(path, meshes, *, version=4, double=False, normals=False):
+    """A .serialized file of ``meshes`` [(vertices, faces)] as Mitsuba's format documents it."""
+    import struct
+    import zlib
+
+    out, offsets = bytearray(), []
+    real = "<f8" if double else "<f4"
+    for i, (v, f) in enumerate(meshes):
+        offsets.append(len(out))
+        flags = (0x2000 if double else 0x1000) | (0x0001 if normals else 0)
+        body = struct.pack("<I", flags) + (f"mesh{i}".encode() + b"\0" if version == 4 else b"")
+        body += struct.pack("<QQ", len(v), len(f)) + np.asarray(v, real).tobytes()
+        if normals:
+            n = np.asarray(v, np.float64) / np.linalg.norm(v, axis=1, keepdims=True)
+            body += n.astype(real).tobytes()
+        body += np.asarray(f, "<u4").tobytes()
+        out += struct.pack("<HH", 0x041C, version) + zlib.compress(body)
+    out += np.asarray(offsets, "<u8" if version == 4 else "<u4").tobytes() + struct.pack("<I", len(meshes))
+    path.write_bytes(bytes(out))
+
+
+TETRA = (np.array([[1.0, 1, 1], [-1, -1, 1], [-1, 1, -1], [1, -1, -1]]) * 0.2,
+         np.array([[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]]))
+BOX = (np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]) * 0.3 + [0.1, 0.2, 0.3],
+       np.array([[0, 1, 2], [0, 2, 3]]))
+
+
+@pytest.mark.parametrize("version, double, normals", [(4, False, False), (4, True, True), (3, False, True)])
+def test_a_serialized_files_meshes_are_read_by_shape_index(tmp_path, version, double, normals):
+    write_serialized(tmp_path / "m.serialized", [TETRA, BOX], version=version, double=double, normals=normals)
+    for index, (v, f) in enumerate([TETRA, BOX]):
+        body = (f'<shape type="serialized"><string name="filename" value="m.serialized"/>'
+                f'<integer name="shape_index" value="{index}"/></shape>')
+        mesh = load(tmp_path, body=body).objects[-1].mesh
+        np.testing.assert_allclose(mesh.vertices, v, atol=1e-7)
+        assert mesh.faces.tolist() == f.tolist()
+        if normals:
+            np.testing.assert_allclose(mesh.vertex_normals, v / np.linalg.norm(v, axis=1, keepdims=True), atol=1e-6)
+
+
+def test_bad_serialized_files_are_refused_naming_the_file(tmp_path):
+    write_serialized(tmp_path / "m.serialized", [TETRA])
+    body = '<shape type="serialized"><string name="filename" value="m.serialized"/><integer name="shape_index" value="3"/></shape>'
+    with pytest.raises(InputError, match=r"s.xml:10: .*m.serialized: shape_index 3 is outside the file's 1 mesh"):
+        load(tmp_path, body=body)
+    (tmp_path / "m.serialized").write_bytes(b"\x1c\x05\x04\x00" + b"\0" * 8)
+    with pytest.raises(InputError, match=r"identifier is 0x051C, not 0x041C"):
+        load(tmp_path, body=body.replace("3", "0"))
+
+
+@needs_mitsuba
+def test_mitsuba_reads_the_same_serialized_meshes(tmp_path):
+    write_serialized(tmp_path / "m.serialized", [TETRA, BOX], double=True)
+    for index, (v, _) in enumerate([TETRA, BOX]):
+        mi, _ = mitsuba_scene('<scene version="3.0.0"/>')
+        mesh = mi.load_dict({"type": "serialized", "filename": str(tmp_path / "m.serialized"),
+                             "shape_index": index})
+        np.testing.assert_allclose(np.array(mi.traverse(mesh)["vertex_positions"]).reshape(-1, 3), v, atol=1e-6)

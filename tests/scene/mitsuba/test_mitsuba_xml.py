@@ -129,7 +129,7 @@ def test_hand_written_shapes_transforms_and_fov_axis(tmp_path):
 @pytest.mark.parametrize("body, match", [
     ('<emitter type="area"/>\n', r"s.xml:7: <emitter type=\"area\">: an area emitter belongs inside a <shape>"),
     ('<emitter type="arae"/>\n', r"s.xml:7: <emitter type=\"arae\">: unsupported emitter; supported: point, spot, directional"),
-    ('<shape type="serialized"/>\n', r"s.xml:7: <shape type=\"serialized\">: unsupported shape; supported: ply"),
+    ('<shape type="sdfgrid"/>\n', r"s.xml:7: <shape type=\"sdfgrid\">: unsupported shape; supported: ply"),
     ('<bsdf type="roughplastic" id="x"/>\n', r"s.xml:7: .*unsupported BSDF; supported: diffuse"),
     ('<bsdf type="conductor" id="cu"><string name="material" value="Cu"/></bsdf>\n', r"s.xml:7: .*material.*none"),
     (LIGHT + '<shape type="ply"><string name="filename" value="gone.ply"/><bsdf type="diffuse"/></shape>\n',
