@@ -255,15 +255,17 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> Sh
 
 
 def _cone(light):
-    """(axis (3,), cos of the half angle, intensity (3,) W/sr inside): a point light's cone is
-    the whole sphere (cos -2: every direction is inside)."""
+    """(axis (3,), cos of the half angle, intensity (3,) W/sr at the peak, cos of the beam's
+    half angle, the cone's and the beam's half angles in radians): a point light's cone is the
+    whole sphere (cos -2: every direction is inside, all of it beam)."""
     power = np.asarray(light.power, dtype=np.float64)
     cone = getattr(light, "cone_deg", None)
     if cone is None:
-        return np.zeros(3), -2.0, power / (4.0 * np.pi)
-    cos_c = float(np.cos(np.radians(cone)))
-    return (np.asarray(light.direction, dtype=np.float64), cos_c,
-            power / (2.0 * np.pi * (1.0 - cos_c)))
+        return np.zeros(3), -2.0, power / (4.0 * np.pi), -2.0, np.pi, np.pi
+    c, b = np.radians(cone), np.radians(light.beam_deg)
+    cos_c = float(np.cos(c))
+    return (np.asarray(light.direction, dtype=np.float64), cos_c, light.peak_intensity,
+            cos_c if light.uniform else float(np.cos(b)), float(c), float(b))
 
 
 def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
@@ -307,8 +309,7 @@ def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
         front = _facing(p, n, live, lp[0])
         origins, wi, dist = shadow_segments(p[front], n[front], lp, RAY_OFFSET * rays.scale)
         lit = ~rays.geometry.occluded(origins, wi, dist * (1 - 1e-6))
-        axis, cos_c, intensity = _cone(light)
-        _lit(out, front[lit], wi[lit], dist[lit], n, wo, mat, kd, ks, e, axis, cos_c, intensity)
+        _lit(out, front[lit], wi[lit], dist[lit], n, wo, mat, kd, ks, e, *_cone(light))
     out *= points.weight.reshape(-1, 3)
     return out.reshape(h, w, 3)
 
@@ -348,20 +349,26 @@ def shadow_segments(points, normals, targets, offset):
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _lit(out, idx, wi, dist, n, wo, mat, kd, ks, e, axis, cos_c, intensity):
+def _lit(out, idx, wi, dist, n, wo, mat, kd, ks, e, axis, cos_c, intensity, cos_b, cone, beam):
     """Adds to ``out[idx]`` the radiance from one light reaching each point unshadowed along
     ``wi`` from ``dist`` away: f_r(wi, wo) I cos / d^2, the modified Phong f_r of
-    :func:`blockhash.scene.materials.phong_brdf` and I the light's intensity inside its cone."""
+    :func:`blockhash.scene.materials.phong_brdf` and I the light's intensity toward the point
+    (:func:`_cone`: the peak inside the beam, falling linearly in the angle to 0 at the
+    cone's edge, :meth:`blockhash.scene.lights.SpotLight.falloff`)."""
     for j in numba.prange(len(idx)):
         i = idx[j]
         w0, w1, w2 = wi[j, 0], wi[j, 1], wi[j, 2]
         cos = (w0 * n[i, 0] + w1 * n[i, 1]) + w2 * n[i, 2]
-        if cos <= 0.0 or -((w0 * axis[0] + w1 * axis[1]) + w2 * axis[2]) < cos_c:
+        c_axis = -((w0 * axis[0] + w1 * axis[1]) + w2 * axis[2])
+        if cos <= 0.0 or c_axis < cos_c:
             continue  # behind the surface, or outside a spot light's cone
+        fall = 1.0
+        if c_axis < cos_b:  # between the beam and the cone's edge
+            fall = min(max((cone - np.arccos(min(c_axis, 1.0))) / (cone - beam), 0.0), 1.0)
         m = mat[i]
         c_alpha = ((2.0 * cos * n[i, 0] - w0) * wo[i, 0] + (2.0 * cos * n[i, 1] - w1) * wo[i, 1]) \
             + (2.0 * cos * n[i, 2] - w2) * wo[i, 2]
         lobe = (e[m] + 2.0) / (2.0 * np.pi) * max(c_alpha, 0.0) ** e[m]
         scale = cos / (dist[j] * dist[j])
         for c in range(3):
-            out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * intensity[c] * scale
+            out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * intensity[c] * fall * scale

@@ -173,7 +173,8 @@ class Emitter:
                 s_cos = float(np.cos(np.radians(float(cone_deg))))
                 emit_sa = float(cone_solid_angle(s_cos))
             self.positions.append(pos)
-            self.intensity.append(power / emit_sa)
+            # a spot's peak (its falloff, SpotLight.falloff, weighs each photon: _sample_cones)
+            self.intensity.append(light.peak_intensity if cone_deg is not None else power / emit_sa)
             self.spot_axis.append(s_axis)
             self.spot_cos.append(s_cos)
             for obj in specular_objects:
@@ -196,6 +197,7 @@ class Emitter:
             mapped = [c for c in mapped if c.live.any()]
             cones = mapped or cones
         self.cones = tuple(cones)
+        self.lights = tuple(lights)
         self.n_lights = len(lights)
         if bounds is None:
             boxes = np.array([o.mesh.bounds for o in specular_objects]).reshape(-1, 2, 3)
@@ -300,9 +302,11 @@ class Emitter:
         for li in range(self.n_lights):
             if self.spot_axis[li] is None:
                 continue
-            sel = light == li
-            outside = dirs[sel] @ self.spot_axis[li] < self.spot_cos[li] - CONE_TEST_EPS
-            weights[np.flatnonzero(sel)[outside]] = 0.0
+            rows = np.flatnonzero(light == li)
+            cos = dirs[rows] @ self.spot_axis[li]
+            weights[rows[cos < self.spot_cos[li] - CONE_TEST_EPS]] = 0.0
+            if not self.lights[li].uniform:  # the beam's falloff toward the cone's edge
+                weights[rows] *= self.lights[li].falloff(cos)[:, None]
         return origins, dirs, weights, light
 
     def _cells(self, k: np.ndarray, u: np.ndarray):

@@ -90,7 +90,7 @@ class IndirectSource:
         power = np.asarray(light.power, dtype=np.float64)
         own_axis = np.asarray(getattr(light, "direction", (0.0, 0.0, 1.0)), dtype=np.float64)
         own_cos = -1.0 if cone is None else float(np.cos(np.radians(cone)))
-        intensity = power / (2.0 * np.pi * (1.0 - own_cos))
+        intensity = power / (4.0 * np.pi) if cone is None else light.peak_intensity
         to = self.center - np.asarray(light.position, dtype=np.float64)
         dist = float(np.linalg.norm(to))
         if dist <= self.radius:
@@ -190,8 +190,10 @@ class IndirectSource:
                 o[rows] = light.position
                 cone = getattr(light, "cone_deg", None)
                 if cone is not None:  # aimed at the scene: outside the spot's cone is dark
-                    outside = d[rows] @ np.asarray(light.direction) < np.cos(np.radians(cone)) - 1e-12
-                    w[rows[outside]] = 0.0
+                    cos = d[rows] @ np.asarray(light.direction)
+                    w[rows[cos < np.cos(np.radians(cone)) - 1e-12]] = 0.0
+                    if not light.uniform:  # the beam's falloff toward the cone's edge
+                        w[rows] *= light.falloff(cos)[:, None]
         return o, d, w
 
     # ------------------------------------------------------------------ paths

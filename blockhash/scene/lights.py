@@ -47,16 +47,30 @@ class PointLight:
         return f"PointLight(position={_fmt(self.position)}, power={_fmt(self.power)})"
 
 
+def falloff_solid_angle(cone_deg: float, beam_deg: float) -> float:
+    """The integral over directions of a spot's falloff (:meth:`SpotLight.falloff`): ``2 pi (1 -
+    (sin c - sin b) / (c - b))`` for the cone's and the beam's half angles c and b, and the
+    cone's solid angle ``2 pi (1 - cos c)`` when they are equal (the power over the peak
+    intensity)."""
+    c, b = math.radians(cone_deg), math.radians(beam_deg)
+    if b >= c:
+        return 2.0 * math.pi * (1.0 - math.cos(c))
+    return 2.0 * math.pi * (1.0 - (math.sin(c) - math.sin(b)) / (c - b))
+
+
 @dataclass(frozen=True, eq=False)
 class SpotLight:
     """Spot light: ``position`` (3,) metres, ``direction`` (3,) unit axis,
-    ``power`` (3,) watts RGB emitted into the cone, uniform in solid angle
-    inside it, ``cone_deg`` the half angle in (0, 90]."""
+    ``power`` (3,) watts RGB emitted into the cone of half angle ``cone_deg`` in (0, 90].
+    Inside ``beam_deg`` (default ``cone_deg``: uniform in the whole cone) the intensity is
+    its peak; from there to ``cone_deg`` it falls linearly in the angle to 0, as Mitsuba 3's
+    ``spot`` (``beam_width``, ``cutoff_angle``): :meth:`falloff`."""
 
     position: np.ndarray
     direction: np.ndarray
     power: np.ndarray
     cone_deg: float
+    beam_deg: float | None = None
 
     def __post_init__(self):
         with _owned("SpotLight"):
@@ -71,15 +85,47 @@ class SpotLight:
             object.__setattr__(self, "cone_deg", _number(
                 self.cone_deg, "cone_deg", lo=0.0, hi=90.0, lo_open=True,
                 hint="cone_deg is the half angle of the cone in degrees"))
+            beam = self.cone_deg if self.beam_deg is None else self.beam_deg
+            object.__setattr__(self, "beam_deg", _number(
+                beam, "beam_deg", lo=0.0, hi=self.cone_deg, lo_open=True,
+                hint="beam_deg is the half angle of full intensity, at most cone_deg"))
+
+    @property
+    def uniform(self) -> bool:
+        """The intensity is the same in the whole cone (``beam_deg == cone_deg``)."""
+        return self.beam_deg == self.cone_deg
 
     @property
     def solid_angle(self) -> float:
         """Steradians inside the cone, ``2 pi (1 - cos cone)``."""
         return 2.0 * math.pi * (1.0 - math.cos(math.radians(self.cone_deg)))
 
+    @property
+    def falloff_solid_angle(self) -> float:
+        """The integral of :meth:`falloff` over directions (:func:`falloff_solid_angle`)."""
+        return falloff_solid_angle(self.cone_deg, self.beam_deg)
+
+    @property
+    def peak_intensity(self) -> np.ndarray:
+        """(3,) W/sr inside the beam: the power over :attr:`falloff_solid_angle`."""
+        return np.asarray(self.power, dtype=np.float64) / self.falloff_solid_angle
+
+    def falloff(self, cos_axis) -> np.ndarray:
+        """The intensity toward directions at ``cos_axis`` to the axis over the peak: 1 inside
+        the beam, ``(c - theta) / (c - b)`` between the beam and the cone, 0 outside."""
+        cos_axis = np.asarray(cos_axis, dtype=np.float64)
+        c, b = math.radians(self.cone_deg), math.radians(self.beam_deg)
+        inside = cos_axis > math.cos(c)
+        if self.uniform:
+            return inside.astype(np.float64)
+        theta = np.arccos(np.clip(cos_axis, -1.0, 1.0))
+        ramp = np.where(theta <= b, 1.0, (c - theta) / (c - b))
+        return np.where(inside, np.clip(ramp, 0.0, 1.0), 0.0)
+
     def __repr__(self) -> str:
+        beam = "" if self.uniform else f", beam_deg={self.beam_deg:g}"
         return (f"SpotLight(position={_fmt(self.position)}, direction={_fmt(self.direction)}, "
-                f"power={_fmt(self.power)}, cone_deg={self.cone_deg:g})")
+                f"power={_fmt(self.power)}, cone_deg={self.cone_deg:g}{beam})")
 
 
 @dataclass(frozen=True, eq=False)

@@ -45,11 +45,13 @@ typo is never silently ignored)::
     power = 100.0                   # required, watts, number (white) or [r, g, b];
                                     #   each >= 0 and not all 0
     [[lights]]
-    kind = "spot"                   # uniform in solid angle inside a cone
+    kind = "spot"                   # a cone, uniform in solid angle inside its beam
     position = [0.0, 2.0, 0.0]      # required, metres
     direction = [0.0, -1.0, 0.0]    # required, the cone's axis (normalised on load)
     power = 50.0                    # required, watts emitted into the whole cone
     cone_deg = 30.0                 # required, half angle, 0 < cone_deg <= 90
+    beam_deg = 22.5                 # optional, default cone_deg: full intensity inside it,
+                                    #   falling linearly in the angle to 0 at cone_deg
     [[lights]]
     kind = "directional"            # sunlight: parallel light from outside the scene
     direction = [0.3, -1.0, 0.2]    # required, the direction the light travels (normalised)
@@ -253,9 +255,10 @@ def _parse_light(t, i: int):
         if kind == "point":
             _keys(t, "", ("kind", "position", "power"), what="a point light")
             return PointLight(position=t["position"], power=t["power"])
-        _keys(t, "", ("kind", "position", "direction", "power", "cone_deg"), what="a spot light")
+        _keys(t, "", ("kind", "position", "direction", "power", "cone_deg"), ("beam_deg",),
+              what="a spot light")
         return SpotLight(position=t["position"], direction=t["direction"], power=t["power"],
-                         cone_deg=t["cone_deg"])
+                         cone_deg=t["cone_deg"], beam_deg=t.get("beam_deg"))
 
 
 def _pair(value, key: str) -> tuple[float, float]:

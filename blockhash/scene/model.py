@@ -286,7 +286,9 @@ class Scene:
                              f"{_fmt(light.irradiance)} W/m^2")
             elif isinstance(light, SpotLight):
                 lines.append(f"  light   spot at {_fmt(light.position)} along {_fmt(light.direction)}, "
-                             f"cone {light.cone_deg:g} deg, power {_fmt(light.power)} W")
+                             f"cone {light.cone_deg:g} deg"
+                             + ("" if light.uniform else f" (beam {light.beam_deg:g} deg)")
+                             + f", power {_fmt(light.power)} W")
             else:
                 lines.append(f"  light   point at {_fmt(light.position)}, power {_fmt(light.power)} W")
         width = max(len(o.name) for o in self.objects)

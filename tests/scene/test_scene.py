@@ -558,3 +558,32 @@ def test_scene_objects_reject_wrong_types():
     with pytest.raises(InputError, match=r"SceneObject\.material: expected a PhongMaterial, "
                                          r"MirrorMaterial or DielectricMaterial; got str"):
         SceneObject(name="r", mesh=obj.mesh, material="mirror")
+
+
+@pytest.mark.parametrize("cone, beam", [(30.0, 30.0), (30.0, 22.5), (20.0, 8.0), (90.0, 1.0)])
+def test_a_spots_falloff_integrates_to_its_solid_angle_and_its_power(cone, beam):
+    from blockhash.scene.lights import SpotLight
+
+    spot = SpotLight(position=(0, 1, 0), direction=(0, -1, 0), power=5.0, cone_deg=cone, beam_deg=beam)
+    theta = (np.arange(200_000) + 0.5) * (np.pi / 200_000)
+    integral = 2 * np.pi * np.sum(spot.falloff(np.cos(theta)) * np.sin(theta)) * (np.pi / 200_000)
+    assert integral == pytest.approx(spot.falloff_solid_angle, rel=1e-4)
+    assert (spot.peak_intensity * integral == pytest.approx(spot.power, rel=1e-4))
+    assert spot.falloff(np.cos(np.radians([0.0, beam * 0.999, cone * 1.001]))).tolist()[::2] == [1.0, 0.0]
+    mid = np.radians(0.5 * (beam + cone))
+    if beam < cone:
+        assert spot.falloff(np.cos(mid)) == pytest.approx(0.5, rel=1e-9)
+
+
+def test_a_spots_beam_is_read_and_checked_from_toml():
+    from blockhash.errors import InputError
+    from blockhash.scene.loader import parse_scene
+
+    base = (Path(__file__).resolve().parents[2] / "scenes" / "ring.toml").read_text()
+    light = ('[[lights]]\nkind = "spot"\nposition = [-2.0, 1.0, 0.0]\ndirection = [1.0, -0.4, 0.0]\n'
+             'power = 100.0\ncone_deg = 30.0\n')
+    text = base.replace(base[base.index("[[lights]]"):base.index("[[objects]]")], light + "beam_deg = 20.0\n")
+    spot = parse_scene(text).lights[0]
+    assert spot.beam_deg == 20.0 and not spot.uniform
+    with pytest.raises(InputError, match=r"beam_deg.*expected a number in \(0, 30\]"):
+        parse_scene(text.replace("beam_deg = 20.0", "beam_deg = 40.0"))

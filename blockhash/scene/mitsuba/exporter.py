@@ -116,7 +116,7 @@ def _emitter(light) -> list[str]:
     power = np.asarray(light.power, dtype=np.float64)
     if isinstance(light, SpotLight):
         cone = float(light.cone_deg)
-        intensity = power / (2.0 * math.pi * (1.0 - math.cos(math.radians(cone))))
+        intensity = light.peak_intensity
         target = np.asarray(light.position) + np.asarray(light.direction)
         up = (0.0, 1.0, 0.0) if abs(float(light.direction[1])) < 0.9 else (1.0, 0.0, 0.0)
         return ['<emitter type="spot">',
@@ -126,7 +126,7 @@ def _emitter(light) -> list[str]:
                 "    </transform>",
                 "    " + _rgb("intensity", intensity),
                 f'    <float name="cutoff_angle" value="{_num(cone)}"/>',
-                f'    <float name="beam_width" value="{_num(cone)}"/>', "</emitter>"]
+                f'    <float name="beam_width" value="{_num(light.beam_deg)}"/>', "</emitter>"]
     x, y, z = (float(c) for c in light.position)
     return ['<emitter type="point">',
             f'    <point name="position" x="{_num(x)}" y="{_num(y)}" z="{_num(z)}"/>',

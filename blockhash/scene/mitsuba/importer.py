@@ -27,8 +27,8 @@ Mapped:
   blockhash, bare or wrapped (Mitsuba's bare ``conductor`` is black from behind: wrap it in
   ``twosided`` where its back face is seen or lit);
 * emitters ``point`` (``position`` or ``to_world``, not both, as in Mitsuba;
-  ``intensity``), ``spot`` (``to_world``, ``intensity``, ``cutoff_angle``;
-  ``beam_width`` must equal it, as blockhash's spot is uniform inside its cone) and
+  ``intensity``), ``spot`` (``to_world``, ``intensity``, ``cutoff_angle``,
+  ``beam_width`` with its linear falloff) and
   ``directional`` (``direction`` or ``to_world``'s +z, not both; ``irradiance``), and an
   ``area`` emitter inside a shape (``radiance``; the shape becomes an
   :class:`blockhash.scene.model.AreaLight`, emitting from its front face, and keeps its BSDF
@@ -61,6 +61,7 @@ from pathlib import Path
 import numpy as np
 
 from blockhash.errors import InputError
+from blockhash.scene.lights import falloff_solid_angle
 from blockhash.scene.mitsuba import sensor as mitsuba_sensor
 from blockhash.scene.mitsuba.exporter import METADATA_MARK
 from blockhash.scene.mitsuba.shapes import PROPERTIES, SHAPES, placed, shape_mesh
@@ -183,16 +184,16 @@ class _Reader(XmlReader):
         p = self.props(el, {"intensity": spectra, "to_world": ("transform",),
                             "cutoff_angle": ("float",), "beam_width": ("float",)}, emitter=True)
         cone = float(p.get("cutoff_angle", 20.0))
-        if abs(float(p.get("beam_width", cone * 0.75)) - cone) > 1e-9:
-            self.fail(el, "beam_width must equal cutoff_angle: blockhash's spot light is uniform "
-                      "inside its cone (Mitsuba's default beam_width is 3/4 of cutoff_angle); "
-                      "give <float name=\"beam_width\"> equal to cutoff_angle")
+        beam = float(p.get("beam_width", cone * 0.75))  # Mitsuba's default: 3/4 of the cutoff
+        if beam > cone:
+            self.fail(el, f"beam_width {beam:g} exceeds cutoff_angle {cone:g}; give a beam_width "
+                      "at most the cutoff angle")
         m = p.get("to_world", np.eye(4))
         axis = m[:3, :3] @ [0.0, 0.0, 1.0]
-        power = np.broadcast_to(p.get("intensity", 1.0), (3,)) * 2.0 * math.pi * (
-            1.0 - math.cos(math.radians(cone)))
+        # Mitsuba's intensity is the beam's peak
+        power = np.broadcast_to(p.get("intensity", 1.0), (3,)) * falloff_solid_angle(cone, beam)
         return self.build(el, SpotLight, position=m[:3, 3], direction=axis, power=power,
-                          cone_deg=cone)
+                          cone_deg=cone, beam_deg=beam)
 
     def shape(self, el, bsdfs: dict, index: int, areas: dict):
         """(object, its AreaLight or None) of a ``<shape>``; ``areas``: the top-level area

@@ -136,7 +136,8 @@ def test_hand_written_shapes_transforms_and_fov_axis(tmp_path):
      r"s.xml:8: <shape type=\"ply\">: mesh file not found: .*gone.ply"),
     (LIGHT + '<shape type="rectangle"><ref id="nowhere"/></shape>\n', r"s.xml:8: <ref>: no BSDF with id 'nowhere'"),
     ('<medium type="homogeneous"/>\n', r"s.xml:7: <medium type=\"homogeneous\">: unsupported element"),
-    ('<emitter type="spot"><float name="cutoff_angle" value="30"/></emitter>\n', r"beam_width must equal cutoff_angle"),
+    ('<emitter type="spot"><float name="cutoff_angle" value="30"/><float name="beam_width" value="40"/></emitter>\n',
+     r"beam_width 40 exceeds cutoff_angle 30"),
     (LIGHT + '<shape type="rectangle"><float name="radius" value="1"/><bsdf type="diffuse"/></shape>\n',
      r"s.xml:8: <float name=\"radius\">: unsupported here"),
 ])
