@@ -145,11 +145,11 @@ class Renderer:
     def _count(self, c: PassContribution) -> None:
         self.stored += c.stored
         self.emitted += c.emitted
-        if c.index == 0 and c.stored == 0:
+        if c.index == 0 and c.stored == 0 and not self.scene.photons.direct_only:
             why = ("the scene has no specular object" if not self.scene.specular_objects
                    else no_caustic_reason(c.info.get("photon_stats", {})))
             warnings.warn(f"rendering direct light only: {why}", NoCausticWarning, stacklevel=4)
-        if self.scene.specular_objects:
+        if self.scene.specular_objects and not self.scene.photons.direct_only:
             self.empty_run = self.empty_run + 1 if c.stored == 0 else 0
             if self.empty_run == EMPTY_PASSES_WARNING:
                 warnings.warn(

@@ -125,6 +125,8 @@ class RenderSetup:
 
         if not settings.indirect or self.traced is not None:
             return None, 0, "left out" if not settings.indirect else "a traced map: one pass"
+        if scene.photons.direct_only:
+            return None, 0, "left out: the scene asks for direct light only"
         source = IndirectSource(scene, self.rays.geometry)
         sample, _ = needs_indirect(source, settings.seed)
         if sample is None:

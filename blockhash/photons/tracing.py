@@ -147,6 +147,8 @@ def no_caustic_reason(stats: dict) -> str:
     32,326)``.  A scene without a specular object says so instead."""
     if stats.get("stopped_by") == "no_specular_objects":
         return "the scene has no specular (mirror or glass) object, so it has no caustic"
+    if stats.get("stopped_by") == "direct_only":
+        return "the scene asks for direct light only (photons.direct_only)"
     if stats.get("stopped_by") == "unreachable":
         return str(stats.get("reason"))
     toward = list(stats.get("specular_objects") or
@@ -182,7 +184,7 @@ class PhotonSource:
         self.specular = specular = tuple(scene.specular_objects)
         self.emitter = self.geometry = None
         self.unreachable = ""
-        if not specular:
+        if not specular or scene.photons.direct_only:
             return
         self.geometry = geometry or EmbreeGeometry(tuple(scene.objects))
         emitter = Emitter(lights, specular, geometry=self.geometry, bounds=scene.bounds,
@@ -207,6 +209,11 @@ class PhotonSource:
                       maximum=2**128 - 1, hint="use a non-negative integer seed")
 
     def _no_specular(self, t0) -> CausticPhotons:
+        if self.scene.photons.direct_only:
+            return CausticPhotons.empty({
+                "emitted": 0, "hit_specular": 0, "stored": 0, "stopped_by": "direct_only",
+                "reason": f"{self.name} renders direct light only (photons.direct_only)",
+                "seconds": time.perf_counter() - t0})
         if self.unreachable:
             return CausticPhotons.empty({
                 "emitted": 0, "hit_specular": 0, "stored": 0, "stopped_by": "unreachable",

@@ -192,13 +192,16 @@ class PhotonSettings:
     4.3), ``seed``, and ``max_bounces`` specular events (mirror bounces, glass
     reflections and refractions) followed per photon; None lets the
     :class:`Scene` choose: :data:`MAX_BOUNCES`, or :data:`DIELECTRIC_MAX_BOUNCES`
-    when it holds a dielectric."""
+    when it holds a dielectric.  ``direct_only``: trace no photon at all (the direct layer
+    alone, as Mitsuba's ``direct`` integrator renders)."""
 
     count: int = 200_000
     k: int = 50
     A: int = 8
     seed: int = 1
     max_bounces: int | None = None
+    #: Direct light only: no caustic or indirect photons (Mitsuba's ``direct`` integrator).
+    direct_only: bool = False
 
     def __post_init__(self):
         with _owned("PhotonSettings"):
@@ -213,6 +216,9 @@ class PhotonSettings:
                 names.append("max_bounces")
             for name in names:
                 object.__setattr__(self, name, int(getattr(self, name)))
+            if not isinstance(self.direct_only, (bool, np.bool_)):
+                raise _FieldError("direct_only", f"expected true or false; got {self.direct_only!r}")
+            object.__setattr__(self, "direct_only", bool(self.direct_only))
 
 
 @dataclass(frozen=True, eq=False)

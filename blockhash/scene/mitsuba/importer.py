@@ -399,7 +399,8 @@ def load_mitsuba(path) -> Scene:
         spp = meta.get("spp")
     else:
         glass = any(o.is_dielectric for o in objects)
-        photons = PhotonSettings(max_bounces=mitsuba_sensor.photon_depth(r, render, glass))
+        photons = PhotonSettings(max_bounces=mitsuba_sensor.photon_depth(r, render, glass),
+                                 direct_only=mitsuba_sensor.direct_only(r, render))
         spp = render.spp
     if spp:
         camera = replace(camera, spp=spp)

@@ -20,7 +20,8 @@ What is mapped, each as Mitsuba 3.9 does it:
   up to the square of a prime, ``multijitter`` only a square), which must be a square
   number up to 1024 (blockhash stratifies S x S per pixel); without one, blockhash's
   default.  ``seed`` and ``jitter = true`` change only the noise and are accepted.
-* ``integrator`` ``path`` or ``ptracer``: ``max_depth`` -1 (Mitsuba's default, unbounded)
+* ``integrator`` ``direct``: direct light only (:func:`direct_only`, one warning saying what
+  differs); ``path`` or ``ptracer``: ``max_depth`` -1 (Mitsuba's default, unbounded)
   keeps blockhash's depth (4 specular events, 8 in a scene with glass, for photons and
   camera rays alike); max_depth d >= that + 2 follows d - 2 specular events per photon
   (camera rays keep blockhash's, as for -1); a smaller d is refused, as blockhash's camera
@@ -50,7 +51,7 @@ DEFAULT_SIZE = (768, 576)
 DEFAULT_NEAR, DEFAULT_FAR = 0.01, 10000.0
 DEFAULT_FOCAL = "50mm"
 FILM_DIAGONAL_MM = math.hypot(36.0, 24.0)
-INTEGRATORS = ("path", "ptracer")
+INTEGRATORS = ("path", "ptracer", "direct")
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
 
 
@@ -278,6 +279,9 @@ def integrator(r: XmlReader, el) -> tuple[int | None, object]:
                "hide_emitters": ("boolean",)}
     if kind == "ptracer":
         allowed["samples_per_pass"] = ("integer",)
+    if kind == "direct":  # its sample counts change the noise only
+        allowed = {name: ("integer",) for name in ("shading_samples", "emitter_samples",
+                                                    "bsdf_samples")} | {"hide_emitters": ("boolean",)}
     p = r.props(el, allowed)
     depth = p.get("max_depth")
     if depth is not None and depth < -1:
@@ -285,6 +289,25 @@ def integrator(r: XmlReader, el) -> tuple[int | None, object]:
     if p.get("rr_depth", 1) < 1:
         r.fail(el, f"rr_depth {p['rr_depth']} must be > 0 (as in Mitsuba)")
     return depth, el
+
+
+#: What blockhash renders of Mitsuba's direct integrator (the warning's text).
+DIRECT_DIFFERS = ("blockhash renders the direct light alone, as Mitsuba's direct integrator (no "
+                  "caustic, no light between diffuse surfaces), but its camera still follows "
+                  "mirrors and glass to the diffuse surfaces seen in them and shades their direct "
+                  "light, where Mitsuba's shows only the emitters seen in them")
+
+
+def direct_only(r: XmlReader, render: Render) -> bool:
+    """Whether the integrator is Mitsuba's ``direct`` (one :class:`MitsubaWarning` says what
+    blockhash renders of it)."""
+    if render.integrator is None or render.integrator.get("type") != "direct":
+        return False
+    import warnings
+
+    warnings.warn(f"{r.where(render.integrator)}: <integrator type=\"direct\">: {DIRECT_DIFFERS}",
+                  MitsubaWarning, stacklevel=3)
+    return True
 
 
 def photon_depth(r: XmlReader, render: Render, glass: bool) -> int | None:

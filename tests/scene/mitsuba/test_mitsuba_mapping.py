@@ -536,3 +536,51 @@ def test_mitsuba_reads_the_same_serialized_meshes(tmp_path):
         mesh = mi.load_dict({"type": "serialized", "filename": str(tmp_path / "m.serialized"),
                              "shape_index": index})
         np.testing.assert_allclose(np.array(mi.traverse(mesh)["vertex_positions"]).reshape(-1, 3), v, atol=1e-6)
+
+
+DIRECT = '<integrator type="direct"><integer name="emitter_samples" value="2"/></integrator>'
+
+
+def test_the_direct_integrator_asks_for_direct_light_only_with_one_warning(tmp_path):
+    with pytest.warns(mitsuba_sensor.MitsubaWarning, match=r"s.xml:1: <integrator type=\"direct\">: "
+                      r"blockhash renders the direct light alone.*camera still follows mirrors") as caught:
+        scene = load(tmp_path, top=DIRECT)
+    assert len(caught) == 1 and scene.photons.direct_only
+    assert not load(tmp_path).photons.direct_only
+
+
+@pytest.mark.gl
+def test_a_direct_only_scene_renders_its_direct_layer_alone(tmp_path):
+    import warnings
+
+    import blockhash
+    from blockhash import RenderPlan
+
+    body = '<shape type="sphere"><float name="radius" value="0.3"/><bsdf type="conductor"/></shape>'
+    with pytest.warns(mitsuba_sensor.MitsubaWarning):
+        direct = load(tmp_path, top=DIRECT, body=body).with_size(24, 12)
+    full = load(tmp_path, body=body).with_size(24, 12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no warning that the caustic is missing: none was asked
+        only = blockhash.render(direct, photons=4_000, plan=RenderPlan(passes=2))
+    both = blockhash.render(full, photons=4_000, plan=RenderPlan(passes=2))
+    assert only.info["photons_emitted"] == 0 and (only.caustic == 0).all() and only.indirect is None
+    assert both.caustic.max() > 0
+    np.testing.assert_array_equal(only.direct, both.direct)  # the same direct light
+
+
+@needs_mitsuba
+@pytest.mark.gl
+def test_the_direct_only_render_is_mitsubas_direct_integrator_on_diffuse_surfaces(tmp_path):
+    import blockhash
+    from blockhash import RenderPlan
+
+    # (Mitsuba 3.9's direct integrator counts a point light once per emitter sample: with
+    # emitter_samples = 2 its image is twice as bright; the default, 1, is compared)
+    text = xml(top='<integrator type="direct"/>', film="<rfilter type=\"box\"/>")
+    with pytest.warns(mitsuba_sensor.MitsubaWarning):
+        scene = load(tmp_path, text)
+    ours = blockhash.render(scene, photons=4_000, spp=16, plan=RenderPlan(passes=1)).direct.astype(np.float64)
+    mi, loaded = mitsuba_scene(text)
+    theirs = np.asarray(mi.render(loaded, spp=256, seed=1), np.float64)[..., :3]
+    assert abs(ours.sum() - theirs.sum()) / theirs.sum() < 0.01
