@@ -23,8 +23,8 @@ guard, when the workers died re-running an unguarded script).
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
+from pathlib import Path
 
 from blockhash.errors import BlockHashError, InputError
 from blockhash.passes import worker
@@ -281,7 +281,7 @@ class _PoolSession(Session):
         for future in self.flight.values():
             future.cancel()
         self.reports.close()
-        os.unlink(self.spec[1])
+        Path(self.spec[1]).unlink(missing_ok=True)
         super().close()
         processes = list(getattr(self.pool, "_processes", {}).values())  # the pool's own
         self.pool.shutdown(wait=False, cancel_futures=True)
