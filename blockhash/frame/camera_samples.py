@@ -56,7 +56,7 @@ def camera_samples(scene, rays: SceneRays, side: int, pass_index: int, *, backen
 
 def _shade(scene, rays, gbuf, both_branches: bool):
     return shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,),
-                          both_branches=both_branches)
+                          both_branches=both_branches, events=scene.photons.camera_bounces)
 
 
 def only(points, keep):

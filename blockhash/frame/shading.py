@@ -70,7 +70,7 @@ class SceneRays:
 
 
 def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
-                   both_branches: bool = False) -> ShadingPoints:
+                   both_branches: bool = False, events: int | None = None) -> ShadingPoints:
     """Per-pixel shading points; a pixel that sees a mirror or glass follows the ray.
 
     At a mirror the ray reflects and its path weight takes the reflectance.  At glass
@@ -82,6 +82,9 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     specular surface after the last event, or leaving the scene, shades nothing, and so does
     one that meets the back face of a one-sided receiver
     (:attr:`blockhash.scene.materials.PhongMaterial.sided`): black, as Mitsuba's ``diffuse``.
+    ``events``: the most specular events a ray follows (None: :data:`MAX_MIRROR_BOUNCES`, or
+    :data:`MAX_DIELECTRIC_EVENTS` in a scene with glass; 0: a ray that meets a mirror or glass
+    shades nothing).
 
     With ``both_branches`` (the renderer's choice) a ray at glass follows both branches
     instead, the reflection weighted by the Fresnel reflectance F and the refraction by
@@ -92,7 +95,7 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     from blockhash.scene.model import DielectricMaterial
 
     if both_branches and any(isinstance(o.material, DielectricMaterial) for o in objects):
-        return branch_points(camera, gbuffer, objects, rays, mirror_types)
+        return branch_points(camera, gbuffer, objects, rays, mirror_types, events)
 
     h, w = gbuffer.object.shape
     glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types)
@@ -101,7 +104,8 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     _no_back(obj, outer, backs)
     weight = np.ones((h * w, 3))
     choices = choice_uniforms(CAMERA_CHOICE_SEED, 0, h * w) if glass.any() else None
-    events = MAX_DIELECTRIC_EVENTS if glass.any() else MAX_MIRROR_BOUNCES
+    if events is None:
+        events = MAX_DIELECTRIC_EVENTS if glass.any() else MAX_MIRROR_BOUNCES
     for event in range(events):
         on = specular[obj]
         if not on.any():
@@ -185,7 +189,8 @@ def _surface_tables(objects, mirror_types):
     return glass, mirror, mirror | glass, reflectance, ior, tint
 
 
-def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> ShadingPoints:
+def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
+                  events: int | None = None) -> ShadingPoints:
     """Shading points of camera rays that follow both branches at glass
     (:func:`shading_points` with ``both_branches``): at each dielectric event a ray becomes
     a reflected ray of weight F and a refracted one of weight (1 - F) tint (one reflected
@@ -207,7 +212,10 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types) -> Sh
     owner = np.arange(h * w)
     weight = np.ones((h * w, 3))
     done = []  # (owner, pos, nrm, view, obj, weight) of points that left the specular chain
-    for _ in range(MAX_DIELECTRIC_EVENTS):
+    if events == 0:  # no event followed: the points the camera sees directly
+        on = specular[obj]
+        done.append((owner[~on], pos[~on], nrm[~on], view[~on], obj[~on], weight[~on]))
+    for _ in range(MAX_DIELECTRIC_EVENTS if events is None else events):
         on = specular[obj]
         done.append((owner[~on], pos[~on], nrm[~on], view[~on], obj[~on], weight[~on]))
         if not on.any():

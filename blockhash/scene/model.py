@@ -193,7 +193,8 @@ class PhotonSettings:
     reflections and refractions) followed per photon; None lets the
     :class:`Scene` choose: :data:`MAX_BOUNCES`, or :data:`DIELECTRIC_MAX_BOUNCES`
     when it holds a dielectric.  ``direct_only``: trace no photon at all (the direct layer
-    alone, as Mitsuba's ``direct`` integrator renders)."""
+    alone, as Mitsuba's ``direct`` integrator renders); ``camera_bounces``: the specular events
+    the camera's rays follow (None: blockhash's own, 4 or 8 with glass)."""
 
     count: int = 200_000
     k: int = 50
@@ -202,6 +203,8 @@ class PhotonSettings:
     max_bounces: int | None = None
     #: Direct light only: no caustic or indirect photons (Mitsuba's ``direct`` integrator).
     direct_only: bool = False
+    #: Specular events the camera's rays follow (None: blockhash's, 4 or 8 with glass).
+    camera_bounces: int | None = None
 
     def __post_init__(self):
         with _owned("PhotonSettings"):
@@ -214,6 +217,9 @@ class PhotonSettings:
             if self.max_bounces is not None:
                 _integer(self.max_bounces, "max_bounces", lo=1)
                 names.append("max_bounces")
+            if self.camera_bounces is not None:
+                _integer(self.camera_bounces, "camera_bounces", lo=0)
+                names.append("camera_bounces")
             for name in names:
                 object.__setattr__(self, name, int(getattr(self, name)))
             if not isinstance(self.direct_only, (bool, np.bool_)):

@@ -105,3 +105,25 @@ def test_blockhash_and_mitsuba_agree_on_a_hand_written_scene(name):
     a = centroid(np.where(region, (direct + caustic).sum(axis=2), 0.0))
     b = centroid(np.where(region, particle_tracer.sum(axis=2), 0.0))
     assert np.abs(a - b).max() < CENTROID_LIMIT_PX, f"{name}: caustic centroid {a} vs {b}"
+
+
+@pytest.mark.gl
+def test_a_max_depth_of_3_follows_one_mirror_bounce_on_the_camera_side_as_mitsuba(tmp_path):
+    """mirror.xml at max_depth 3: the floor seen in the mirror is lit (camera, mirror, floor,
+    light: 3 segments), as in Mitsuba's path tracer, and the direct light agrees."""
+    import blockhash
+    from blockhash import LookupOptions
+    from blockhash.scene.mitsuba.sensor import MitsubaWarning
+
+    path = tmp_path / "mirror3.xml"
+    path.write_text((HERE / "mirror.xml").read_text().replace('name="max_depth" value="7"',
+                                                              'name="max_depth" value="3"'))
+    with pytest.warns(MitsubaWarning, match="max_depth 3: blockhash follows at most 1"):
+        scene = load_scene(path)
+    assert (scene.photons.max_bounces, scene.photons.camera_bounces) == (1, 1)
+    image = blockhash.render(scene, photons=40_000, seed=1, lookup=LookupOptions(method="cpu"))
+    path_tracer, _ = mitsuba_layers(path, 3)
+    direct = image.direct.astype(np.float64)
+    rel = abs(direct.sum() - path_tracer.sum()) / path_tracer.sum()
+    assert rel < DIRECT_LIMIT, f"direct light differs by {rel:.4f}"
+    assert direct[seen_specular(scene)].sum() > 0  # the floor seen in the mirror is lit

@@ -399,8 +399,9 @@ def load_mitsuba(path) -> Scene:
         spp = meta.get("spp")
     else:
         glass = any(o.is_dielectric for o in objects)
-        photons = PhotonSettings(max_bounces=mitsuba_sensor.photon_depth(r, render, glass),
-                                 direct_only=mitsuba_sensor.direct_only(r, render))
+        bounces, camera_bounces, direct = mitsuba_sensor.depths(r, render, glass)
+        photons = PhotonSettings(max_bounces=bounces, camera_bounces=camera_bounces,
+                                 direct_only=direct)
         spp = render.spp
     if spp:
         camera = replace(camera, spp=spp)

@@ -20,12 +20,13 @@ What is mapped, each as Mitsuba 3.9 does it:
   up to the square of a prime, ``multijitter`` only a square), which must be a square
   number up to 1024 (blockhash stratifies S x S per pixel); without one, blockhash's
   default.  ``seed`` and ``jitter = true`` change only the noise and are accepted.
-* ``integrator`` ``direct``: direct light only (:func:`direct_only`, one warning saying what
+* ``integrator`` ``direct``: direct light only (:func:`depths`, one warning saying what
   differs); ``path`` or ``ptracer``: ``max_depth`` -1 (Mitsuba's default, unbounded)
   keeps blockhash's depth (4 specular events, 8 in a scene with glass, for photons and
   camera rays alike); max_depth d >= that + 2 follows d - 2 specular events per photon
-  (camera rays keep blockhash's, as for -1); a smaller d is refused, as blockhash's camera
-  rays always follow their 4 (8).  ``rr_depth``, ``hide_emitters`` (point and spot lights
+  (camera rays keep blockhash's, as for -1); a smaller d >= 3 follows d - 2 on either path
+  and d = 2 is direct light alone, each with one warning (:func:`depths`); 0 and 1 are
+  refused.  ``rr_depth``, ``hide_emitters`` (point and spot lights
   are never seen directly) and ``samples_per_pass`` change no expected pixel and are
   accepted.
 
@@ -291,38 +292,44 @@ def integrator(r: XmlReader, el) -> tuple[int | None, object]:
     return depth, el
 
 
-#: What blockhash renders of Mitsuba's direct integrator (the warning's text).
-DIRECT_DIFFERS = ("blockhash renders the direct light alone, as Mitsuba's direct integrator (no "
-                  "caustic, no light between diffuse surfaces), but its camera still follows "
-                  "mirrors and glass to the diffuse surfaces seen in them and shades their direct "
-                  "light, where Mitsuba's shows only the emitters seen in them")
+#: What blockhash renders otherwise than Mitsuba at a small max_depth or with its direct
+#: integrator (the warnings' text).
+DIRECT_DIFFERS = ("blockhash renders the direct light alone, as Mitsuba (no caustic, no light "
+                  "between diffuse surfaces, nothing seen in mirrors and glass), except the area "
+                  "lights seen in mirrors and glass, which Mitsuba shows and blockhash does not")
+DEPTH_DIFFERS = ("blockhash follows at most {events} specular event(s) on the photons' paths and "
+                 "as many on the camera's, each on its own, where Mitsuba's max_depth {depth} "
+                 "bounds the whole path: a caustic seen in a mirror or through glass is in "
+                 "blockhash's image and not in Mitsuba's")
 
 
-def direct_only(r: XmlReader, render: Render) -> bool:
-    """Whether the integrator is Mitsuba's ``direct`` (one :class:`MitsubaWarning` says what
-    blockhash renders of it)."""
-    if render.integrator is None or render.integrator.get("type") != "direct":
-        return False
+def depths(r: XmlReader, render: Render, glass: bool) -> tuple[int | None, int | None, bool]:
+    """(specular events per photon, specular events per camera ray, direct light only) for the
+    integrator (None: the scene's defaults): ``direct``, or ``max_depth`` 2, is direct light
+    alone; a ``max_depth`` d below blockhash's own depth + 2 follows d - 2 specular events on
+    either path; each of these with one :class:`MitsubaWarning` saying what differs."""
     import warnings
 
-    warnings.warn(f"{r.where(render.integrator)}: <integrator type=\"direct\">: {DIRECT_DIFFERS}",
-                  MitsubaWarning, stacklevel=3)
-    return True
-
-
-def photon_depth(r: XmlReader, render: Render, glass: bool) -> int | None:
-    """Specular events per photon for the integrator's max_depth (None: the scene's
-    default), or an error where blockhash's camera rays would follow more than Mitsuba's."""
+    if render.integrator is not None and render.integrator.get("type") == "direct":
+        warnings.warn(f"{r.where(render.integrator)}: <integrator type=\"direct\">: {DIRECT_DIFFERS}",
+                      MitsubaWarning, stacklevel=3)
+        return None, 0, True
     d = render.max_depth
     if d is None or d == -1:
-        return None
+        return None, None, False
+    if d < 2:
+        r.fail(render.integrator, f"max_depth {d} renders {'nothing' if d == 0 else 'only the emitters the camera sees'}; "
+               "blockhash renders light on surfaces: give max_depth -1 or >= 2")
     events = DIELECTRIC_MAX_BOUNCES if glass else MAX_BOUNCES
+    if d == 2:
+        warnings.warn(f"{r.where(render.integrator)}: max_depth 2: {DIRECT_DIFFERS}", MitsubaWarning,
+                      stacklevel=3)
+        return None, 0, True
     if d < events + 2:
-        r.fail(render.integrator, f"max_depth {d} would follow {max(d - 2, 0)} specular "
-               f"event(s); blockhash's camera rays always follow {events}"
-               + (" in a scene with glass" if glass else "") + f" (Mitsuba's max_depth "
-               f"{events + 2}): give max_depth -1 or >= {events + 2}")
-    return d - 2
+        warnings.warn(f"{r.where(render.integrator)}: max_depth {d}: "
+                      + DEPTH_DIFFERS.format(events=d - 2, depth=d), MitsubaWarning, stacklevel=3)
+        return d - 2, d - 2, False
+    return d - 2, None, False
 
 
 def _default(render: Render, key: str) -> str:
@@ -350,4 +357,4 @@ def check_clip(r: XmlReader, render: Render, objects) -> None:
                f"near_clip <= {nearest * cos_corner:.4g}")
 
 
-__all__ = ["sensor", "integrator", "photon_depth", "check_clip", "sample_count", "x_fov", "Render"]
+__all__ = ["sensor", "integrator", "depths", "check_clip", "sample_count", "x_fov", "Render"]
