@@ -40,7 +40,16 @@ flat in float v_object;
 layout(location = 0) out vec4 out_position;
 layout(location = 1) out vec4 out_normal;
 void main() {
-    vec3 n = normalize(v_normal);
+    // Vertex normals that cancel (or are zero) have no direction: the face's normal instead,
+    // as the ray caster takes it (raycast.hit_frame); normalize(0) is NaN
+    vec3 n = v_normal;
+    if (!(dot(n, n) > 1e-24)) {
+        n = cross(dFdx(v_position), dFdy(v_position));
+        if (!(dot(n, n) > 0.0)) {
+            n = eye - v_position;  // a triangle seen edge on, thinner than a pixel
+        }
+    }
+    n = normalize(n);
     if (dot(n, eye - v_position) < 0.0) {
         n = -n;  // the side the camera sees (front or back: out_normal.w)
     }

@@ -147,3 +147,28 @@ def test_a_scene_whose_light_reaches_no_mirror_renders_its_direct_light_with_one
                  "-o", str(tmp_path / "dark.exr")]) == 0
     err = capsys.readouterr().err
     assert err.count("rendering direct light only") == 1, err
+
+
+def test_vertex_normals_that_cancel_give_the_face_normal_in_the_gbuffer_as_in_the_ray_caster():
+    """A floor whose vertex normals are zero (they cancel, or a file gave none of length):
+    normalize(0) is NaN in GLSL; the rasterised G-buffer takes the face's normal, as the ray
+    caster does, and the render stays finite."""
+    from dataclasses import replace
+
+    from blockhash.frame.shading import SceneRays
+    from blockhash.frame.subpixel import raycast_gbuffer
+    from blockhash.scene import meshes
+
+    context_or_skip("egl")
+    s = scene().with_size(24, 24)
+    floor = s.objects[0]
+    flat = meshes.with_normals(floor.mesh.vertices, floor.mesh.faces, np.zeros_like(floor.mesh.vertices))
+    s = replace(s, objects=(replace(floor, mesh=flat), *s.objects[1:]))
+    g = rasterize(s.camera, s.objects, backend="egl")
+    cast = raycast_gbuffer(s.camera, SceneRays(s.objects), samples=1)
+    on_floor = g.object == 0
+    assert on_floor.any() and np.isfinite(g.normal).all()
+    np.testing.assert_allclose(g.normal[on_floor], np.tile([0, 1.0, 0], (on_floor.sum(), 1)), atol=1e-5)
+    np.testing.assert_allclose(cast.normal[cast.object == 0], np.tile([0, 1.0, 0], ((cast.object == 0).sum(), 1)),
+                               atol=1e-5)
+    assert_sane(render_scene(s, photons=5_000, spp=1))
