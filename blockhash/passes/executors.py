@@ -194,7 +194,9 @@ class _PoolSession(Session):
         self.spec = worker.spec_file(worker.pack(renderer.spec))  # (digest, path); removed on close
         self.threads = max(1, cores() // count)
         self.deaths: dict[int, int] = {}
+        self.causes: dict[int, list] = {}  # pass -> the (exit code, start error)s of its deaths
         self.start_failures = 0  # pools in a row broken by workers that never started
+        self.start_deaths: list = []  # their (exit code, start error)s
         import multiprocessing
 
         self.context = multiprocessing.get_context("spawn")
@@ -257,19 +259,20 @@ class _PoolSession(Session):
             raise WorkersFailed(main_guard_message())
         at_start = bool(never) and not did  # no worker of the pool started: no pass ran
         self.start_failures = self.start_failures + 1 if at_start else 0
+        self.start_deaths = self.start_deaths + never if at_start else []
         if self.start_failures >= MAX_START_FAILURES:
             raise WorkersFailed(
                 f"local worker processes died before they started, {self.start_failures} pools "
-                f"in a row ({_exits(never)}); their tracebacks are on this process's standard "
-                "error.  Render in this process (without local workers) to see the error "
-                "directly")
+                f"in a row ({_exits(self.start_deaths)}); their tracebacks are on this "
+                "process's standard error.  Render in this process (without local workers) to "
+                "see the error directly")
         for p in [] if at_start else broken:
             self.deaths[p] = self.deaths.get(p, 0) + 1
+            self.causes[p] = self.causes.get(p, []) + did + never
             if self.deaths[p] >= MAX_WORKER_DEATHS:
                 raise PassFailed(p, "in a local worker process", RuntimeError(
-                    f"its worker process died {self.deaths[p]} times (last: "
-                    f"{_exits(did or never)}; killed, or out of memory); lower the photons "
-                    "per pass or the workers"))
+                    f"its worker process died {self.deaths[p]} times ({_exits(self.causes[p])}; "
+                    "killed, or out of memory); lower the photons per pass or the workers"))
         self.pool.shutdown(wait=False, cancel_futures=True)
         self.pool = self._pool()
         again = {p: f.emitted for p, f in self.flight.items()}
