@@ -162,6 +162,16 @@ def test_workers_that_die_at_start_up_on_every_replacement_end_the_render(
     assert caught.value.image.passes >= 2  # passes 0 and 1 ran before the workers broke
 
 
+def test_workers_whose_start_raises_end_the_render_naming_the_exception(scene, monkeypatch, tmp_path):
+    gone = tmp_path / "no-such-spec.pickle"  # the workers' start cannot read the render's spec
+    monkeypatch.setattr(worker, "spec_file", lambda packed: (packed[0], str(gone)))
+    with pytest.raises(WorkersFailed, match=rf"died before they started, {MAX_START_FAILURES} pools "
+                                            r"in a row \(exit code \d+: FileNotFoundError: .*no-such-spec"
+                       ) as caught:
+        blockhash.render(scene, photons=PHOTONS, plan=RenderPlan(passes=2, executor=LocalWorkers(1)))
+    assert caught.value.image is None  # no pass had merged
+
+
 def test_exit_codes_are_named():
     from blockhash.passes.executors import exit_reason
 
