@@ -1,4 +1,5 @@
-"""The package reads as its data flows: scene -> photons -> index -> gl -> frame -> passes ->
+"""The package reads as its data flows: scene -> photons (and their device kernels) -> index ->
+gl -> frame -> passes ->
 reference -> evaluate -> studies -> command line.
 
 Every import between blockhash's modules (lazy ones inside functions included)
@@ -15,7 +16,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "blockhash"
 #: Rank of each part in the data flow; a module may import only ranks <= its own.
-RANKS = {"errors": 0, "validate": 0, "code_version": 0, "scene": 1, "photons": 2, "index": 3, "gl": 4,
+RANKS = {"errors": 0, "validate": 0, "code_version": 0, "scene": 1, "photons": 2, "device": 2, "index": 3, "gl": 4,
          "frame": 5, "passes": 6, "reference": 7, "evaluate": 8, "studies": 9, "cli": 10,
          "__init__": 10, "__main__": 10}
 #: Lines above which a module's docstring must say why it is long.

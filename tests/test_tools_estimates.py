@@ -153,7 +153,9 @@ def test_darkening_check_fits_a_gain_per_a_and_tests_it_on_the_other_study(tmp_p
 
 
 @pytest.mark.gl
-def test_estimate_study_writes_every_option_and_prints_its_tables_again(tmp_path):
+def test_estimate_study_writes_every_option_and_prints_its_tables_again(tmp_path, monkeypatch):
+    # the bounds below were read on the host tracer's photons (2,000 of them: noisy)
+    monkeypatch.setenv("BLOCKHASH_DEVICE", "host")
     out, md = tmp_path / "study.json", tmp_path / "tables.md"
     text = run_tool("estimate_study.py", ["--scenes", "corner", "--photons", "2000", "--ks", "10",
                                           "--size", "16", "--supersample", "1",

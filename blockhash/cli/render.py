@@ -16,6 +16,7 @@ from blockhash.cli.args import FLAGS, INTERRUPTED
 from blockhash.cli.args import size as _size
 from blockhash.cli.estimate import add_arguments as add_estimate_arguments
 from blockhash.cli.estimate import options_from
+from blockhash.device.choice import DEVICES
 from blockhash.errors import InputError, NonFiniteError
 from blockhash.frame.options import METHODS
 from blockhash.gl.context import BACKENDS
@@ -82,6 +83,8 @@ def cmd_render(args) -> int:
         print(info["index"])
     if "indirect" in info:
         print(f"indirect light: {info['indirect']}")
+    if "device" in info:
+        print(f"caustic photons traced on: {info['device']}")
     print("time: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.timings.items()))
     return 0
 
@@ -101,7 +104,8 @@ def _plan(args, *, one_pass: bool):
         count = 1 if one_pass else DEFAULT_PASSES
     schedule = Schedule(alpha=args.alpha, footprint=args.footprint)
     return RenderPlan(passes=count, seconds=args.time, target_error=args.target_error,
-                      schedule=schedule, executor=_executor(args), indirect=not args.no_indirect)
+                      schedule=schedule, executor=_executor(args), indirect=not args.no_indirect,
+                      device=args.device)
 
 
 def _executor(args):
@@ -262,6 +266,10 @@ def add_render(sub) -> None:
                    f"{DEFAULT_SPP} with --passes 1 and 1 per pass in more)")
     p.add_argument("--seed", type=int, help="photon seed (default: the scene's)")
     p.add_argument("--backend", choices=BACKENDS, default=None)
+    p.add_argument("--device", choices=DEVICES, default=None,
+                   help="where the caustic photons are traced: auto (the GPU where there is one, "
+                        "else the CPU's Dr.Jit kernels, else the host tracer), cpu, gpu or host "
+                        "(default: $BLOCKHASH_DEVICE, else auto)")
     p.add_argument("--workers", metavar="N",
                    help="run the passes in N local worker processes ('auto': one per core); the "
                         "image is the same as in one process")

@@ -112,7 +112,7 @@ def make_renderer(scene, *, photons, spp, seed, estimate, lookup, backend,
         plan = ONE_PASS if traced else RenderPlan()
     renderer = Renderer(scene, photons=photons, side=spp_side(per_pass_spp(scene, spp, plan)),
                         seed=seed, estimate=estimate, lookup=lookup, backend=backend,
-                        schedule=plan.schedule, indirect=plan.indirect)
+                        schedule=plan.schedule, indirect=plan.indirect, device=plan.device)
     return renderer, plan
 
 

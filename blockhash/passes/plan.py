@@ -56,6 +56,10 @@ class RenderPlan:
                                        ``indirect`` layer, :mod:`blockhash.photons.indirect`)
                                        where the scene has it (default True); False leaves it
                                        out, for caustic-only studies: no layer, not a zero one
+    device : str or None               where the caustic photons are traced: 'auto', 'cpu',
+                                       'gpu' or 'host' (:mod:`blockhash.device.choice`; None:
+                                       the environment's BLOCKHASH_DEVICE, else 'auto'),
+                                       resolved by each process that runs passes
     """
 
     passes: int | None = DEFAULT_PASSES
@@ -64,9 +68,14 @@ class RenderPlan:
     schedule: Schedule = field(default_factory=Schedule)
     executor: object = field(default_factory=InProcess)
     indirect: bool = True
+    device: str | None = None
 
     def __post_init__(self):
+        from blockhash.device.choice import device_name
+
         as_flag(self.indirect, "indirect", INDIRECT)
+        if self.device is not None:
+            device_name(self.device)
         if self.passes is not None and (isinstance(self.passes, bool) or
                                         not isinstance(self.passes, int) or self.passes < 1):
             raise InputError.about("{passes}{value!r}: a render runs at least one pass; give "

@@ -68,12 +68,14 @@ class Renderer:
 
     def __init__(self, scene, *, photons=None, side: int = 1, seed=None,
                  estimate: EstimateOptions = EstimateOptions(), lookup: LookupOptions = LookupOptions(),
-                 backend=None, schedule: Schedule = Schedule(), indirect: bool = True):
+                 backend=None, schedule: Schedule = Schedule(), indirect: bool = True,
+                 device: str | None = None):
         traced = None if photons is None or isinstance(photons, (int, np.integer)) else photons
         self.scene = scene
         self.settings = PassSettings.of(scene, photons=None if traced is not None else photons,
                                         side=side, seed=seed, estimate=estimate, lookup=lookup,
-                                        backend=backend, schedule=schedule, indirect=indirect)
+                                        backend=backend, schedule=schedule, indirect=indirect,
+                                        device=device)
         if traced is not None:
             from dataclasses import replace
 
@@ -134,7 +136,8 @@ class Renderer:
             warnings.warn(message, category, stacklevel=4)
         if c.index == 0:
             self.emitted_per_pass = c.emitted
-            self.info.update({k: v for k, v in c.info.items() if k in ("index", "indirect")})
+            self.info.update({k: v for k, v in c.info.items()
+                              if k in ("index", "indirect", "device")})
         for name, sec in c.timings.items():
             self.timings[name] = self.timings.get(name, 0.0) + sec
         if c.photon_index is not None or c.index == 0:

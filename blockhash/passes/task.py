@@ -57,14 +57,17 @@ class PassSettings:
     backend: str | None = None
     schedule: Schedule = field(default_factory=Schedule)
     indirect: bool = True
+    device: str | None = None
 
     @classmethod
     def of(cls, scene, *, photons=None, side: int = 1, seed=None,
            estimate: EstimateOptions = EstimateOptions(), lookup: LookupOptions = LookupOptions(),
-           backend=None, schedule: Schedule = Schedule(), indirect: bool = True) -> "PassSettings":
+           backend=None, schedule: Schedule = Schedule(), indirect: bool = True,
+           device: str | None = None) -> "PassSettings":
         """The settings of ``scene`` with these overrides (``photons``: photons stored per
         pass, or None for the scene's; a traced map is given to :class:`RenderSetup`;
-        ``indirect``: trace the indirect photons where the scene has diffuse interreflection)."""
+        ``indirect``: trace the indirect photons where the scene has diffuse interreflection;
+        ``device``: where the caustic photons are traced, :mod:`blockhash.device.choice`)."""
         as_flag(indirect, "indirect", INDIRECT)
         settings = scene.photons
         k = settings.k if lookup.k is None else lookup.k
@@ -78,7 +81,7 @@ class PassSettings:
                    seed=settings.seed if seed is None else seed, estimate=estimate,
                    method=method, k=k, A=settings.A if lookup.A is None else lookup.A,
                    variant=lookup.variant, backend=backend, schedule=schedule,
-                   indirect=indirect)
+                   indirect=indirect, device=device)
 
 
 class RenderSetup:
@@ -100,7 +103,8 @@ class RenderSetup:
         # Frames whose lights or objects move keep each photon's direction from frame to
         # frame (common random numbers, blockhash/passes/frames.py)
         moving = getattr(scene.animation, "moves_photons", False)
-        self.source = PhotonSource(scene, geometry=self.rays.geometry, stable=moving)
+        self.source = PhotonSource(scene, geometry=self.rays.geometry, stable=moving,
+                                   device=settings.device)
         self.materials = receiver_materials(scene.objects)
         self.pin = Pinhole.of(scene.camera)
         self.caustic = caustic_stage(settings)
@@ -229,6 +233,7 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
     shot = photons.emitted if photons is not None else 0
     scale = shrink(p, s.schedule.alpha)
     info: dict = {}
+    info["device"] = setup.source.device.name
     if p == 0 and photons is not None:
         info["photon_stats"] = {k: v for k, v in photons.stats.items()
                                 if isinstance(v, (int, float, str))

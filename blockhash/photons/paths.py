@@ -126,7 +126,7 @@ class Batch:
 
     def cut(self, end: int) -> "Batch":
         """Keep photons with local index < end."""
-        keep = self.stored < end
+        keep = slice(0, int(np.searchsorted(self.stored, end)))  # ``stored`` increases
         return Batch(self.fate[:end], self.fallbacks[:end], self.stored[keep],
                       self.positions[keep], self.directions[keep], self.normals[keep],
                       self.weights[keep], self.depth[keep], self.rays, self.objects[keep],

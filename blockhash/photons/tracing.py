@@ -172,8 +172,15 @@ class PhotonSource:
     ``stable``: the emitter's directions follow a moving light
     (:attr:`blockhash.photons.emission.Emitter.stable`)."""
 
-    def __init__(self, scene, *, geometry: EmbreeGeometry | None = None, stable: bool = False):
+    def __init__(self, scene, *, geometry: EmbreeGeometry | None = None, stable: bool = False,
+                 device: str | None = None):
+        from blockhash.device.choice import resolve
+
         self.scene = scene
+        #: Where the photons are traced (:mod:`blockhash.device.choice`) and, on a Dr.Jit
+        #: device, its kernels (:class:`blockhash.device.caustic.DeviceCausticTracer`).
+        self.device = resolve(device)
+        self.kernels = None
         self.name = name = _scene_name(scene)
         self.max_bounces = as_int(scene.photons.max_bounces, "photons.max_bounces", minimum=1,
                                   hint=f"{name}: caustic paths need at least one mirror bounce")
@@ -203,6 +210,10 @@ class PhotonSource:
             raise InputError(f"{name}: the lights that face the mirrors have zero power; "
                              "give a light a positive power")
         self.emitter = emitter
+        if self.device.jit:
+            from blockhash.device.caustic import DeviceCausticTracer
+
+            self.kernels = DeviceCausticTracer(self, self.device)
 
     def _seed(self, seed):
         return as_int(self.scene.photons.seed if seed is None else seed, "seed", minimum=0,
@@ -271,6 +282,13 @@ class PhotonSource:
         photons are shot) or ``cap`` are shot."""
         run = _Run(len(self.lights), cap if target is None else target)
         start = 0
+        # After the first batch (a pilot of the fraction stored, on a device), a launch's
+        # photons: as many as the device's arrays hold
+        launch = batch_size
+        if self.kernels is not None:
+            from blockhash.device.caustic import LAUNCH
+
+            launch = max(batch_size, LAUNCH)
         bar = None
         if progress:
             from tqdm.auto import tqdm
@@ -279,18 +297,15 @@ class PhotonSource:
             while start < cap:
                 # size the batch to what is still needed (results do not depend on it)
                 if target is None:
-                    need, guess = cap + 1, batch_size
+                    need, guess = cap + 1, launch
                 else:
                     need = target + 1 - run.stored
                     if run.stored:
                         guess = int(need * start / run.stored * OVERSHOOT) + 256
                     else:
-                        guess = 4 * need + 1024 if start == 0 else batch_size
-                count = min(batch_size, cap - start, guess)
-                u = self.emitter.uniforms(seed, first + start, count)
-                origins, dirs, weights, light = self.emitter.sample(u)
-                batch = trace_batch(self.geometry, origins, dirs, weights, self.max_bounces,
-                                    seed=seed, start=first + start)
+                        guess = 4 * need + 1024 if start == 0 else launch
+                count = min(batch_size if start == 0 and target else launch, cap - start, guess)
+                batch, light = self._batch(seed, first + start, count)
                 run.batches += 1
                 run.traced += count
                 run.rays += batch.rays
@@ -316,6 +331,16 @@ class PhotonSource:
             run.stopped_by = "emitted"
         run.emitted = start
         return run
+
+    def _batch(self, seed: int, start: int, count: int):
+        """Photons ``start .. start + count - 1`` of ``seed``: (their
+        :class:`~blockhash.photons.paths.Batch`, each one's light), on the source's device."""
+        if self.kernels is not None:
+            return self.kernels.batch(seed, start, count)
+        u = self.emitter.uniforms(seed, start, count)
+        origins, dirs, weights, light = self.emitter.sample(u)
+        return trace_batch(self.geometry, origins, dirs, weights, self.max_bounces, seed=seed,
+                           start=start), light
 
 
 class _Run:

@@ -38,15 +38,13 @@ library folders) and falls back to ``scalar_rgb`` without one.
 
 from __future__ import annotations
 
-import glob
-import os
-import re
 import tempfile
 import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from blockhash.device.choice import find_llvm
 from blockhash.errors import InputError
 from blockhash.scene.materials import PhongMaterial
 from blockhash.scene.model import SceneObject
@@ -56,35 +54,14 @@ from blockhash.scene.model import SceneObject
 ALBEDO_SCALE = 1.0 / 1024.0
 #: The variants tried, fastest first.
 VARIANTS = ("llvm_ad_rgb", "scalar_rgb")
-#: Where a system LLVM is looked for when DRJIT_LIBLLVM_PATH is unset.
-LLVM_GLOBS = ("/usr/lib/x86_64-linux-gnu/libLLVM*.so*", "/usr/lib/aarch64-linux-gnu/libLLVM*.so*",
-              "/usr/lib/llvm-*/lib/libLLVM*.so*", "/usr/lib64/libLLVM*.so*",
-              "/usr/local/lib/libLLVM*.so*")
-#: The oldest LLVM Dr.Jit's code generation works with here (LLVM 15 fails to select).
-MIN_LLVM = 16
-
 INSTALL_HINT = ("install the extra: pip install 'blockhash[mitsuba]' (and, for the fast LLVM "
                 "variant, an LLVM >= 16 shared library, e.g. apt-get install libllvm19)")
-
-
-def _llvm_library() -> str | None:
-    best = None
-    for pattern in LLVM_GLOBS:
-        for path in glob.glob(pattern):
-            m = re.search(r"libLLVM[-.]?(\d+)", os.path.basename(path)) or \
-                re.search(r"libLLVM\.so\.(\d+)", os.path.basename(path))
-            if m and int(m.group(1)) >= MIN_LLVM and (best is None or int(m.group(1)) > best[0]):
-                best = (int(m.group(1)), path)
-    return best[1] if best else None
 
 
 def load_mitsuba_module():
     """``(mitsuba, variant)``: the module with the fastest variant set that works here.
     Raises InputError naming the way out when Mitsuba is not installed."""
-    if "DRJIT_LIBLLVM_PATH" not in os.environ:
-        lib = _llvm_library()
-        if lib:
-            os.environ["DRJIT_LIBLLVM_PATH"] = lib
+    find_llvm()
     try:
         import mitsuba as mi
     except ImportError as exc:

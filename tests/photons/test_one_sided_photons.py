@@ -55,13 +55,15 @@ def test_no_photon_is_stored_on_the_back_face_of_a_one_sided_receiver():
 @pytest.mark.parametrize("facing, sided", [(-1.0, "one"), (1.0, "two")])
 def test_the_front_face_and_a_two_sided_receiver_store_the_same_photons(facing, sided):
     """The photons' paths do not depend on the ceiling's faces: the same photons are stored
-    on the front of a one-sided ceiling as on either face of a two-sided one."""
+    on the front of a one-sided ceiling as on either face of a two-sided one (to float32's
+    rounding: the device's kernels interpolate the hit in float32, and the faces' winding
+    orders the corners)."""
     ref = PhotonSource(mirror_under_a_ceiling(-1.0, "two")).until_stored(500)
     res = PhotonSource(mirror_under_a_ceiling(facing, sided)).until_stored(500)
     assert len(res) == len(ref) == 500 and res.emitted == ref.emitted
-    np.testing.assert_array_equal(res.positions, ref.positions)
+    np.testing.assert_allclose(res.positions, ref.positions, rtol=0, atol=1e-6)
     np.testing.assert_array_equal(res.powers, ref.powers)
-    np.testing.assert_array_equal(res.normals, ref.normals)  # toward the photon's side: down
+    np.testing.assert_allclose(res.normals, ref.normals, rtol=0, atol=1e-6)  # toward the photon: down
 
 
 def test_the_light_tracer_sees_no_caustic_on_a_one_sided_back_face():

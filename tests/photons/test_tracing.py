@@ -227,8 +227,9 @@ def test_stored_photons_lie_on_reflected_rays_of_a_flat_mirror():
     # ...and the photon travels along that line
     expected_dir = (p - image) / np.linalg.norm(p - image, axis=1, keepdims=True)
     np.testing.assert_allclose(res.directions, expected_dir, atol=1e-6)
-    np.testing.assert_allclose(np.linalg.norm(res.directions, axis=1), 1.0, atol=1e-12)
-    np.testing.assert_allclose(res.normals, np.tile(UP, (len(res), 1)), atol=1e-12)
+    # unit vectors to float32's rounding (the device's kernels compute in float32)
+    np.testing.assert_allclose(np.linalg.norm(res.directions, axis=1), 1.0, atol=3e-7)
+    np.testing.assert_allclose(res.normals, np.tile(UP, (len(res), 1)), atol=3e-7)
     assert np.all(np.sum(res.normals * res.directions, axis=1) < 0)
 
 

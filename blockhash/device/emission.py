@@ -1,0 +1,343 @@
+"""The photons' emission as a Dr.Jit kernel: :class:`blockhash.photons.emission.Emitter`'s
+tables (its pmf over the point and spot lights' cones and the area and directional lights'
+targets, the cones' projection maps, the mixture densities) sampled on the device.
+
+The same rules as the host's (:mod:`blockhash.photons.emission`,
+:mod:`blockhash.photons.light_targets`), in float32: a source by the pmf; a cone's direction
+in a live cell of its projection map (kept in its own live cell for a ``stable`` emitter), the
+weight the light's intensity over the mixture density of the light's cones that hold it, zero
+outside a spot's cone and its falloff toward the edge; an area light's point uniform by area,
+a direction in the cone toward the target's bounding sphere, the weight ``L cos A / q``; a
+directional light's point in the target's disc upstream of the scene, the weight ``E / q``.
+Every number of the scene is an array the kernels gather from (none a literal of the code),
+so a light that moves between frames reuses the compiled kernel.
+
+Cones are sampled and tested by ``1 - cos`` (``omc``), the cone's own measure: a cone of a
+small, distant mirror keeps its directions' precision in float32.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from blockhash.photons.emission import MAP_CELLS
+from blockhash.photons.light_targets import INSIDE
+
+#: A direction is inside a cone when ``1 - cos`` to its axis is at most the cone's times
+#: (1 + REL_EPS) plus ABS_EPS (float32 rounding; the host tests in float64 by 1e-12).
+REL_EPS, ABS_EPS = 1e-4, 1e-9
+#: Uniforms a photon's emission draws: the source, two for the direction, the map's cell, and
+#: an area light's triangle and point.
+EMISSION_UNIFORMS = 7
+
+
+def _f32(mi, values, width=None):
+    a = np.asarray(values, dtype=np.float64)
+    if width is not None:
+        a = a.reshape(-1, width)
+    return mi.Float(np.ascontiguousarray(a, dtype=np.float32).reshape(-1) if a.size else
+                    np.zeros(1, np.float32))
+
+
+def _u32(mi, values):
+    a = np.asarray(values, dtype=np.uint32).reshape(-1)
+    return mi.UInt32(a if a.size else np.zeros(1, np.uint32))
+
+
+def _omc(cos_half: float) -> float:
+    return 2.0 if cos_half <= -1.0 else float(1.0 - cos_half)
+
+
+class DeviceEmitter:
+    """An :class:`~blockhash.photons.emission.Emitter` (``emitter``) of the scene's ``lights``
+    as device tables (module docstring); :meth:`sample` emits."""
+
+    def __init__(self, emitter, lights, bounds, device):
+        self.mi, self.dr = mi, dr = device.modules()
+        self.n_sources = emitter.sources
+        self.n_cones = len(emitter.cones)
+        self.stable = bool(emitter.stable)
+        self.cdf = _f32(mi, emitter.cdf)
+        pmf = np.asarray(emitter.pmf, dtype=np.float64)
+        self._lights(emitter, lights, bounds)
+        self._cones(emitter, pmf[:self.n_cones])
+        self._targets(emitter, pmf[self.n_cones:])
+
+    # ------------------------------------------------------------------ tables
+    def _lights(self, emitter, lights, bounds):
+        mi = self.mi
+        from blockhash.photons.directions import orthonormal_basis
+        from blockhash.scene.model import AreaLight, DirectionalLight
+
+        n = len(lights)
+        spot = np.zeros(n, np.uint32)
+        axis = np.zeros((n, 3))
+        cos = np.full(n, -1.0)
+        ramp = np.zeros(n, np.uint32)
+        cone_rad = np.zeros(n)
+        beam_rad = np.zeros(n)
+        for li, light in enumerate(lights):
+            if emitter.spot_axis[li] is not None:
+                spot[li], axis[li], cos[li] = 1, emitter.spot_axis[li], emitter.spot_cos[li]
+                if not light.uniform:
+                    ramp[li] = 1
+                    cone_rad[li] = math.radians(light.cone_deg)
+                    beam_rad[li] = math.radians(light.beam_deg)
+        self.position = _f32(mi, emitter.positions, 3)
+        self.intensity = _f32(mi, emitter.intensity, 3)
+        self.spot, self.spot_axis, self.spot_cos = _u32(mi, spot), _f32(mi, axis), _f32(mi, cos)
+        self.ramp, self.cone_rad, self.beam_rad = _u32(mi, ramp), _f32(mi, cone_rad), _f32(mi, beam_rad)
+        self.any_spot, self.any_ramp = bool(spot.any()), bool(ramp.any())
+        # area lights: their triangles one after another, each light's area cdf over its own
+        tri, normals, cdf, first, count, area, radiance = [], [], [], np.zeros(n), np.zeros(n), \
+            np.zeros(n), np.zeros((n, 3))
+        # directional lights: the direction, its frame and the plane upstream of every object
+        sun_d, sun_t1, sun_t2, sun_s0, irradiance = (np.zeros((n, 3)), np.zeros((n, 3)),
+                                                     np.zeros((n, 3)), np.zeros(n), np.zeros((n, 3)))
+        lo, hi = np.asarray(bounds, dtype=np.float64)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                            for z in (lo[2], hi[2])])
+        margin = 1e-3 * max(float(np.linalg.norm(hi - lo)), 1e-9)
+        for li, light in enumerate(lights):
+            if isinstance(light, AreaLight):
+                first[li], count[li] = sum(len(t) for t in tri), len(light.face_areas)
+                tri.append(light.triangles)
+                normals.append(light.face_normals)
+                cdf.append(light.area_cdf)
+                area[li], radiance[li] = light.area, light.radiance
+            elif isinstance(light, DirectionalLight):
+                d = np.asarray(light.direction, dtype=np.float64)
+                d = d / np.linalg.norm(d)
+                sun_d[li] = d
+                sun_t1[li], sun_t2[li] = orthonormal_basis(d)
+                sun_s0[li] = float((corners @ d).min()) - margin
+                irradiance[li] = light.irradiance
+        cat = lambda parts, w: np.concatenate(parts).reshape(-1, w) if parts else np.zeros((1, w))  # noqa: E731
+        self.area_tri, self.area_normal = _f32(mi, cat(tri, 9)), _f32(mi, cat(normals, 3))
+        self.area_cdf = _f32(mi, cat(cdf, 1))
+        self.area_first, self.area_count = _u32(mi, first), _u32(mi, count)
+        self.area, self.radiance = _f32(mi, area), _f32(mi, radiance)
+        self.sun_d, self.sun_t1, self.sun_t2 = _f32(mi, sun_d), _f32(mi, sun_t1), _f32(mi, sun_t2)
+        self.sun_s0, self.irradiance = _f32(mi, sun_s0), _f32(mi, irradiance)
+
+    def _cones(self, emitter, pmf):
+        mi, g = self.mi, MAP_CELLS
+        cones = emitter.cones
+        self.cone_groups = [(j, [i for i, c in enumerate(cones) if c.light == cj.light and i != j])
+                            for j, cj in enumerate(cones)]
+        self.cone_groups = [(j, o) for j, o in self.cone_groups if o]
+        if not cones:
+            return
+        self.c_axis = _f32(mi, [c.axis for c in cones])
+        self.c_t1 = _f32(mi, [c.t1 for c in cones])
+        self.c_t2 = _f32(mi, [c.t2 for c in cones])
+        self.c_omc = _f32(mi, [_omc(c.cos_half) for c in cones])
+        self.c_light = _u32(mi, [c.light for c in cones])
+        self.c_density = _f32(mi, [p / (c.solid_angle * c.live_fraction) for c, p in zip(cones, pmf)])
+        cells, first, count, live = [], [], [], []
+        for c in cones:
+            first.append(sum(len(x) for x in cells))
+            cells.append(c.live_cells)
+            count.append(len(c.live_cells))
+            live.append(c.live.reshape(-1) if c.live is not None else np.ones(g * g, bool))
+        self.c_cells = _u32(mi, np.concatenate(cells))
+        self.c_first, self.c_count = _u32(mi, first), _u32(mi, count)
+        self.c_live = _u32(mi, np.concatenate(live))
+
+    def _targets(self, emitter, pmf):
+        mi = self.mi
+        targets = emitter.targets
+        self.n_targets = len(targets)
+        self.kinds = {t.kind for t in targets}
+        self.target_groups = [[j for j, t in enumerate(targets) if t.light == li]
+                              for li in sorted({t.light for t in targets})]
+        self.t_light = _u32(mi, [t.light for t in targets])
+        self.t_center = _f32(mi, [t.center for t in targets])
+        self.t_radius = _f32(mi, [t.radius for t in targets])
+        self.t_pmf = _f32(mi, pmf)
+        self.t_area = _u32(mi, [t.kind == "area" for t in targets])
+
+    # ------------------------------------------------------------------ sampling
+    def sample(self, rng):
+        """(origins, unit directions, weights, light index) of the photons of ``rng``'s lanes
+        (their streams: the first :data:`EMISSION_UNIFORMS` uniforms of each)."""
+        mi, dr = self.mi, self.dr
+        u = [rng.next_float32() for _ in range(EMISSION_UNIFORMS)]
+        n = dr.width(u[0])
+        cdf = self.cdf
+        k = dr.binary_search(0, self.n_sources - 1,
+                             lambda i: dr.gather(mi.Float, cdf, i) <= u[0])
+        k = dr.minimum(mi.UInt32(k), self.n_sources - 1)
+        o, d, w = dr.zeros(mi.Point3f, n), mi.Vector3f(0, 0, 1) + dr.zeros(mi.Vector3f, n), \
+            dr.zeros(mi.Color3f, n)
+        light = dr.zeros(mi.UInt32, n)
+        if self.n_cones:
+            on = k < self.n_cones
+            oc, dc, wc, lc = self._cone_photons(dr.select(on, k, 0), on, u)
+            o, d, w, light = oc, dc, dr.select(on, wc, w), dr.select(on, lc, light)
+        if self.n_targets:
+            on = k >= self.n_cones
+            t = dr.select(on, k - self.n_cones, 0)
+            ot, dt, wt, lt = self._target_photons(t, on, u)
+            o, d, w, light = (dr.select(on, ot, o), dr.select(on, dt, d), dr.select(on, wt, w),
+                              dr.select(on, lt, light))
+        return o, d, w, light
+
+    def _cone_photons(self, k, on, u):
+        mi, dr, g = self.mi, self.dr, MAP_CELLS
+        gv = lambda table: dr.gather(mi.Vector3f, table, k, on)  # noqa: E731
+        gf = lambda table: dr.gather(mi.Float, table, k, on)  # noqa: E731
+        axis, t1, t2, omc = gv(self.c_axis), gv(self.c_t1), gv(self.c_t2), gf(self.c_omc)
+        count = dr.gather(mi.UInt32, self.c_count, k, on)
+        u1, u2 = u[1], u[2]
+        move = on & (count > 0)
+        if self.stable:  # a photon in a live cell of its own stays there
+            ci = dr.minimum(mi.UInt32(u1 * g), g - 1)
+            cj = dr.minimum(mi.UInt32(u2 * g), g - 1)
+            own = dr.gather(mi.UInt32, self.c_live, k * (g * g) + ci * g + cj, move) != 0
+            u1 = dr.select(move & ~own, u1 * g - mi.Float(ci), u1)
+            u2 = dr.select(move & ~own, u2 * g - mi.Float(cj), u2)
+            move &= ~own
+        slot = dr.minimum(mi.UInt32(u[3] * mi.Float(count)), dr.maximum(count, 1) - 1)
+        cell = dr.gather(mi.UInt32, self.c_cells, dr.gather(mi.UInt32, self.c_first, k, on) + slot,
+                         move)
+        u1 = dr.select(move, (mi.Float(cell // g) + u1) / g, u1)
+        u2 = dr.select(move, (mi.Float(cell % g) + u2) / g, u2)
+        d = self._in_cone(axis, t1, t2, omc, u1, u2)
+        light = dr.gather(mi.UInt32, self.c_light, k, on)
+        q = gf(self.c_density)
+        for j, others in self.cone_groups:  # the other cones of k's light that hold d
+            mine = on & (k != j) & (light == dr.gather(mi.UInt32, self.c_light, mi.UInt32(j)))
+            q += dr.select(mine & self._in_cone_j(j, d, mine), dr.gather(mi.Float, self.c_density,
+                                                                         mi.UInt32(j)), 0.0)
+        w = dr.gather(mi.Color3f, self.intensity, light, on) / q
+        if self.any_spot:
+            w = self._spot(light, d, w, on)
+        o = dr.gather(mi.Point3f, self.position, light, on)
+        return o, d, w, light
+
+    def _in_cone(self, axis, t1, t2, omc, u1, u2):
+        """The direction of uniforms (u1, u2) in the cone (axis, frame t1 t2, 1 - cos half)."""
+        dr = self.dr
+        x = u1 * omc  # 1 - cos theta
+        cos_t = 1.0 - x
+        sin_t = dr.safe_sqrt(x * (2.0 - x))
+        sin_p, cos_p = dr.sincos(2.0 * dr.pi * u2)
+        return dr.normalize(cos_t * axis + (sin_t * cos_p) * t1 + (sin_t * sin_p) * t2)
+
+    def _in_cone_j(self, j, d, active):
+        """``d`` lies in cone ``j`` and, where it has a projection map, in a live cell."""
+        mi, dr, g = self.mi, self.dr, MAP_CELLS
+        jj = mi.UInt32(j)
+        axis = dr.gather(mi.Vector3f, self.c_axis, jj)
+        omc = dr.gather(mi.Float, self.c_omc, jj)
+        x = 0.5 * dr.squared_norm(d - axis)
+        inside = active & (x <= omc * (1.0 + REL_EPS) + ABS_EPS)
+        phi = dr.atan2(dr.dot(d, dr.gather(mi.Vector3f, self.c_t2, jj)),
+                       dr.dot(d, dr.gather(mi.Vector3f, self.c_t1, jj)))
+        phi = dr.select(phi < 0.0, phi + 2.0 * dr.pi, phi)
+        ci = dr.minimum(mi.UInt32(dr.maximum(x / omc, 0.0) * g), g - 1)
+        cj = dr.minimum(mi.UInt32(phi * (g / (2.0 * math.pi))), g - 1)
+        live = dr.gather(mi.UInt32, self.c_live, jj * (g * g) + ci * g + cj, inside)
+        return inside & (live != 0)
+
+    def _spot(self, light, d, w, on):
+        """Nothing outside a spot's cone; its falloff between the beam and the cone."""
+        mi, dr = self.mi, self.dr
+        spot = on & (dr.gather(mi.UInt32, self.spot, light, on) != 0)
+        cos = dr.dot(d, dr.gather(mi.Vector3f, self.spot_axis, light, spot))
+        out = spot & (cos < dr.gather(mi.Float, self.spot_cos, light, spot) - 1e-6)
+        w = dr.select(out, 0.0, w)
+        if self.any_ramp:
+            ramp = spot & (dr.gather(mi.UInt32, self.ramp, light, spot) != 0)
+            c = dr.gather(mi.Float, self.cone_rad, light, ramp)
+            b = dr.gather(mi.Float, self.beam_rad, light, ramp)
+            theta = dr.acos(dr.clip(cos, -1.0, 1.0))
+            f = dr.select(theta <= b, 1.0, dr.clip((c - theta) / dr.maximum(c - b, 1e-30), 0.0, 1.0))
+            w = dr.select(ramp, w * dr.select(cos > dr.cos(c), f, 0.0), w)
+        return w
+
+    def _target_photons(self, t, on, u):
+        mi, dr = self.mi, self.dr
+        n = dr.width(t)
+        light = dr.gather(mi.UInt32, self.t_light, t, on)
+        o, d, w = dr.zeros(mi.Point3f, n), mi.Vector3f(0, 0, 1) + dr.zeros(mi.Vector3f, n), \
+            dr.zeros(mi.Color3f, n)
+        area = on & (dr.gather(mi.UInt32, self.t_area, t, on) != 0)
+        if "area" in self.kinds:
+            oa, da, wa = self._area(t, light, area, u)
+            o, d, w = dr.select(area, oa, o), dr.select(area, da, d), dr.select(area, wa, w)
+        if "directional" in self.kinds:
+            sun = on & ~area
+            os_, ds, ws = self._directional(t, light, sun, u)
+            o, d, w = dr.select(sun, os_, o), dr.select(sun, ds, d), dr.select(sun, ws, w)
+        return o, d, w, light
+
+    def _target_cone(self, j, y, active):
+        """(axis, 1 - cos half) from points ``y`` toward target ``j``'s bounding sphere (the
+        whole sphere of directions from inside it)."""
+        mi, dr = self.mi, self.dr
+        c = dr.gather(mi.Point3f, self.t_center, j, active)
+        r = dr.gather(mi.Float, self.t_radius, j, active)
+        to = c - y
+        dist = dr.norm(to)
+        inside = dist <= r * INSIDE
+        axis = dr.select(inside, mi.Vector3f(0, 0, 1), to / dr.maximum(dist, 1e-30))
+        sin2 = dr.square(r / dr.maximum(dist, 1e-30))
+        omc = sin2 / (1.0 + dr.safe_sqrt(1.0 - sin2))  # 1 - sqrt(1 - sin2), without cancelling
+        return axis, dr.select(inside, 2.0, dr.minimum(omc * (1.0 + REL_EPS) + ABS_EPS, 2.0))
+
+    def _area(self, t, light, on, u):
+        mi, dr = self.mi, self.dr
+        first = dr.gather(mi.UInt32, self.area_first, light, on)
+        count = dr.gather(mi.UInt32, self.area_count, light, on)
+        cdf = self.area_cdf
+        f = dr.binary_search(0, 1 << 30, lambda i: (i < count) & (dr.gather(
+            mi.Float, cdf, first + dr.minimum(i, dr.maximum(count, 1) - 1), on) <= u[4]))
+        f = first + dr.minimum(mi.UInt32(f), dr.maximum(count, 1) - 1)
+        s = dr.sqrt(u[5])
+        b0, b2 = 1.0 - s, s * u[6]
+        p = [dr.gather(mi.Point3f, self.area_tri, f * 3 + c, on) for c in range(3)]
+        y = b0 * p[0] + (1.0 - b0 - b2) * p[1] + b2 * p[2]
+        ny = dr.gather(mi.Vector3f, self.area_normal, f, on)
+        axis, omc = self._target_cone(t, y, on)
+        frame = mi.Frame3f(axis)
+        d = self._in_cone(axis, frame.s, frame.t, omc, u[1], u[2])
+        q = dr.zeros(mi.Float, dr.width(t))
+        for group in self.target_groups:  # the mixture over the light's targets
+            for j in group:
+                jj = mi.UInt32(j)
+                mine = on & (light == dr.gather(mi.UInt32, self.t_light, jj))
+                a, m = self._target_cone(jj + dr.zeros(mi.UInt32, dr.width(t)), y, mine)
+                inside = mine & ((t == j) | (0.5 * dr.squared_norm(d - a) <= m))
+                q += dr.select(inside, dr.gather(mi.Float, self.t_pmf, jj) / (2.0 * dr.pi * m), 0.0)
+        cos_y = dr.maximum(dr.dot(d, ny), 0.0)
+        w = dr.gather(mi.Color3f, self.radiance, light, on) * (
+            cos_y * dr.gather(mi.Float, self.area, light, on) / dr.maximum(q, 1e-30))
+        return y, d, w
+
+    def _directional(self, t, light, on, u):
+        mi, dr = self.mi, self.dr
+        gv = lambda table, i=light: dr.gather(mi.Vector3f, table, i, on)  # noqa: E731
+        D, t1, t2 = gv(self.sun_d), gv(self.sun_t1), gv(self.sun_t2)
+        c = gv(self.t_center, t)
+        r = dr.gather(mi.Float, self.t_radius, t, on)
+        rho = r * dr.sqrt(u[1])
+        sin_p, cos_p = dr.sincos(2.0 * dr.pi * u[2])
+        a = dr.dot(c, t1) + rho * cos_p
+        b = dr.dot(c, t2) + rho * sin_p
+        q = dr.zeros(mi.Float, dr.width(t))
+        for group in self.target_groups:
+            for j in group:
+                jj = mi.UInt32(j)
+                mine = on & (light == dr.gather(mi.UInt32, self.t_light, jj))
+                cj = dr.gather(mi.Vector3f, self.t_center, jj)
+                rj = dr.gather(mi.Float, self.t_radius, jj)
+                da, db = a - dr.dot(cj, t1), b - dr.dot(cj, t2)
+                inside = mine & ((t == j) | (da * da + db * db <= rj * rj * (1.0 + REL_EPS)))
+                q += dr.select(inside, dr.gather(mi.Float, self.t_pmf, jj) / (dr.pi * rj * rj), 0.0)
+        o = a * t1 + b * t2 + dr.gather(mi.Float, self.sun_s0, light, on) * D
+        w = dr.gather(mi.Color3f, self.irradiance, light, on) / dr.maximum(q, 1e-30)
+        return mi.Point3f(o), D, w

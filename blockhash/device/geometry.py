@@ -1,0 +1,96 @@
+"""A scene's triangles and materials as device arrays: the same tables as
+:class:`blockhash.scene.raycast.EmbreeGeometry` (which it is built from), in float32, and a
+Mitsuba scene over the same triangles for the ray casts (Embree on the CPU, OptiX on a GPU).
+
+Each object with triangles is one Mitsuba mesh; a hit's global face is its mesh's first face
+(:attr:`DeviceGeometry.face_offset`, gathered by the shape's registry id) plus Mitsuba's
+primitive index, which indexes the tables as embree's face does on the host.  The kernels read
+the hit point and normals from the tables (:meth:`DeviceGeometry.hit_frame`), as the host's
+:func:`blockhash.scene.raycast.hit_frame` does, so that both follow one definition.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from blockhash.scene.raycast import RAY_OFFSET
+
+#: Object kinds in :attr:`DeviceGeometry.kind`.
+DIFFUSE, MIRROR, GLASS = 0, 1, 2
+#: A shading normal shorter than this (the vertex normals cancel) falls back to the face's.
+NORMAL_EPS = 1e-12
+
+
+class DeviceGeometry:
+    """``geometry``'s (an :class:`~blockhash.scene.raycast.EmbreeGeometry`) tables and a
+    Mitsuba scene of its triangles on ``device`` (:class:`blockhash.device.choice.Device`)."""
+
+    def __init__(self, geometry, device):
+        self.device = device
+        mi, dr = self.mi, self.dr = device.modules()
+        self.offset = float(RAY_OFFSET * geometry.scale)
+        tri = np.asarray(geometry.triangles, dtype=np.float32)
+        shapes = {}
+        offsets = geometry.face_offset
+        for g in range(len(offsets) - 1):
+            first, last = int(offsets[g]), int(offsets[g + 1])
+            n = last - first
+            mesh = mi.Mesh(f"g{g}", 3 * n, n, has_vertex_normals=False,
+                           has_vertex_texcoords=False)
+            params = mi.traverse(mesh)
+            params["vertex_positions"] = mi.Float(tri[first:last].reshape(-1))
+            params["faces"] = mi.UInt32(np.arange(3 * n, dtype=np.uint32))
+            params.update()
+            shapes[f"g{g}"] = (mesh, first)
+        self.scene = mi.load_dict({"type": "scene", **{k: m for k, (m, _) in shapes.items()}})
+        # The shape registry ids Mitsuba's hits carry, to each mesh's first face.
+        ids = {s.id(): int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(s))[0])
+               for s in self.scene.shapes()}
+        face_offset = np.zeros(max(ids.values()) + 1, dtype=np.uint32)
+        for key, (_, first) in shapes.items():
+            face_offset[ids[key]] = first
+        self.face_offset = mi.UInt32(face_offset)
+        f32 = lambda a: mi.Float(np.ascontiguousarray(a, dtype=np.float32).reshape(-1))  # noqa: E731
+        self.triangles = f32(tri)
+        self.vertex_normals = f32(geometry.vertex_normals)
+        self.face_normals = f32(geometry.face_normals)
+        self.face_object = mi.UInt32(np.asarray(geometry.face_object, dtype=np.uint32))
+        kind = np.where(geometry.is_dielectric, GLASS,
+                        np.where(geometry.is_specular, MIRROR, DIFFUSE)).astype(np.uint32)
+        self.kind = mi.UInt32(kind)
+        self.one_sided = mi.UInt32(np.asarray(geometry.one_sided, dtype=np.uint32))
+        self.reflectance = f32(geometry.reflectance)
+        self.tint = f32(geometry.tint)
+        self.ior = f32(geometry.ior)
+        self.any_glass = bool(np.any(geometry.is_dielectric))
+
+    def intersect(self, o, d, active):
+        """(hit, global face) of the rays ``o + t d`` (Mitsuba's preliminary intersection:
+        no surface interaction is built) and their barycentrics (u, v)."""
+        mi, dr = self.mi, self.dr
+        pi = self.scene.ray_intersect_preliminary(mi.Ray3f(o, d), active=active)
+        hit = active & pi.is_valid()
+        shape = dr.reinterpret_array(mi.UInt32, pi.shape)
+        face = dr.gather(mi.UInt32, self.face_offset, shape, hit) + pi.prim_index
+        return hit, face, pi.prim_uv.x, pi.prim_uv.y
+
+    def hit_frame(self, face, u, v, d, active):
+        """(point, shading normal, geometric normal, met from outside): both normals facing
+        the ray along ``d``; a shading normal that cancels is the face's."""
+        mi, dr = self.mi, self.dr
+        b0 = 1.0 - u - v
+
+        def corner(table, c):
+            return dr.gather(mi.Vector3f, table, face * 3 + c, active)
+
+        fn = dr.gather(mi.Vector3f, self.face_normals, face, active)
+        cos = dr.dot(d, fn)
+        outer = cos < 0.0
+        s = dr.select(cos > 0.0, -1.0, 1.0)
+        p = b0 * corner(self.triangles, 0) + u * corner(self.triangles, 1) + v * corner(self.triangles, 2)
+        n = (b0 * corner(self.vertex_normals, 0) + u * corner(self.vertex_normals, 1)
+             + v * corner(self.vertex_normals, 2))
+        length = dr.norm(n)
+        flat = length < NORMAL_EPS
+        n = dr.select(flat, fn, n / dr.select(flat, 1.0, length))
+        return mi.Point3f(p), n * s, fn * s, outer
