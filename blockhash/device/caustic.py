@@ -92,6 +92,38 @@ def _reflect(dr, d, n):
     return d - 2.0 * dr.dot(d, n) * n
 
 
+def specular_event(geo, d, ns, ng, outer, obj, kind, rng, active):
+    """A photon's event on a mirror or glass (``active``), along ``d`` with shading and
+    geometric normals ``ns``, ``ng`` facing it (met from the ``outer`` side): (the new
+    direction, unnormalised; the factor on its weight; +1 leaving on the incoming side or -1
+    passing through; a mirror's fallback to the geometric normal), the rules of
+    :func:`blockhash.photons.bounce._event`.  Glass draws its choice from ``rng``."""
+    mi, dr = geo.mi, geo.dr
+    mirror = active & (kind == MIRROR)
+    r = _reflect(dr, d, ns)
+    wrong = dr.dot(r, ng) <= 0.0
+    r = dr.select(wrong, _reflect(dr, d, ng), r)
+    factor = dr.select(mirror, dr.gather(mi.Color3f, geo.reflectance, obj, mirror), 1.0)
+    side = dr.ones(mi.Float, dr.width(active))
+    if geo.any_glass:
+        glass = active & (kind == GLASS)
+        ior = dr.gather(mi.Float, geo.ior, obj, glass)
+        eta = dr.select(outer, 1.0 / ior, ior)
+        uc = rng.next_float32(glass)
+        through = glass & (uc >= _fresnel(dr, -dr.dot(d, ns), eta))
+        t, tir = _refract(dr, d, ns, eta)
+        t_g, tir_g = _refract(dr, d, ng, eta)
+        off = dr.dot(t, ng) >= 0.0  # leaves on the wrong side: about the geometric normal
+        t, tir = dr.select(off, t_g, t), dr.select(off, tir_g, tir)
+        through &= ~tir
+        r_glass = _reflect(dr, d, ns)
+        r_glass = dr.select(~through & (dr.dot(r_glass, ng) <= 0.0), _reflect(dr, d, ng), r_glass)
+        r = dr.select(glass, dr.select(through, t, r_glass), r)
+        factor = dr.select(through, dr.gather(mi.Color3f, geo.tint, obj, through), factor)
+        side = dr.select(through, -1.0, side)
+    return r, factor, side, mirror & wrong
+
+
 def _trace(geo, max_bounces, o, d, w, rng):
     """The bounce loop (module docstring): per photon its fate, fallbacks, rays and, for
     those stored, the hit point, arriving direction, normals, weight, object and depth."""
@@ -125,30 +157,8 @@ def _trace(geo, max_bounces, o, d, w, rng):
         spec = hit & (kind != DIFFUSE)
         fate = dr.select(spec & (depth >= max_bounces), MAX_BOUNCES, fate)
         event = spec & (depth < max_bounces)
-        # a mirror
-        mirror = event & (kind == MIRROR)
-        r = _reflect(dr, d, ns)
-        wrong = dr.dot(r, ng) <= 0.0
-        fallbacks += dr.select(mirror & wrong, 1, 0)
-        r = dr.select(wrong, _reflect(dr, d, ng), r)
-        factor = dr.select(mirror, dr.gather(mi.Color3f, geo.reflectance, obj, mirror), 1.0)
-        side = dr.ones(mi.Float, n)
-        if geo.any_glass:
-            glass = event & (kind == GLASS)
-            ior = dr.gather(mi.Float, geo.ior, obj, glass)
-            eta = dr.select(outer, 1.0 / ior, ior)
-            uc = rng.next_float32(glass)
-            through = glass & (uc >= _fresnel(dr, -dr.dot(d, ns), eta))
-            t, tir = _refract(dr, d, ns, eta)
-            t_g, tir_g = _refract(dr, d, ng, eta)
-            off = dr.dot(t, ng) >= 0.0  # leaves on the wrong side: about the geometric normal
-            t, tir = dr.select(off, t_g, t), dr.select(off, tir_g, tir)
-            through &= ~tir
-            r_glass = _reflect(dr, d, ns)
-            r_glass = dr.select(~through & (dr.dot(r_glass, ng) <= 0.0), _reflect(dr, d, ng), r_glass)
-            r = dr.select(glass, dr.select(through, t, r_glass), r)
-            factor = dr.select(through, dr.gather(mi.Color3f, geo.tint, obj, through), factor)
-            side = dr.select(through, -1.0, side)
+        r, factor, side, fell_back = specular_event(geo, d, ns, ng, outer, obj, kind, rng, event)
+        fallbacks += dr.select(fell_back, 1, 0)
         w = dr.select(event, w * factor, w)
         dead = event & ~dr.any(w > 0.0)
         fate = dr.select(dead, ABSORBED, fate)

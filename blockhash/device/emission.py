@@ -50,24 +50,23 @@ def _omc(cos_half: float) -> float:
     return 2.0 if cos_half <= -1.0 else float(1.0 - cos_half)
 
 
-class DeviceEmitter:
-    """An :class:`~blockhash.photons.emission.Emitter` (``emitter``) of the scene's ``lights``
-    as device tables (module docstring); :meth:`sample` emits."""
+def in_cone(dr, axis, t1, t2, omc, u1, u2):
+    """The direction of uniforms (u1, u2), uniform in solid angle in the cone (``axis``, frame
+    ``t1`` ``t2``, ``omc`` = 1 - cos of the half angle)."""
+    x = u1 * omc  # 1 - cos theta
+    cos_t = 1.0 - x
+    sin_t = dr.safe_sqrt(x * (2.0 - x))
+    sin_p, cos_p = dr.sincos(2.0 * dr.pi * u2)
+    return dr.normalize(cos_t * axis + (sin_t * cos_p) * t1 + (sin_t * sin_p) * t2)
 
-    def __init__(self, emitter, lights, bounds, device):
+
+class LightTables:
+    """The scene's lights as device tables, by light index: positions, spot cones and their
+    falloff, area lights' triangles (each light's own area cdf), directional lights' frames
+    and the plane upstream of every object."""
+
+    def __init__(self, lights, bounds, device):
         self.mi, self.dr = mi, dr = device.modules()
-        self.n_sources = emitter.sources
-        self.n_cones = len(emitter.cones)
-        self.stable = bool(emitter.stable)
-        self.cdf = _f32(mi, emitter.cdf)
-        pmf = np.asarray(emitter.pmf, dtype=np.float64)
-        self._lights(emitter, lights, bounds)
-        self._cones(emitter, pmf[:self.n_cones])
-        self._targets(emitter, pmf[self.n_cones:])
-
-    # ------------------------------------------------------------------ tables
-    def _lights(self, emitter, lights, bounds):
-        mi = self.mi
         from blockhash.photons.directions import orthonormal_basis
         from blockhash.scene.model import AreaLight, DirectionalLight
 
@@ -79,14 +78,15 @@ class DeviceEmitter:
         cone_rad = np.zeros(n)
         beam_rad = np.zeros(n)
         for li, light in enumerate(lights):
-            if emitter.spot_axis[li] is not None:
-                spot[li], axis[li], cos[li] = 1, emitter.spot_axis[li], emitter.spot_cos[li]
+            cone_deg = getattr(light, "cone_deg", None)
+            if cone_deg is not None:
+                a = np.asarray(light.direction, dtype=np.float64)
+                spot[li], axis[li], cos[li] = 1, a / np.linalg.norm(a), math.cos(math.radians(cone_deg))
                 if not light.uniform:
                     ramp[li] = 1
                     cone_rad[li] = math.radians(light.cone_deg)
                     beam_rad[li] = math.radians(light.beam_deg)
-        self.position = _f32(mi, emitter.positions, 3)
-        self.intensity = _f32(mi, emitter.intensity, 3)
+        self.position = _f32(mi, [getattr(li, "position", (0.0, 0.0, 0.0)) for li in lights], 3)
         self.spot, self.spot_axis, self.spot_cos = _u32(mi, spot), _f32(mi, axis), _f32(mi, cos)
         self.ramp, self.cone_rad, self.beam_rad = _u32(mi, ramp), _f32(mi, cone_rad), _f32(mi, beam_rad)
         self.any_spot, self.any_ramp = bool(spot.any()), bool(ramp.any())
@@ -122,6 +122,58 @@ class DeviceEmitter:
         self.sun_d, self.sun_t1, self.sun_t2 = _f32(mi, sun_d), _f32(mi, sun_t1), _f32(mi, sun_t2)
         self.sun_s0, self.irradiance = _f32(mi, sun_s0), _f32(mi, irradiance)
 
+    def spot_weight(self, light, d, w, on):
+        """Nothing outside a spot's cone; its falloff between the beam and the cone."""
+        mi, dr = self.mi, self.dr
+        spot = on & (dr.gather(mi.UInt32, self.spot, light, on) != 0)
+        cos = dr.dot(d, dr.gather(mi.Vector3f, self.spot_axis, light, spot))
+        out = spot & (cos < dr.gather(mi.Float, self.spot_cos, light, spot) - 1e-6)
+        w = dr.select(out, 0.0, w)
+        if self.any_ramp:
+            ramp = spot & (dr.gather(mi.UInt32, self.ramp, light, spot) != 0)
+            c = dr.gather(mi.Float, self.cone_rad, light, ramp)
+            b = dr.gather(mi.Float, self.beam_rad, light, ramp)
+            theta = dr.acos(dr.clip(cos, -1.0, 1.0))
+            f = dr.select(theta <= b, 1.0, dr.clip((c - theta) / dr.maximum(c - b, 1e-30), 0.0, 1.0))
+            w = dr.select(ramp, w * dr.select(cos > dr.cos(c), f, 0.0), w)
+        return w
+
+    def area_point(self, light, u_face, u1, u2, on):
+        """(points, front normals) uniform by area on the area lights ``light`` (the
+        triangle of its area cdf that holds ``u_face``, barycentrics 1 - sqrt(u1),
+        sqrt(u1) u2), as :meth:`blockhash.scene.lights.AreaLight.points`."""
+        mi, dr = self.mi, self.dr
+        first = dr.gather(mi.UInt32, self.area_first, light, on)
+        count = dr.gather(mi.UInt32, self.area_count, light, on)
+        last = dr.maximum(count, 1) - 1
+        cdf = self.area_cdf
+        f = dr.binary_search(0, 1 << 30, lambda i: (i < count) & (dr.gather(
+            mi.Float, cdf, first + dr.minimum(i, last), on) <= u_face))
+        f = first + dr.minimum(mi.UInt32(f), last)
+        s = dr.sqrt(u1)
+        b0, b2 = 1.0 - s, s * u2
+        p = [dr.gather(mi.Point3f, self.area_tri, f * 3 + c, on) for c in range(3)]
+        return b0 * p[0] + (1.0 - b0 - b2) * p[1] + b2 * p[2], \
+            dr.gather(mi.Vector3f, self.area_normal, f, on)
+
+
+class DeviceEmitter:
+    """An :class:`~blockhash.photons.emission.Emitter` (``emitter``) of the scene's ``lights``
+    as device tables (module docstring); :meth:`sample` emits."""
+
+    def __init__(self, emitter, lights, bounds, device):
+        self.mi, self.dr = mi, dr = device.modules()
+        self.n_sources = emitter.sources
+        self.n_cones = len(emitter.cones)
+        self.stable = bool(emitter.stable)
+        self.cdf = _f32(mi, emitter.cdf)
+        self.intensity = _f32(mi, emitter.intensity, 3)
+        pmf = np.asarray(emitter.pmf, dtype=np.float64)
+        self.lights = LightTables(lights, bounds, device)
+        self._cones(emitter, pmf[:self.n_cones])
+        self._targets(emitter, pmf[self.n_cones:])
+
+    # ------------------------------------------------------------------ tables
     def _cones(self, emitter, pmf):
         mi, g = self.mi, MAP_CELLS
         cones = emitter.cones
@@ -205,27 +257,19 @@ class DeviceEmitter:
                          move)
         u1 = dr.select(move, (mi.Float(cell // g) + u1) / g, u1)
         u2 = dr.select(move, (mi.Float(cell % g) + u2) / g, u2)
-        d = self._in_cone(axis, t1, t2, omc, u1, u2)
+        d = in_cone(dr, axis, t1, t2, omc, u1, u2)
         light = dr.gather(mi.UInt32, self.c_light, k, on)
         q = gf(self.c_density)
         for j, others in self.cone_groups:  # the other cones of k's light that hold d
             mine = on & (k != j) & (light == dr.gather(mi.UInt32, self.c_light, mi.UInt32(j)))
             q += dr.select(mine & self._in_cone_j(j, d, mine), dr.gather(mi.Float, self.c_density,
                                                                          mi.UInt32(j)), 0.0)
+        lt = self.lights
         w = dr.gather(mi.Color3f, self.intensity, light, on) / q
-        if self.any_spot:
-            w = self._spot(light, d, w, on)
-        o = dr.gather(mi.Point3f, self.position, light, on)
+        if lt.any_spot:
+            w = lt.spot_weight(light, d, w, on)
+        o = dr.gather(mi.Point3f, lt.position, light, on)
         return o, d, w, light
-
-    def _in_cone(self, axis, t1, t2, omc, u1, u2):
-        """The direction of uniforms (u1, u2) in the cone (axis, frame t1 t2, 1 - cos half)."""
-        dr = self.dr
-        x = u1 * omc  # 1 - cos theta
-        cos_t = 1.0 - x
-        sin_t = dr.safe_sqrt(x * (2.0 - x))
-        sin_p, cos_p = dr.sincos(2.0 * dr.pi * u2)
-        return dr.normalize(cos_t * axis + (sin_t * cos_p) * t1 + (sin_t * sin_p) * t2)
 
     def _in_cone_j(self, j, d, active):
         """``d`` lies in cone ``j`` and, where it has a projection map, in a live cell."""
@@ -242,22 +286,6 @@ class DeviceEmitter:
         cj = dr.minimum(mi.UInt32(phi * (g / (2.0 * math.pi))), g - 1)
         live = dr.gather(mi.UInt32, self.c_live, jj * (g * g) + ci * g + cj, inside)
         return inside & (live != 0)
-
-    def _spot(self, light, d, w, on):
-        """Nothing outside a spot's cone; its falloff between the beam and the cone."""
-        mi, dr = self.mi, self.dr
-        spot = on & (dr.gather(mi.UInt32, self.spot, light, on) != 0)
-        cos = dr.dot(d, dr.gather(mi.Vector3f, self.spot_axis, light, spot))
-        out = spot & (cos < dr.gather(mi.Float, self.spot_cos, light, spot) - 1e-6)
-        w = dr.select(out, 0.0, w)
-        if self.any_ramp:
-            ramp = spot & (dr.gather(mi.UInt32, self.ramp, light, spot) != 0)
-            c = dr.gather(mi.Float, self.cone_rad, light, ramp)
-            b = dr.gather(mi.Float, self.beam_rad, light, ramp)
-            theta = dr.acos(dr.clip(cos, -1.0, 1.0))
-            f = dr.select(theta <= b, 1.0, dr.clip((c - theta) / dr.maximum(c - b, 1e-30), 0.0, 1.0))
-            w = dr.select(ramp, w * dr.select(cos > dr.cos(c), f, 0.0), w)
-        return w
 
     def _target_photons(self, t, on, u):
         mi, dr = self.mi, self.dr
@@ -291,20 +319,11 @@ class DeviceEmitter:
 
     def _area(self, t, light, on, u):
         mi, dr = self.mi, self.dr
-        first = dr.gather(mi.UInt32, self.area_first, light, on)
-        count = dr.gather(mi.UInt32, self.area_count, light, on)
-        cdf = self.area_cdf
-        f = dr.binary_search(0, 1 << 30, lambda i: (i < count) & (dr.gather(
-            mi.Float, cdf, first + dr.minimum(i, dr.maximum(count, 1) - 1), on) <= u[4]))
-        f = first + dr.minimum(mi.UInt32(f), dr.maximum(count, 1) - 1)
-        s = dr.sqrt(u[5])
-        b0, b2 = 1.0 - s, s * u[6]
-        p = [dr.gather(mi.Point3f, self.area_tri, f * 3 + c, on) for c in range(3)]
-        y = b0 * p[0] + (1.0 - b0 - b2) * p[1] + b2 * p[2]
-        ny = dr.gather(mi.Vector3f, self.area_normal, f, on)
+        lt = self.lights
+        y, ny = lt.area_point(light, u[4], u[5], u[6], on)
         axis, omc = self._target_cone(t, y, on)
         frame = mi.Frame3f(axis)
-        d = self._in_cone(axis, frame.s, frame.t, omc, u[1], u[2])
+        d = in_cone(dr, axis, frame.s, frame.t, omc, u[1], u[2])
         q = dr.zeros(mi.Float, dr.width(t))
         for group in self.target_groups:  # the mixture over the light's targets
             for j in group:
@@ -314,14 +333,15 @@ class DeviceEmitter:
                 inside = mine & ((t == j) | (0.5 * dr.squared_norm(d - a) <= m))
                 q += dr.select(inside, dr.gather(mi.Float, self.t_pmf, jj) / (2.0 * dr.pi * m), 0.0)
         cos_y = dr.maximum(dr.dot(d, ny), 0.0)
-        w = dr.gather(mi.Color3f, self.radiance, light, on) * (
-            cos_y * dr.gather(mi.Float, self.area, light, on) / dr.maximum(q, 1e-30))
+        w = dr.gather(mi.Color3f, lt.radiance, light, on) * (
+            cos_y * dr.gather(mi.Float, lt.area, light, on) / dr.maximum(q, 1e-30))
         return y, d, w
 
     def _directional(self, t, light, on, u):
         mi, dr = self.mi, self.dr
+        lt = self.lights
         gv = lambda table, i=light: dr.gather(mi.Vector3f, table, i, on)  # noqa: E731
-        D, t1, t2 = gv(self.sun_d), gv(self.sun_t1), gv(self.sun_t2)
+        D, t1, t2 = gv(lt.sun_d), gv(lt.sun_t1), gv(lt.sun_t2)
         c = gv(self.t_center, t)
         r = dr.gather(mi.Float, self.t_radius, t, on)
         rho = r * dr.sqrt(u[1])
@@ -338,6 +358,6 @@ class DeviceEmitter:
                 da, db = a - dr.dot(cj, t1), b - dr.dot(cj, t2)
                 inside = mine & ((t == j) | (da * da + db * db <= rj * rj * (1.0 + REL_EPS)))
                 q += dr.select(inside, dr.gather(mi.Float, self.t_pmf, jj) / (dr.pi * rj * rj), 0.0)
-        o = a * t1 + b * t2 + dr.gather(mi.Float, self.sun_s0, light, on) * D
-        w = dr.gather(mi.Color3f, self.irradiance, light, on) / dr.maximum(q, 1e-30)
+        o = a * t1 + b * t2 + dr.gather(mi.Float, lt.sun_s0, light, on) * D
+        w = dr.gather(mi.Color3f, lt.irradiance, light, on) / dr.maximum(q, 1e-30)
         return mi.Point3f(o), D, w

@@ -131,7 +131,7 @@ class RenderSetup:
             return None, 0, "left out" if not settings.indirect else "a traced map: one pass"
         if scene.photons.direct_only:
             return None, 0, "left out: the scene asks for direct light only"
-        source = IndirectSource(scene, self.rays.geometry)
+        source = IndirectSource(scene, self.rays.geometry, device=settings.device)
         sample, _ = needs_indirect(source, settings.seed)
         if sample is None:
             return None, 0, (f"none: no photon of a {PILOT:,}-photon pilot met a diffuse surface "

@@ -61,9 +61,13 @@ def _uniforms(key: int, start: int, count: int) -> np.ndarray:
 
 class IndirectSource:
     """A scene's lights emitting over the whole scene and the receivers' materials, built
-    once: indirect photons from any stretch of the per-photon streams (module docstring)."""
+    once: indirect photons from any stretch of the per-photon streams (module docstring), on
+    ``device`` (:mod:`blockhash.device.choice`: :meth:`emit` runs the Dr.Jit kernels of
+    :mod:`blockhash.device.indirect` there; the host's code, which :meth:`batch` and the light
+    tracer use, is their oracle)."""
 
-    def __init__(self, scene, geometry: EmbreeGeometry):
+    def __init__(self, scene, geometry: EmbreeGeometry, device: str | None = None):
+        from blockhash.device.choice import resolve
         from blockhash.scene.materials import material_arrays, receiver_materials
 
         self.scene, self.geometry = scene, geometry
@@ -79,6 +83,12 @@ class IndirectSource:
         self.cdf = np.cumsum(self.pmf)
         self.cdf[-1] = 1.0
         self.kd, self.ks, self.e = material_arrays(receiver_materials(scene.objects))
+        self.device = resolve(device)
+        self.kernels = None
+        if self.device.jit:
+            from blockhash.device.indirect import DeviceIndirectTracer
+
+            self.kernels = DeviceIndirectTracer(self, self.device)
 
     def _cone(self, light):
         """(axis, cos of the half angle, intensity W/sr) a point or spot light's photons are
@@ -112,6 +122,8 @@ class IndirectSource:
     def emit(self, count: int, *, seed: int, start: int = 0) -> CausticPhotons:
         """Photons ``start .. start + count - 1`` shot; those stored at a second or later
         diffuse vertex, powers divided by ``count``."""
+        if self.kernels is not None:
+            return self.kernels.emit(count, seed=seed, start=start)
         t0 = time.perf_counter()
         chunks, counts = [], {}
         for got, c in self._batches(count, seed, start):

@@ -228,7 +228,7 @@ def _trace_indirect(scene, rays: SceneRays, pin: Pinhole, m_total: int, seed: in
     """The indirect layer's photons, batch by batch, each stored vertex splatted (``_connect``)."""
     from blockhash.photons.indirect import IndirectSource
 
-    source = IndirectSource(scene, rays.geometry)
+    source = IndirectSource(scene, rays.geometry, device="host")  # batch(): the host's paths
     kd, ks, e = material_arrays(receiver_materials(scene.objects))
     for start in range(0, m_total, batch_size):
         count = min(batch_size, m_total - start)

@@ -1,0 +1,206 @@
+"""Indirect photons as Dr.Jit kernels: :class:`blockhash.photons.indirect.IndirectSource`'s
+photons (emitted over the whole scene, through mirrors and glass, bounced at diffuse surfaces
+with Russian roulette, stored at every diffuse vertex after the first), the rules of its
+module docstring on the device.
+
+A wavefront: each surface event is one launch over the photons still travelling, which are
+then compacted in photon order (:func:`drjit.compress`), so the stored photons come out
+ordered by event and, within one, by photon number, the same in any process.  Each photon's
+numbers come from its own stream (:func:`blockhash.device.caustic.photon_streams`, offset by
+:data:`~blockhash.photons.indirect.INDIRECT_COUNTER` from the caustic photons'), carried
+from event to event with the photon.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from blockhash.device.caustic import photon_streams, specular_event
+from blockhash.device.emission import LightTables, in_cone
+from blockhash.device.geometry import DIFFUSE, DeviceGeometry
+from blockhash.photons.directions import orthonormal_basis
+from blockhash.photons.indirect import BATCH, INDIRECT_COUNTER
+from blockhash.photons.paths import CausticPhotons
+
+#: Light kinds of the indirect emission.
+CONE, DISC, SURFACE = 0, 1, 2
+
+
+class DeviceIndirectTracer:
+    """The indirect photons of ``source`` (an :class:`~blockhash.photons.indirect.IndirectSource`)
+    on ``device``: :meth:`emit` gives what the source's host ``emit`` gives, in distribution."""
+
+    def __init__(self, source, device):
+        from blockhash.scene.model import AreaLight, DirectionalLight
+
+        self.device = device
+        self.mi, self.dr = mi, dr = device.modules()
+        self.geometry = DeviceGeometry(source.geometry, device)
+        self.max_events = int(source.max_events)
+        lights = source.lights
+        self.lights = LightTables(lights, source.scene.bounds, device)
+        n = len(lights)
+        kind = np.zeros(n, np.uint32)
+        axis, t1, t2, omc = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n)
+        disc = np.zeros((n, 3))  # a directional light's disc centre, upstream of the scene
+        for li, (light, cone) in enumerate(zip(lights, source.cones)):
+            if isinstance(light, DirectionalLight):
+                kind[li] = DISC
+                D = np.asarray(light.direction, dtype=np.float64)
+                D = D / np.linalg.norm(D)
+                axis[li] = D
+                t1[li], t2[li] = orthonormal_basis(D)
+                disc[li] = source.center - 2.0 * source.radius * D
+            elif isinstance(light, AreaLight):
+                kind[li] = SURFACE
+            else:
+                a, cos_c, _ = cone
+                axis[li] = a
+                t1[li], t2[li] = orthonormal_basis(np.asarray(a, dtype=np.float64))
+                omc[li] = 2.0 if cos_c <= -1.0 else 1.0 - cos_c
+        f32 = lambda a: mi.Float(np.ascontiguousarray(a, dtype=np.float32).reshape(-1))  # noqa: E731
+        self.kind, self.axis, self.t1, self.t2 = mi.UInt32(kind), f32(axis), f32(t1), f32(t2)
+        self.omc, self.disc = f32(omc), f32(disc)
+        self.radius = float(source.radius)
+        self.weight = f32(source.power / source.pmf[:, None])
+        self.cdf = f32(source.cdf)
+        self.n_lights = n
+        self.kinds = set(kind.tolist())
+        self.kd, self.ks, self.e = f32(source.kd), f32(source.ks), f32(source.e)
+
+    def _emission(self, rng):
+        mi, dr = self.mi, self.dr
+        u = [rng.next_float32() for _ in range(6)]
+        cdf = self.cdf
+        k = dr.binary_search(0, self.n_lights - 1, lambda i: dr.gather(mi.Float, cdf, i) <= u[0])
+        k = dr.minimum(mi.UInt32(k), self.n_lights - 1)
+        kind = dr.gather(mi.UInt32, self.kind, k)
+        gv = lambda table: dr.gather(mi.Vector3f, table, k)  # noqa: E731
+        axis, t1, t2 = gv(self.axis), gv(self.t1), gv(self.t2)
+        w = dr.gather(mi.Color3f, self.weight, k)
+        lt = self.lights
+        # point and spot lights: uniform inside their cone
+        d = in_cone(dr, axis, t1, t2, dr.gather(mi.Float, self.omc, k), u[1], u[2])
+        o = mi.Point3f(dr.gather(mi.Point3f, lt.position, k))
+        if lt.any_spot:
+            w = lt.spot_weight(k, d, w, kind == CONE)
+        if DISC in self.kinds:
+            sun = kind == DISC
+            rho = self.radius * dr.sqrt(u[1])
+            sin_p, cos_p = dr.sincos(2.0 * dr.pi * u[2])
+            o = dr.select(sun, gv(self.disc) + (rho * cos_p) * t1 + (rho * sin_p) * t2, o)
+            d = dr.select(sun, axis, d)
+        if SURFACE in self.kinds:
+            area = kind == SURFACE
+            y, ny = lt.area_point(k, u[3], u[1], u[2], area)
+            o = dr.select(area, y, o)
+            d = dr.select(area, _cosine(mi, dr, ny, u[4], u[5]), d)
+        return o, d, w
+
+    def emit(self, count: int, *, seed: int, start: int = 0) -> CausticPhotons:
+        """Photons ``start .. start + count - 1`` shot (as the host's
+        :meth:`~blockhash.photons.indirect.IndirectSource.emit`)."""
+        import time
+
+        t0 = time.perf_counter()
+        parts, counts = [], {"escaped": 0, "absorbed": 0, "roulette": 0, "max_events": 0,
+                             "rays_cast": 0}
+        for first in range(start, start + count, BATCH * 4):
+            n = min(BATCH * 4, start + count - first)
+            parts += self._trace(seed, first, n, counts)
+        if parts:
+            pos, dirs, nrm, powers, obj = (np.concatenate(c) for c in zip(*parts))
+            powers /= np.float32(count)
+        else:
+            pos = dirs = nrm = powers = np.zeros((0, 3), dtype=np.float32)
+            obj = np.zeros(0, dtype=np.int32)
+        stats = {"emitted": count, "stored": len(pos), **counts,
+                 "seconds": time.perf_counter() - t0}
+        return CausticPhotons(pos, dirs, nrm, powers, count, stats, obj)
+
+    def _trace(self, seed: int, start: int, n: int, counts: dict) -> list:
+        mi, dr = self.device.modules()
+        geo = self.geometry
+        rng = photon_streams(mi, dr, seed, INDIRECT_COUNTER + start, n)
+        o, d, w = self._emission(rng)
+        o = o + d * geo.offset
+        seen = dr.zeros(mi.UInt32, n)  # diffuse vertices so far
+        parts = []
+        for event in range(self.max_events):
+            if n == 0:
+                break
+            counts["rays_cast"] += n
+            active = dr.full(mi.Bool, True, n)
+            hit, face, u, v = geo.intersect(o, d, active)
+            obj = dr.gather(mi.UInt32, geo.face_object, face, hit)
+            kind = dr.gather(mi.UInt32, geo.kind, obj, hit)
+            p, ns, ng, outer = geo.hit_frame(face, u, v, d, hit)
+            diffuse = hit & (kind == DIFFUSE)
+            back = diffuse & ~outer & (dr.gather(mi.UInt32, geo.one_sided, obj, diffuse) != 0)
+            diffuse &= ~back
+            store = diffuse & (seen >= 1)
+            seen += dr.select(diffuse, 1, 0)
+            last = event == self.max_events - 1
+            spec = hit & (kind != DIFFUSE)
+            # a diffuse bounce: cosine about the shading normal on the incoming side, pi f_r,
+            # Russian roulette
+            up = dr.select(dr.dot(ns, ng) > 0.0, ns, ng)
+            wo = _cosine(mi, dr, up, rng.next_float32(diffuse), rng.next_float32(diffuse))
+            ur = rng.next_float32(diffuse)
+            cos_n = dr.dot(wo, up)
+            refl = 2.0 * dr.dot(-d, up) * up + d
+            c_alpha = dr.maximum(dr.dot(refl, wo), 0.0)
+            e = dr.gather(mi.Float, self.e, obj, diffuse)
+            lobe = (e + 2.0) * 0.5 * dr.select(e == 0.0, 1.0, dr.power(c_alpha, e))
+            factor = (dr.gather(mi.Color3f, self.kd, obj, diffuse)
+                      + dr.gather(mi.Color3f, self.ks, obj, diffuse) * lobe)
+            factor = dr.select((dr.dot(wo, ng) <= 0.0) | (cos_n <= 0.0), 0.0, factor)
+            q = dr.minimum(dr.max(factor), 1.0)
+            survive = diffuse & (ur < q)
+            # a mirror or glass
+            r, s_factor, side, _ = specular_event(geo, d, ns, ng, outer, obj, kind, rng, spec)
+            w_spec = w * s_factor
+            spec_go = spec & dr.any(w_spec > 0.0)
+            go = dr.zeros(mi.Bool, n) if last else (survive | spec_go)
+            w_next = dr.select(survive, w * factor / dr.select(q > 0.0, q, 1.0), w_spec)
+            o_next = dr.select(survive, p + ng * geo.offset, p + ng * (side * geo.offset))
+            d_next = dr.select(survive, wo, dr.normalize(r))
+            stats = [dr.count(~hit), dr.count(back | (spec & ~spec_go)),
+                     dr.count(diffuse & ~survive), dr.count(diffuse | spec)]
+            dr.eval(store, go, w_next, o_next, d_next, p, d, ns, w, obj, rng, seen, stats)
+            counts["escaped"] += int(stats[0][0])
+            counts["absorbed"] += int(stats[1][0]) if not last else int(dr.count(back)[0])
+            if last:
+                counts["max_events"] += int(stats[3][0])
+            else:
+                counts["roulette"] += int(stats[2][0])
+            kept = dr.compress(store)
+            m = dr.width(kept)
+            if m:
+                cols = [np.asarray(dr.ravel(dr.gather(type(x), x, kept))).reshape(m, 3)
+                        for x in (p, d, ns, w)]
+                parts.append((*cols, np.asarray(dr.gather(mi.UInt32, obj, kept)).astype(np.int32)))
+            if last:
+                break
+            idx = dr.compress(go)
+            n = dr.width(idx)
+            o, d, w = (dr.gather(type(x), x, idx) for x in (o_next, d_next, w_next))
+            seen = dr.gather(mi.UInt32, seen, idx)
+            rng = _gathered(mi, dr, rng, idx)
+        return parts
+
+
+def _gathered(mi, dr, rng, idx):
+    """The PCG32 streams of lanes ``idx``."""
+    out = mi.PCG32(size=dr.width(idx))
+    out.state = dr.gather(mi.UInt64, rng.state, idx)
+    out.inc = dr.gather(mi.UInt64, rng.inc, idx)
+    return out
+
+
+def _cosine(mi, dr, normal, u1, u2):
+    """Directions cosine-distributed about unit ``normal`` (Malley's method)."""
+    frame = mi.Frame3f(normal)
+    r = dr.sqrt(u1)
+    sin_p, cos_p = dr.sincos(2.0 * dr.pi * u2)
+    return (r * cos_p) * frame.s + (r * sin_p) * frame.t + dr.safe_sqrt(1.0 - u1) * normal
