@@ -9,12 +9,18 @@ G-buffer + direct, caustic), photons stored per second of tracing, and stored ph
 second end to end (stored photons over the pass's total), with this checkout's ratio to the
 baseline's on the line below each baseline row.
 
+``--device`` is where this checkout traces its photons (``BLOCKHASH_DEVICE`` in its process:
+``host``, the numba and embree tracer, or ``cpu``/``gpu``, the Dr.Jit kernels; default
+``auto``); a baseline from before the device option traces on its own code whatever it says.
+The trace stages are the caustic's (``trace``) and the indirect layer's (``indirect trace``).
+
 ``--indirect off`` leaves the indirect layer out (a baseline from before it had none), so
 that both sides do the same work on scenes whose diffuse surfaces light one another.
 
 usage: python tools/pass_stages.py --baseline /tmp/blockhash-6c34444
            [--scenes ring,venus,glass,corner] [--sizes 256,512] [--photons 200000,1000000]
-           [--warm 1] [--passes 3] [--indirect on|off] [--json docs/pass-stages.json]
+           [--warm 1] [--passes 3] [--indirect on|off] [--device auto]
+           [--json docs/pass-stages.json]
 """
 
 import json
@@ -28,7 +34,7 @@ from blockhash.studies.command import ToolParser, count, write_json
 
 ROOT = Path(__file__).resolve().parents[1]
 STAGES = ("trace", "index", "photon radii", "pixel splat", "cover gather", "gbuffer", "direct",
-          "caustic", "total")
+          "caustic", "indirect trace", "total")
 
 CHILD = r"""
 import json, sys
@@ -58,8 +64,8 @@ print(json.dumps(rows))
 """
 
 def run(checkout: Path, scene: str, size: int, photons: int, warm: int, passes: int,
-        indirect: str = "on") -> dict:
-    env = {**os.environ, "PYTHONPATH": str(Path(checkout).resolve())}
+        indirect: str = "on", device: str = "auto") -> dict:
+    env = {**os.environ, "PYTHONPATH": str(Path(checkout).resolve()), "BLOCKHASH_DEVICE": device}
     proc = subprocess.run([sys.executable, "-c", CHILD, scene, str(size), str(photons), str(warm),
                            str(passes), indirect], capture_output=True, text=True, env=env,
                           cwd=tempfile.gettempdir())
@@ -86,10 +92,12 @@ def main(argv=None):
     p.add_argument("--passes", type=count, default=3, help="passes averaged (default 3)")
     p.add_argument("--indirect", choices=("on", "off"), default="on", help="the indirect layer "
                    "where the scene has it (on, the default) or left out")
+    p.add_argument("--device", choices=("auto", "cpu", "gpu", "host"), default="auto",
+                   help="where this checkout traces its photons (default auto)")
     p.json_output()
     args = p.parse_args(argv)
     cols = ("trace", "index", "photon radii", "pixel splat", "cover gather", "gbuffer + direct",
-            "caustic")
+            "caustic", "indirect trace")
     print("| scene | size | photons | commit | s per pass | " + " | ".join(cols)
           + " | stored per s of tracing | stored per s end to end |")
     print("| --- " * (6 + len(cols) + 1) + "|")
@@ -101,10 +109,11 @@ def main(argv=None):
                 res = {}
                 for label, checkout in (("baseline", args.baseline), ("this", ROOT)):
                     res[label] = run(checkout, scene, size, photons, args.warm, args.passes,
-                                     args.indirect)
+                                     args.indirect, args.device)
                     s = res[label]["seconds"]
                     vals = (s["trace"], s["index"], s["photon radii"], s["pixel splat"],
-                            s["cover gather"], s["gbuffer"] + s["direct"], s["caustic"])
+                            s["cover gather"], s["gbuffer"] + s["direct"], s["caustic"],
+                            s["indirect trace"])
                     print(f"| {name} | {size} | {photons:,} | {label} | {s['total']:.3f} | "
                           + " | ".join(f"{v:.3f}" for v in vals)
                           + f" | {res[label]['stored_per_trace_s']:,.0f} | "
@@ -114,7 +123,9 @@ def main(argv=None):
                          for k in ("trace", "index", "photon radii", "pixel splat", "cover gather")]
                 gd = ((b["seconds"]["gbuffer"] + b["seconds"]["direct"])
                       / (t["seconds"]["gbuffer"] + t["seconds"]["direct"]))
-                ratio += [gd, b["seconds"]["caustic"] / t["seconds"]["caustic"]]
+                ratio += [gd, b["seconds"]["caustic"] / t["seconds"]["caustic"],
+                          (b["seconds"]["indirect trace"] / t["seconds"]["indirect trace"]
+                           if t["seconds"]["indirect trace"] else float("nan"))]
                 print(f"| {name} | {size} | {photons:,} | speed-up | "
                       f"{b['seconds']['total'] / t['seconds']['total']:.2f}x | "
                       + " | ".join(f"{r:.2f}x" for r in ratio)

@@ -7,8 +7,8 @@ A wavefront: each surface event is one launch over the photons still travelling,
 then compacted in photon order (:func:`drjit.compress`), so the stored photons come out
 ordered by event and, within one, by photon number, the same in any process.  Each photon's
 numbers come from its own stream (:func:`blockhash.device.caustic.photon_streams`, offset by
-:data:`~blockhash.photons.indirect.INDIRECT_COUNTER` from the caustic photons'), carried
-from event to event with the photon.
+the source's ``counter``, :data:`~blockhash.photons.indirect.INDIRECT_COUNTER`, from the
+caustic photons'), carried from event to event with the photon.
 """
 
 from __future__ import annotations
@@ -19,7 +19,6 @@ from blockhash.device.caustic import photon_streams, specular_event
 from blockhash.device.emission import LightTables, in_cone
 from blockhash.device.geometry import DIFFUSE, DeviceGeometry
 from blockhash.photons.directions import orthonormal_basis
-from blockhash.photons.indirect import BATCH, INDIRECT_COUNTER
 from blockhash.photons.paths import CausticPhotons
 
 #: Light kinds of the indirect emission.
@@ -37,6 +36,10 @@ class DeviceIndirectTracer:
         self.mi, self.dr = mi, dr = device.modules()
         self.geometry = DeviceGeometry(source.geometry, device)
         self.max_events = int(source.max_events)
+        self.counter = int(source.counter)
+        #: Photons a launch traces at most (the host's batch four times over: a few hundred
+        #: bytes each in flight).
+        self.launch = 4 * int(source.batch_size)
         lights = source.lights
         self.lights = LightTables(lights, source.scene.bounds, device)
         n = len(lights)
@@ -105,8 +108,8 @@ class DeviceIndirectTracer:
         t0 = time.perf_counter()
         parts, counts = [], {"escaped": 0, "absorbed": 0, "roulette": 0, "max_events": 0,
                              "rays_cast": 0}
-        for first in range(start, start + count, BATCH * 4):
-            n = min(BATCH * 4, start + count - first)
+        for first in range(start, start + count, self.launch):
+            n = min(self.launch, start + count - first)
             parts += self._trace(seed, first, n, counts)
         if parts:
             pos, dirs, nrm, powers, obj = (np.concatenate(c) for c in zip(*parts))
@@ -121,7 +124,7 @@ class DeviceIndirectTracer:
     def _trace(self, seed: int, start: int, n: int, counts: dict) -> list:
         mi, dr = self.device.modules()
         geo = self.geometry
-        rng = photon_streams(mi, dr, seed, INDIRECT_COUNTER + start, n)
+        rng = photon_streams(mi, dr, seed, self.counter + start, n)
         o, d, w = self._emission(rng)
         o = o + d * geo.offset
         seen = dr.zeros(mi.UInt32, n)  # diffuse vertices so far

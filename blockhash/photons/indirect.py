@@ -71,6 +71,8 @@ class IndirectSource:
         from blockhash.scene.materials import material_arrays, receiver_materials
 
         self.scene, self.geometry = scene, geometry
+        #: The streams' offset and the photons traced together (the device's kernels read them).
+        self.counter, self.batch_size = INDIRECT_COUNTER, BATCH
         self.max_events = int(scene.photons.max_bounces) + 1
         lo, hi = scene.bounds
         self.center = 0.5 * (lo + hi)
