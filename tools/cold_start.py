@@ -1,11 +1,15 @@
-"""The first render with numba's cache empty (cold) beside the same render with it filled (warm).
+"""The first render with numba's and Dr.Jit's caches empty (cold) beside the same render with
+them filled (warm).
 
 Each repeat runs the command twice in turn, as a whole process: cold with ``NUMBA_CACHE_DIR``
-a new empty folder (every compiled function is compiled and written to it), then warm with a
-folder that an untimed run filled first.  Wall seconds of each, their ratio pair by pair, and
+a new empty folder and ``HOME`` another (Dr.Jit keeps its compiled kernels in ``~/.drjit``):
+every compiled function and kernel is compiled and written there; then warm with folders that
+an untimed run filled first.  ``--device`` is the render's ``BLOCKHASH_DEVICE``; ``--checkout``
+runs another checkout's code (a ``git worktree``) for a render beside an earlier commit's.  Wall seconds of each, their ratio pair by pair, and
 the render's own stages (its ``time:`` line) are printed as median, min and max.
 
-    python tools/cold_start.py scenes/ring.toml --size 256x256 --repeat 5
+    python tools/cold_start.py scenes/ring.toml --size 256x256 --repeat 5 [--device cpu]
+                               [--checkout /tmp/blockhash-d0deb7b]
 
 Nothing else is cleared between runs (Python's ``__pycache__``, the GL driver's shader cache):
 the cold run is the first render after an install whose modules are already byte-compiled.
@@ -27,9 +31,11 @@ from blockhash.studies.command import ToolParser, count, timed, write_json
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def run(command: list[str], cache: Path) -> tuple[float, dict[str, float]]:
-    """(wall seconds, the render's stage seconds) of one run with numba's cache in ``cache``."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
+def run(command: list[str], cache: Path, extra_env: dict | None = None) -> tuple[float, dict[str, float]]:
+    """(wall seconds, the render's stage seconds) of one run with numba's cache in ``cache``
+    and Dr.Jit's under ``cache / "home"``."""
+    (cache / "home").mkdir(parents=True, exist_ok=True)
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), HOME=str(cache / "home"), **(extra_env or {}))
     done, wall = timed(subprocess.run, command, cwd=cache.parent, env=env, capture_output=True,
                        text=True)
     if done.returncode != 0:
@@ -56,6 +62,10 @@ def main(argv=None) -> int:
     parser.add_argument("--photons", type=count,
                         help="photons per pass, passed to blockhash render (default: the scene's)")
     parser.add_argument("--repeat", type=count, default=5, help="cold/warm pairs (default 5)")
+    parser.add_argument("--device", choices=("auto", "cpu", "gpu", "host"), default=None,
+                        help="the render's device (BLOCKHASH_DEVICE; default: the environment's)")
+    parser.add_argument("--checkout", type=Path, default=None,
+                        help="run this checkout's code instead (PYTHONPATH), e.g. a worktree")
     parser.json_output("write every run's figures to this JSON file")
     args = parser.parse_args(argv)
     size = f"{args.size[0]}x{args.size[1]}"
@@ -65,21 +75,29 @@ def main(argv=None) -> int:
     command = [sys.executable, "-m", "blockhash", "render", str(args.scene), "--size", size,
                "-o", str(work / "out.exr")] + (["--photons", str(args.photons)] if args.photons else [])
     runs = {"cold": [], "warm": []}
+    extra = {}
+    if args.device:
+        extra["BLOCKHASH_DEVICE"] = args.device
+    if args.checkout:
+        extra["PYTHONPATH"] = str(args.checkout.resolve())
     try:
         warm_cache = work / "warm"
-        run(command, warm_cache)  # fills the warm cache; untimed
+        run(command, warm_cache, extra)  # fills the warm cache; untimed
         for i in range(args.repeat):
             cold_cache = work / f"cold-{i}"
-            runs["cold"].append(run(command, cold_cache))
+            runs["cold"].append(run(command, cold_cache, extra))
             shutil.rmtree(cold_cache, ignore_errors=True)
-            runs["warm"].append(run(command, warm_cache))
+            runs["warm"].append(run(command, warm_cache, extra))
             print(f"pair {i + 1}: cold {runs['cold'][-1][0]:.2f} s, warm {runs['warm'][-1][0]:.2f} s",
                   file=sys.stderr)
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
     photons = f" --photons {args.photons}" if args.photons else ""
-    print(f"blockhash render {scene} --size {size}{photons}: {args.repeat} pairs, cold then warm")
+    where = f" ({args.checkout})" if args.checkout else ""
+    device = f", device {args.device}" if args.device else ""
+    print(f"blockhash render {scene} --size {size}{photons}{where}{device}: {args.repeat} pairs, "
+          "cold then warm")
     print(f"{'seconds':<22} {'median':>6} {'min':>6} {'max':>6}")
     for kind in ("cold", "warm"):
         print(f"{kind + ' (whole process)':<22} {spread([w for w, _ in runs[kind]])}")
@@ -90,7 +108,9 @@ def main(argv=None) -> int:
         for kind in ("cold", "warm"):
             print(f"{kind + ' ' + stage:<22} {spread([r[1][stage] for r in runs[kind]])}")
     if args.json:
-        write_json(args.json, {"command": command[1:], "runs": runs, "ratios": ratios})
+        write_json(args.json, {"command": command[1:], "device": args.device,
+                               "checkout": str(args.checkout) if args.checkout else None,
+                               "runs": runs, "ratios": ratios})
     return 0
 
 
