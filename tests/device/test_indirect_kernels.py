@@ -74,3 +74,17 @@ def test_the_kernels_indirect_photons_are_the_same_whatever_the_launch():
     assert np.allclose(rows(whole), rows(first, rest), rtol=1e-6, atol=0)
     other = source.emit(30_000, seed=3, start=1 << 44)
     assert not np.array_equal(other.positions[:50], whole.positions[:50])
+
+
+def test_a_launch_that_overflows_its_buffers_runs_again_with_the_same_photons():
+    scene = load_scene(SCENES / "cbox.toml")
+    geometry = EmbreeGeometry(tuple(scene.objects))
+    roomy = IndirectSource(scene, geometry, device="cpu")
+    roomy.kernels.stores_per_photon = 2.0
+    tight = IndirectSource(scene, geometry, device="cpu")
+    tight.kernels.stores_per_photon = 0.0  # room for 1,024: the first launch overflows
+    a = roomy.emit(20_000, seed=4)
+    b = tight.emit(20_000, seed=4)
+    assert len(a) > 1024 and tight.kernels.stores_per_photon > 0.01
+    assert np.array_equal(a.positions, b.positions) and np.array_equal(a.powers, b.powers)
+    assert a.stats["rays_cast"] == b.stats["rays_cast"]
