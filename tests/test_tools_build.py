@@ -13,7 +13,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import TOOLS_DIR, run_tool
+from conftest import TOOLS_DIR, mitsuba_or_skip, run_tool
 
 from blockhash.evaluate.images import read_attribute, read_layers
 from blockhash.evaluate.testing import assert_images_close
@@ -171,3 +171,36 @@ def test_gpu_bench_fails_when_a_step_fails(tmp_path):
     run = subprocess.run(["bash", str(TOOLS_DIR / "gpu_bench.sh")], cwd=tmp_path, env=env,
                          capture_output=True, text=True, timeout=300)
     assert run.returncode == 1 and "done, with failed steps" in run.stderr
+
+
+def test_gpu_bench_rehearses_its_photon_step_on_the_cpu_kernels(tmp_path):
+    """The photons step on this machine's Dr.Jit CPU device, tiny: tracing alone beside
+    Mitsuba's ptracer (tools/trace_speed.py) and whole passes in one process and on a worker
+    (tools/device_pass.py)."""
+    from blockhash.device.choice import resolve
+    from blockhash.errors import InputError
+
+    mitsuba_or_skip()
+    try:
+        resolve("cpu")
+    except InputError as exc:
+        pytest.skip(f"no Dr.Jit CPU device here: {exc}")
+    env = dict(os.environ, SMALL="1", OUT=str(tmp_path / "out"), STEPS="photons",
+               CAUSTIC="5000", REPEAT="1", SIZE="32", WORKERS="1")
+    env["PATH"] = f"{os.path.dirname(sys.executable)}{os.pathsep}{env['PATH']}"
+    run = subprocess.run(["bash", str(TOOLS_DIR / "gpu_bench.sh")], cwd=tmp_path, env=env,
+                         capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr[-3000:]
+    out = tmp_path / "out"
+    speed = json.loads((out / "trace_speed.json").read_text())["rows"]
+    assert [r["scene"] for r in speed] == ["ring", "sun", "cbox"]
+    assert all(r["kernels"]["device"] == "cpu" and r["kernels"]["stored"] == 5000 for r in speed)
+    passes = json.loads((out / "device_pass.json").read_text())["rows"]
+    assert [(r["scene"], r["workers"]) for r in passes] == [
+        ("ring", 0), ("ring", 1), ("venus", 0), ("venus", 1), ("cbox", 0), ("cbox", 1)]
+    for r in passes:
+        assert r["device"] == "cpu" and r["stored"] > 0 and r["stored_per_photon_s"] > 0
+    # the same passes' photons in one process as on a worker
+    by = {(r["scene"], r["workers"]): r["stored"] for r in passes}
+    assert all(by[(s, 0)] == by[(s, 1)] for s in ("ring", "venus", "cbox"))
+    assert "== done: " in run.stderr

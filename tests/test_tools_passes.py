@@ -294,3 +294,15 @@ def test_gpu_conformance_counts_values_beyond_tolerance_and_non_finite_ones():
     off[0, 0, 0] = np.nan
     row = tool.compare(off, cpu)
     assert not row["gl_finite"] and not row["ok"]
+
+
+@pytest.mark.gl
+def test_device_pass_writes_each_process_count_on_the_host_tracer(tmp_path):
+    out = tmp_path / "device.json"
+    text = run_tool("device_pass.py", ["--scenes", "ring", "--size", "16", "--photons", "3000",
+                                       "--passes", "2", "--workers", "0", "--device", "host",
+                                       "--json", out], tmp_path)
+    [row] = json.loads(out.read_text())["rows"]
+    assert (row["scene"], row["workers"], row["passes"], row["device"]) == ("ring", 0, 2, "host")
+    assert row["stored"] > 5000 and row["photon_stages_s"] > 0 and row["wall_s"] > 0
+    assert "| ring | 1 (in process) | 2 | host |" in text

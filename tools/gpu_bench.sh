@@ -12,10 +12,14 @@
 # kd-tree shader and cKDTree, same run), bench_k.txt/.json (k at A = 8), bench_1m.txt/.json
 # (1,048,576 queries; the walk beside hashing the same tables), caustic.txt/.json (the ring's
 # caustic pass per stage at 10^6 photons, and with the k-nearest estimate beside the default),
-# tests.txt (the GL lookup tests: every variant equals the CPU reference on this device).
+# tests.txt (the GL lookup tests: every variant equals the CPU reference on this device),
+# trace_speed.txt/.json and device_pass.txt/.json (the photons on DEVICE, default gpu there and
+# cpu elsewhere: tracing alone beside Mitsuba's ptracer, and whole passes' photon stages in one
+# process and on 1, 4 and 16 local workers; the wheels of Mitsuba and drjit must be in .whl/,
+# ../shared/gpu/README.md).
 # Figures: min and median of REPEAT back-to-back draws after WARMUP draws of the same program,
 # GPU time (GL timer queries) beside wall time, with the renderer and driver in every row.
-# STEPS (default device,A,k,1m,caustic,tests) names the steps to run; every step runs even
+# STEPS (default device,A,k,1m,caustic,tests,photons) names the steps to run; every step runs even
 # when one before it failed, and the exit status is 1 when any failed.
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd); cd "$root"
@@ -23,20 +27,26 @@ OUT=$(mkdir -p "${OUT:-out/gpu_bench}" && cd "${OUT:-out/gpu_bench}" && pwd)
 if [ "${SMALL:-0}" = 1 ]; then
   PHOTONS=${PHOTONS:-100000} QUERIES=${QUERIES:-16384} BIG=${BIG:-65536}
   CAUSTIC=${CAUSTIC:-100000} REPEAT=${REPEAT:-3} AS=${AS:-1,8} KS=${KS:-8,50}
+  SIZE=${SIZE:-128} WORKERS=${WORKERS:-1,2}
 else
   PHOTONS=${PHOTONS:-1000000} QUERIES=${QUERIES:-262144} BIG=${BIG:-1048576}
   CAUSTIC=${CAUSTIC:-1000000} REPEAT=${REPEAT:-15} AS=${AS:-1,2,4,8,16} KS=${KS:-8,16,32,50}
+  SIZE=${SIZE:-512} WORKERS=${WORKERS:-1,4,16}
 fi
 WARMUP=${WARMUP:-3}
-STEPS=",${STEPS:-device,A,k,1m,caustic,tests},"
+STEPS=",${STEPS:-device,A,k,1m,caustic,tests,photons},"
 failed=0
 trap 'failed=1' ERR
 if [ -f .whl/run.sh ] && command -v nvidia-smi >/dev/null; then
   bh() { bash .whl/run.sh "$@"; }                     # the installed wheel, NVIDIA's EGL
+  py() { bash .whl/run.sh python3 "$@"; }
+  DEVICE=${DEVICE:-gpu}
   tests() { bash .whl/run.sh pytest -q "$root/tests/gl/test_gl_lookup.py" "$root/tests/frame/test_caustic.py"; }
   nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv > "$OUT/device.txt"
 else
   bh() { python -m blockhash "$@"; }                 # this checkout, the local GL
+  py() { python "$@"; }
+  DEVICE=${DEVICE:-cpu}
   tests() { python -m pytest -q -p no:cacheprovider tests/gl/test_gl_lookup.py -k "backends or register"; }
   : > "$OUT/device.txt"
 fi
@@ -71,6 +81,13 @@ fi
 if wanted tests; then
 step "GL lookup tests"
 tests > "$OUT/tests.txt" 2>&1; tail -n 3 "$OUT/tests.txt"
+fi
+if wanted photons; then
+step "photons on $DEVICE: tracing alone, then whole passes at $SIZE x $SIZE, $CAUSTIC photons"
+py "$root/tools/trace_speed.py" --scenes ring,sun,cbox --photons "$CAUSTIC" --size "$SIZE" \
+   --repeat "$REPEAT" --device "$DEVICE" --json "$OUT/trace_speed.json" | tee "$OUT/trace_speed.txt"
+py "$root/tools/device_pass.py" --scenes ring,venus,cbox --size "$SIZE" --photons "$CAUSTIC" \
+   --workers "$WORKERS" --device "$DEVICE" --json "$OUT/device_pass.json" | tee "$OUT/device_pass.txt"
 fi
 if [ "$failed" = 0 ]; then step "done: $OUT"; else step "done, with failed steps: $OUT"; fi
 exit "$failed"
