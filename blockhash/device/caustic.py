@@ -34,8 +34,10 @@ from blockhash.photons.paths import (
     Batch,
 )
 
-#: Photons a launch traces at most (the kernels' arrays: about 100 bytes a photon).
-LAUNCH = 1 << 20
+#: Photons a launch traces at most (the kernels' arrays: about 70 bytes a photon, freed
+#: before the next): 131,072 keeps them small beside a pass's map, at the
+#: speed of larger launches.
+LAUNCH = 1 << 17
 #: The fate of a photon still travelling.
 TRAVELLING = 255
 
@@ -135,7 +137,7 @@ def _trace(geo, max_bounces, o, d, w, rng):
     depth = dr.zeros(mi.UInt32, n)
     fallbacks = dr.zeros(mi.UInt32, n)
     rays = dr.zeros(mi.UInt32, n)
-    p_out, n_out, g_out = dr.zeros(mi.Point3f, n), dr.zeros(mi.Vector3f, n), dr.zeros(mi.Vector3f, n)
+    p_out, n_out = dr.zeros(mi.Point3f, n), dr.zeros(mi.Vector3f, n)
     obj_out = dr.zeros(mi.UInt32, n)
     while active:
         rays += 1
@@ -151,8 +153,7 @@ def _trace(geo, max_bounces, o, d, w, rng):
         fate = dr.select(back, ABSORBED, fate)
         store = diffuse & (depth > 0) & ~back
         fate = dr.select(store, STORED, fate)
-        p_out, n_out, g_out = dr.select(store, p, p_out), dr.select(store, ns, n_out), \
-            dr.select(store, ng, g_out)
+        p_out, n_out = dr.select(store, p, p_out), dr.select(store, ns, n_out)
         obj_out = dr.select(store, obj, obj_out)
         spec = hit & (kind != DIFFUSE)
         fate = dr.select(spec & (depth >= max_bounces), MAX_BOUNCES, fate)
@@ -168,7 +169,7 @@ def _trace(geo, max_bounces, o, d, w, rng):
         d = dr.select(go, dr.normalize(r), d)
         depth += dr.select(go, 1, 0)
         active = go
-    return fate, fallbacks, rays, depth, p_out, d, n_out, g_out, w, obj_out
+    return fate, fallbacks, rays, depth, p_out, d, n_out, w, obj_out
 
 
 class DeviceCausticTracer:
@@ -194,19 +195,29 @@ class DeviceCausticTracer:
         o, d, w, light = self.emitter.sample(rng)
         out = self._kernel(self.geometry, self.max_bounces, o, d, w, rng)
         dr.eval(out, light)  # one launch: each array read before would run the loop again
-        fate, fallbacks, rays, depth, p, d, n, g, w, obj = out
+        fate, fallbacks, rays, depth, p, d, n, w, obj = out
+        del out
         idx = dr.compress(fate == STORED)
         m = dr.width(idx)
-        vectors = [dr.ravel(dr.gather(type(v), v, idx)) for v in (p, d, n, w, g)]
+        vectors = [dr.ravel(dr.gather(type(v), v, idx)) for v in (p, d, n, w)]
         scalars = [dr.gather(mi.UInt32, a, idx) for a in (depth, obj)]
         total = dr.sum(rays)
         dr.eval(vectors, scalars, total)
-        pos, dirs, nrm, wts, geo_n = (np.asarray(v).reshape(m, 3).astype(STORED_FLOAT, copy=False)
-                                      for v in vectors)
+        del p, d, n, w, obj, depth, rays  # the launch's arrays, before the host's copies
+        columns = []
+        while vectors:  # each column's device array let go once copied
+            columns.append(np.asarray(vectors.pop(0)).reshape(m, 3).astype(STORED_FLOAT, copy=False))
+        pos, dirs, nrm, wts = columns
+        # The geometric normals are the light tracer's (the host's batches); a map keeps none.
         batch = Batch(fate=np.asarray(fate).astype(np.int8),
                       fallbacks=np.asarray(fallbacks).astype(np.uint16),
                       stored=np.asarray(idx).astype(np.int64), positions=pos, directions=dirs,
                       normals=nrm, weights=wts, depth=np.asarray(scalars[0]).astype(np.uint8),
                       rays=int(total[0]), objects=np.asarray(scalars[1]).astype(STORED_OBJECT),
-                      geo_normals=geo_n)
-        return batch, np.asarray(light).astype(np.int64)
+                      geo_normals=np.zeros((0, 3), dtype=STORED_FLOAT))
+        light = np.asarray(light).astype(np.int64)
+        del fate, fallbacks, idx, scalars
+        # Dr.Jit keeps freed arrays for reuse: given back here, they would stay in the
+        # process's memory beside the pass's index and radii
+        dr.flush_malloc_cache()
+        return batch, light

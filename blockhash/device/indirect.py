@@ -41,9 +41,9 @@ class DeviceIndirectTracer:
         self.geometry = DeviceGeometry(source.geometry, device)
         self.max_events = int(source.max_events)
         self.counter = int(source.counter)
-        #: Photons a launch traces at most (the host's batch four times over: a few hundred
-        #: bytes each in flight).
-        self.launch = 4 * int(source.batch_size)
+        #: Photons a launch traces at most (the host's batch: its buffers a few tens of bytes a
+        #: stored photon, given back after each launch).
+        self.launch = int(source.batch_size)
         lights = source.lights
         self.lights = LightTables(lights, source.scene.bounds, device)
         n = len(lights)
@@ -156,7 +156,10 @@ class DeviceIndirectTracer:
             return []
         order = np.argsort(np.asarray(out[1])[:m], kind="stable")
         cols = [np.asarray(b).reshape(-1, 3)[:m][order] for b in out[2:6]]
-        return [(*cols, np.asarray(out[6])[:m][order].astype(np.int32))]
+        objects = np.asarray(out[6])[:m][order].astype(np.int32)
+        del out, end, rays, rng, o, d, w
+        dr.flush_malloc_cache()  # Dr.Jit's freed buffers back to the system, not kept for reuse
+        return [(*cols, objects)]
 
 
 #: How a photon's path ended (per photon, counted after the loop).
