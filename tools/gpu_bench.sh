@@ -15,8 +15,7 @@
 # tests.txt (the GL lookup tests: every variant equals the CPU reference on this device),
 # trace_speed.txt/.json and device_pass.txt/.json (the photons on DEVICE, default gpu there and
 # cpu elsewhere: tracing alone beside Mitsuba's ptracer, and whole passes' photon stages in one
-# process and on 1, 4 and 16 local workers; the wheels of Mitsuba and drjit must be in .whl/,
-# ../shared/gpu/README.md).
+# process and on 1, 4 and 16 local workers; the wheels of Mitsuba and drjit must be in .whl/).
 # Figures: min and median of REPEAT back-to-back draws after WARMUP draws of the same program,
 # GPU time (GL timer queries) beside wall time, with the renderer and driver in every row.
 # STEPS (default device,A,k,1m,caustic,tests,photons) names the steps to run; every step runs even
