@@ -28,7 +28,7 @@ from blockhash.frame.photon_radius import exact_radii2, own_radii2
 from blockhash.frame.shading import SceneRays, shading_points
 from blockhash.frame.subpixel import box_filter, raycast_gbuffer
 from blockhash.photons.tracing import trace_caustic_photons
-from blockhash.scene.camera import SPP_SEED, spp_side
+from blockhash.scene.camera import SPP_SEED, spp_grid
 from blockhash.scene.loader import load_scene
 from blockhash.scene.materials import receiver_materials
 from blockhash.scene.model import MirrorMaterial
@@ -76,7 +76,7 @@ def main(argv=None) -> int:
     a = p.parse_args(argv)
     if a.times_only:
         return times_only(a.scenes, a.photons, a.repeat)
-    side_ = spp_side(a.spp)
+    grid = spp_grid(a.spp)
     for path in a.scenes:
         scene = load_scene(path)
         if a.size:
@@ -93,12 +93,12 @@ def main(argv=None) -> int:
               f"{ratio.mean():.4f}, median {np.median(ratio):.4f}, p99 "
               f"{np.percentile(ratio, 99):.4f}, same {np.mean(abs(ratio - 1) < 1e-6):.1%}")
         rays = SceneRays(scene.objects)
-        g = raycast_gbuffer(scene.camera, rays, samples=side_, seed=SPP_SEED)
+        g = raycast_gbuffer(scene.camera, rays, samples=grid, seed=SPP_SEED)
         points = shading_points(scene.camera, g, scene.objects, rays, (MirrorMaterial,))
         images = {}
         for name, radii in (("own", own_radii2), ("exact", exact_radii2)):
             img = CausticPass(index, radii=radii).render(points, receiver_materials(scene.objects))
-            images[name] = box_filter(img, side_)
+            images[name] = box_filter(img, grid)
             m = measure(images[name], ref.radiance, mask, region)
             print(f"  {name:>5} radii: flux {m['flux']:.4f}  blurred rel. RMS "
                   f"{m['blur_region']:.4f}")

@@ -104,8 +104,7 @@ def add_reference(sub) -> None:
     p.add_argument("scene")
     p.add_argument("-o", "--output", help="EXR path (default: SCENE-NAME.reference.exr here)")
     p.add_argument("--engine", choices=("blockhash", "mitsuba"), default="blockhash")
-    p.add_argument("--spp", type=int, default=64, help="samples per pixel (default 64; a "
-                   "square number with --engine blockhash)")
+    p.add_argument("--spp", type=int, default=64, help="samples per pixel (default 64)")
     p.add_argument("--photons", type=int, default=10_000_000,
                    help="photons the light tracer shoots (--engine blockhash; default 10^7)")
     p.add_argument("--size", type=size, help="image size WIDTHxHEIGHT (default: the camera's)")

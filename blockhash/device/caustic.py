@@ -80,6 +80,24 @@ def _fresnel(dr, cos_i, eta):
     return dr.select((sin2_t >= 1.0) | (a == 0.0) | (b == 0.0), 1.0, 0.5 * (rs * rs + rp * rp))
 
 
+def _conductor(dr, cos_i, eta, k):
+    """The host's conductor Fresnel reflectance (:func:`blockhash.scene.optics.conductor_fresnel`)
+    of each channel of ``eta`` and ``k`` (Color3f) at ``cos_i``."""
+    c = dr.clip(cos_i, 0.0, 1.0)
+    c2 = c * c
+    s2 = 1.0 - c2
+    t0 = eta * eta - k * k - s2
+    a2b2 = dr.sqrt(t0 * t0 + 4.0 * eta * eta * k * k)
+    a = dr.safe_sqrt(0.5 * (a2b2 + t0))
+    t1 = a2b2 + c2
+    t2 = 2.0 * c * a
+    rs = (t1 - t2) / (t1 + t2)
+    t3 = c2 * a2b2 + s2 * s2
+    t4 = t2 * s2
+    rp = dr.select(t3 + t4 > 0.0, rs * (t3 - t4) / dr.maximum(t3 + t4, 1e-30), rs)
+    return 0.5 * (rs + rp)
+
+
 def _refract(dr, d, n, eta):
     """(unit refracted direction, total internal reflection) of ``d`` at normal ``n`` facing
     it (:func:`blockhash.photons.bounce._refract`)."""
@@ -106,6 +124,11 @@ def specular_event(geo, d, ns, ng, outer, obj, kind, rng, active):
     wrong = dr.dot(r, ng) <= 0.0
     r = dr.select(wrong, _reflect(dr, d, ng), r)
     factor = dr.select(mirror, dr.gather(mi.Color3f, geo.reflectance, obj, mirror), 1.0)
+    if geo.any_conductor:
+        metal = mirror & (dr.gather(mi.UInt32, geo.conductor, obj, mirror) != 0)
+        fresnel = _conductor(dr, -dr.dot(d, ns), dr.gather(mi.Color3f, geo.eta, obj, metal),
+                             dr.gather(mi.Color3f, geo.k, obj, metal))
+        factor = dr.select(metal, factor * fresnel, factor)
     side = dr.ones(mi.Float, dr.width(active))
     if geo.any_glass:
         glass = active & (kind == GLASS)

@@ -1,5 +1,5 @@
 """The camera's shading points of a render or of one of its passes: :func:`camera_points`
-(S x S samples per pixel) and :func:`camera_samples` (pass p's, with where the camera sees
+(S x S or rows x cols samples per pixel) and :func:`camera_samples` (pass p's, with where the camera sees
 the point directly), and :func:`only` (points outside a mask shading nothing)."""
 
 from __future__ import annotations
@@ -10,42 +10,38 @@ import numpy as np
 
 from blockhash.frame.gbuffer import rasterize
 from blockhash.frame.shading import SceneRays, shading_points
-from blockhash.frame.subpixel import film_gbuffer, pass_offsets, raycast_gbuffer
-from blockhash.scene.camera import SPP_SEED, Pinhole, jitter_seed
+from blockhash.frame.subpixel import film_gbuffer, pass_points, raycast_gbuffer
+from blockhash.scene.camera import SPP_SEED, Pinhole, grid_of
 from blockhash.scene.model import MirrorMaterial
 
 
-def camera_points(scene, rays: SceneRays, side: int, *, size=None, backend=None,
+def camera_points(scene, rays: SceneRays, samples, *, size=None, backend=None,
                   both_branches: bool = True, seed: int = SPP_SEED):
-    """The camera's shading points at ``side`` x ``side`` samples per pixel: the rasterised
-    pixel centres for one, else stratified jitter cast with ``rays`` (``seed``); mirrors and
-    glass followed, glass on both branches unless ``both_branches`` is False
+    """The camera's shading points at ``samples`` per pixel (S for S x S, or ``(rows, cols)``):
+    the rasterised pixel centres for one, else stratified jitter cast with ``rays`` (``seed``);
+    mirrors and glass followed, glass on both branches unless ``both_branches`` is False
     (:func:`.shading.shading_points`)."""
-    if side == 1:
+    if grid_of(samples) == (1, 1):
         gbuf = rasterize(scene.camera, scene.objects, size=size, backend=backend)
     else:
-        gbuf = raycast_gbuffer(scene.camera, rays, size=size, samples=side, seed=seed)
+        gbuf = raycast_gbuffer(scene.camera, rays, size=size, samples=samples, seed=seed)
     return _shade(scene, rays, gbuf, both_branches)
 
 
-def camera_samples(scene, rays: SceneRays, side: int, pass_index: int, *, backend=None):
-    """The shading points of pass ``pass_index`` at ``side`` x ``side`` samples per pixel,
-    and a bool array of their shape: the camera saw the point directly (its first hit is not
-    a mirror or glass).
+def camera_samples(scene, rays: SceneRays, samples, pass_index: int, *, backend=None):
+    """The shading points of pass ``pass_index`` at ``samples`` per pixel (S for S x S, or
+    ``(rows, cols)``), and a bool array of their shape: the camera saw the point directly (its
+    first hit is not a mirror or glass).
 
     Pass 0 is :func:`camera_points`' layout (the one-pass render's).  Later passes take one
-    sample per pixel from :func:`.subpixel.pass_offsets`, or S x S stratified jitter under a
-    seed of their own (:func:`blockhash.scene.camera.jitter_seed`).
+    sample per pixel from :func:`.subpixel.pass_offsets`, or stratified jitter under a seed
+    of their own (:func:`blockhash.scene.camera.jitter_seed`): :func:`.subpixel.pass_points`.
     """
-    if side == 1 and pass_index == 0:
+    if grid_of(samples) == (1, 1) and pass_index == 0:
         gbuf = rasterize(scene.camera, scene.objects, backend=backend)
-    elif side == 1:
-        pin = Pinhole.of(scene.camera)
-        u, v = pass_offsets(pin.width, pin.height, pass_index, SPP_SEED)
-        gbuf = film_gbuffer(pin, rays, np.arange(pin.width)[None, :] + u,
-                            np.arange(pin.height)[:, None] + v)
     else:
-        gbuf = raycast_gbuffer(scene.camera, rays, samples=side, seed=jitter_seed(pass_index))
+        pin = Pinhole.of(scene.camera)
+        gbuf = film_gbuffer(pin, rays, *pass_points(pin.width, pin.height, samples, pass_index))
     points = _shade(scene, rays, gbuf, True)
     specular = np.array([o.is_specular for o in scene.objects] + [False])
     seen = ~specular[gbuf.object.reshape(-1)]  # object -1 (nothing hit): the last entry

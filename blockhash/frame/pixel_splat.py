@@ -26,13 +26,17 @@ import numpy as np
 from blockhash.scene.materials import material_arrays, phong_brdf
 
 
-def splat_subpixel(photons, r2: np.ndarray, pin, rays, materials, *, footprint: float):
+def splat_subpixel(photons, r2: np.ndarray, pin, rays, materials, *, footprint: float,
+                   spread=None):
     """``(image, keep)``: the (h, w, 3) float64 pixel means of the photons splatted (module
     docstring) and the (n,) bool mask of the photons left to the gather.
 
     ``photons``: a pass's ``CausticPhotons`` with their receiving ``objects``; ``r2`` their
     squared own radii (input order); ``pin``: the camera (:class:`blockhash.scene.camera.Pinhole`);
-    ``rays``: :class:`.shading.SceneRays` of the scene; ``materials``: the receiver table.
+    ``rays``: :class:`.shading.SceneRays` of the scene; ``materials``: the receiver table;
+    ``spread``: None (each photon in the pixel it projects to: the box filter), or
+    ``spread(x, y, contrib)`` -> (h w, 3), the pixels of contributions at film points
+    ``(x, y)`` under the camera's filter (:func:`.film_filter.spread`).
     """
     n = len(photons.positions)
     image = np.zeros((pin.height * pin.width, 3))
@@ -42,7 +46,8 @@ def splat_subpixel(photons, r2: np.ndarray, pin, rays, materials, *, footprint: 
     material = material_arrays(materials)
     for first in range(0, n, CHUNK):  # float64 working arrays of CHUNK photons at a time
         rows = slice(first, min(n, first + CHUNK))
-        _splat_rows(photons, rows, r2[rows], pin, rays, material, footprint, image, keep[rows])
+        _splat_rows(photons, rows, r2[rows], pin, rays, material, footprint, image, keep[rows],
+                    spread)
     return image.reshape(pin.height, pin.width, 3), keep
 
 
@@ -51,7 +56,8 @@ def splat_subpixel(photons, r2: np.ndarray, pin, rays, materials, *, footprint: 
 CHUNK = 1 << 17
 
 
-def _splat_rows(photons, rows: slice, r2, pin, rays, material, footprint, image, keep) -> None:
+def _splat_rows(photons, rows: slice, r2, pin, rays, material, footprint, image, keep,
+                spread) -> None:
     """Add the splat of ``photons[rows]`` to ``image`` (flat, (h w, 3)); clear ``keep`` (that
     slice of the map's mask) where a photon is splatted."""
     x = np.asarray(photons.positions[rows], np.float64)
@@ -77,6 +83,10 @@ def _splat_rows(photons, rows: slice, r2, pin, rays, material, footprint, image,
                    ks[obj], e[obj])
     weight = cos_x / (pin.pixel_area * cos_c ** 3 * d2[idx])
     contrib = np.asarray(photons.powers[rows][idx], np.float64) * f * weight[:, None]
-    for c in range(3):
-        image[:, c] += np.bincount(pix, contrib[:, c], minlength=len(image))
+    if spread is None:
+        for c in range(3):
+            image[:, c] += np.bincount(pix, contrib[:, c], minlength=len(image))
+    else:
+        fx, fy, _ = pin.film_coords(x[idx])
+        image += spread(fx, fy, contrib)
     keep[idx] = False

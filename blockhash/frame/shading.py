@@ -117,7 +117,7 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
         r = 2.0 * np.sum(n * wi, axis=1, keepdims=True) * n - wi
         side = np.ones(len(idx))
         m = mirror[obj[idx]]
-        weight[idx[m]] *= reflectance[obj[idx[m]]]
+        weight[idx[m]] *= reflectance(obj[idx[m]], np.sum(n[m] * wi[m], axis=1))
         g = ~m
         if g.any():
             gi = idx[g]
@@ -174,15 +174,42 @@ def _follow(rays: SceneRays, pos, nrm, dirs, side):
     return p, sn, np.where(hit, o, -1), out_side
 
 
+class MirrorReflectance:
+    """Per object, and one more entry for "nothing hit": what a mirror reflects of a ray
+    arriving at ``cos_i`` to its normal, its ``reflectance`` times a conductor's Fresnel
+    reflectance (:class:`blockhash.scene.materials.MirrorMaterial`)."""
+
+    def __init__(self, objects):
+        n = len(objects) + 1
+        self.reflectance = np.ones((n, 3))
+        self.conductor = np.zeros(n, dtype=bool)
+        self.eta, self.k = np.ones((n, 3)), np.zeros((n, 3))
+        for i, o in enumerate(objects):
+            self.reflectance[i] = getattr(o.material, "reflectance", np.ones(3))
+            if getattr(o.material, "is_conductor", False):
+                self.conductor[i] = True
+                self.eta[i], self.k[i] = o.material.eta, o.material.k
+
+    def __call__(self, obj, cos_i) -> np.ndarray:
+        """(m, 3): the factors of rays on objects ``obj`` (m,) at ``cos_i`` (m,)."""
+        from blockhash.scene.optics import conductor_fresnel
+
+        out = self.reflectance[obj].copy()
+        metal = self.conductor[obj]
+        if metal.any():
+            c = np.asarray(cos_i, dtype=np.float64)[metal, None]
+            out[metal] *= conductor_fresnel(c, self.eta[obj[metal]], self.k[obj[metal]])
+        return out
+
+
 def _surface_tables(objects, mirror_types):
     """Per object, and one more entry for "nothing hit" (index -1): glass, mirror, specular
-    masks, reflectance (n, 3), ior (n,) and tint (n, 3)."""
+    masks, the mirrors' :class:`MirrorReflectance`, ior (n,) and tint (n, 3)."""
     from blockhash.scene.model import DielectricMaterial
 
     glass = np.array([isinstance(o.material, DielectricMaterial) for o in objects] + [False])
     mirror = np.array([isinstance(o.material, mirror_types) for o in objects] + [False]) & ~glass
-    reflectance = np.array([getattr(o.material, "reflectance", np.ones(3)) for o in objects]
-                           + [np.ones(3)], dtype=np.float64)
+    reflectance = MirrorReflectance(objects)
     ior = np.array([getattr(o.material, "ior", 1.0) for o in objects] + [1.0])
     tint = np.array([getattr(o.material, "tint", np.ones(3)) for o in objects] + [np.ones(3)],
                     dtype=np.float64).reshape(-1, 3)
@@ -228,7 +255,8 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
         g = glass[obj]
         f = np.ones(len(obj))
         f[g] = fresnel(-np.sum(d[g] * nrm[g], axis=1), np.where(outer[g], 1.0 / ior[obj[g]], ior[obj[g]]))
-        w_refl = weight * np.where(g, f, 1.0)[:, None] * np.where(g[:, None], 1.0, reflectance[obj])
+        w_refl = weight * np.where(g, f, 1.0)[:, None] * np.where(
+            g[:, None], 1.0, reflectance(obj, -np.sum(d * nrm, axis=1)))
         through = np.flatnonzero(g & (f < 1.0))
         t_dir, t_through, t_factor = scatter(d[through], nrm[through], nrm[through], outer[through],
                                              ior[obj[through]], tint[obj[through]],

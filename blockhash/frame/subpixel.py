@@ -21,62 +21,67 @@ import numpy as np
 
 from blockhash.errors import InputError
 from blockhash.frame.gbuffer import GBuffer
-from blockhash.scene.camera import Pinhole
+from blockhash.scene.camera import SPP_SEED, Pinhole, grid_of, jitter_seed
 from blockhash.validate import as_int
 
 
-def box_filter(image: np.ndarray, side: int) -> np.ndarray:
-    """(h * S, w * S, ...) samples -> (h, w, ...) pixel means (the box filter), float32."""
-    if side == 1:
+def box_filter(image: np.ndarray, samples) -> np.ndarray:
+    """(h * rows, w * cols, ...) samples -> (h, w, ...) pixel means (the box filter), float32;
+    ``samples`` the layout, S (S x S) or ``(rows, cols)``."""
+    rows, cols = grid_of(samples)
+    if rows == cols == 1:
         return np.asarray(image, dtype=np.float32)
     hs, ws = image.shape[:2]
-    blocks = np.asarray(image, dtype=np.float64).reshape(hs // side, side, ws // side, side,
+    blocks = np.asarray(image, dtype=np.float64).reshape(hs // rows, rows, ws // cols, cols,
                                                          *image.shape[2:])
     return blocks.mean(axis=(1, 3)).astype(np.float32)
 
 
-def subpixel_points(width: int, height: int, samples: int, seed: int | None = None, *,
+def subpixel_points(width: int, height: int, samples, seed: int | None = None, *,
                     pixels=None):
-    """Film coordinates ``(x, y)`` of S x S points per pixel, each (height * S, width * S).
+    """Film coordinates ``(x, y)`` of rows x cols points per pixel, each
+    (height * rows, width * cols); ``samples`` S (S x S) or ``(rows, cols)``
+    (:func:`blockhash.scene.camera.spp_grid`).
 
     ``x`` runs from the left edge and ``y`` from the top, in pixels, so that pixel (row, col)
-    covers [col, col + 1) x [row, row + 1).  Point (row * S + i, col * S + j) lies in cell
-    (i, j) of pixel (row, col), the cell [col + j / S, col + (j + 1) / S) x [row + i / S, ...):
+    covers [col, col + 1) x [row, row + 1).  Point (row * R + i, col * C + j) lies in cell
+    (i, j) of pixel (row, col), the cell [col + j / C, col + (j + 1) / C) x [row + i / R, ...):
     at its centre when ``seed`` is None (the regular grid the rasteriser samples), else
     uniform inside it (stratified jitter), the same points for the same seed.
 
-    ``pixels`` ((P, 2) ints, rows and columns): only those pixels, (P * S, S), the points of
-    pixel p in rows p * S to p * S + S - 1 (cell (i, j) at row p * S + i, column j).
+    ``pixels`` ((P, 2) ints, rows and columns): only those pixels, (P * R, C), the points of
+    pixel p in rows p * R to p * R + R - 1 (cell (i, j) at row p * R + i, column j).
     """
     width = as_int(width, "width", minimum=1)
     height = as_int(height, "height", minimum=1)
-    s = as_int(samples, "samples", minimum=1, hint="use at least one shading point per pixel")
+    r, c = grid_of(samples)
     if pixels is None:
-        rows = np.repeat(np.arange(height), s)[:, None]
-        cols = np.repeat(np.arange(width), s)[None, :]
-        shape = (height * s, width * s)
+        rows = np.repeat(np.arange(height), r)[:, None]
+        cols = np.repeat(np.arange(width), c)[None, :]
+        shape = (height * r, width * c)
     else:
         px = np.asarray(pixels, dtype=np.int64).reshape(-1, 2)
         if (px < 0).any() or (px[:, 0] >= height).any() or (px[:, 1] >= width).any():
             raise InputError(f"pixels must lie inside the {width} x {height} image")
-        rows = np.repeat(px[:, 0], s)[:, None]
-        cols = np.broadcast_to(px[:, 1].repeat(s)[:, None], (len(px) * s, 1))
-        shape = (len(px) * s, s)
-    i = (np.arange(shape[0]) % s)[:, None]
-    j = (np.arange(shape[1]) % s)[None, :]
+        rows = np.repeat(px[:, 0], r)[:, None]
+        cols = np.broadcast_to(px[:, 1].repeat(r)[:, None], (len(px) * r, 1))
+        shape = (len(px) * r, c)
+    i = (np.arange(shape[0]) % r)[:, None]
+    j = (np.arange(shape[1]) % c)[None, :]
     if seed is None:
         u = v = np.full(shape, 0.5)
     else:
         rng = np.random.default_rng(as_int(seed, "seed", minimum=0))
         u, v = rng.random(shape), rng.random(shape)
-    return cols + (j + u) / s, rows + (i + v) / s
+    return cols + (j + u) / c, rows + (i + v) / r
 
 
-def raycast_gbuffer(camera, rays, *, size=None, samples: int = 1, seed: int | None = None,
+def raycast_gbuffer(camera, rays, *, size=None, samples=1, seed: int | None = None,
                     pixels=None) -> GBuffer:
-    """The G-buffer of :func:`.gbuffer.rasterize` at (width * S, height * S), by ray casting
-    through :func:`subpixel_points` (``rays`` a :class:`.shading.SceneRays` of the scene);
-    with ``pixels``, only theirs, (P * S, S) as :func:`subpixel_points` lays them out.
+    """The G-buffer of :func:`.gbuffer.rasterize` at (width * cols, height * rows), by ray
+    casting through :func:`subpixel_points` (``samples`` S or ``(rows, cols)``; ``rays`` a
+    :class:`.shading.SceneRays` of the scene); with ``pixels``, only theirs, (P * rows, cols)
+    as :func:`subpixel_points` lays them out.
 
     Normals face the camera as the rasteriser turns them; rays that miss get object -1.
     """
@@ -122,3 +127,18 @@ def pass_offsets(width: int, height: int, pass_index: int, seed: int):
     u = np.mod(shift[0] + p * R2_STEP[0], 1.0)
     v = np.mod(shift[1] + p * R2_STEP[1], 1.0)
     return u, v
+
+
+def pass_points(width: int, height: int, samples, pass_index: int):
+    """Film coordinates ``(x, y)`` of pass ``pass_index``'s samples, as
+    :func:`blockhash.frame.camera_samples.camera_samples` casts them (``samples`` S or
+    (rows, cols)): the pixel centres for one
+    sample in pass 0 (the rasteriser's), the pass's R2 offsets for one sample in a later pass,
+    else the pass's stratified jitter."""
+    rows, cols = grid_of(samples)
+    if rows == cols == 1 and pass_index == 0:
+        return subpixel_points(width, height, 1)
+    if rows == cols == 1:
+        u, v = pass_offsets(width, height, pass_index, SPP_SEED)
+        return np.arange(width)[None, :] + u, np.arange(height)[:, None] + v
+    return subpixel_points(width, height, (rows, cols), jitter_seed(pass_index))

@@ -23,16 +23,17 @@ import numpy as np
 from blockhash.errors import InputError, NonFiniteError
 from blockhash.frame.camera_samples import camera_points
 from blockhash.frame.estimate import EstimateOptions
+from blockhash.frame.film_filter import filtered
 from blockhash.frame.options import LookupOptions
 from blockhash.frame.result import RenderResult  # noqa: F401 (importable from here)
 from blockhash.frame.shading import SceneRays, direct_light
-from blockhash.frame.subpixel import box_filter
+from blockhash.frame.subpixel import subpixel_points
 from blockhash.passes.executors import PassFailed, WorkersFailed
 from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import NoCausticWarning, Renderer  # noqa: F401 (importable from here)
 from blockhash.passes.run import run_passes
 from blockhash.passes.schedule import Schedule
-from blockhash.scene.camera import DEFAULT_SPP, SPP_SEED, spp_side
+from blockhash.scene.camera import DEFAULT_SPP, SPP_SEED, Pinhole, spp_grid
 from blockhash.validate import old_keywords
 
 
@@ -110,7 +111,7 @@ def make_renderer(scene, *, photons, spp, seed, estimate, lookup, backend,
     traced = not (photons is None or isinstance(photons, (int, np.integer)))
     if plan is None:
         plan = ONE_PASS if traced else RenderPlan()
-    renderer = Renderer(scene, photons=photons, side=spp_side(per_pass_spp(scene, spp, plan)),
+    renderer = Renderer(scene, photons=photons, spp=per_pass_spp(scene, spp, plan),
                         seed=seed, estimate=estimate, lookup=lookup, backend=backend,
                         schedule=plan.schedule, indirect=plan.indirect, device=plan.device)
     return renderer, plan
@@ -157,12 +158,13 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
         The density estimate's options (:mod:`blockhash.frame.estimate`; default:
         ``EstimateOptions()``).
     spp : int, optional
-        Samples per pixel, a square number S * S (default: the scene's ``[camera] spp``,
-        else :data:`blockhash.scene.camera.DEFAULT_SPP`).  1 shades the pixel centres the
-        rasteriser gives; S * S > 1 casts one ray per cell of an S x S stratified, jittered
-        grid in each pixel (a fixed pattern, :data:`blockhash.scene.camera.SPP_SEED`), and
+        Samples per pixel, 1 to 1024 (default: the scene's ``[camera] spp``, else
+        :data:`blockhash.scene.camera.DEFAULT_SPP`).  1 shades the pixel centres the
+        rasteriser gives; more casts one ray per cell of a stratified, jittered grid in each
+        pixel (S x S for a square count, else rows x cols as near square as it divides,
+        :func:`blockhash.scene.camera.spp_grid`) (a fixed pattern, :data:`blockhash.scene.camera.SPP_SEED`), and
         every sample gets its own hit, direct light and caustic estimate (one caustic pass
-        over all of them) before the box filter averages them into pixels.
+        over all of them) before the camera's pixel filter weighs them into pixels.
     """
     old_keywords("render_scene", deprecated, _ESTIMATE_KEYWORDS,
                  "give options=EstimateOptions(...), or call "
@@ -186,10 +188,13 @@ ONE_PASS = RenderPlan(passes=1, schedule=Schedule(footprint=0.0))
 
 def direct_layer(scene, spp=None, *, size=None, backend=None, both_branches: bool = True,
                  seed: int = SPP_SEED) -> np.ndarray:
-    """(h, w, 3) float32 pixel means of the direct layer alone, as :func:`render_scene`
+    """(h, w, 3) float32 pixels of the direct layer alone (under the camera's filter), as :func:`render_scene`
     computes it (no photons are traced): ``spp`` samples per pixel (default the scene's)."""
-    side = spp_side((scene.camera.spp or DEFAULT_SPP) if spp is None else spp)
+    grid = spp_grid((scene.camera.spp or DEFAULT_SPP) if spp is None else spp)
     rays = SceneRays(scene.objects)
-    points = camera_points(scene, rays, side, size=size, backend=backend,
+    points = camera_points(scene, rays, grid, size=size, backend=backend,
                            both_branches=both_branches, seed=seed)
-    return box_filter(points.gather(direct_light(points, scene.objects, scene.lights, rays)), side)
+    values = points.gather(direct_light(points, scene.objects, scene.lights, rays))
+    pin = Pinhole.of(scene.camera, size)
+    x, y = subpixel_points(pin.width, pin.height, grid, None if grid == (1, 1) else seed)
+    return filtered(values, x, y, scene.camera.filter, pin.width, pin.height, grid)

@@ -60,20 +60,20 @@ class Renderer:
     (:class:`blockhash.frame.result.RenderResult`).
 
     ``photons``: caustic photons stored in the first pass (every later pass emits as many as
-    the first did), or a traced map (``CausticPhotons``) for a one-pass render.  ``side``:
-    S for S x S samples per pixel per pass.  ``indirect``: trace the light between diffuse
+    the first did), or a traced map (``CausticPhotons``) for a one-pass render.  ``spp``:
+    samples per pixel per pass (:func:`blockhash.scene.camera.spp_grid` lays them out).  ``indirect``: trace the light between diffuse
     surfaces where the scene has it (False: leave it out).  The rest as
     :func:`.pipeline.render`.
     """
 
-    def __init__(self, scene, *, photons=None, side: int = 1, seed=None,
+    def __init__(self, scene, *, photons=None, spp: int = 1, seed=None,
                  estimate: EstimateOptions = EstimateOptions(), lookup: LookupOptions = LookupOptions(),
                  backend=None, schedule: Schedule = Schedule(), indirect: bool = True,
                  device: str | None = None):
         traced = None if photons is None or isinstance(photons, (int, np.integer)) else photons
         self.scene = scene
         self.settings = PassSettings.of(scene, photons=None if traced is not None else photons,
-                                        side=side, seed=seed, estimate=estimate, lookup=lookup,
+                                        spp=spp, seed=seed, estimate=estimate, lookup=lookup,
                                         backend=backend, schedule=schedule, indirect=indirect,
                                         device=device)
         if traced is not None:
@@ -85,13 +85,18 @@ class Renderer:
         pin = Pinhole.of(scene.camera)
         self.film = Film(pin.height, pin.width)
         self.timings: dict = {}
-        self.info: dict = {"estimate": estimate.label, "spp": self.settings.side ** 2}
+        self.info: dict = {"estimate": estimate.label, "spp": self.spp_per_pass}
         #: Photons every pass after the first emits: pass 0's emitted count.
         self.emitted_per_pass = None
         self.stored = self.emitted = 0
         self.empty_run = 0
         self.index = self.radii = None
         self._pending: dict[int, PassContribution] = {}
+
+    @property
+    def spp_per_pass(self) -> int:
+        rows, cols = self.settings.grid
+        return rows * cols
 
     @property
     def setup(self) -> RenderSetup:
@@ -170,7 +175,7 @@ class Renderer:
         return RenderResult(direct=self.film.direct.astype(np.float32),
                             caustic=self.film.caustic.astype(np.float32),
                             timings=dict(self.timings), info=info, index=self.index,
-                            spp=self.settings.side ** 2 * self.passes, passes=self.passes,
+                            spp=self.spp_per_pass * self.passes, passes=self.passes,
                             radii=self.radii,
                             indirect=None if self.film.indirect is None
                             else self.film.indirect.astype(np.float32))

@@ -28,26 +28,27 @@ from blockhash.errors import InputError
 from blockhash.frame.camera_samples import camera_samples, only
 from blockhash.frame.cover_estimate import cover_gather, drop_gather, forget_gathers
 from blockhash.frame.estimate import EstimateOptions
+from blockhash.frame.film_filter import filtered, spread, weights
 from blockhash.frame.options import LookupOptions, resolve_method
 from blockhash.frame.shading import SceneRays, direct_light
-from blockhash.frame.subpixel import box_filter
+from blockhash.frame.subpixel import box_filter, pass_points
 from blockhash.gl.limits import MAX_K
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.passes.schedule import FixedRadii, PassRadii, Schedule, shrink
 from blockhash.passes.stages import caustic_stage  # noqa: F401 (importable from here)
-from blockhash.scene.camera import Pinhole
+from blockhash.scene.camera import Pinhole, spp_grid
 from blockhash.validate import INDIRECT, as_flag, as_int
 
 
 @dataclass(frozen=True)
 class PassSettings:
     """What every pass of a render shares besides the scene: photons stored in pass 0
-    (``count``; None with a traced map), S of S x S samples per pixel (``side``), the photons'
-    seed, the estimate, the resolved search (``method``, ``k``, ``A``, ``variant``), the GL
+    (``count``; None with a traced map), the samples a pixel as ``(rows, cols)`` of stratified
+    cells (``grid``, :func:`blockhash.scene.camera.spp_grid`), the photons' seed, the estimate, the resolved search (``method``, ``k``, ``A``, ``variant``), the GL
     backend and the radius schedule."""
 
     count: int | None
-    side: int
+    grid: tuple[int, int]
     seed: int
     estimate: EstimateOptions
     method: str
@@ -60,12 +61,12 @@ class PassSettings:
     device: str | None = None
 
     @classmethod
-    def of(cls, scene, *, photons=None, side: int = 1, seed=None,
+    def of(cls, scene, *, photons=None, spp: int = 1, seed=None,
            estimate: EstimateOptions = EstimateOptions(), lookup: LookupOptions = LookupOptions(),
            backend=None, schedule: Schedule = Schedule(), indirect: bool = True,
            device: str | None = None) -> "PassSettings":
         """The settings of ``scene`` with these overrides (``photons``: photons stored per
-        pass, or None for the scene's; a traced map is given to :class:`RenderSetup`;
+        pass, or None for the scene's; ``spp``: samples a pixel per pass; a traced map is given to :class:`RenderSetup`;
         ``indirect``: trace the indirect photons where the scene has diffuse interreflection;
         ``device``: where the caustic photons are traced, :mod:`blockhash.device.choice`)."""
         as_flag(indirect, "indirect", INDIRECT)
@@ -77,7 +78,7 @@ class PassSettings:
                              f"k <= {MAX_K}, or method='cpu' or 'kdtree', or the conserving "
                              "estimate's cover gather (method='auto'), which has no such limit")
         count = photons if photons is not None else settings.count
-        return cls(count=count, side=as_int(side, "side", minimum=1),
+        return cls(count=count, grid=spp_grid(spp),
                    seed=settings.seed if seed is None else seed, estimate=estimate,
                    method=method, k=k, A=settings.A if lookup.A is None else lookup.A,
                    variant=lookup.variant, backend=backend, schedule=schedule,
@@ -112,6 +113,36 @@ class RenderSetup:
         #: Passes' photons, indices and radii kept for the next frames of an animation whose
         #: camera alone moves (:class:`blockhash.passes.frames.FrameCache`; None: none kept).
         self.cache = None
+        self._film_pass = None
+
+    def develop(self, values: np.ndarray, p: int) -> np.ndarray:
+        """Pass ``p``'s pixels, (h, w, C) float32, of its samples' ``values`` (the layout of
+        :func:`blockhash.frame.camera_samples.camera_samples`) under the camera's filter."""
+        pf = self.scene.camera.filter
+        if pf.is_box:
+            return box_filter(values, self.settings.grid)
+        x, y, _ = self._film(p)
+        return filtered(values, x, y, pf, self.pin.width, self.pin.height)
+
+    def spread(self, p: int):
+        """The pixel splat's ``spread`` for pass ``p`` (:func:`blockhash.frame.film_filter.spread`
+        under the camera's filter; None for the box)."""
+        pf = self.scene.camera.filter
+        if pf.is_box:
+            return None
+        share = self._film(p)[2]
+        return lambda fx, fy, contrib: spread(pf, fx, fy, contrib, self.pin.width,
+                                              self.pin.height, share)
+
+    def _film(self, p: int):
+        """Pass ``p``'s sample points and each pixel's samples over the weight they give it,
+        kept for the pass's layers."""
+        if self._film_pass is None or self._film_pass[0] != p:
+            rows, cols = self.settings.grid
+            x, y = pass_points(self.pin.width, self.pin.height, self.settings.grid, p)
+            w = weights(self.scene.camera.filter, x, y, self.pin.width, self.pin.height)
+            self._film_pass = (p, x, y, rows * cols / w)
+        return self._film_pass[1:]
 
     def _indirect(self, scene, settings: PassSettings):
         """(the :class:`blockhash.photons.indirect.IndirectSource`, the photons it shoots per
@@ -241,27 +272,27 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
     built = _index(setup, photons, p, scale, timings, info)
     photons = None
     t = time.perf_counter()
-    points, seen = camera_samples(setup.scene, setup.rays, s.side, p, backend=s.backend)
+    points, seen = camera_samples(setup.scene, setup.rays, s.grid, p, backend=s.backend)
     timings["gbuffer"] = time.perf_counter() - t
     t = time.perf_counter()
     direct = direct_light(points, setup.scene.objects, setup.scene.lights, setup.rays, p)
     timings["direct"] = time.perf_counter() - t
     t = time.perf_counter()
-    caustic = _layer(setup, built, points, seen)
+    caustic = _layer(setup, built, points, seen, p)
     timings["caustic"] = time.perf_counter() - t
     indirect, indirect_emitted = _indirect_layer(setup, p, scale, points, seen, timings, info)
-    direct = box_filter(points.gather(direct), s.side)
+    direct = setup.develop(points.gather(direct), p)
     timings["total"] = time.perf_counter() - t0
     index, radii = built[0], built[1]
     return PassContribution(p, direct, caustic, shot, stored, scale, timings, info, index, radii,
                             indirect, indirect_emitted)
 
 
-def _layer(setup: RenderSetup, built, points, seen) -> np.ndarray:
+def _layer(setup: RenderSetup, built, points, seen, p: int) -> np.ndarray:
     """The pixel means of one photon map's estimate at the pass's camera points, from its
     :func:`_index` (``built``: index, radii, pixel splat, every photon's index and radii)."""
     index, radii, splat, whole = built
-    estimate, side = setup.caustic.estimate, setup.settings.side
+    estimate = setup.caustic.estimate
     image = np.zeros(points.shape + (3,), dtype=np.float32)
     if splat is not None and not seen.all():
         # Points seen in a mirror or through glass gather every photon: the splat reached
@@ -275,7 +306,7 @@ def _layer(setup: RenderSetup, built, points, seen) -> np.ndarray:
         drop_gather(whole[0], setup.settings.k, whole[1])
     elif index is not None:
         image = estimate(setup, index, points, radii)
-    image = box_filter(points.gather(image), side)
+    image = setup.develop(points.gather(image), p)
     return image + splat if splat is not None else image
 
 
@@ -301,7 +332,7 @@ def _indirect_layer(setup: RenderSetup, p: int, scale: float, points, seen, timi
                                   if isinstance(v, (int, float, str))}
     built = _index(setup, photons, p, scale, stages, {}, name="indirect")
     t = time.perf_counter()
-    image = _layer(setup, built, points, seen)
+    image = _layer(setup, built, points, seen, p)
     stages["estimate"] = time.perf_counter() - t
     for name, sec in stages.items():
         timings[f"indirect {name}"] = sec
@@ -362,7 +393,7 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
     if s.schedule.footprint > 0:
         t = time.perf_counter()
         whole = (index, FixedRadii(r2))
-        index, radii, splat = _split(setup, photons, index, r2, scale)
+        index, radii, splat = _split(setup, photons, index, r2, scale, p)
         timings["pixel splat"] = time.perf_counter() - t
     if index is not None:
         t = time.perf_counter()
@@ -371,7 +402,7 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
     return index, radii, splat, whole
 
 
-def _split(setup: RenderSetup, photons, index, r2, scale):
+def _split(setup: RenderSetup, photons, index, r2, scale, p: int):
     """The pixel splat of the photons whose discs are under the footprint
     (:mod:`blockhash.frame.pixel_splat`), and the index and radii the gather keeps for the
     rest: the same index, the splatted photons' radii infinite (the cover gather leaves out a
@@ -380,7 +411,8 @@ def _split(setup: RenderSetup, photons, index, r2, scale):
 
     s = setup.settings
     image, keep = splat_subpixel(photons, r2, setup.pin, setup.rays, setup.materials,
-                                 footprint=s.schedule.footprint * math.sqrt(scale))
+                                 footprint=s.schedule.footprint * math.sqrt(scale),
+                                 spread=setup.spread(p))
     if keep.all():
         return index, FixedRadii(r2), None
     if not keep.any():  # every photon splatted: nothing left to gather

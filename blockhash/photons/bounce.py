@@ -3,8 +3,8 @@ ray cast (:func:`bounce`), for :func:`blockhash.photons.paths.trace_batch`.
 
 Per ray: a miss escapes; a diffuse hit is direct light on the first bounce, absorbed on a
 one-sided receiver's back face, else stored; a mirror reflects (its reflectance on the
-weight; about the geometric normal where the shading normal sends the ray into the
-surface); glass reflects or refracts with the Fresnel probability (:mod:`blockhash.scene.optics`,
+weight, times a conductor's Fresnel reflectance; about the geometric normal where the
+shading normal sends the ray into the surface); glass reflects or refracts with the Fresnel probability (:mod:`blockhash.scene.optics`,
 the same formulas, scalar); a ray whose weight falls to 0 is absorbed.  The rays that go on
 are written, in order, to the front of the next bounce's arrays: no boolean mask, fancy
 index or temporary array per step, which the numpy version spent as much time on as embree
@@ -45,6 +45,25 @@ def _fresnel(cos_i, eta):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def _conductor(cos_i, eta, k):
+    """:func:`blockhash.scene.optics.conductor_fresnel` of one channel, scalar."""
+    c = min(max(cos_i, 0.0), 1.0)
+    c2 = c * c
+    s2 = 1.0 - c2
+    t0 = eta * eta - k * k - s2
+    a2b2 = np.sqrt(t0 * t0 + 4.0 * eta * eta * k * k)
+    a = np.sqrt(max(0.5 * (a2b2 + t0), 0.0))
+    t1 = a2b2 + c2
+    t2 = 2.0 * c * a
+    rs = (t1 - t2) / (t1 + t2)
+    t3 = c2 * a2b2 + s2 * s2
+    t4 = t2 * s2
+    if t3 + t4 <= 0.0:  # 0 / 0 at eta = k = 0, cos_i = 1: the limit, a perfect reflector
+        return rs
+    return 0.5 * (rs + rs * (t3 - t4) / (t3 + t4))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def _refract(d0, d1, d2, n0, n1, n2, eta):
     """(t0, t1, t2, total internal reflection)."""
     cos_i = min(max(-((d0 * n0 + d1 * n1) + d2 * n2), 0.0), 1.0)
@@ -61,11 +80,17 @@ def _event(pid, obj, outer, d0, d1, d2, n0, n1, n2, g0, g1, g2, w0, w1, w2, diel
            reflectance, ior, tint, choices, events, fallbacks):
     """Photon ``pid``'s specular event on object ``obj`` (met from its outer side or not),
     along (d0, d1, d2), shading and geometric normals facing it: (the new unit direction, the
-    new weight, +1 leaving on the incoming side or -1 passing through)."""
+    new weight, +1 leaving on the incoming side or -1 passing through).  ``reflectance``: the
+    mirrors' table (:attr:`blockhash.scene.raycast.EmbreeGeometry.mirror`)."""
     side = 1.0
     if not dielectric[obj]:
         w0, w1, w2 = (w0 * reflectance[obj, 0], w1 * reflectance[obj, 1],
                       w2 * reflectance[obj, 2])
+        if reflectance[obj, 9] != 0.0:  # a conductor: Fresnel's reflectance of eta + i k
+            c = -((d0 * n0 + d1 * n1) + d2 * n2)
+            w0 *= _conductor(c, reflectance[obj, 3], reflectance[obj, 6])
+            w1 *= _conductor(c, reflectance[obj, 4], reflectance[obj, 7])
+            w2 *= _conductor(c, reflectance[obj, 5], reflectance[obj, 8])
         r0, r1, r2 = _reflect(d0, d1, d2, n0, n1, n2)
         if (r0 * g0 + r1 * g1) + r2 * g2 <= 0.0:  # the shading normal sent it in
             r0, r1, r2 = _reflect(d0, d1, d2, g0, g1, g2)

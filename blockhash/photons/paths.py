@@ -164,7 +164,7 @@ def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int, 
     # lamp on the floor) would otherwise hit that surface at t = 0 with every photon.
     o = origins[idx] + d * offset
     tables = (geom.triangles, geom.vertex_normals, geom.face_normals, geom.face_object,
-              geom.is_specular, geom.is_dielectric, geom.one_sided, geom.reflectance, geom.ior,
+              geom.is_specular, geom.is_dielectric, geom.one_sided, geom.mirror, geom.ior,
               geom.tint)
     for b in range(max_bounces + 1):
         live = idx.size
@@ -216,7 +216,7 @@ def specular_step(geom: EmbreeGeometry, idx, d, w, face, u, v, choices, events, 
     going, dead = specular_events(
         idx, d, w, np.ascontiguousarray(face, dtype=np.int64), np.ascontiguousarray(u, np.float64),
         np.ascontiguousarray(v, np.float64), geom.triangles, geom.vertex_normals,
-        geom.face_normals, geom.face_object, geom.is_dielectric, geom.reflectance, geom.ior,
+        geom.face_normals, geom.face_object, geom.is_dielectric, geom.mirror, geom.ior,
         geom.tint, np.zeros((1, 1)) if choices is None else choices, events, fallbacks, p, ng,
         side, absorbed)
     return absorbed[:dead], (idx[:going], d[:going], w[:going], p[:going], ng[:going],

@@ -68,6 +68,7 @@ import numpy as np
 from blockhash import __version__
 from blockhash.code_version import source_digest
 from blockhash.errors import InputError
+from blockhash.frame.film_filter import continuous_share, spread
 from blockhash.frame.shading import SceneRays
 from blockhash.photons.emission import Emitter
 from blockhash.photons.paths import trace_batch
@@ -149,6 +150,15 @@ def directly_visible(scene, pinhole: Pinhole, rays: SceneRays) -> np.ndarray:
 
 # --------------------------------------------------------------------------- tracing
 
+@dataclass(frozen=True)
+class FilmWeights:
+    """A camera filter other than the box and each pixel's share of a connection under it
+    (:func:`blockhash.frame.film_filter.continuous_share`)."""
+
+    filter: object
+    share: np.ndarray
+
+
 def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
                 batch_size: int = BATCH, progress: bool = False,
                 layer: str = "caustic") -> LightTraceImage:
@@ -187,6 +197,8 @@ def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
     npix = pin.width * pin.height
     sum1 = np.zeros((npix, 3))
     sum2 = np.zeros((npix, 3))
+    pf = scene.camera.filter
+    film = None if pf.is_box else FilmWeights(pf, continuous_share(pf, pin.width, pin.height))
     stats = {"photons": m_total, "seed": seed, "size": [pin.width, pin.height],
              "stored": 0, "connected": 0}
     specular = tuple(scene.specular_objects)
@@ -194,7 +206,7 @@ def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
         raise InputError(f"layer={layer!r}: the light tracer renders the 'caustic' or the "
                          "'indirect' layer; give one of those")
     if layer == "indirect":
-        _trace_indirect(scene, rays, pin, m_total, seed, batch_size, sum1, sum2, stats)
+        _trace_indirect(scene, rays, pin, m_total, seed, batch_size, sum1, sum2, stats, film)
     elif specular:
         emitter = Emitter(tuple(scene.lights), specular, bounds=scene.bounds)
         if not emitter.sources:
@@ -211,7 +223,7 @@ def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
             origins, dirs, weights, _ = emitter.sample(emitter.uniforms(seed, start, count))
             b = trace_batch(geom, origins, dirs, weights, max_bounces, seed=seed, start=start)
             stats["stored"] += len(b.stored)
-            _connect(b, pin, rays, kd, ks, e, sum1, sum2, stats)
+            _connect(b, pin, rays, kd, ks, e, sum1, sum2, stats, film)
             if bar is not None:
                 bar.update(count)
         if bar is not None:
@@ -224,7 +236,7 @@ def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
 
 
 def _trace_indirect(scene, rays: SceneRays, pin: Pinhole, m_total: int, seed: int,
-                    batch_size: int, sum1, sum2, stats) -> None:
+                    batch_size: int, sum1, sum2, stats, film) -> None:
     """The indirect layer's photons, batch by batch, each stored vertex splatted (``_connect``)."""
     from blockhash.photons.indirect import IndirectSource
 
@@ -234,11 +246,13 @@ def _trace_indirect(scene, rays: SceneRays, pin: Pinhole, m_total: int, seed: in
         count = min(batch_size, m_total - start)
         b = source.batch(count, seed=seed, start=start)
         stats["stored"] += len(b.positions)
-        _connect(b, pin, rays, kd, ks, e, sum1, sum2, stats)
+        _connect(b, pin, rays, kd, ks, e, sum1, sum2, stats, film)
 
 
-def _connect(b, pin: Pinhole, rays: SceneRays, kd, ks, e, sum1, sum2, stats) -> None:
-    """Splat every stored photon of batch ``b`` into its pixel (step 3 of the module docstring)."""
+def _connect(b, pin: Pinhole, rays: SceneRays, kd, ks, e, sum1, sum2, stats, film=None) -> None:
+    """Splat every stored photon of batch ``b`` into its pixel (step 3 of the module docstring),
+    or with ``film`` (:class:`FilmWeights`, a camera filter other than the box) into the pixels
+    its filter reaches."""
     if not len(b.stored):
         return
     x, ns, ng = b.positions, b.normals, b.geo_normals
@@ -246,8 +260,16 @@ def _connect(b, pin: Pinhole, rays: SceneRays, kd, ks, e, sum1, sum2, stats) -> 
     d2 = np.einsum("ij,ij->i", to_eye, to_eye)
     wo = to_eye / np.sqrt(d2)[:, None]
     cos_x = np.einsum("ij,ij->i", ns, wo)
-    pix, cos_c = pin.project(x)
-    ok = (cos_x > 0) & (np.einsum("ij,ij->i", ng, wo) > 0) & (pix >= 0)
+    pf = film.filter if film is not None else None
+    if pf is None:
+        pix, cos_c = pin.project(x)
+        reaches = pix >= 0
+    else:  # a photon just outside the image still weighs in the pixels its filter reaches
+        fx, fy, z = pin.film_coords(x)
+        r = pf.radius
+        reaches = (z > 0) & (fx > -r) & (fx < pin.width + r) & (fy > -r) & (fy < pin.height + r)
+        cos_c = np.where(reaches, z / np.sqrt(d2), 0.0)
+    ok = (cos_x > 0) & (np.einsum("ij,ij->i", ng, wo) > 0) & reaches
     idx = np.flatnonzero(ok)
     if not idx.size:
         return
@@ -259,9 +281,14 @@ def _connect(b, pin: Pinhole, rays: SceneRays, kd, ks, e, sum1, sum2, stats) -> 
     f = phong_brdf(-b.directions[idx], wo[idx], ns[idx], kd[obj], ks[obj], e[obj])
     we = 1.0 / (pin.pixel_area * cos_c[idx] ** 3)
     contrib = b.weights[idx] * f * (cos_x[idx] * we / d2[idx])[:, None]
-    for c in range(3):
-        sum1[:, c] += np.bincount(pix[idx], contrib[:, c], minlength=len(sum1))
-        sum2[:, c] += np.bincount(pix[idx], contrib[:, c] ** 2, minlength=len(sum2))
+    if pf is not None:
+        for out, squared in ((sum1, False), (sum2, True)):
+            out += spread(pf, fx[idx], fy[idx], contrib ** (2 if squared else 1), pin.width,
+                          pin.height, film.share, squared=squared)
+    else:
+        for c in range(3):
+            sum1[:, c] += np.bincount(pix[idx], contrib[:, c], minlength=len(sum1))
+            sum2[:, c] += np.bincount(pix[idx], contrib[:, c] ** 2, minlength=len(sum2))
     stats["connected"] += int(idx.size)
 
 
@@ -285,7 +312,7 @@ def scene_digest(scene) -> str:
     h = hashlib.sha256()
     c = scene.camera
     h.update(repr((c.eye.tolist(), c.target.tolist(), c.up.tolist(), c.fov_y_deg,
-                   c.width, c.height)).encode())
+                   c.width, c.height) + (() if c.filter.is_box else (c.filter,))).encode())
     for light in scene.lights:
         h.update(repr((type(light).__name__, *(np.asarray(getattr(light, a)).tolist()
                                                for a in ("position", "power", "direction",

@@ -3,8 +3,8 @@
 :class:`Pinhole` is the scene camera at an image size: it projects world points to
 pixels (the light tracer's reference, :mod:`blockhash.reference.lighttrace`) and casts
 rays through film points (the renderer's samples, :mod:`blockhash.frame.subpixel`), so
-both integrate over the same pixel footprint.  :func:`spp_side` checks a count of samples
-per pixel (stratified S x S).
+both integrate over the same pixel footprint.  :func:`spp_grid` lays a count of samples per
+pixel out in stratified cells (rows x columns, as near square as the count allows).
 """
 
 from __future__ import annotations
@@ -33,16 +33,26 @@ def jitter_seed(index: int) -> int:
     return SPP_SEED if index == 0 else SPP_SEED + 7919 * int(index)
 
 
-def spp_side(spp, name: str = "spp") -> int:
-    """S for ``spp = S * S`` samples per pixel (stratified in S x S cells); InputError for
-    anything else."""
+def spp_grid(spp, name: str = "spp") -> tuple[int, int]:
+    """``(rows, cols)`` of the stratified cells that ``spp`` samples per pixel fill, one sample
+    a cell: ``rows`` the largest divisor of ``spp`` not above its square root, so a square
+    number is S x S and any other count as near square as it divides (32: 4 x 8; a prime p:
+    1 x p).  InputError outside 1 .. :data:`MAX_SPP`."""
     n = as_int(spp, name, minimum=1, maximum=MAX_SPP,
-               hint="give a square number of samples per pixel: 1, 4, 9, 16, ...")
-    side = math.isqrt(n)
-    if side * side != n:
-        raise InputError(f"{name}={n} is not a square number; samples are stratified in S x S "
-                         f"cells per pixel, so use {side * side} or {(side + 1) ** 2}")
-    return side
+               hint=f"give 1 to {MAX_SPP} samples per pixel")
+    rows = next(d for d in range(math.isqrt(n), 0, -1) if n % d == 0)
+    return rows, n // rows
+
+
+def grid_of(samples) -> tuple[int, int]:
+    """``(rows, cols)`` of a sample layout given as S (S x S) or as ``(rows, cols)``."""
+    if isinstance(samples, tuple):
+        if len(samples) != 2:
+            raise InputError(f"samples must be S or (rows, cols); got {samples!r}")
+        return (as_int(samples[0], "sample rows", minimum=1),
+                as_int(samples[1], "sample columns", minimum=1))
+    s = as_int(samples, "samples", minimum=1, hint="use at least one shading point per pixel")
+    return s, s
 
 
 @dataclass(frozen=True)
@@ -72,18 +82,24 @@ class Pinhole:
         """Area of one pixel on the image plane at distance 1 from the pinhole."""
         return (2.0 * self.tan_x / self.width) * (2.0 * self.tan_y / self.height)
 
-    def project(self, points):
-        """(pixel index (m,) int64, -1 outside the image; cos(theta_c) (m,)) of world points."""
+    def film_coords(self, points):
+        """Film coordinates ``(x, y)`` in pixels of world points ((m, 3)), x from the left
+        edge and y from the top as :meth:`film_rays` takes them, and their depth along the
+        view axis ``z`` (the point is in front where z > 0)."""
         v = points - self.eye
         z = v @ self.forward
         with np.errstate(divide="ignore", invalid="ignore"):
             sx = (v @ self.right) / (z * self.tan_x)
             sy = (v @ self.up) / (z * self.tan_y)
-        col = np.floor((sx + 1.0) * 0.5 * self.width)
-        row = np.floor((1.0 - sy) * 0.5 * self.height)  # row 0 at the top, like the renderer
+        return (sx + 1.0) * 0.5 * self.width, (1.0 - sy) * 0.5 * self.height, z
+
+    def project(self, points):
+        """(pixel index (m,) int64, -1 outside the image; cos(theta_c) (m,)) of world points."""
+        x, y, z = self.film_coords(points)
+        col, row = np.floor(x), np.floor(y)  # row 0 at the top, like the renderer
         inside = (z > 0) & (col >= 0) & (col < self.width) & (row >= 0) & (row < self.height)
         pix = np.where(inside, row * self.width + col, -1)
-        cos_c = np.where(inside, z / np.linalg.norm(v, axis=1), 0.0)
+        cos_c = np.where(inside, z / np.linalg.norm(points - self.eye, axis=1), 0.0)
         return np.nan_to_num(pix, nan=-1).astype(np.int64), cos_c
 
     def film_rays(self, x, y) -> np.ndarray:

@@ -15,7 +15,12 @@ typo is never silently ignored)::
     width = 512                     # required, pixels, 1 .. 16384
     height = 512                    # required, pixels, 1 .. 16384
     spp = 4                         # default: the renderer's (DEFAULT_SPP); samples per
-                                    #   pixel, a square number 1 .. 1024, stratified jitter
+                                    #   pixel per pass, 1 .. 1024, stratified jitter in cells
+                                    #   as near square as the count divides (32: 4 x 8)
+    filter = "box"                  # default "box" (each pixel its samples' mean); "tent"
+                                    #   or "gaussian", or a table such as {kind = "tent",
+                                    #   radius = 1.0} or {kind = "gaussian", stddev = 0.5}
+                                    #   (Mitsuba's filters and defaults, in pixels)
 
     [materials.NAME]                # one table per material; at least one
     kind = "phong"                  # modified Phong (Lafortune & Willems 1994):
@@ -32,6 +37,9 @@ typo is never silently ignored)::
     [materials.OTHER]
     kind = "mirror"                 # perfect specular reflector
     reflectance = [0.95, 0.78, 0.45]  # required, number or [r, g, b], each in [0, 1]
+    eta = [0.143, 0.375, 1.442]     # optional, with k: a smooth conductor, the reflectance
+    k = [3.983, 2.386, 1.603]       #   times the Fresnel reflectance of eta + i k per channel
+                                    #   (here Mitsuba's gold, Au); both or neither
 
     [materials.GLASS]
     kind = "dielectric"             # smooth dielectric: Fresnel reflection, Snell refraction
@@ -137,6 +145,7 @@ from blockhash.scene.model import (
     SpotLight,
     check_mesh,
 )
+from blockhash.scene.pixel_filter import pixel_filter
 from blockhash.scene.values import FieldError as _FieldError
 from blockhash.scene.values import boolean as _boolean
 from blockhash.scene.values import choice as _choice
@@ -202,12 +211,12 @@ def _array_of_tables(value, key: str, *, what: str) -> list:
 
 
 def _parse_camera(t) -> Camera:
-    _keys(t, "camera", ("eye", "target", "fov_y_deg", "width", "height"), ("up", "spp"),
-          what="the camera")
+    _keys(t, "camera", ("eye", "target", "fov_y_deg", "width", "height"),
+          ("up", "spp", "filter"), what="the camera")
     with _under("camera"):
         return Camera(eye=t["eye"], target=t["target"], up=t.get("up", [0.0, 1.0, 0.0]),
                       fov_y_deg=t["fov_y_deg"], width=t["width"], height=t["height"],
-                      spp=t.get("spp"))
+                      spp=t.get("spp"), filter=pixel_filter(t.get("filter", "box")))
 
 
 def _parse_materials(t) -> dict:
@@ -234,8 +243,9 @@ def _parse_materials(t) -> dict:
                 out[name] = PhongMaterial(kd=m["kd"], ks=ks, n=m.get("n", 0.0),
                                           sided=m.get("sided", "two"))
             elif kind == "mirror":
-                _keys(m, "", ("kind", "reflectance"), what="a mirror material")
-                out[name] = MirrorMaterial(reflectance=m["reflectance"])
+                _keys(m, "", ("kind", "reflectance"), ("eta", "k"), what="a mirror material")
+                out[name] = MirrorMaterial(reflectance=m["reflectance"], eta=m.get("eta"),
+                                           k=m.get("k"))
             else:
                 _keys(m, "", ("kind", "ior"), ("tint",), what="a dielectric material")
                 out[name] = DielectricMaterial(ior=m["ior"], tint=m.get("tint", 1.0))

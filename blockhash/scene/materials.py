@@ -69,17 +69,44 @@ class PhongMaterial:
 
 @dataclass(frozen=True, eq=False)
 class MirrorMaterial:
-    """Perfect specular reflector; ``reflectance`` : (3,) float64 in [0, 1]."""
+    """A smooth specular reflector; ``reflectance`` : (3,) float64 in [0, 1].
+
+    Without ``eta`` and ``k`` a perfect mirror: every ray reflects with ``reflectance``.  With
+    them ((3,) each, the real and imaginary parts of the metal's complex index of refraction
+    per channel, the outside being air) a smooth conductor, as Mitsuba's ``conductor``:
+    ``reflectance`` times the unpolarised Fresnel reflectance of the complex index at the
+    angle of incidence (:func:`blockhash.scene.optics.conductor_fresnel`)."""
 
     reflectance: np.ndarray
+    eta: np.ndarray | None = None
+    k: np.ndarray | None = None
 
     def __post_init__(self):
         with _owned("MirrorMaterial"):
             object.__setattr__(self, "reflectance",
                                _rgb(self.reflectance, "reflectance", hi=1.0, what="reflectance"))
+            if (self.eta is None) != (self.k is None):
+                raise _FieldError("eta" if self.eta is None else "k",
+                                  "missing: a conductor takes both eta and k (its complex index "
+                                  "of refraction), a perfect mirror neither")
+            if self.eta is not None:
+                for name in ("eta", "k"):
+                    v = _rgb(getattr(self, name), name, hi=MAX_CONDUCTOR_INDEX, what=name)
+                    object.__setattr__(self, name, v)
+
+    @property
+    def is_conductor(self) -> bool:
+        """Reflects by the Fresnel reflectance of ``eta`` and ``k`` (not a perfect mirror)."""
+        return self.eta is not None
 
     def __repr__(self) -> str:
-        return f"MirrorMaterial(reflectance={_fmt(self.reflectance)})"
+        extra = f", eta={_fmt(self.eta)}, k={_fmt(self.k)}" if self.is_conductor else ""
+        return f"MirrorMaterial(reflectance={_fmt(self.reflectance)}{extra})"
+
+
+#: Largest real or imaginary part of a conductor's index of refraction a scene may give
+#: (Mitsuba's tabulated metals reach about 10 in the visible).
+MAX_CONDUCTOR_INDEX = 100.0
 
 
 #: Largest index of refraction a dielectric may have (diamond is 2.42; germanium in the

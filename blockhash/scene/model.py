@@ -30,6 +30,7 @@ from blockhash.scene.lights import (  # noqa: F401 (the lights, importable from 
     check_lights,
 )
 from blockhash.scene.materials import SPECULAR_MATERIALS, DielectricMaterial, MirrorMaterial, PhongMaterial  # noqa: F401
+from blockhash.scene.pixel_filter import BOX, PixelFilter, pixel_filter
 from blockhash.scene.values import FieldError as _FieldError
 from blockhash.scene.values import check_mesh  # noqa: F401 (importable from here)
 from blockhash.scene.values import fmt as _fmt
@@ -56,8 +57,11 @@ class Camera:
     ``eye``, ``target``, ``up`` : (3,) float64, metres; ``fov_y_deg`` the
     vertical field of view in degrees; ``width``, ``height`` the image size in
     pixels.  ``up`` need not be perpendicular to the view direction, only not
-    parallel to it.  ``spp``: samples per pixel, a square number (None: the
-    renderer's default, :data:`blockhash.scene.camera.DEFAULT_SPP`).
+    parallel to it.  ``spp``: samples per pixel per pass, 1 to
+    :data:`blockhash.scene.camera.MAX_SPP`, stratified in cells as near square as the count
+    divides (:func:`blockhash.scene.camera.spp_grid`; None: the renderer's default,
+    :data:`blockhash.scene.camera.DEFAULT_SPP`).  ``filter``: the pixel filter
+    (:mod:`blockhash.scene.pixel_filter`; default the box, each pixel its samples' mean).
     """
 
     eye: np.ndarray
@@ -67,6 +71,7 @@ class Camera:
     width: int
     height: int
     spp: int | None = None
+    filter: PixelFilter = BOX
 
     def __post_init__(self):
         with _owned("Camera"):
@@ -80,14 +85,10 @@ class Camera:
             set_(self, "width", _integer(self.width, "width", lo=1, hi=MAX_IMAGE_SIDE))
             set_(self, "height", _integer(self.height, "height", lo=1, hi=MAX_IMAGE_SIDE))
             if self.spp is not None:
-                from blockhash.scene.camera import MAX_SPP, spp_side
-                spp = _integer(self.spp, "spp", lo=1, hi=MAX_SPP,
-                               hint="give a square number of samples per pixel: 1, 4, 9, 16, ...")
-                try:
-                    spp_side(spp)
-                except InputError as exc:
-                    raise _FieldError("spp", str(exc)) from None
-                set_(self, "spp", spp)
+                from blockhash.scene.camera import MAX_SPP
+                set_(self, "spp", _integer(self.spp, "spp", lo=1, hi=MAX_SPP,
+                                           hint=f"give 1 to {MAX_SPP} samples per pixel"))
+            set_(self, "filter", pixel_filter(self.filter))
             view = self.target - self.eye
             dist = float(np.linalg.norm(view))
             if dist == 0.0:
@@ -306,7 +307,10 @@ class Scene:
         width = max(len(o.name) for o in self.objects)
         for o in self.objects:
             m = o.material
-            mat = (f"mirror, reflectance {_fmt(m.reflectance)}" if isinstance(m, MirrorMaterial)
+            mat = (f"mirror, reflectance {_fmt(m.reflectance)}"
+                   + (f", conductor eta {_fmt(m.eta)} k {_fmt(m.k)}"
+                      if getattr(m, "is_conductor", False) else "")
+                   if isinstance(m, MirrorMaterial)
                    else f"dielectric, ior {m.ior:g}, tint {_fmt(m.tint)}"
                    if isinstance(m, DielectricMaterial)
                    else f"phong, kd {_fmt(m.kd)}, ks {_fmt(m.ks)}, n {m.n:g}"

@@ -1,5 +1,6 @@
 """Smooth dielectrics (glass): Snell refraction, exact Fresnel reflectance, and the choice
-between them that photons and camera rays make.
+between them that photons and camera rays make; and the Fresnel reflectance of a smooth
+conductor (a metal's complex index, :func:`conductor_fresnel`).
 
 A ray meets a dielectric interface from the medium of index ``n_i`` toward ``n_t``, with
 ``eta = n_i / n_t`` (entering glass of index ``ior`` from air: ``eta = 1 / ior``; leaving
@@ -42,6 +43,27 @@ def fresnel(cos_i, eta) -> np.ndarray:
         rp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
     f = 0.5 * (rs * rs + rp * rp)
     return np.where(tir, 1.0, np.nan_to_num(f, nan=1.0))
+
+
+def conductor_fresnel(cos_i, eta, k) -> np.ndarray:
+    """Unpolarised Fresnel reflectance of a conductor of complex index ``eta + i k`` (the
+    outside air) at ``cos_i`` in [0, 1], exact (the form of pbrt's and Mitsuba's
+    ``fresnel_conductor``); broadcasts, e.g. ``cos_i`` (m, 1) against ``eta``, ``k`` (3,)."""
+    c = np.clip(np.asarray(cos_i, dtype=np.float64), 0.0, 1.0)
+    eta, k = np.asarray(eta, dtype=np.float64), np.asarray(k, dtype=np.float64)
+    c2 = c * c
+    s2 = 1.0 - c2
+    t0 = eta * eta - k * k - s2
+    a2b2 = np.sqrt(t0 * t0 + 4.0 * eta * eta * k * k)
+    a = np.sqrt(np.maximum(0.5 * (a2b2 + t0), 0.0))
+    t1 = a2b2 + c2
+    t2 = 2.0 * c * a
+    rs = (t1 - t2) / (t1 + t2)
+    t3 = c2 * a2b2 + s2 * s2
+    t4 = t2 * s2
+    with np.errstate(divide="ignore", invalid="ignore"):  # 0 / 0 at eta = k = 0, cos_i = 1
+        rp = np.where(t3 + t4 > 0.0, rs * (t3 - t4) / (t3 + t4), rs)
+    return 0.5 * (rs + rp)
 
 
 def refract(d, n, eta):

@@ -44,6 +44,12 @@ class EmbreeGeometry:
         self.tint = np.array([getattr(o.material, "tint", np.ones(3)) for o in objects],
                              dtype=np.float64).reshape(len(objects), 3)
         self.reflectance = np.zeros((len(objects), 3))
+        #: per object: a conductor (a mirror whose reflectance is Fresnel's of its complex
+        #: index eta + i k, MirrorMaterial.eta and .k; 0 elsewhere)
+        self.conductor = np.array([bool(getattr(o.material, "is_conductor", False))
+                                   for o in objects], dtype=bool)
+        self.eta = np.zeros((len(objects), 3))
+        self.k = np.zeros((len(objects), 3))
         #: per object: a receiver that reflects on its front face only (PhongMaterial.sided)
         self.one_sided = np.array([bool(getattr(o.material, "one_sided", False)) for o in objects],
                                   dtype=bool)
@@ -51,6 +57,8 @@ class EmbreeGeometry:
         for i, obj in enumerate(objects):
             if self.is_specular[i] and not self.is_dielectric[i]:
                 self.reflectance[i] = np.asarray(obj.material.reflectance, dtype=np.float64)
+                if self.conductor[i]:
+                    self.eta[i], self.k[i] = obj.material.eta, obj.material.k
             mesh = obj.mesh
             faces = np.asarray(mesh.faces, dtype=np.int64)
             if len(faces) == 0:
@@ -73,6 +81,10 @@ class EmbreeGeometry:
         self.face_object = np.concatenate(fobj)
         allv = np.concatenate(all_vertices)
         self.scale = float(np.linalg.norm(allv.max(axis=0) - allv.min(axis=0))) or 1.0
+        #: per object, the mirrors' table the compiled specular event reads
+        #: (:func:`blockhash.photons.bounce._event`): reflectance, eta, k, conductor (0 or 1)
+        self.mirror = np.ascontiguousarray(np.column_stack(
+            [self.reflectance, self.eta, self.k, self.conductor.astype(np.float64)]))
 
     def intersect(self, origins: np.ndarray, dirs: np.ndarray):
         """First hits: (hit mask (n,), global face (m,), u (m,), v (m,)) for the hit rays."""

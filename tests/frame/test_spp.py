@@ -10,7 +10,7 @@ from conftest import context_or_skip
 from blockhash.errors import InputError
 from blockhash.frame.subpixel import box_filter
 from blockhash.passes.pipeline import NoCausticWarning, render_scene
-from blockhash.scene.camera import Pinhole, spp_side
+from blockhash.scene.camera import Pinhole, spp_grid
 from blockhash.scene.loader import load_scene
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)
@@ -72,13 +72,15 @@ def coverage(scene, s=64):
     return box_filter(on[..., None], s)[..., 0]
 
 
-def test_spp_must_be_a_square_number(tmp_path):
-    for bad in (2, 5, 0, 1025):
+def test_any_spp_is_stratified_as_near_square_as_it_divides(tmp_path):
+    assert [spp_grid(n) for n in (1, 9, 32, 128, 512, 7, 6)] == [
+        (1, 1), (3, 3), (4, 8), (8, 16), (16, 32), (1, 7), (2, 3)]
+    for bad in (0, 1025):
         with pytest.raises(InputError, match="spp"):
-            spp_side(bad)
-    with pytest.raises(InputError, match=r"camera\.spp.*square number.*use 4 or 9"):
-        step_edge(tmp_path, "spp = 6")
-    assert step_edge(tmp_path, "spp = 9").camera.spp == 9
+            spp_grid(bad)
+    with pytest.raises(InputError, match=r"camera\.spp.*1 to 1024"):
+        step_edge(tmp_path, "spp = 2000")
+    assert step_edge(tmp_path, "spp = 6").camera.spp == 6
 
 
 def test_box_filter_averages_each_pixels_samples():
@@ -145,9 +147,9 @@ def test_render_command_records_spp_in_the_exr(tmp_path, capsys):
                  "3000", "--spp", "4", "--passes", "1", "-o", str(out)]) == 0
     assert read_attribute(out, "blockhash:spp") == 4
     assert "4 samples per pixel" in capsys.readouterr().out
-    assert main(["render", str(ROOT / "scenes" / "ring.toml"), "--spp", "3",
+    assert main(["render", str(ROOT / "scenes" / "ring.toml"), "--spp", "2000",
                  "-o", str(out)]) == 2
-    assert "spp=3 is not a square number" in capsys.readouterr().err
+    assert "spp=2,000 is out of range" in capsys.readouterr().err
 
 
 @pytest.mark.slow

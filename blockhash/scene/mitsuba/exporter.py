@@ -3,8 +3,8 @@
 What is written, into ``DIR``:
 
 * ``scene.xml``: a ``perspective`` sensor (``lookat`` from the camera's eye, target and up;
-  ``fov`` on the y axis; an ``hdrfilm`` of the camera's size with a ``box`` filter, the pixel
-  mean blockhash's images hold; an ``independent`` sampler whose ``sample_count`` is the
+  ``fov`` on the y axis; an ``hdrfilm`` of the camera's size with its pixel filter (``box``, the
+  pixel mean, unless the camera names a ``tent`` or ``gaussian``); an ``independent`` sampler whose ``sample_count`` is the
   variable ``spp``), a ``ptracer`` integrator of the scene's specular depth, one BSDF per
   material, the lights and one ``ply`` shape per object.
 * ``meshes/NAME.ply``: each object's mesh in world coordinates with its vertex normals
@@ -77,8 +77,10 @@ def mesh_file_name(name: str) -> str:
 
 def _bsdf(material, bsdf_id: str, drop_specular: bool, owner: str) -> list[str]:
     if isinstance(material, MirrorMaterial):
+        metal = ([f"    {_rgb('eta', material.eta)}", f"    {_rgb('k', material.k)}"]
+                 if material.is_conductor else [])
         return [f'<bsdf type="conductor" id={quoteattr(bsdf_id)}>',
-                '    <string name="material" value="none"/>',
+                '    <string name="material" value="none"/>', *metal,
                 "    " + _rgb("specular_reflectance", material.reflectance), "</bsdf>"]
     if isinstance(material, DielectricMaterial):
         return [f'<bsdf type="dielectric" id={quoteattr(bsdf_id)}>',
@@ -166,7 +168,7 @@ def scene_xml(scene: Scene, *, drop_specular: bool = False, spp: int = DEFAULT_M
            '    <film type="hdrfilm">',
            f'        <integer name="width" value="{c.width}"/>',
            f'        <integer name="height" value="{c.height}"/>',
-           '        <rfilter type="box"/>',
+           *_rfilter(c.filter),
            "    </film>",
            "</sensor>"]
     ids: dict[int, str] = {}
@@ -214,4 +216,16 @@ def export_mitsuba(scene: Scene, directory, *, drop_specular: bool = False,
     return xml
 
 
+def _rfilter(pf) -> list[str]:
+    """The ``<rfilter>`` lines of a camera's pixel filter."""
+    d = pf.to_dict()
+    if len(d) == 1:
+        return [f'        <rfilter type="{pf.kind}"/>']
+    name = next(k for k in d if k != "kind")
+    return [f'        <rfilter type="{pf.kind}">',
+            f'            <float name="{name}" value="{_num(d[name])}"/>',
+            "        </rfilter>"]
+
+
 __all__ = ["export_mitsuba", "scene_xml", "mesh_file_name", "METADATA_MARK"]
+

@@ -34,13 +34,14 @@ Mapped:
   :class:`blockhash.scene.model.AreaLight`, emitting from its front face, and keeps its BSDF
   for the light it reflects).  An emitter's ``<spectrum value="v"/>`` is a flat spectrum,
   v * (1.2048, 0.9483, 0.9089) in RGB as in Mitsuba's RGB variants
-  (:data:`.xml_values.FLAT_EMITTER_RGB`).
+  (:data:`.xml_values.FLAT_EMITTER_RGB`); a spectrum of wavelength:value pairs as those
+  variants take it (:mod:`.spectra`).
 
 Refused: every other element, plugin type and property (``envmap`` and ``constant``
 emitters, an area emitter on a mirror or glass shape or with a textured radiance, textures, media, rough
-or measured BSDFs, other sensors and integrators, Gaussian and other filters, spectra of
-wavelength:value pairs or from a file, a sensor to_world with scale, shear or a mirror flip,
-clip planes that would clip the scene, sample counts blockhash cannot stratify, depths its
+or measured BSDFs, other sensors and integrators, filters other than box, tent and
+Gaussian, spectra from a file, a sensor to_world with scale, shear or a mirror flip,
+clip planes that would clip the scene, more than 1024 samples a pixel, depths its
 camera rays cannot follow), and a scene with no emitter or no shape (blockhash renders
 light on surfaces).
 
@@ -65,6 +66,7 @@ from blockhash.scene.lights import falloff_solid_angle
 from blockhash.scene.mitsuba import sensor as mitsuba_sensor
 from blockhash.scene.mitsuba.exporter import METADATA_MARK
 from blockhash.scene.mitsuba.shapes import PROPERTIES, SHAPES, placed, shape_mesh
+from blockhash.scene.mitsuba.spectra import conductor_preset, conductor_presets
 from blockhash.scene.mitsuba.xml_values import XmlReader, parse
 from blockhash.scene.model import (
     AreaLight,
@@ -117,13 +119,7 @@ class _Reader(XmlReader):
             return self.build(el, PhongMaterial, kd=np.broadcast_to(kd, (3,)), ks=0.0, n=0.0,
                               sided="two" if twosided else "one")
         if kind == "conductor":
-            p = self.props(el, {"material": ("string",), "specular_reflectance": ("rgb", "spectrum", "float")})
-            if p.get("material", "none") != "none":  # Mitsuba's default: none, a perfect mirror
-                self.fail(el, "only a conductor with <string name=\"material\" value=\"none\"/> "
-                          "(a perfect mirror of specular_reflectance) is supported; measured "
-                          "metals (eta, k) are not")
-            r = p.get("specular_reflectance", 1.0)
-            return self.build(el, MirrorMaterial, reflectance=np.broadcast_to(r, (3,)))
+            return self.conductor(el)
         if kind == "dielectric":
             p = self.props(el, {"int_ior": ("float", "string"), "ext_ior": ("float", "string"),
                                 "specular_transmittance": ("rgb", "spectrum", "float"),
@@ -139,6 +135,32 @@ class _Reader(XmlReader):
             return self.build(el, DielectricMaterial, ior=float(ior),
                                  tint=np.broadcast_to(tint, (3,)))
         self.fail(el, f"unsupported BSDF; supported: {', '.join(BSDFS)}")
+
+    def conductor(self, el) -> MirrorMaterial:
+        """A smooth ``conductor`` as Mitsuba reads it: ``material`` none (its default) takes
+        ``eta`` (default 0) and ``k`` (default 1), a perfect mirror where neither is given;
+        another ``material`` is one of Mitsuba's presets (:func:`.spectra.conductor_preset`);
+        ``specular_reflectance`` scales either."""
+        spectra = ("rgb", "spectrum", "float")
+        p = self.props(el, {"material": ("string",), "specular_reflectance": spectra,
+                            "eta": spectra, "k": spectra}, unbounded=("eta", "k"))
+        r = np.broadcast_to(p.get("specular_reflectance", 1.0), (3,))
+        material = p.get("material", "none")
+        if material == "none":
+            if "eta" not in p and "k" not in p:
+                return self.build(el, MirrorMaterial, reflectance=r)
+            eta, k = p.get("eta", 0.0), p.get("k", 1.0)
+        else:
+            if "eta" in p or "k" in p:
+                self.fail(el, f"material {material!r} and eta or k: give either a material "
+                          "preset or eta and k, not both (as Mitsuba asks)")
+            preset = conductor_preset(material)
+            if preset is None:
+                self.fail(el, f"material {material!r} is not one of Mitsuba's conductor presets "
+                          f"({', '.join(conductor_presets())}, or none); give eta and k")
+            eta, k = preset
+        return self.build(el, MirrorMaterial, reflectance=r, eta=np.broadcast_to(eta, (3,)),
+                          k=np.broadcast_to(k, (3,)))
 
     def ior(self, el, name: str, value) -> float:
         """An index of refraction: a number, or a material Mitsuba names (:data:`IORS`)."""

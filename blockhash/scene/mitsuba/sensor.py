@@ -13,13 +13,14 @@ What is mapped, each as Mitsuba 3.9 does it:
 * ``hdrfilm``: ``width``, ``height`` (768 x 576 by default); ``pixel_format`` ``rgb`` or
   ``rgba``, ``file_format`` ``openexr``, ``component_format`` ``float16`` or ``float32``
   (Mitsuba's output file only; blockhash writes its own float32 EXR).  ``rfilter``: ``box``
-  (blockhash's pixels are box means); without one, Mitsuba's default is a Gaussian of
-  0.5 pixel, read as box (edges differ by that blur, the image's sums do not).
+  (the pixel mean), ``tent`` (``radius``, default 1) or ``gaussian`` (``stddev``, default
+  0.5), weighted across pixel borders as Mitsuba's film weighs them
+  (:mod:`blockhash.scene.pixel_filter`); without one, Mitsuba's default Gaussian.
 * ``sampler``: ``sample_count`` is the samples per pixel after Mitsuba's rounding (``independent``
   as given, ``stratified`` up to a square, ``ldsampler`` up to a power of 4, ``orthogonal``
-  up to the square of a prime, ``multijitter`` only a square), which must be a square
-  number up to 1024 (blockhash stratifies S x S per pixel); without one, blockhash's
-  default.  ``seed`` and ``jitter = true`` change only the noise and are accepted.
+  up to the square of a prime, ``multijitter`` up to floor(sqrt(n)) rows of ceil(n / rows)),
+  up to 1024, stratified in cells as near square as the count divides
+  (:func:`blockhash.scene.camera.spp_grid`; 32: 4 x 8); without one, blockhash's default.  ``seed`` and ``jitter = true`` change only the noise and are accepted.
 * ``integrator`` ``direct``: direct light only (:func:`depths`, one warning saying what
   differs); ``path`` or ``ptracer``: ``max_depth`` -1 (Mitsuba's default, unbounded)
   keeps blockhash's depth (4 specular events, 8 in a scene with glass, for photons and
@@ -46,6 +47,7 @@ import trimesh
 from blockhash.scene.camera import MAX_SPP
 from blockhash.scene.mitsuba.xml_values import ORTHONORMAL_TOLERANCE, XmlReader
 from blockhash.scene.model import DIELECTRIC_MAX_BOUNCES, MAX_BOUNCES, Camera
+from blockhash.scene.pixel_filter import FILTERS, PixelFilter
 
 #: Mitsuba's defaults: film size, clip planes, focal length (mm) and its film's diagonal.
 DEFAULT_SIZE = (768, 576)
@@ -53,6 +55,8 @@ DEFAULT_NEAR, DEFAULT_FAR = 0.01, 10000.0
 DEFAULT_FOCAL = "50mm"
 FILM_DIAGONAL_MM = math.hypot(36.0, 24.0)
 INTEGRATORS = ("path", "ptracer", "direct")
+#: A film's filter where it names none: Mitsuba's Gaussian of standard deviation 0.5 pixel.
+DEFAULT_FILTER = PixelFilter("gaussian")
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
 
 
@@ -117,6 +121,7 @@ def sensor(r: XmlReader, el) -> Render:
                      "far_clip": ("float",), "focus_distance": ("float",)},
                 children=("film", "sampler"))  # focus_distance: no effect on a pinhole
     width, height = DEFAULT_SIZE
+    pf = DEFAULT_FILTER
     sampler = None
     films = [k for k in p["<children>"] if k.tag == "film"]
     for kid in p["<children>"]:
@@ -127,7 +132,7 @@ def sensor(r: XmlReader, el) -> Render:
         elif kid is not films[0]:
             r.fail(kid, "a second film; a sensor takes one")
         else:
-            width, height = film(r, kid)
+            width, height, pf = film(r, kid)
     near, far = float(p.get("near_clip", DEFAULT_NEAR)), float(p.get("far_clip", DEFAULT_FAR))
     given = {k for k in ("near_clip", "far_clip") if k in p}
     if not near > 0:
@@ -138,7 +143,7 @@ def sensor(r: XmlReader, el) -> Render:
     fov_y = math.degrees(2.0 * math.atan(math.tan(math.radians(fx) / 2.0) * height / width))
     eye, target, up = camera_frame(r, el)
     camera = r.build(el, Camera, eye=eye, target=target, up=up, fov_y_deg=fov_y, width=width,
-                     height=height)
+                     height=height, filter=pf)
     out = Render(camera=camera, near=near, far=far, sensor=el, sampler=sampler, clips=given)
     if sampler is not None:
         out.spp = samples(r, sampler)
@@ -171,7 +176,9 @@ def camera_frame(r: XmlReader, el):
     return eye, eye + a @ [0.0, 0.0, 1.0], a @ [0.0, 1.0, 0.0]
 
 
-def film(r: XmlReader, el) -> tuple[int, int]:
+def film(r: XmlReader, el) -> tuple[int, int, PixelFilter]:
+    """(width, height, pixel filter) of an ``hdrfilm`` (Mitsuba's Gaussian where it names no
+    ``rfilter``)."""
     if el.get("type") != "hdrfilm":
         r.fail(el, "unsupported film; supported: hdrfilm")
     f = r.props(el, {"width": ("integer",), "height": ("integer",), "pixel_format": ("string",),
@@ -182,27 +189,40 @@ def film(r: XmlReader, el) -> tuple[int, int]:
         if key in f and f[key].lower() not in ok:
             r.fail(el, f"{key} {f[key]!r} is not supported; supported: {', '.join(ok)} "
                    "(blockhash writes RGB layers to a float32 EXR)")
+    pf = DEFAULT_FILTER
     for kid in f["<children>"]:
-        if kid.get("type") != "box":
-            r.fail(kid, "unsupported reconstruction filter; supported: box (blockhash's pixels "
-                   "are box means); use <rfilter type=\"box\"/>")
-        r.props(kid, {})
         if len(f["<children>"]) > 1:
             r.fail(kid, "a second rfilter; a film takes one")
+        pf = rfilter(r, kid)
     width, height = f.get("width", DEFAULT_SIZE[0]), f.get("height", DEFAULT_SIZE[1])
     for key, v in (("width", width), ("height", height)):
         if not v >= 1:
             r.fail(el, f"{key} {v} must be at least 1 pixel")
-    return width, height
+    return width, height, pf
+
+
+def rfilter(r: XmlReader, el) -> PixelFilter:
+    """The pixel filter of an ``<rfilter>``: ``box`` (its radius Mitsuba's 0.5: the pixel
+    mean), ``tent`` (``radius``) or ``gaussian`` (``stddev``)."""
+    kind = el.get("type")
+    if kind not in FILTERS:
+        r.fail(el, f"unsupported reconstruction filter; supported: {', '.join(FILTERS)}")
+    name = FILTERS[kind][0] or "radius"
+    p = r.props(el, {name: ("float",)})
+    if kind == "box":
+        if p.get("radius", 0.5) != 0.5:
+            r.fail(el, f"a box filter of radius {p['radius']:g}: blockhash's box is the pixel "
+                   "mean (radius 0.5); leave the radius out, or use a tent or gaussian filter")
+        return PixelFilter()
+    return r.build(el, PixelFilter, kind=kind, width=p.get(name))
 
 
 def _prime(n: int) -> bool:
     return n >= 2 and all(n % d for d in range(2, math.isqrt(n) + 1))
 
 
-def sample_count(kind: str, n: int) -> int | None:
-    """The samples per pixel Mitsuba's sampler ``kind`` takes for ``sample_count = n``
-    (None: a count blockhash has no square for, multijitter's non-squares)."""
+def sample_count(kind: str, n: int) -> int:
+    """The samples per pixel Mitsuba's sampler ``kind`` takes for ``sample_count = n``."""
     if kind == "independent":
         return n
     if kind == "stratified":
@@ -217,7 +237,8 @@ def sample_count(kind: str, n: int) -> int | None:
         while not _prime(p):
             p += 1
         return p * p
-    return n if math.isqrt(n) ** 2 == n else None  # multijitter: w x h near sqrt(n)
+    rows = math.isqrt(n)  # multijitter: floor(sqrt(n)) rows of ceil(n / rows)
+    return rows * -(-n // rows)
 
 
 def samples(r: XmlReader, el) -> int | None:
@@ -230,20 +251,15 @@ def samples(r: XmlReader, el) -> int | None:
     p = r.props(el, allowed)
     if p.get("jitter", True) is False:
         r.fail(el, "jitter = false (samples at the cell centres) is not supported; blockhash's "
-               "samples are jittered in S x S cells: remove it")
+               "samples are jittered in stratified cells: remove it")
     if "sample_count" not in p:
         return None
     n = p["sample_count"]
-    if not 1 <= n <= MAX_SPP:
-        r.fail(el, f"sample_count {n}: blockhash takes 1 to {MAX_SPP} samples per pixel")
-    spp = sample_count(kind, n)
-    side = math.isqrt(spp) if spp else 0
-    if spp is None or side * side != spp or spp > MAX_SPP:
-        what = f"{n}" if spp == n or spp is None else f"{n} ({kind} takes {spp})"
-        lo = max(1, math.isqrt(n))
-        r.fail(el, f"sample_count {what} is not a square number up to {MAX_SPP}; blockhash's "
-               f"samples are stratified in S x S cells per pixel: give {lo * lo} or "
-               f"{(lo + 1) ** 2} (an independent or stratified sampler takes it as given)")
+    spp = sample_count(kind, n) if n >= 1 else n
+    if not 1 <= spp <= MAX_SPP:
+        what = f"{n}" if spp == n else f"{n} ({kind} takes {spp})"
+        r.fail(el, f"sample_count {what}: blockhash takes 1 to {MAX_SPP} samples per pixel a "
+               "pass; give fewer and render more passes")
     return spp
 
 

@@ -8,7 +8,8 @@
   or ``x``/``y``/``z``), ``rgb`` (one number or three) and ``spectrum`` of one number.  A
   spectrum of one value v is grey (v, v, v) as a reflectance, but on an emitter it is an
   equal-energy (flat) spectrum, whose colour Mitsuba's RGB variants take as
-  v * :data:`FLAT_EMITTER_RGB`.  Spectra of ``wavelength:value`` pairs and from a
+  v * :data:`FLAT_EMITTER_RGB`.  A spectrum of ``wavelength:value`` pairs is taken to linear
+  sRGB as Mitsuba's RGB variants take it (:mod:`.spectra`).  Spectra from a
   ``filename`` are refused (give ``<rgb>``).
 * Transforms: ``translate``, ``rotate`` (axis and angle), ``scale``, ``matrix`` (9 or 16
   numbers) and ``lookat``, composed in order (each applied after the ones before it).  A
@@ -230,9 +231,10 @@ class XmlReader:
             self.fail(el, f"expected finite numbers; got {text!r}")
         return v
 
-    def value(self, el, *, emitter: bool = False):
+    def value(self, el, *, emitter: bool = False, unbounded: bool = False):
         """The value of property element ``el``; ``emitter``: it is an emitter's (a
-        spectrum there is an illuminant, module docstring)."""
+        spectrum there is an illuminant, module docstring); ``unbounded``: a value above 1 is
+        not clipped (a conductor's eta and k, :mod:`.spectra`)."""
         tag = el.tag
         if tag in ("float", "integer"):
             v = self.floats(el, self.attr(el, "value"), 1)[0]
@@ -252,7 +254,7 @@ class XmlReader:
                 self.fail(el, "expected one number or three (r, g, b)")
             return np.broadcast_to(v, (3,)).copy()
         if tag == "spectrum":
-            return self.spectrum(el, emitter)
+            return self.spectrum(el, emitter, unbounded)
         if tag in ("point", "vector"):
             return self.value_xyz(el, 0.0)
         if tag == "transform":
@@ -260,18 +262,45 @@ class XmlReader:
         self.fail(el, "unsupported property; supported: float, integer, string, boolean, rgb, "
                   "spectrum, point, vector, transform")
 
-    def spectrum(self, el, emitter: bool) -> np.ndarray:
+    def spectrum(self, el, emitter: bool, unbounded: bool = False) -> np.ndarray:
         if el.get("filename") is not None:
             self.fail(el, "a spectrum read from a file is not supported; give its colour as "
                       "<rgb value=\"r, g, b\"/>")
         text = self.attr(el, "value")
         if ":" in text:
-            self.fail(el, "a spectrum of wavelength:value pairs is not supported; give one "
-                      "number (a flat spectrum) or its colour as <rgb value=\"r, g, b\"/>")
+            return self.sampled_spectrum(el, text, emitter, unbounded)
         v = self.floats(el, text, 1)[0]
         return v * FLAT_EMITTER_RGB if emitter else np.full(3, v)
 
-    def props(self, el, allowed: dict, *, children=(), emitter: bool = False) -> dict:
+    def sampled_spectrum(self, el, text: str, emitter: bool, unbounded: bool) -> np.ndarray:
+        """The linear sRGB of a spectrum of ``wavelength:value`` pairs, as Mitsuba's RGB
+        variants take it (:mod:`.spectra`)."""
+        import warnings
+
+        from blockhash.scene.mitsuba.sensor import MitsubaWarning
+        from blockhash.scene.mitsuba.spectra import to_srgb
+
+        pairs = [p.strip() for p in text.split(",") if p.strip()]
+        try:
+            wl, v = np.array([[float(x) for x in p.split(":")] for p in pairs]).T
+        except ValueError:
+            self.fail(el, f"expected wavelength:value pairs such as \"400:0.3, 500:0.5\"; got "
+                      f"{text!r}")
+        if not (np.isfinite(wl).all() and np.isfinite(v).all()):
+            self.fail(el, f"expected finite wavelengths and values; got {text!r}")
+        if len(wl) < 2 or not (np.diff(wl) > 0).all():
+            self.fail(el, "expected at least two wavelength:value pairs in increasing "
+                      f"wavelength; got {text!r}")
+        rgb, clipped = to_srgb(wl, v, emitter=emitter, unbounded=unbounded)
+        if clipped:
+            warnings.warn(f"{self.where(el)}: <spectrum value=\"{text}\">: its colour lies "
+                          f"outside {'the positive channels' if emitter or unbounded else '[0, 1]'} of linear "
+                          f"sRGB and is clipped to {np.round(rgb, 4).tolist()}, as Mitsuba's RGB "
+                          "variants clip it", MitsubaWarning, stacklevel=2)
+        return rgb
+
+    def props(self, el, allowed: dict, *, children=(), emitter: bool = False,
+              unbounded=()) -> dict:
         """The named properties of ``el`` (``allowed``: name -> tags), every other child an
         error unless its tag is in ``children`` (returned under ``'<children>'``)."""
         out, kids = {}, []
@@ -291,7 +320,7 @@ class XmlReader:
                 self.fail(child, f"{name} is given twice; keep one")
             if child.tag not in allowed[name]:
                 self.fail(child, f"{name} must be given as {' or '.join(allowed[name])}")
-            out[name] = self.value(child, emitter=emitter)
+            out[name] = self.value(child, emitter=emitter, unbounded=name in unbounded)
         out["<children>"] = kids
         return out
 
