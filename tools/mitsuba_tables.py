@@ -14,10 +14,11 @@ usage: python tools/mitsuba_tables.py [--check]   (needs the extra blockhash[mit
 --check compares both files with Mitsuba and writes nothing)
 """
 
-import sys
 from pathlib import Path
 
 import numpy as np
+
+from blockhash.studies.command import ToolParser
 
 HERE = Path(__file__).resolve().parents[1] / "blockhash" / "scene" / "mitsuba"
 CIE = HERE / "cie1931_d65.csv"
@@ -67,8 +68,11 @@ def check() -> int:
 
 
 def main(argv=None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
-    if "--check" in argv:
+    p = ToolParser(__doc__, __file__)
+    p.add_argument("--check", action="store_true",
+                   help="compare both files with Mitsuba and write nothing")
+    args = p.parse_args(argv)
+    if args.check:
         return check()
     rows = cie_tables(np.arange(360.0, 830.5, 5.0))
     lines = ["# wavelength_nm,x_bar,y_bar,z_bar,d65 (CIE 1931 2-degree observer; CIE D65 as "

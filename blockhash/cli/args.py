@@ -30,3 +30,22 @@ def size(text: str) -> tuple[int, int]:
 #: The exit status of a render stopped by Ctrl-C (as a shell reports SIGINT).
 INTERRUPTED = 130
 
+
+
+def define_option(parser) -> None:
+    """``-D NAME=VALUE``, repeatable: a Mitsuba XML file's ``$NAME``, as Mitsuba's own ``-D``."""
+    parser.add_argument("-D", dest="define", action="append", default=[], metavar="NAME=VALUE",
+                        type=_define, help="a Mitsuba XML scene's parameter $NAME, over its "
+                        "<default> (as Mitsuba's -D); repeatable")
+
+
+def _define(text: str) -> tuple[str, str]:
+    name, sep, value = text.partition("=")
+    if not sep or not name.strip():
+        raise argparse.ArgumentTypeError(f"-D {text!r}: expected NAME=VALUE such as spp=64")
+    return name.strip(), value.strip()
+
+
+def defines(pairs) -> dict:
+    """``-D`` pairs as the loader's ``defines`` (the last of a name wins, as Mitsuba's)."""
+    return dict(pairs or [])

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from blockhash.cli.args import size
+from blockhash.cli.args import define_option, defines, size
 from blockhash.errors import InputError
 from blockhash.validate import writable_path
 
@@ -54,7 +54,7 @@ def cmd_reference(args) -> int:
     if out.suffix.lower() != ".exr":
         raise InputError(f"--output {out}: expected a .exr file name")
     writable_path(out, "--output")
-    scene = load_scene(args.scene)
+    scene = load_scene(args.scene, defines(args.define))
     if args.size:
         scene = scene.with_size(*args.size)
     if args.engine == "mitsuba":
@@ -102,6 +102,7 @@ def add_reference(sub) -> None:
                                    "combined) to a multi-layer EXR that `blockhash compare` "
                                    "takes. --engine mitsuba needs the extra blockhash[mitsuba].")
     p.add_argument("scene")
+    define_option(p)
     p.add_argument("-o", "--output", help="EXR path (default: SCENE-NAME.reference.exr here)")
     p.add_argument("--engine", choices=("blockhash", "mitsuba"), default="blockhash")
     p.add_argument("--spp", type=int, default=64, help="samples per pixel (default 64)")

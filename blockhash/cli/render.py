@@ -12,7 +12,7 @@ import time
 import warnings
 from pathlib import Path
 
-from blockhash.cli.args import FLAGS, INTERRUPTED
+from blockhash.cli.args import FLAGS, INTERRUPTED, define_option, defines
 from blockhash.cli.args import size as _size
 from blockhash.cli.estimate import add_arguments as add_estimate_arguments
 from blockhash.cli.estimate import options_from
@@ -42,7 +42,7 @@ def cmd_render(args) -> int:
     if args.preview_every is not None and not args.preview_every > 0:
         raise InputError(f"--preview-every {args.preview_every}: the PNG is rewritten every SECONDS "
                          "> 0; give e.g. --preview-every 5, or leave it out")
-    scene = load_scene(args.scene)
+    scene = load_scene(args.scene, defines(args.define))
     if args.size:
         scene = scene.with_size(*args.size)
     if args.frames is not None:
@@ -224,6 +224,7 @@ def add_render(sub) -> None:
                                    "caustic, combined) and a tone-mapped PNG.  Ctrl-C writes the "
                                    "image so far and exits with status 130.")
     p.add_argument("scene", help="scene file (TOML, or Mitsuba 3 XML), e.g. scenes/ring.toml")
+    define_option(p)
     p.add_argument("-o", "--output", help="EXR path (default: SCENE-NAME.exr here)")
     p.add_argument("--passes", type=int, metavar="N",
                    help=f"stop after N passes (default {DEFAULT_PASSES}, or no limit when --time "

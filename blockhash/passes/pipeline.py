@@ -50,7 +50,7 @@ def render(scene, *, photons=None, spp=None, seed=None, estimate=EstimateOptions
         (``blockhash.photons.tracing.trace_caustic_photons``) for a one-pass render, to
         compare lookups on one photon map (with the default ``plan``, :data:`ONE_PASS`).
     spp : int, optional
-        Samples per pixel per pass, a square number (default: the scene's ``[camera] spp``;
+        Samples per pixel per pass, 1 to 1024 (default: the scene's ``[camera] spp``;
         else :data:`blockhash.scene.camera.DEFAULT_SPP` in a one-pass render and 1 per pass in
         a progressive one).
     seed : int, optional

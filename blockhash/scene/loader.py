@@ -426,9 +426,10 @@ def parse_scene(text: str, *, path: Path | str | None = None) -> Scene:
         raise InputError(f"{label}: {exc.key}: {exc.detail}") from None
 
 
-def load_scene(path: Path | str) -> Scene:
+def load_scene(path: Path | str, defines: dict | None = None) -> Scene:
     """Load the scene file at ``path``: TOML (the module docstring), or a Mitsuba 3 XML file
-    (``.xml``, the subset :mod:`.importer` reads)."""
+    (``.xml``, the subset :mod:`.importer` reads).  ``defines``: a Mitsuba file's parameters,
+    name -> value, over its ``<default>``s (Mitsuba's ``-D name=value``)."""
     p = Path(path)
     if not p.is_file():
         where = f" (resolved to {str(p.resolve())!r})" if not p.is_absolute() else ""
@@ -437,7 +438,10 @@ def load_scene(path: Path | str) -> Scene:
                          "(or a Mitsuba 3 .xml), e.g. scenes/ring.toml")
     if p.suffix.lower() == ".xml":
         from blockhash.scene.mitsuba.importer import load_mitsuba
-        return load_mitsuba(p)
+        return load_mitsuba(p, defines)
+    if defines:
+        raise InputError(f"{path}: parameters ({', '.join(defines)}) are given to a Mitsuba XML "
+                         "file's $name; a TOML scene has none, so leave them out")
     try:
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:

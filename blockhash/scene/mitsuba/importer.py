@@ -20,7 +20,7 @@ Mapped:
   top-level one by ``<ref id>``;
 * BSDFs ``diffuse`` (``reflectance``), ``conductor`` with ``material = none`` (Mitsuba's
   default; ``specular_reflectance``) and ``dielectric`` (``int_ior`` a number or a name of
-  :data:`IORS`, ``ext_ior`` within 0.001 of 1, ``specular_transmittance``), possibly inside ``twosided`` (one BSDF for both
+  :data:`.bsdfs.IORS`, ``ext_ior`` within 0.001 of 1, ``specular_transmittance``), possibly inside ``twosided`` (one BSDF for both
   faces).  A bare ``diffuse`` is one-sided, as in Mitsuba (``sided = "one"``: black seen or
   lit from the back, the side opposite its face normal, which ``flip_normals`` turns over);
   inside ``twosided`` it reflects on both faces.  Mirrors and glass are two-sided in
@@ -64,15 +64,13 @@ import numpy as np
 from blockhash.errors import InputError
 from blockhash.scene.lights import falloff_solid_angle
 from blockhash.scene.mitsuba import sensor as mitsuba_sensor
+from blockhash.scene.mitsuba.bsdfs import bsdf as read_bsdf
 from blockhash.scene.mitsuba.exporter import METADATA_MARK
 from blockhash.scene.mitsuba.shapes import PROPERTIES, SHAPES, placed, shape_mesh
-from blockhash.scene.mitsuba.spectra import conductor_preset, conductor_presets
 from blockhash.scene.mitsuba.xml_values import XmlReader, parse
 from blockhash.scene.model import (
     AreaLight,
-    DielectricMaterial,
     DirectionalLight,
-    MirrorMaterial,
     PhongMaterial,
     PhotonSettings,
     PointLight,
@@ -81,7 +79,6 @@ from blockhash.scene.model import (
     SpotLight,
 )
 
-BSDFS = ("diffuse", "conductor", "dielectric", "twosided")
 EMITTERS = ("point", "spot", "directional")
 #: Emitters Mitsuba has that blockhash does not model, with the way out.
 REFUSED_EMITTERS = {
@@ -90,87 +87,9 @@ REFUSED_EMITTERS = {
     "constant": "a constant environment lights from every direction, which blockhash does "
                 "not model; use area emitters (a large emitting shape) or a directional one",
 }
-ELEMENTS = ("default", "path", "include", "integrator", "sensor", "bsdf", "emitter", "shape")
-#: The indices of refraction Mitsuba 3 names (its documentation's table of the dielectric
-#: BSDF, at 589 nm), for int_ior and ext_ior.
-IORS = {"vacuum": 1.0, "helium": 1.000036, "hydrogen": 1.000132, "air": 1.000277,
-        "carbon dioxide": 1.00045, "water": 1.3330, "acetone": 1.36, "ethanol": 1.361,
-        "carbon tetrachloride": 1.461, "glycerol": 1.4729, "benzene": 1.501,
-        "silicone oil": 1.52045, "bromine": 1.661, "water ice": 1.31, "fused quartz": 1.458,
-        "pyrex": 1.470, "acrylic glass": 1.49, "polypropylene": 1.49, "bk7": 1.5046,
-        "sodium chloride": 1.544, "amber": 1.55, "pet": 1.5750, "diamond": 2.419}
-
-
+ELEMENTS = ("default", "path", "include", "integrator", "sensor", "sampler", "bsdf", "emitter",
+            "shape")
 class _Reader(XmlReader):
-    def bsdf(self, el, key: str, *, twosided: bool = False):
-        kind = el.get("type")
-        if kind == "twosided":
-            inner = [k for k in el if isinstance(k.tag, str)]
-            if len(inner) != 1 or inner[0].tag != "bsdf":
-                self.fail(el, "expected exactly one <bsdf> inside (the same BSDF on both faces; "
-                          "a different BSDF per face is not supported)")
-            if twosided:
-                self.fail(el, "a twosided inside a twosided; keep one")
-            return self.bsdf(inner[0], key, twosided=True)
-        if kind == "diffuse":
-            p = self.props(el, {"reflectance": ("rgb", "spectrum", "float")})
-            kd = p.get("reflectance", 0.5)
-            # Mitsuba's diffuse reflects on the front face only; twosided on both
-            return self.build(el, PhongMaterial, kd=np.broadcast_to(kd, (3,)), ks=0.0, n=0.0,
-                              sided="two" if twosided else "one")
-        if kind == "conductor":
-            return self.conductor(el)
-        if kind == "dielectric":
-            p = self.props(el, {"int_ior": ("float", "string"), "ext_ior": ("float", "string"),
-                                "specular_transmittance": ("rgb", "spectrum", "float"),
-                                "specular_reflectance": ("rgb", "spectrum", "float")})
-            ior = self.ior(el, "int_ior", p.get("int_ior", "bk7"))  # Mitsuba's default
-            ext = self.ior(el, "ext_ior", p.get("ext_ior", "air"))
-            if not abs(ext - 1.0) < 1e-3:
-                self.fail(el, f"ext_ior {ext!r}: blockhash's dielectrics sit in air (index 1); "
-                          "give ext_ior 1")
-            if "specular_reflectance" in p and not np.allclose(p["specular_reflectance"], 1.0):
-                self.fail(el, "specular_reflectance other than 1 is not supported")
-            tint = p.get("specular_transmittance", 1.0)
-            return self.build(el, DielectricMaterial, ior=float(ior),
-                                 tint=np.broadcast_to(tint, (3,)))
-        self.fail(el, f"unsupported BSDF; supported: {', '.join(BSDFS)}")
-
-    def conductor(self, el) -> MirrorMaterial:
-        """A smooth ``conductor`` as Mitsuba reads it: ``material`` none (its default) takes
-        ``eta`` (default 0) and ``k`` (default 1), a perfect mirror where neither is given;
-        another ``material`` is one of Mitsuba's presets (:func:`.spectra.conductor_preset`);
-        ``specular_reflectance`` scales either."""
-        spectra = ("rgb", "spectrum", "float")
-        p = self.props(el, {"material": ("string",), "specular_reflectance": spectra,
-                            "eta": spectra, "k": spectra}, unbounded=("eta", "k"))
-        r = np.broadcast_to(p.get("specular_reflectance", 1.0), (3,))
-        material = p.get("material", "none")
-        if material == "none":
-            if "eta" not in p and "k" not in p:
-                return self.build(el, MirrorMaterial, reflectance=r)
-            eta, k = p.get("eta", 0.0), p.get("k", 1.0)
-        else:
-            if "eta" in p or "k" in p:
-                self.fail(el, f"material {material!r} and eta or k: give either a material "
-                          "preset or eta and k, not both (as Mitsuba asks)")
-            preset = conductor_preset(material)
-            if preset is None:
-                self.fail(el, f"material {material!r} is not one of Mitsuba's conductor presets "
-                          f"({', '.join(conductor_presets())}, or none); give eta and k")
-            eta, k = preset
-        return self.build(el, MirrorMaterial, reflectance=r, eta=np.broadcast_to(eta, (3,)),
-                          k=np.broadcast_to(k, (3,)))
-
-    def ior(self, el, name: str, value) -> float:
-        """An index of refraction: a number, or a material Mitsuba names (:data:`IORS`)."""
-        if not isinstance(value, str):
-            return float(value)
-        if value.lower() not in IORS:
-            self.fail(el, f"{name} {value!r} is not one of Mitsuba's named indices of refraction "
-                      f"({', '.join(IORS)}); give the index as a number")
-        return IORS[value.lower()]
-
     def emitter(self, el):
         kind = el.get("type")
         if kind in REFUSED_EMITTERS:
@@ -233,22 +152,22 @@ class _Reader(XmlReader):
                     self.fail(kid, "a shape takes one emitter; keep one")
                 emitter = kid
                 continue
-            if material is not None:
-                self.fail(kid, "a shape takes one BSDF; keep one")
             if kid.tag == "ref" and self.attr(kid, "id") in areas:
                 if emitter is not None:
                     self.fail(kid, "a shape takes one emitter; keep one")
                 emitter = areas[self.attr(kid, "id")]
                 self.used.add(id(emitter))
                 continue
+            if material is not None:
+                self.fail(kid, "a shape takes one BSDF; keep one")
             if kid.tag == "ref":
                 ref = self.attr(kid, "id")
                 if ref not in bsdfs:
-                    self.fail(kid, f"no BSDF with id {ref!r} before it; defined: "
+                    self.fail(kid, f"no BSDF with id {ref!r}; defined: "
                               f"{', '.join(bsdfs) or 'none'}")
                 material = bsdfs[ref]
             else:
-                material = self.bsdf(kid, "")
+                material = read_bsdf(self, kid, "")
         if material is None:  # Mitsuba's default BSDF: diffuse, reflectance 0.5, one-sided
             material = self.build(el, PhongMaterial, kd=np.full(3, 0.5), ks=0.0, n=0.0,
                                   sided="one")
@@ -358,11 +277,17 @@ def _exported_settings(r: _Reader, meta: dict, render) -> None:
                f"{depth + 2}); delete the 'blockhash:' comment to use max_depth")
 
 
-def load_mitsuba(path) -> Scene:
-    """The scene of the Mitsuba 3 XML file at ``path`` (module docstring)."""
+def load_mitsuba(path, defines: dict | None = None) -> Scene:
+    """The scene of the Mitsuba 3 XML file at ``path`` (module docstring); ``defines``: its
+    parameters, name -> value, over its ``<default>``s (Mitsuba's ``-D name=value``)."""
     path = Path(path)
     root, lines = parse(path)
     r = _Reader(path, lines)
+    for name, value in (defines or {}).items():
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", str(name)):
+            raise InputError(f"{path}: parameter name {name!r}: expected a name such as spp "
+                             "(letters, digits and _)")
+        r.defaults[str(name)] = str(value)
     if root.tag != "scene":
         r.fail(root, "expected <scene> at the top")
     _version(r, root)
@@ -371,8 +296,19 @@ def load_mitsuba(path) -> Scene:
     meta = _metadata(root)
     render, integrator, lights, objects, bsdfs, groups, areas = None, None, [], [], {}, {}, {}
     r.used = set()  # the top-level area emitters a shape took
+    # What a <ref id> may name is read first: Mitsuba resolves references after the whole file,
+    # so a shape may name a BSDF, an area emitter or a sampler defined below it.
     for el in root:
-        if not isinstance(el.tag, str) or el.tag == "default":
+        if el.tag == "bsdf":
+            bid = r.attr(el, "id")
+            bsdfs[bid] = read_bsdf(r, el, bid)
+        elif el.tag == "emitter" and el.get("type") == "area" and el.get("id"):
+            areas[el.get("id")] = el  # a shape takes it by <ref id>
+        elif el.tag == "sampler" and el.get("id"):
+            r.samplers[el.get("id")] = el  # a sensor takes it by <ref id>
+    for el in root:
+        if not isinstance(el.tag, str) or el.tag in ("default", "bsdf") or id(el) in {
+                id(v) for v in (*areas.values(), *r.samplers.values())}:
             continue
         if el.tag == "integrator":
             if integrator is not None:
@@ -382,11 +318,9 @@ def load_mitsuba(path) -> Scene:
             if render is not None:
                 r.fail(el, "a second sensor; blockhash renders one camera")
             render = mitsuba_sensor.sensor(r, el)
-        elif el.tag == "bsdf":
-            bid = r.attr(el, "id")
-            bsdfs[bid] = r.bsdf(el, bid)
-        elif el.tag == "emitter" and el.get("type") == "area" and el.get("id"):
-            areas[el.get("id")] = el  # a shape takes it by <ref id>
+        elif el.tag == "sampler":
+            r.fail(el, "a sampler at the top of the scene is taken by a sensor's <ref id>; give "
+                   "it an id and refer to it, or move it into the sensor")
         elif el.tag == "emitter":
             lights.append(r.emitter(el))
         elif el.tag == "shape" and el.get("type") == "shapegroup":

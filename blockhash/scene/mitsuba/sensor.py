@@ -45,7 +45,11 @@ import numpy as np
 import trimesh
 
 from blockhash.scene.camera import MAX_SPP
-from blockhash.scene.mitsuba.xml_values import ORTHONORMAL_TOLERANCE, XmlReader
+from blockhash.scene.mitsuba.xml_values import (  # noqa: F401 (MitsubaWarning importable from here)
+    ORTHONORMAL_TOLERANCE,
+    MitsubaWarning,
+    XmlReader,
+)
 from blockhash.scene.model import DIELECTRIC_MAX_BOUNCES, MAX_BOUNCES, Camera
 from blockhash.scene.pixel_filter import FILTERS, PixelFilter
 
@@ -119,12 +123,18 @@ def sensor(r: XmlReader, el) -> Render:
     p = r.props(el, {"fov": ("float",), "fov_axis": ("string",), "focal_length": ("string",),
                      "to_world": ("transform",), "near_clip": ("float",),
                      "far_clip": ("float",), "focus_distance": ("float",)},
-                children=("film", "sampler"))  # focus_distance: no effect on a pinhole
+                children=("film", "sampler", "ref"))  # focus_distance: no effect on a pinhole
     width, height = DEFAULT_SIZE
     pf = DEFAULT_FILTER
     sampler = None
     films = [k for k in p["<children>"] if k.tag == "film"]
     for kid in p["<children>"]:
+        if kid.tag == "ref":  # a sampler the scene defines at its top, by id
+            ref = r.attr(kid, "id")
+            if ref not in r.samplers:
+                r.fail(kid, f"no sampler with id {ref!r}; defined: {', '.join(r.samplers) or 'none'}"
+                       " (a sensor's <ref id> names a top-level <sampler id>)")
+            kid = r.samplers[ref]
         if kid.tag == "sampler":
             if sampler is not None:
                 r.fail(kid, "a second sampler; a sensor takes one")
@@ -269,10 +279,6 @@ WRAPPERS = {"moment": "its second moment (a variance estimate) is not rendered: 
                       "the integrator inside, the pixel means",
             "stokes": "the Stokes vector of polarised light is not rendered: blockhash renders "
                       "the integrator inside, intensity only (Stokes component s0)"}
-
-
-class MitsubaWarning(UserWarning):
-    """A Mitsuba scene element blockhash renders otherwise than Mitsuba (the message says how)."""
 
 
 def integrator(r: XmlReader, el) -> tuple[int | None, object]:

@@ -27,6 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
+#: CIE XYZ to linear sRGB (IEC 61966-2-1), the matrix of Mitsuba's ``xyz_to_srgb``.
+XYZ_TO_SRGB = np.array([[3.240479, -1.537150, -0.498535],
+                        [-0.969256, 1.875991, 0.041556],
+                        [0.055648, -0.204043, 1.057311]])
 #: Mitsuba's range of the colour matching functions, nm.
 CIE_MIN, CIE_MAX = 360.0, 830.0
 #: Wavelengths Mitsuba's conversion sums over.
@@ -52,8 +56,6 @@ def to_srgb(wavelengths, values, *, emitter: bool,
     """(linear sRGB (3,), whether a channel was clipped) of the piecewise-linear spectrum
     through ``(wavelengths, values)`` (increasing wavelengths, nm); ``emitter``: an illuminant;
     ``unbounded``: not clipped above 1 (module docstring)."""
-    from blockhash.scene.mitsuba.xml_values import XYZ_TO_SRGB
-
     wl = np.asarray(wavelengths, dtype=np.float64)
     v = np.asarray(values, dtype=np.float64)
     w = CIE_MIN + np.arange(STEPS) / (STEPS - 1) * (CIE_MAX - CIE_MIN)

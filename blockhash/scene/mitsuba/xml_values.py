@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 import re
+import warnings
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from xml.parsers import expat
@@ -29,16 +30,19 @@ import numpy as np
 import trimesh
 
 from blockhash.errors import InputError
+from blockhash.scene.mitsuba.spectra import XYZ_TO_SRGB, to_srgb
 
-#: CIE XYZ to linear sRGB (IEC 61966-2-1), the matrix of Mitsuba's ``xyz_to_srgb``.
-XYZ_TO_SRGB = np.array([[3.240479, -1.537150, -0.498535],
-                        [-0.969256, 1.875991, 0.041556],
-                        [0.055648, -0.204043, 1.057311]])
 #: The RGB Mitsuba's RGB variants give an emitter's ``<spectrum value="1"/>``: the flat
 #: (equal-energy) spectrum has CIE XYZ (1, 1, 1) at luminance 1, and in linear sRGB, whose
 #: white is D65, that is XYZ_TO_SRGB @ (1, 1, 1) = (1.2048, 0.9483, 0.9089), not grey.
 #: (A reflectance spectrum is converted under D65, so value v there stays (v, v, v).)
 FLAT_EMITTER_RGB = XYZ_TO_SRGB @ np.ones(3)
+
+
+class MitsubaWarning(UserWarning):
+    """A Mitsuba scene element blockhash renders otherwise than Mitsuba (the message says how)."""
+
+
 #: How far from orthonormal the sensor's to_world may be (Mitsuba's ``has_scale``:
 #: |M^T M - I| above this in any entry is a scale or a shear).
 ORTHONORMAL_TOLERANCE = 1e-3
@@ -109,6 +113,10 @@ class XmlReader:
         #: the folder of the file that names a file (:meth:`resolve`).
         self.search: list[Path] = []
         self.kept: list = []  # included files' roots: their elements' ids stay theirs
+        #: The file the scene was loaded from (an included file's reader shares it).
+        self.top = path
+        #: Top-level <sampler id> elements, which a sensor takes by <ref id>.
+        self.samplers: dict = {}
 
     def where(self, el) -> str:
         return f"{self.file_of(el)}:{self.lines.get(id(el), '?')}"
@@ -119,12 +127,10 @@ class XmlReader:
 
     def resolve(self, el, name: str, what: str) -> Path:
         """The file ``name`` that ``el`` names: as given when absolute, else in each folder of
-        a ``<path>`` (the last given first), then beside the file ``el`` is in, as Mitsuba's
-        file resolver looks; an error listing where it looked when none holds it."""
-        given = Path(name)
-        places = [given] if given.is_absolute() else [d / given for d in reversed(self.search)]
-        if not given.is_absolute():
-            places.append(self.file_of(el).parent / given)
+        a ``<path>`` (the last given first), then beside the top file and the file ``el`` is
+        in, as Mitsuba's file resolver looks (:meth:`places`); an error listing where it
+        looked when none holds it."""
+        places = self.places(el, Path(name))
         for place in places:
             if place.is_file():
                 return place
@@ -132,6 +138,25 @@ class XmlReader:
                   + ", ".join(repr(str(p)) for p in places)
                   + " (a relative name is searched in each <path value> folder, then beside the "
                   "XML file); fix the name or add <path value=\"FOLDER\"/>")
+
+    def places(self, el, given: Path) -> list[Path]:
+        """Where a relative name is looked for, in order, as Mitsuba's file resolver looks:
+        each ``<path>`` folder (the last given first), the top file's folder, then the folder
+        of the (included) file that names it."""
+        if given.is_absolute():
+            return [given]
+        bases = [*reversed(self.search), self.top.parent, self.file_of(el).parent]
+        return list(dict.fromkeys(d / given for d in bases))
+
+    def folder(self, el, value: str) -> Path:
+        """The folder a ``<path value>`` names, through :meth:`places`."""
+        places = self.places(el, Path(value))
+        for place in places:
+            if place.is_dir():
+                return place
+        self.fail(el, f"folder not found: {value!r}, looked for at "
+                  + ", ".join(repr(str(p)) for p in places)
+                  + "; a <path value> names a folder to search for the files the scene names")
 
     def expand(self, root, stack: tuple[Path, ...] = ()) -> None:
         """Read ``root``'s ``<path>`` elements into :attr:`search` and put each ``<include
@@ -143,12 +168,7 @@ class XmlReader:
                 extra = sorted(set(el.attrib) - {"value"})
                 if extra:
                     self.fail(el, f"unsupported attribute(s) {extra}; a <path> takes value")
-                folder = Path(self.attr(el, "value"))
-                folder = folder if folder.is_absolute() else self.file_of(el).parent / folder
-                if not folder.is_dir():
-                    self.fail(el, f"{str(folder)!r} is not a folder; a <path value> names a "
-                              "folder to search for the files the scene names")
-                self.search.append(folder)
+                self.search.append(self.folder(el, self.attr(el, "value")))
                 root.remove(el)
             elif el.tag == "include":
                 extra = sorted(set(el.attrib) - {"filename"})
@@ -168,6 +188,7 @@ class XmlReader:
                     self.files.setdefault(id(kid), target)
                 inner = XmlReader(target, self.lines)
                 inner.files, inner.search, inner.kept = self.files, self.search, self.kept
+                inner.top = self.top
                 inner.expand(sub, (*stack, target.resolve()))
                 at = list(root).index(el)
                 root.remove(el)
@@ -207,7 +228,8 @@ class XmlReader:
 
     def _param(self, el, name: str) -> str:
         if name not in self.defaults:
-            self.fail(el, f"undefined parameter ${name} (Mitsuba refuses it too); add "
+            self.fail(el, f"undefined parameter ${name} (Mitsuba refuses it too); give it a "
+                      f"value as Mitsuba's -D {name}=VALUE does (the render's defines), or add "
                       f"<default name=\"{name}\" value=\"...\"/> at the top of the scene, "
                       "before its first use")
         return self.defaults[name]
@@ -275,11 +297,6 @@ class XmlReader:
     def sampled_spectrum(self, el, text: str, emitter: bool, unbounded: bool) -> np.ndarray:
         """The linear sRGB of a spectrum of ``wavelength:value`` pairs, as Mitsuba's RGB
         variants take it (:mod:`.spectra`)."""
-        import warnings
-
-        from blockhash.scene.mitsuba.sensor import MitsubaWarning
-        from blockhash.scene.mitsuba.spectra import to_srgb
-
         pairs = [p.strip() for p in text.split(",") if p.strip()]
         try:
             wl, v = np.array([[float(x) for x in p.split(":")] for p in pairs]).T
@@ -318,6 +335,12 @@ class XmlReader:
                           + "; remove it or fix its name")
             if name in out:
                 self.fail(child, f"{name} is given twice; keep one")
+            if child.tag in ("texture", "ref") and "rgb" in allowed[name]:
+                what = (f"the texture {child.get('id')!r}" if child.tag == "ref"
+                        else f"a {child.get('type')} texture")
+                self.fail(child, f"{name} given by {what}: textures are not supported (a "
+                          f"material has one colour here); give {name} as <rgb value=\"r, g, "
+                          "b\"/>, e.g. the texture's mean colour")
             if child.tag not in allowed[name]:
                 self.fail(child, f"{name} must be given as {' or '.join(allowed[name])}")
             out[name] = self.value(child, emitter=emitter, unbounded=name in unbounded)
@@ -387,4 +410,5 @@ class XmlReader:
         return m, o, t, up
 
 
-__all__ = ["XmlReader", "parse", "coordinate_system", "FLAT_EMITTER_RGB", "XYZ_TO_SRGB"]
+__all__ = ["XmlReader", "parse", "coordinate_system", "FLAT_EMITTER_RGB", "XYZ_TO_SRGB",
+           "MitsubaWarning"]

@@ -366,8 +366,37 @@ def test_path_elements_are_searched_for_the_files_a_scene_names(tmp_path):
     with pytest.raises(InputError, match=r"s.xml:10: <shape type=\"ply\">: mesh file not found: "
                                          r"'box.ply', looked for at .*other.*s?.*add <path value"):
         load(tmp_path, top='<path value="other"/>', body=body)
-    with pytest.raises(InputError, match=r"s.xml:1: <path>: .*nowhere' is not a folder"):
+    with pytest.raises(InputError, match=r"s.xml:1: <path>: folder not found: 'nowhere', looked for at .*nowhere"):
         load(tmp_path, top='<path value="nowhere"/>')
+
+
+def test_a_path_in_an_included_file_is_resolved_as_mitsuba_resolves_it(tmp_path):
+    """Mitsuba resolves a relative <path> through its file resolver, whose first folder is the
+    top file's: ``include/parts.xml``'s ``../meshes`` is found beside the top file's folder,
+    as Mitsuba's documentation scenes name their meshes."""
+    import trimesh
+
+    (tmp_path / "scenes" / "include").mkdir(parents=True)
+    (tmp_path / "meshes").mkdir()
+    trimesh.creation.box().export(tmp_path / "meshes" / "box.ply")
+    (tmp_path / "scenes" / "include" / "parts.xml").write_text(
+        '<scene version="3.0.0">\n<path value="../meshes"/>\n<shape type="ply">'
+        '<string name="filename" value="box.ply"/></shape>\n</scene>\n')
+    top = tmp_path / "scenes" / "s.xml"
+    top.write_text(xml(body='<include filename="include/parts.xml"/>'))
+    assert len(load_scene(top).objects) == 2
+
+
+def test_a_reference_may_name_what_the_file_defines_after_it(tmp_path):
+    """Mitsuba resolves <ref id> after reading the whole file: a shape may name a BSDF and an
+    area emitter defined below it."""
+    body = ('<shape type="rectangle"><ref id="later"/><ref id="lamp"/></shape>'
+            '<bsdf type="diffuse" id="later"><rgb name="reflectance" value="0.2, 0.4, 0.6"/></bsdf>'
+            '<emitter type="area" id="lamp"><rgb name="radiance" value="3"/></emitter>')
+    scene = load(tmp_path, body=body)
+    lamp = scene.objects[-1]
+    np.testing.assert_allclose(lamp.material.kd, [0.2, 0.4, 0.6])
+    assert len(scene.lights) == 2
 
 
 def test_an_include_is_read_in_place_and_its_errors_name_its_own_file(tmp_path):
@@ -411,7 +440,7 @@ def test_an_unknown_named_ior_is_refused_with_the_names(tmp_path):
 
 @needs_mitsuba
 def test_the_named_indices_are_those_mitsuba_reads():
-    from blockhash.scene.mitsuba.importer import IORS
+    from blockhash.scene.mitsuba.bsdfs import IORS
 
     mi, _ = mitsuba_scene('<scene version="3.0.0"/>')
     for name, value in IORS.items():
@@ -684,3 +713,27 @@ def test_max_depth_2_is_direct_light_alone(tmp_path):
     with pytest.warns(mitsuba_sensor.MitsubaWarning, match="max_depth 2: blockhash renders the direct light alone"):
         scene = load(tmp_path, top=top)
     assert scene.photons.direct_only and scene.photons.camera_bounces == 0
+
+
+def test_a_parameter_is_given_as_mitsubas_dash_d_gives_it(tmp_path):
+    """Mitsuba's documentation scenes leave $spp to the command line (mitsuba -D spp=16): the
+    loader's defines give it, over a <default> too; a TOML scene takes none."""
+    from blockhash.cli import main
+
+    sampler = '<sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>'
+    path = tmp_path / "s.xml"
+    path.write_text(xml(sensor=sampler))
+    with pytest.raises(InputError, match=r"undefined parameter \$spp .*-D spp=VALUE"):
+        load_scene(path)
+    assert load_scene(path, {"spp": "16"}).camera.spp == 16
+    path.write_text(xml(top='<default name="spp" value="4"/>', sensor=sampler))
+    assert load_scene(path).camera.spp == 4
+    assert load_scene(path, {"spp": 9}).camera.spp == 9
+    with pytest.raises(InputError, match=r"parameter name 'a b'"):
+        load_scene(path, {"a b": 1})
+    toml = tmp_path / "s.toml"
+    toml.write_text("")
+    with pytest.raises(InputError, match=r"a TOML scene has none"):
+        load_scene(toml, {"spp": 4})
+    with pytest.raises(SystemExit):
+        main(["render", str(path), "-D", "spp"])

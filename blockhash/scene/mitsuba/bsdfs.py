@@ -1,0 +1,95 @@
+"""Mitsuba 3's BSDFs as blockhash's materials (for :mod:`.importer`): ``diffuse`` (one-sided,
+as Mitsuba's; both faces inside ``twosided``), ``conductor`` (a perfect mirror, or a smooth
+metal of ``eta`` and ``k`` or a named preset), ``dielectric`` (``int_ior`` a number or one of
+Mitsuba's named indices) and ``twosided`` around one of them."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from blockhash.scene.mitsuba.spectra import conductor_preset, conductor_presets
+from blockhash.scene.model import DielectricMaterial, MirrorMaterial, PhongMaterial
+
+BSDFS = ("diffuse", "conductor", "dielectric", "twosided")
+#: The indices of refraction Mitsuba 3 names (its documentation's table of the dielectric
+#: BSDF, at 589 nm), for int_ior and ext_ior.
+IORS = {"vacuum": 1.0, "helium": 1.000036, "hydrogen": 1.000132, "air": 1.000277,
+        "carbon dioxide": 1.00045, "water": 1.3330, "acetone": 1.36, "ethanol": 1.361,
+        "carbon tetrachloride": 1.461, "glycerol": 1.4729, "benzene": 1.501,
+        "silicone oil": 1.52045, "bromine": 1.661, "water ice": 1.31, "fused quartz": 1.458,
+        "pyrex": 1.470, "acrylic glass": 1.49, "polypropylene": 1.49, "bk7": 1.5046,
+        "sodium chloride": 1.544, "amber": 1.55, "pet": 1.5750, "diamond": 2.419}
+
+
+def bsdf(r, el, key: str, *, twosided: bool = False):
+    """The material of a ``<bsdf>`` (``key`` its id, for messages), as Mitsuba reads it
+    (:mod:`.importer`'s docstring lists what is read); ``r`` the file's reader."""
+    kind = el.get("type")
+    if kind == "twosided":
+        inner = [k for k in el if isinstance(k.tag, str)]
+        if len(inner) != 1 or inner[0].tag != "bsdf":
+            r.fail(el, "expected exactly one <bsdf> inside (the same BSDF on both faces; "
+                   "a different BSDF per face is not supported)")
+        if twosided:
+            r.fail(el, "a twosided inside a twosided; keep one")
+        return bsdf(r, inner[0], key, twosided=True)
+    if kind == "diffuse":
+        p = r.props(el, {"reflectance": ("rgb", "spectrum", "float")})
+        kd = p.get("reflectance", 0.5)
+        # Mitsuba's diffuse reflects on the front face only; twosided on both
+        return r.build(el, PhongMaterial, kd=np.broadcast_to(kd, (3,)), ks=0.0, n=0.0,
+                          sided="two" if twosided else "one")
+    if kind == "conductor":
+        return conductor(r, el)
+    if kind == "dielectric":
+        p = r.props(el, {"int_ior": ("float", "string"), "ext_ior": ("float", "string"),
+                         "specular_transmittance": ("rgb", "spectrum", "float"),
+                         "specular_reflectance": ("rgb", "spectrum", "float")})
+        inside = ior(r, el, "int_ior", p.get("int_ior", "bk7"))  # Mitsuba's default
+        ext = ior(r, el, "ext_ior", p.get("ext_ior", "air"))
+        if not abs(ext - 1.0) < 1e-3:
+            r.fail(el, f"ext_ior {ext!r}: blockhash's dielectrics sit in air (index 1); "
+                   "give ext_ior 1")
+        if "specular_reflectance" in p and not np.allclose(p["specular_reflectance"], 1.0):
+            r.fail(el, "specular_reflectance other than 1 is not supported")
+        tint = p.get("specular_transmittance", 1.0)
+        return r.build(el, DielectricMaterial, ior=float(inside),
+                       tint=np.broadcast_to(tint, (3,)))
+    r.fail(el, f"unsupported BSDF; supported: {', '.join(BSDFS)}")
+
+
+def conductor(r, el) -> MirrorMaterial:
+    """A smooth ``conductor`` as Mitsuba reads it: ``material`` none (its default) takes
+    ``eta`` (default 0) and ``k`` (default 1), a perfect mirror where neither is given;
+    another ``material`` is one of Mitsuba's presets (:func:`.spectra.conductor_preset`);
+    ``specular_reflectance`` scales either."""
+    spectra = ("rgb", "spectrum", "float")
+    p = r.props(el, {"material": ("string",), "specular_reflectance": spectra,
+                        "eta": spectra, "k": spectra}, unbounded=("eta", "k"))
+    scale = np.broadcast_to(p.get("specular_reflectance", 1.0), (3,))
+    material = p.get("material", "none")
+    if material == "none":
+        if "eta" not in p and "k" not in p:
+            return r.build(el, MirrorMaterial, reflectance=scale)
+        eta, k = p.get("eta", 0.0), p.get("k", 1.0)
+    else:
+        if "eta" in p or "k" in p:
+            r.fail(el, f"material {material!r} and eta or k: give either a material "
+                   "preset or eta and k, not both (as Mitsuba asks)")
+        preset = conductor_preset(material)
+        if preset is None:
+            r.fail(el, f"material {material!r} is not one of Mitsuba's conductor presets "
+                   f"({', '.join(conductor_presets())}, or none); give eta and k")
+        eta, k = preset
+    return r.build(el, MirrorMaterial, reflectance=scale, eta=np.broadcast_to(eta, (3,)),
+                      k=np.broadcast_to(k, (3,)))
+
+
+def ior(r, el, name: str, value) -> float:
+    """An index of refraction: a number, or a material Mitsuba names (:data:`IORS`)."""
+    if not isinstance(value, str):
+        return float(value)
+    if value.lower() not in IORS:
+        r.fail(el, f"{name} {value!r} is not one of Mitsuba's named indices of refraction "
+               f"({', '.join(IORS)}); give the index as a number")
+    return IORS[value.lower()]

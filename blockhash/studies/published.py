@@ -1,0 +1,133 @@
+"""A published Mitsuba 3 scene rendered by blockhash and by Mitsuba from the same file, and
+compared: what ``tools/mitsuba_folder.py`` tabulates and the tests of the published corpus
+(``tests/data/mitsuba_published``) hold.
+
+Each file is loaded by :func:`blockhash.load_scene` (its refusal, an :class:`InputError`,
+is the row's answer, and every warning the import gives is kept); the image size is brought
+down to ``size`` pixels on the longer side (the same field of view); blockhash renders the
+combined image (direct, caustic and indirect layers) and Mitsuba renders the file as loaded,
+its own integrator and ``max_depth`` (the integrator inside a ``stokes`` or ``moment``
+wrapper, which its RGB variants refuse), at ``spp`` samples a pixel with its film resized
+alike.
+The comparison is over the whole image: the flux ratio (blockhash's sum over Mitsuba's, per
+channel) and the relative RMS after a 5 x 5 box blur
+(:func:`blockhash.studies.measure.box_blur_rel_rms`).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from blockhash.errors import InputError
+
+
+@dataclass
+class Comparison:
+    """One file's row: ``refused`` the import's message (nothing else then), else the
+    warnings, the seconds of each render and the agreement."""
+
+    path: Path
+    refused: str | None = None
+    warnings: list = field(default_factory=list)
+    size: tuple = ()
+    seconds: float = float("nan")
+    mitsuba_seconds: float = float("nan")
+    flux: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
+    blurred: float = float("nan")
+
+    def as_dict(self) -> dict:
+        return {"file": str(self.path), "refused": self.refused, "warnings": self.warnings,
+                "size": list(self.size), "seconds": self.seconds,
+                "mitsuba_seconds": self.mitsuba_seconds, "flux": np.asarray(self.flux).tolist(),
+                "blurred_rel_rms": self.blurred}
+
+
+def small_size(camera, side: int) -> tuple[int, int]:
+    """(width, height) with the longer side ``side`` and the camera's aspect."""
+    scale = side / max(camera.width, camera.height)
+    return max(1, round(camera.width * scale)), max(1, round(camera.height * scale))
+
+
+def load(path) -> tuple:
+    """(scene or None, the refusal's message or None, the warnings' messages)."""
+    from blockhash.scene.loader import load_scene
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            scene = load_scene(path)
+        except InputError as exc:
+            return None, str(exc), [str(w.message) for w in caught]
+    return scene, None, [str(w.message) for w in caught]
+
+
+def mitsuba_render(path, size, spp: int, seed: int = 0) -> tuple[np.ndarray, float]:
+    """(image (h, w, 3) float64, seconds) of Mitsuba's render of the file at ``path`` as it
+    is, its film resized to ``size``."""
+    from blockhash.reference.mitsuba import load_mitsuba_module
+
+    mi, _ = load_mitsuba_module()
+    try:
+        scene = mi.load_file(str(path))
+    except RuntimeError as exc:  # a stokes or moment wrapper: RGB variants refuse it
+        if "polarized mode" not in str(exc) and "moment" not in str(exc):
+            raise
+        scene = _unwrapped(mi, Path(path))
+    params = mi.traverse(scene.sensors()[0])
+    params["film.size"] = mi.ScalarVector2u(*size)
+    params["film.crop_size"] = mi.ScalarVector2u(*size)
+    params.update()
+    t = time.perf_counter()
+    image = np.asarray(mi.render(scene, spp=int(spp), seed=int(seed)), dtype=np.float64)
+    return image[..., :3], time.perf_counter() - t
+
+
+def compare(path, *, size: int = 64, spp: int = 1024, passes: int = 8, photons=None,
+            samples: int | None = None, seed: int = 1) -> Comparison:
+    """The :class:`Comparison` of the file at ``path`` (module docstring): Mitsuba at ``spp``
+    samples a pixel, blockhash in ``passes`` passes of ``samples`` a pixel each (None: the
+    file's ``sample_count``) and ``photons`` a pass (None: blockhash's default)."""
+    import blockhash
+    from blockhash.passes.plan import RenderPlan
+    from blockhash.studies.measure import box_blur_rel_rms
+
+    path = Path(path)
+    scene, refused, caught = load(path)
+    out = Comparison(path, refused=refused, warnings=caught)
+    if scene is None:
+        return out
+    out.size = small_size(scene.camera, size)
+    scene = scene.with_size(*out.size)
+    t = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = blockhash.render(scene, photons=photons, seed=seed, spp=samples,
+                                  plan=RenderPlan(passes=passes))
+    out.seconds = time.perf_counter() - t
+    ours = np.asarray(result.combined, dtype=np.float64)
+    theirs, out.mitsuba_seconds = mitsuba_render(path, out.size, spp)
+    out.flux = ours.sum(axis=(0, 1)) / np.maximum(theirs.sum(axis=(0, 1)), 1e-300)
+    out.blurred = box_blur_rel_rms(ours, theirs, np.ones(ours.shape[:2], dtype=bool))
+    return out
+
+
+def _unwrapped(mi, path: Path):
+    """Mitsuba's scene of the file at ``path`` with its top-level ``stokes`` or ``moment``
+    integrator replaced by the integrator inside, as blockhash renders it (Mitsuba's RGB
+    variants refuse the wrappers)."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(path).getroot()
+    for i, el in enumerate(list(root)):
+        if el.tag == "integrator" and el.get("type") in ("stokes", "moment"):
+            inner = el.find("integrator")
+            root.remove(el)
+            if inner is not None:
+                root.insert(i, inner)
+    mi.file_resolver().prepend(str(path.parent))
+    return mi.load_string(ET.tostring(root, encoding="unicode"))

@@ -1,0 +1,50 @@
+"""Published Mitsuba 3 scenes (``tests/data/mitsuba_published``, their sources and licence in
+its SOURCES.md) rendered by blockhash and by Mitsuba from the same unchanged files
+(:mod:`blockhash.studies.published`): each that blockhash reads renders within 2% of Mitsuba's
+flux per channel and a blurred relative RMS of at most 0.05 over the whole image; the one it
+refuses names the element, its file and line.
+
+Needs the extra blockhash[mitsuba]; skipped without it, unless BLOCKHASH_REQUIRE_MITSUBA is
+set (CI sets it), where it fails instead."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import mitsuba_or_skip
+
+from blockhash.studies.published import compare, load
+
+HERE = Path(__file__).resolve().parents[1] / "data" / "mitsuba_published" / "docs" / "scenes"
+#: Limits of the issue (flux within 2%, blurred relative RMS 0.05); measured at 48 pixels,
+#: 4 passes of 64 samples, Mitsuba at 4096: flux within 0.4% (the stokes box 0.8%), blurred
+#: 0.021 to 0.026 (stokes 0.038; at 16 samples a pass 0.07 to 0.09: the limits see noise).
+FLUX, BLURRED = 0.02, 0.05
+RENDERED = ["variants_cbox_rgb", "variants_cbox_spectral", "integrator_depth_2",
+            "integrator_depth_3", "integrator_stokes_cbox"]
+
+pytestmark = pytest.mark.gl
+
+
+@pytest.fixture(scope="module", autouse=True)
+def needs_mitsuba():
+    mitsuba_or_skip()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", RENDERED)
+def test_a_published_scene_renders_as_mitsuba_renders_it(name):
+    row = compare(HERE / f"{name}.xml", size=48, spp=4096, passes=4, samples=64)
+    assert row.refused is None
+    assert np.all(np.abs(row.flux - 1) < FLUX), f"{name}: flux ratio {row.flux}"
+    assert row.blurred < BLURRED, f"{name}: blurred relative RMS {row.blurred:.3f}"
+
+
+def test_what_the_importer_says_of_each_published_file():
+    warned = {name: load(HERE / f"{name}.xml")[2] for name in RENDERED}
+    assert warned["integrator_stokes_cbox"] and "stokes" in warned["integrator_stokes_cbox"][0]
+    assert any("max_depth 2" in w for w in warned["integrator_depth_2"])
+    assert not warned["variants_cbox_rgb"] and not warned["variants_cbox_spectral"]
+    scene, refused, _ = load(HERE / "sampler_independent_16spp.xml")
+    assert scene is None
+    assert "sampler_scene.xml:" in refused and "texture 'planetex'" in refused
