@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from blockhash.scene.mitsuba.spectra import conductor_preset, conductor_presets
+from blockhash.scene.mitsuba.textures import TexturedDiffuse, texture
 from blockhash.scene.model import DielectricMaterial, MirrorMaterial, PhongMaterial
 
 BSDFS = ("diffuse", "conductor", "dielectric", "twosided")
@@ -34,8 +35,10 @@ def bsdf(r, el, key: str, *, twosided: bool = False):
             r.fail(el, "a twosided inside a twosided; keep one")
         return bsdf(r, inner[0], key, twosided=True)
     if kind == "diffuse":
-        p = r.props(el, {"reflectance": ("rgb", "spectrum", "float")})
+        p = r.props(el, {"reflectance": ("rgb", "spectrum", "float", "texture")})
         kd = p.get("reflectance", 0.5)
+        if not isinstance(kd, (float, np.ndarray)):  # a texture's element
+            return TexturedDiffuse(texture(r, kd), "two" if twosided else "one")
         # Mitsuba's diffuse reflects on the front face only; twosided on both
         return r.build(el, PhongMaterial, kd=np.broadcast_to(kd, (3,)), ks=0.0, n=0.0,
                           sided="two" if twosided else "one")

@@ -66,7 +66,8 @@ from blockhash.scene.lights import falloff_solid_angle
 from blockhash.scene.mitsuba import sensor as mitsuba_sensor
 from blockhash.scene.mitsuba.bsdfs import bsdf as read_bsdf
 from blockhash.scene.mitsuba.exporter import METADATA_MARK
-from blockhash.scene.mitsuba.shapes import PROPERTIES, SHAPES, placed, shape_mesh
+from blockhash.scene.mitsuba.shapes import PROPERTIES, SHAPES, placed, shape_mesh, textured_meshes
+from blockhash.scene.mitsuba.textures import TexturedDiffuse
 from blockhash.scene.mitsuba.xml_values import XmlReader, parse
 from blockhash.scene.model import (
     AreaLight,
@@ -87,8 +88,8 @@ REFUSED_EMITTERS = {
     "constant": "a constant environment lights from every direction, which blockhash does "
                 "not model; use area emitters (a large emitting shape) or a directional one",
 }
-ELEMENTS = ("default", "path", "include", "integrator", "sensor", "sampler", "bsdf", "emitter",
-            "shape")
+ELEMENTS = ("default", "path", "include", "integrator", "sensor", "sampler", "texture", "bsdf",
+            "emitter", "shape")
 class _Reader(XmlReader):
     def emitter(self, el):
         kind = el.get("type")
@@ -137,8 +138,9 @@ class _Reader(XmlReader):
                           cone_deg=cone, beam_deg=beam)
 
     def shape(self, el, bsdfs: dict, index: int, areas: dict):
-        """(object, its AreaLight or None) of a ``<shape>``; ``areas``: the top-level area
-        emitters by id, which a shape takes by ``<ref id>`` as its own."""
+        """(objects, their AreaLight or None) of a ``<shape>``: one object, or two for a
+        checkerboard's colours (:mod:`.textures`); ``areas``: the top-level area emitters by
+        id, which a shape takes by ``<ref id>`` as its own."""
         kind = el.get("type")
         if kind not in SHAPES:
             self.fail(el, f"unsupported shape; supported: {', '.join(SHAPES)}, and shapegroup "
@@ -171,12 +173,20 @@ class _Reader(XmlReader):
         if material is None:  # Mitsuba's default BSDF: diffuse, reflectance 0.5, one-sided
             material = self.build(el, PhongMaterial, kd=np.full(3, 0.5), ks=0.0, n=0.0,
                                   sided="one")
-        mesh = shape_mesh(self, el, kind, p)
         name = el.get("id") or f"{kind}-{index}"
+        if isinstance(material, TexturedDiffuse):
+            if emitter is not None:
+                self.fail(emitter, "an area emitter on a shape with a textured reflectance is not "
+                          "supported; give the emitting shape a plain colour")
+            parts = zip(textured_meshes(self, el, kind, p, material.checker), material.materials(),
+                        ("color0", "color1"))
+            return [self.build(el, SceneObject, name=f"{name}/{which}", mesh=mesh, material=m)
+                    for mesh, m, which in parts if mesh is not None], None
+        mesh = shape_mesh(self, el, kind, p)
         obj = self.build(el, SceneObject, name=name, mesh=mesh, material=material)
         if emitter is None:
-            return obj, None
-        return obj, self.area(emitter, obj)
+            return [obj], None
+        return [obj], self.area(emitter, obj)
 
     def area(self, el, obj):
         """The AreaLight of an ``<emitter type="area">`` inside the shape of ``obj``."""
@@ -227,11 +237,11 @@ class _Reader(XmlReader):
             if kid.get("type") in ("shapegroup", "instance"):
                 self.fail(kid, "a shapegroup holds plain shapes (Mitsuba refuses nested groups "
                           "and instances too)")
-            obj, area = self.shape(kid, bsdfs, i, {})
+            objs, area = self.shape(kid, bsdfs, i, {})
             if area is not None:
                 self.fail(kid, "an emitter inside a shapegroup (Mitsuba refuses it too); put the "
                           "emitting shape outside the group")
-            out.append(obj)
+            out.extend(objs)
         return out
 
 
@@ -299,16 +309,19 @@ def load_mitsuba(path, defines: dict | None = None) -> Scene:
     # What a <ref id> may name is read first: Mitsuba resolves references after the whole file,
     # so a shape may name a BSDF, an area emitter or a sampler defined below it.
     for el in root:
-        if el.tag == "bsdf":
-            bid = r.attr(el, "id")
-            bsdfs[bid] = read_bsdf(r, el, bid)
-        elif el.tag == "emitter" and el.get("type") == "area" and el.get("id"):
+        if el.tag == "emitter" and el.get("type") == "area" and el.get("id"):
             areas[el.get("id")] = el  # a shape takes it by <ref id>
         elif el.tag == "sampler" and el.get("id"):
             r.samplers[el.get("id")] = el  # a sensor takes it by <ref id>
+        elif el.tag == "texture" and el.get("id"):
+            r.textures[el.get("id")] = el  # a BSDF takes it by <ref id>
+    for el in root:
+        if el.tag == "bsdf":
+            bid = r.attr(el, "id")
+            bsdfs[bid] = read_bsdf(r, el, bid)
     for el in root:
         if not isinstance(el.tag, str) or el.tag in ("default", "bsdf") or id(el) in {
-                id(v) for v in (*areas.values(), *r.samplers.values())}:
+                id(v) for v in (*areas.values(), *r.samplers.values(), *r.textures.values())}:
             continue
         if el.tag == "integrator":
             if integrator is not None:
@@ -318,9 +331,9 @@ def load_mitsuba(path, defines: dict | None = None) -> Scene:
             if render is not None:
                 r.fail(el, "a second sensor; blockhash renders one camera")
             render = mitsuba_sensor.sensor(r, el)
-        elif el.tag == "sampler":
-            r.fail(el, "a sampler at the top of the scene is taken by a sensor's <ref id>; give "
-                   "it an id and refer to it, or move it into the sensor")
+        elif el.tag in ("sampler", "texture"):
+            r.fail(el, f"a {el.tag} at the top of the scene is taken by <ref id>; give it an id "
+                   "and refer to it, or move it where it is used")
         elif el.tag == "emitter":
             lights.append(r.emitter(el))
         elif el.tag == "shape" and el.get("type") == "shapegroup":
@@ -328,8 +341,8 @@ def load_mitsuba(path, defines: dict | None = None) -> Scene:
         elif el.tag == "shape" and el.get("type") == "instance":
             objects.extend(r.instance(el, groups, len(objects)))
         elif el.tag == "shape":
-            obj, area = r.shape(el, bsdfs, len(objects), areas)
-            objects.append(obj)
+            objs, area = r.shape(el, bsdfs, len(objects), areas)
+            objects.extend(objs)
             if area is not None:
                 lights.append(area)
         else:

@@ -6,8 +6,8 @@ precision), in version 4 the mesh's name (a null-terminated string), ``uint64`` 
 triangle counts, the positions, the normals, texture coordinates and colours where the flags
 say, and ``uint32`` triangle indices.  A file of several meshes concatenates them, each with its
 own header, and ends with the offset of each (``uint64``; ``uint32`` in version 3) and their
-count (``uint32``): ``shape_index`` picks one.  Texture coordinates and colours are skipped
-(blockhash models neither).
+count (``uint32``): ``shape_index`` picks one.  Texture coordinates are read for a checkerboard
+(:mod:`.textures`); colours are skipped.
 """
 
 from __future__ import annotations
@@ -25,10 +25,11 @@ VERSIONS = (3, 4)
 HAS_NORMALS, HAS_TEXCOORDS, HAS_COLORS, FACE_NORMALS, DOUBLE = 0x0001, 0x0002, 0x0008, 0x0010, 0x2000
 
 
-def read_serialized(path: Path, shape_index: int = 0):
+def read_serialized(path: Path, shape_index: int = 0, *, with_uv: bool = False):
     """(vertices (n, 3), faces (m, 3), the file's vertex normals or None, face normals flag) of
-    mesh ``shape_index`` of the ``serialized`` file at ``path``; an InputError naming the file
-    and what is wrong with it."""
+    mesh ``shape_index`` of the ``serialized`` file at ``path``, and with ``with_uv`` its
+    texture coordinates (n, 2) or None after them; an InputError naming the file and what is
+    wrong with it."""
     data = Path(path).read_bytes()
 
     def bad(what: str):
@@ -85,9 +86,10 @@ def read_serialized(path: Path, shape_index: int = 0):
     real = "<f8" if flags & DOUBLE else "<f4"
     positions = array(real, vertices, 3).astype(np.float64)
     normals = array(real, vertices, 3).astype(np.float64) if flags & HAS_NORMALS else None
-    if flags & HAS_TEXCOORDS:
-        array(real, vertices, 2)
+    uv = array(real, vertices, 2).astype(np.float64) if flags & HAS_TEXCOORDS else None
     if flags & HAS_COLORS:
         array(real, vertices, 3)
     faces = array("<u4", triangles, 3).astype(np.int64)
+    if with_uv:
+        return positions, faces, normals, bool(flags & FACE_NORMALS), uv
     return positions, faces, normals, bool(flags & FACE_NORMALS)

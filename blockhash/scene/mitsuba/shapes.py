@@ -68,6 +68,88 @@ def shape_mesh(r, el, kind: str, p: dict) -> trimesh.Trimesh:
         mesh = meshes.with_normals(mesh.vertices, mesh.faces[:, ::-1], -mesh.vertex_normals)
     return placed(r, el, mesh, p.get("to_world"))
 
+#: The shapes whose texture coordinates a checkerboard may be cut by (:mod:`.textures`).
+TEXTURED = ("rectangle", "obj", "ply", "serialized")
+
+
+def textured_meshes(r, el, kind: str, p: dict, checker) -> tuple:
+    """(mesh of ``color0``, mesh of ``color1``) of a ``<shape>`` whose diffuse reflectance is
+    the :class:`.textures.Checkerboard` ``checker``, in world space; None for a colour the
+    shape does not show."""
+    from blockhash.scene.mitsuba.textures import split
+
+    if kind not in TEXTURED:
+        r.fail(el, f"a checkerboard on a {kind}: blockhash cuts a textured shape along its "
+               f"texture coordinates, which it reads from {', '.join(TEXTURED)} shapes; give "
+               "this shape a plain colour")
+    vertices, faces, normals, uv = _raw(r, el, kind, p)
+    out = []
+    for tri, bary in split(faces, uv, checker):
+        if not len(tri):
+            out.append(None)
+            continue
+        corners = faces[tri]  # (k, 3)
+        pos = np.einsum("kij,kjd->kid", bary, vertices[corners]).reshape(-1, 3)
+        nrm = np.einsum("kij,kjd->kid", bary, normals[corners]).reshape(-1, 3)
+        nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+        f = np.arange(len(pos)).reshape(-1, 3)
+        if p.get("flip_normals"):
+            f, nrm = f[:, ::-1], -nrm
+        out.append(placed(r, el, meshes.with_normals(pos, f, nrm), p.get("to_world")))
+    return tuple(out)
+
+
+def _raw(r, el, kind: str, p: dict):
+    """(vertices, faces, per-vertex normals, texture coordinates) of a textured shape as its
+    file or Mitsuba's parametrisation gives them, vertices not merged (texture seams kept)."""
+    if kind == "rectangle":
+        v = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]])
+        return (v, np.array([[0, 1, 2], [0, 2, 3]]), np.tile([0.0, 0.0, 1.0], (4, 1)),
+                v[:, :2] * 0.5 + 0.5)
+    if "filename" not in p:
+        r.fail(el, "missing <string name=\"filename\">")
+    full = r.resolve(el, p["filename"], "mesh file")
+    flat = bool(p.get("face_normals"))
+    try:
+        if kind == "serialized":
+            vertices, faces, normals, flat_file, uv = read_serialized(
+                full, p.get("shape_index", 0), with_uv=True)
+            flat = flat or flat_file
+        else:
+            vertices, faces, normals, uv = _mesh_file(full, kind)
+    except InputError as exc:
+        r.fail(el, str(exc))
+    if uv is None:  # Mitsuba's texture coordinates of a mesh without them: (0, 0)
+        uv = np.zeros((len(vertices), 2))
+    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False, validate=False)
+    if flat:  # every face its own corners, with its normal
+        corners = faces.reshape(-1)
+        return (vertices[corners], np.arange(len(corners)).reshape(-1, 3),
+                np.repeat(mesh.face_normals, 3, axis=0), uv[corners])
+    return vertices, faces, (normals if normals is not None else mesh.vertex_normals), uv
+
+
+def _mesh_file(path, kind: str):
+    """(vertices, faces, vertex normals or None, texture coordinates or None) of an OBJ or PLY
+    file, its vertices as the file orders them (an OBJ's ``vt`` with v flipped, as Mitsuba)."""
+    try:
+        loaded = trimesh.load(str(path), force="mesh", process=False, maintain_order=True)
+    except (ValueError, KeyError, IndexError, TypeError, AttributeError, OSError,
+            NotImplementedError) as exc:
+        raise InputError(f"trimesh could not read {str(path)!r}: {exc}; check that the file is "
+                         "a valid mesh") from None
+    if not isinstance(loaded, trimesh.Trimesh) or not len(loaded.faces):
+        raise InputError(f"the mesh file {str(path)!r} has no triangles; expected a triangle mesh")
+    uv = getattr(loaded.visual, "uv", None)
+    if uv is not None:
+        uv = np.asarray(uv, dtype=np.float64).copy()
+        if kind == "obj":
+            uv[:, 1] = 1.0 - uv[:, 1]
+    normals = loaded.vertex_normals if "vertex_normals" in loaded._cache.cache else None
+    return (np.asarray(loaded.vertices, np.float64), np.asarray(loaded.faces, np.int64),
+            None if normals is None else np.asarray(normals, np.float64), uv)
+
+
 def placed(r, el, mesh: trimesh.Trimesh, m) -> trimesh.Trimesh:
     """``mesh`` under the ``to_world`` matrix ``m`` (None: as it is), normals with it."""
     if m is None:

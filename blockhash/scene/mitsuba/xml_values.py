@@ -115,8 +115,10 @@ class XmlReader:
         self.kept: list = []  # included files' roots: their elements' ids stay theirs
         #: The file the scene was loaded from (an included file's reader shares it).
         self.top = path
-        #: Top-level <sampler id> elements, which a sensor takes by <ref id>.
+        #: Top-level <sampler id> and <texture id> elements, which a sensor and a BSDF take
+        #: by <ref id>.
         self.samplers: dict = {}
+        self.textures: dict = {}
 
     def where(self, el) -> str:
         return f"{self.file_of(el)}:{self.lines.get(id(el), '?')}"
@@ -335,6 +337,9 @@ class XmlReader:
                           + "; remove it or fix its name")
             if name in out:
                 self.fail(child, f"{name} is given twice; keep one")
+            if child.tag in ("texture", "ref") and "texture" in allowed[name]:
+                out[name] = child  # read by the caller (:mod:`.textures`)
+                continue
             if child.tag in ("texture", "ref") and "rgb" in allowed[name]:
                 what = (f"the texture {child.get('id')!r}" if child.tag == "ref"
                         else f"a {child.get('type')} texture")

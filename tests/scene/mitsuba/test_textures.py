@@ -1,0 +1,88 @@
+"""Mitsuba's checkerboard on a diffuse reflectance (blockhash/scene/mitsuba/textures.py): its
+colours where Mitsuba's texture has them, the cut of each triangle along the checks' borders
+(area kept, every piece of one colour), the shapes it applies to, and what is refused."""
+
+import numpy as np
+import pytest
+from test_mitsuba_mapping import load  # the shared scene text
+
+from blockhash.errors import InputError
+from blockhash.reference.mitsuba import mitsuba_available
+from blockhash.scene.mitsuba.textures import Checkerboard, split
+
+needs_mitsuba = pytest.mark.skipif(not mitsuba_available()[0], reason=mitsuba_available()[1])
+TO_UV = '<transform name="to_uv"><scale x="2" y="3"/><translate x="0.1" y="0.2"/><rotate z="1" angle="30"/></transform>'
+
+
+@needs_mitsuba
+def test_the_checks_colours_are_where_mitsubas_texture_has_them(tmp_path):
+    from blockhash.reference.mitsuba import load_mitsuba_module
+    from blockhash.scene.mitsuba.textures import checkerboard
+    from blockhash.scene.mitsuba.xml_values import XmlReader, parse
+
+    mi, _ = load_mitsuba_module()
+    text = (f'<texture type="checkerboard"><rgb name="color0" value="1, 0, 0"/>'
+            f'<rgb name="color1" value="0, 0, 1"/>{TO_UV}</texture>')
+    theirs = mi.load_string(text.replace("<texture ", '<texture version="3.0.0" ', 1))
+    path = tmp_path / "t.xml"
+    path.write_text(text)
+    root, lines = parse(path)
+    ours = checkerboard(XmlReader(path, lines), root)
+    uv = np.random.default_rng(1).uniform(-2, 2, (400, 2))
+    si = mi.SurfaceInteraction3f()
+    want = []
+    for u, v in uv:
+        si.uv = mi.Point2f(float(u), float(v))
+        want.append(np.ravel(theirs.eval(si))[0] > 0.5)  # red: color0
+    assert (ours.is_color0(ours.uv(uv)) == np.array(want)).mean() == 1.0
+
+
+def test_a_cut_keeps_the_area_and_each_piece_is_one_colour():
+    rng = np.random.default_rng(0)
+    uv = rng.uniform(-1, 2, (300, 2))
+    faces = rng.integers(0, 300, (200, 3))
+    checker = Checkerboard(np.ones(3), np.zeros(3), np.array([[1.3, 0.4, 0.1], [-0.2, 0.9, 0.3]]))
+
+    def area(tri, bary):
+        p = np.einsum("kij,kjd->kid", bary, uv[faces[tri]])
+        e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+        return 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+
+    pieces = split(faces, uv, checker)
+    whole = area(np.arange(len(faces)), np.broadcast_to(np.eye(3), (len(faces), 3, 3))).sum()
+    assert sum(area(*p).sum() for p in pieces) == pytest.approx(whole, rel=1e-12)
+    for (tri, bary), colour0 in zip(pieces, (True, False)):
+        w = rng.dirichlet([1, 1, 1], len(tri))
+        points = np.einsum("kj,kjd->kd", np.einsum("ki,kij->kj", w, bary), uv[faces[tri]])
+        assert (checker.is_color0(checker.uv(points)) == colour0).all()
+
+
+def test_a_checkered_rectangle_becomes_two_objects_of_the_checks_colours(tmp_path):
+    body = ('<shape type="rectangle" id="board"><bsdf type="twosided"><bsdf type="diffuse">'
+            '<ref name="reflectance" id="checks"/></bsdf></bsdf></shape>'
+            '<texture type="checkerboard" id="checks"><transform name="to_uv"><scale value="2"/>'
+            '</transform></texture>')
+    scene = load(tmp_path, body=body)
+    a, b = scene.objects[-2:]
+    assert (a.name, b.name) == ("board/color0", "board/color1")
+    np.testing.assert_allclose(a.material.kd, 0.4)  # Mitsuba's defaults
+    np.testing.assert_allclose(b.material.kd, 0.2)
+    assert a.material.sided == "two"
+    # 4 x 4 checks on the [-1, 1]^2 rectangle: half the area each
+    assert a.mesh.area == pytest.approx(2.0) and b.mesh.area == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize("body, match", [
+    ('<shape type="sphere"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>',
+     r"s.xml:10: <shape type=\"sphere\">: a checkerboard on a sphere: .*rectangle, obj, ply, serialized"),
+    ('<shape type="rectangle"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"/></bsdf></shape>',
+     r"s.xml:10: <texture type=\"bitmap\" name=\"reflectance\">: a bitmap texture is not supported; supported: checkerboard"),
+    ('<shape type="rectangle"><bsdf type="diffuse"><ref name="reflectance" id="nope"/></bsdf></shape>',
+     r"s.xml:10: <ref name=\"reflectance\">: no texture with id 'nope'"),
+    ('<shape type="rectangle"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf>'
+     '<emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>',
+     r"s.xml:10: <emitter type=\"area\">: an area emitter on a shape with a textured reflectance"),
+])
+def test_what_a_checkerboard_cannot_be_on_is_refused_by_line(tmp_path, body, match):
+    with pytest.raises(InputError, match=match):
+        load(tmp_path, body=body)
