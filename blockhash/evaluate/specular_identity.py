@@ -142,9 +142,7 @@ def specular_view_map(scene, size=None, *, through=None) -> ViewMap:
     idx, pos, o, weight = idx[keep], pos[keep], o[keep], weight[keep]
     # the direct view: film coordinates of x, and the eye's ray toward x meets x itself
     v = pos - pin.eye
-    z = v @ pin.forward
-    fx = ((v @ pin.right) / (z * pin.tan_x) + 1.0) * 0.5 * pin.width
-    fy = (1.0 - (v @ pin.up) / (z * pin.tan_y)) * 0.5 * pin.height
+    fx, fy, z = pin.film_coords(pos)
     dist = np.linalg.norm(v, axis=1)
     h3, p3, _, o3, _ = rays.first_hit(np.broadcast_to(pin.eye, v.shape).copy(), v / dist[:, None])
     seen = (z > 0) & (fx >= 0) & (fx < pin.width) & (fy >= 0) & (fy < pin.height) & h3 & (o3 == o) \

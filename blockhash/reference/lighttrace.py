@@ -312,7 +312,8 @@ def scene_digest(scene) -> str:
     h = hashlib.sha256()
     c = scene.camera
     h.update(repr((c.eye.tolist(), c.target.tolist(), c.up.tolist(), c.fov_y_deg,
-                   c.width, c.height) + (() if c.filter.is_box else (c.filter,))).encode())
+                   c.width, c.height) + (() if c.filter.is_box else (c.filter,))
+                  + (() if c.crop is None else (c.crop,))).encode())
     for light in scene.lights:
         h.update(repr((type(light).__name__, *(np.asarray(getattr(light, a)).tolist()
                                                for a in ("position", "power", "direction",

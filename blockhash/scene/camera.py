@@ -67,15 +67,18 @@ class Pinhole:
     tan_y: float
     width: int
     height: int
+    #: The image's centre on the image plane (x right, y up), off the view axis for a crop.
+    cx: float = 0.0
+    cy: float = 0.0
 
     @classmethod
     def of(cls, camera, size=None) -> "Pinhole":
         width, height = size or (camera.width, camera.height)
         cam = replace(camera, width=width, height=height)
         right, up, forward = cam.basis()
-        tan_y = math.tan(math.radians(cam.fov_y_deg) / 2.0)
-        return cls(np.asarray(cam.eye, np.float64), right, up, forward, tan_y * cam.aspect, tan_y,
-                   int(width), int(height))
+        tan_x, tan_y, cx, cy = cam.window()
+        return cls(np.asarray(cam.eye, np.float64), right, up, forward, tan_x, tan_y,
+                   int(width), int(height), cx, cy)
 
     @property
     def pixel_area(self) -> float:
@@ -89,8 +92,8 @@ class Pinhole:
         v = points - self.eye
         z = v @ self.forward
         with np.errstate(divide="ignore", invalid="ignore"):
-            sx = (v @ self.right) / (z * self.tan_x)
-            sy = (v @ self.up) / (z * self.tan_y)
+            sx = ((v @ self.right) / z - self.cx) / self.tan_x
+            sy = ((v @ self.up) / z - self.cy) / self.tan_y
         return (sx + 1.0) * 0.5 * self.width, (1.0 - sy) * 0.5 * self.height, z
 
     def project(self, points):
@@ -106,8 +109,8 @@ class Pinhole:
         """(m, 3) unit view directions through film points (x, y) in pixels, x from the left
         edge and y from the top (pixel (row, col) covers [col, col + 1) x [row, row + 1),
         the footprint :meth:`project` assigns to it)."""
-        sx = (2.0 * np.ravel(x) / self.width - 1.0) * self.tan_x
-        sy = (1.0 - 2.0 * np.ravel(y) / self.height) * self.tan_y
+        sx = self.cx + (2.0 * np.ravel(x) / self.width - 1.0) * self.tan_x
+        sy = self.cy + (1.0 - 2.0 * np.ravel(y) / self.height) * self.tan_y
         d = self.forward + sx[:, None] * self.right + sy[:, None] * self.up
         return d / np.linalg.norm(d, axis=1, keepdims=True)
 

@@ -21,6 +21,9 @@ typo is never silently ignored)::
                                     #   or "gaussian", or a table such as {kind = "tent",
                                     #   radius = 1.0} or {kind = "gaussian", stddev = 0.5}
                                     #   (Mitsuba's filters and defaults, in pixels)
+    crop = [0.25, 0.0, 0.75, 0.5]   # default none: the part of the film the image holds,
+                                    #   [x0, y0, x1, y1] as fractions of it (y from the top);
+                                    #   fov_y_deg is the whole film's, width x height the part's
 
     [materials.NAME]                # one table per material; at least one
     kind = "phong"                  # modified Phong (Lafortune & Willems 1994):
@@ -212,11 +215,12 @@ def _array_of_tables(value, key: str, *, what: str) -> list:
 
 def _parse_camera(t) -> Camera:
     _keys(t, "camera", ("eye", "target", "fov_y_deg", "width", "height"),
-          ("up", "spp", "filter"), what="the camera")
+          ("up", "spp", "filter", "crop"), what="the camera")
     with _under("camera"):
         return Camera(eye=t["eye"], target=t["target"], up=t.get("up", [0.0, 1.0, 0.0]),
                       fov_y_deg=t["fov_y_deg"], width=t["width"], height=t["height"],
-                      spp=t.get("spp"), filter=pixel_filter(t.get("filter", "box")))
+                      spp=t.get("spp"), filter=pixel_filter(t.get("filter", "box")),
+                      crop=t.get("crop"))
 
 
 def _parse_materials(t) -> dict:

@@ -62,6 +62,8 @@ class Camera:
     divides (:func:`blockhash.scene.camera.spp_grid`; None: the renderer's default,
     :data:`blockhash.scene.camera.DEFAULT_SPP`).  ``filter``: the pixel filter
     (:mod:`blockhash.scene.pixel_filter`; default the box, each pixel its samples' mean).
+    ``crop``: None (the whole film), or ``(x0, y0, x1, y1)``, the part of the film the image
+    holds as fractions of it (y from the top; :meth:`window`).
     """
 
     eye: np.ndarray
@@ -72,9 +74,12 @@ class Camera:
     height: int
     spp: int | None = None
     filter: PixelFilter = BOX
+    crop: tuple | None = None
 
     def __post_init__(self):
         with _owned("Camera"):
+            if self.crop is not None:
+                object.__setattr__(self, "crop", _crop(self.crop))
             set_ = object.__setattr__
             set_(self, "eye", _vector(self.eye, "eye"))
             set_(self, "target", _vector(self.target, "target"))
@@ -108,6 +113,19 @@ class Camera:
         """width / height."""
         return self.width / self.height
 
+    def window(self) -> tuple[float, float, float, float]:
+        """``(tan_x, tan_y, cx, cy)``: the image's half extents and its centre on the image
+        plane at distance 1 (x right, y up).  The field of view is the whole film's; a
+        ``crop`` ``(x0, y0, x1, y1)`` (fractions of the film, y from the top) takes that part
+        of it, as a film's crop window in Mitsuba: ``width`` x ``height`` pixels of it."""
+        tan_y = math.tan(math.radians(self.fov_y_deg) / 2.0)
+        if self.crop is None:
+            return tan_y * self.aspect, tan_y, 0.0, 0.0
+        x0, y0, x1, y1 = self.crop
+        tan_x = tan_y * (self.width / (x1 - x0)) / (self.height / (y1 - y0))
+        return (tan_x * (x1 - x0), tan_y * (y1 - y0), (x0 + x1 - 1.0) * tan_x,
+                (1.0 - y0 - y1) * tan_y)
+
     def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Unit ``(right, true_up, forward)`` vectors of the camera frame."""
         forward = self.target - self.eye
@@ -126,17 +144,18 @@ class Camera:
         return m
 
     def projection(self, near: float, far: float) -> np.ndarray:
-        """(4, 4) float64 OpenGL perspective matrix (gluPerspective) for this
-        camera's field of view and aspect, mapping ``z = -near`` and ``z = -far``
+        """(4, 4) float64 OpenGL perspective matrix (gluPerspective, off axis for a crop,
+        :meth:`window`) for this camera's field of view and aspect, mapping ``z = -near`` and ``z = -far``
         in camera space to NDC depth -1 and +1.  Needs ``0 < near < far``."""
         near = _number(near, "near", lo=0.0, lo_open=True)
         far = _number(far, "far", lo=0.0, lo_open=True)
         if near >= far:
             raise InputError(f"projection: near={near} must be < far={far}; "
                              "pass a near plane closer than the far one")
-        f = 1.0 / math.tan(math.radians(self.fov_y_deg) / 2.0)
+        tan_x, tan_y, cx, cy = self.window()
         m = np.zeros((4, 4))
-        m[0, 0], m[1, 1] = f / self.aspect, f
+        m[0, 0], m[1, 1] = 1.0 / tan_x, 1.0 / tan_y
+        m[0, 2], m[1, 2] = cx / tan_x, cy / tan_y  # off axis: a crop of the film
         m[2, 2], m[2, 3] = (far + near) / (near - far), 2.0 * far * near / (near - far)
         m[3, 2] = -1.0
         return m
@@ -144,6 +163,19 @@ class Camera:
     def __repr__(self) -> str:
         return (f"Camera(eye={_fmt(self.eye)}, target={_fmt(self.target)}, up={_fmt(self.up)}, "
                 f"fov_y_deg={self.fov_y_deg:g}, width={self.width}, height={self.height})")
+
+
+def _crop(value) -> tuple:
+    """A camera's crop window, (x0, y0, x1, y1) with 0 <= x0 < x1 <= 1 and the same for y."""
+    try:
+        x0, y0, x1, y1 = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise _FieldError("crop", f"expected [x0, y0, x1, y1], fractions of the film; got "
+                          f"{value!r}") from None
+    if not (0.0 <= x0 < x1 <= 1.0 and 0.0 <= y0 < y1 <= 1.0):
+        raise _FieldError("crop", f"expected 0 <= x0 < x1 <= 1 and 0 <= y0 < y1 <= 1 (fractions "
+                          f"of the film, y from the top); got {[x0, y0, x1, y1]}")
+    return (x0, y0, x1, y1)
 
 
 @dataclass(frozen=True, eq=False)

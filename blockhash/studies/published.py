@@ -79,7 +79,11 @@ def mitsuba_render(path, size, spp: int, seed: int = 0) -> tuple[np.ndarray, flo
             raise
         scene = _unwrapped(mi, Path(path))
     params = mi.traverse(scene.sensors()[0])
-    params["film.size"] = mi.ScalarVector2u(*size)
+    full, crop = np.array(params["film.size"], float), np.array(params["film.crop_size"], float)
+    scale = np.array(size, float) / crop  # a crop window keeps its place on the film
+    params["film.size"] = mi.ScalarVector2u(*np.round(full * scale).astype(int).tolist())
+    params["film.crop_offset"] = mi.ScalarPoint2u(
+        *np.round(np.array(params["film.crop_offset"], float) * scale).astype(int).tolist())
     params["film.crop_size"] = mi.ScalarVector2u(*size)
     params.update()
     t = time.perf_counter()

@@ -587,3 +587,33 @@ def test_a_spots_beam_is_read_and_checked_from_toml():
     assert spot.beam_deg == 20.0 and not spot.uniform
     with pytest.raises(InputError, match=r"beam_deg.*expected a number in \(0, 30\]"):
         parse_scene(text.replace("beam_deg = 20.0", "beam_deg = 40.0"))
+
+
+def test_a_crop_window_is_part_of_the_whole_films_view(tmp_path):
+    """``[camera] crop``: the image is that part of the film whose field of view is
+    fov_y_deg: its pixels' rays are the whole film's rays through the same film points, and a
+    world point projects to the same film point."""
+    from blockhash.scene.camera import Pinhole
+
+    text = (SCENES / "ring.toml").read_text()
+    path = tmp_path / "crop.toml"
+    path.write_text(text.replace("[camera]", "[camera]\ncrop = [0.25, 0.5, 0.75, 1.0]", 1))
+    scene = load_scene(path)
+    assert scene.camera.crop == (0.25, 0.5, 0.75, 1.0)
+    part = Pinhole.of(scene.camera, (24, 24))
+    whole = Pinhole.of(dataclasses.replace(scene.camera, crop=None), (48, 48))
+    x, y = np.random.default_rng(2).uniform(0, 24, (2, 50))
+    np.testing.assert_allclose(part.film_rays(x, y), whole.film_rays(x + 12, y + 24), atol=1e-12)
+    points = scene.camera.eye + 3.0 * whole.film_rays(x + 12, y + 24)
+    fx, fy, _ = part.film_coords(points)
+    np.testing.assert_allclose(np.c_[fx, fy], np.c_[x, y], atol=1e-9)
+    from blockhash.scene.mitsuba.exporter import export_mitsuba
+
+    back = load_scene(export_mitsuba(scene, tmp_path / "xml", drop_specular=True)).camera
+    assert back.crop == scene.camera.crop and (back.width, back.height) == (scene.camera.width,
+                                                                           scene.camera.height)
+    assert back.fov_y_deg == pytest.approx(scene.camera.fov_y_deg)
+    for bad in ("[0.5, 0.0, 0.25, 1.0]", "[0.0, 0.0, 1.0, 1.5]", "[0.1, 0.2]"):
+        path.write_text(text.replace("[camera]", f"[camera]\ncrop = {bad}", 1))
+        with pytest.raises(InputError, match=r"camera\.crop: expected"):
+            load_scene(path)

@@ -166,8 +166,7 @@ def scene_xml(scene: Scene, *, drop_specular: bool = False, spp: int = DEFAULT_M
            '        <integer name="sample_count" value="$spp"/>',
            "    </sampler>",
            '    <film type="hdrfilm">',
-           f'        <integer name="width" value="{c.width}"/>',
-           f'        <integer name="height" value="{c.height}"/>',
+           *_film_size(c),
            *_rfilter(c.filter),
            "    </film>",
            "</sensor>"]
@@ -214,6 +213,19 @@ def export_mitsuba(scene: Scene, directory, *, drop_specular: bool = False,
     xml = root / "scene.xml"
     xml.write_text(text, encoding="utf-8")
     return xml
+
+
+def _film_size(c) -> list[str]:
+    """The film's size lines: the camera's, or for a crop the whole film's (the nearest whole
+    pixels) with its crop window."""
+    if c.crop is None:
+        return [f'        <integer name="width" value="{c.width}"/>',
+                f'        <integer name="height" value="{c.height}"/>']
+    x0, y0, x1, y1 = c.crop
+    width, height = round(c.width / (x1 - x0)), round(c.height / (y1 - y0))
+    values = {"width": width, "height": height, "crop_offset_x": round(x0 * width),
+              "crop_offset_y": round(y0 * height), "crop_width": c.width, "crop_height": c.height}
+    return [f'        <integer name="{k}" value="{v}"/>' for k, v in values.items()]
 
 
 def _rfilter(pf) -> list[str]:

@@ -126,7 +126,7 @@ def sensor(r: XmlReader, el) -> Render:
                 children=("film", "sampler", "ref"))  # focus_distance: no effect on a pinhole
     width, height = DEFAULT_SIZE
     pf = DEFAULT_FILTER
-    sampler = None
+    sampler = crop = None
     films = [k for k in p["<children>"] if k.tag == "film"]
     for kid in p["<children>"]:
         if kid.tag == "ref":  # a sampler the scene defines at its top, by id
@@ -142,7 +142,7 @@ def sensor(r: XmlReader, el) -> Render:
         elif kid is not films[0]:
             r.fail(kid, "a second film; a sensor takes one")
         else:
-            width, height, pf = film(r, kid)
+            width, height, pf, crop = film(r, kid)
     near, far = float(p.get("near_clip", DEFAULT_NEAR)), float(p.get("far_clip", DEFAULT_FAR))
     given = {k for k in ("near_clip", "far_clip") if k in p}
     if not near > 0:
@@ -152,8 +152,14 @@ def sensor(r: XmlReader, el) -> Render:
     fx = x_fov(r, el, p, width, height)
     fov_y = math.degrees(2.0 * math.atan(math.tan(math.radians(fx) / 2.0) * height / width))
     eye, target, up = camera_frame(r, el)
-    camera = r.build(el, Camera, eye=eye, target=target, up=up, fov_y_deg=fov_y, width=width,
-                     height=height, filter=pf)
+    if crop is None:
+        camera = r.build(el, Camera, eye=eye, target=target, up=up, fov_y_deg=fov_y,
+                         width=width, height=height, filter=pf)
+    else:  # the image is the crop window's pixels, the field of view the whole film's
+        x, y, w, h = crop
+        camera = r.build(el, Camera, eye=eye, target=target, up=up, fov_y_deg=fov_y, width=w,
+                         height=h, filter=pf,
+                         crop=(x / width, y / height, (x + w) / width, (y + h) / height))
     out = Render(camera=camera, near=near, far=far, sensor=el, sampler=sampler, clips=given)
     if sampler is not None:
         out.spp = samples(r, sampler)
@@ -186,13 +192,17 @@ def camera_frame(r: XmlReader, el):
     return eye, eye + a @ [0.0, 0.0, 1.0], a @ [0.0, 1.0, 0.0]
 
 
-def film(r: XmlReader, el) -> tuple[int, int, PixelFilter]:
-    """(width, height, pixel filter) of an ``hdrfilm`` (Mitsuba's Gaussian where it names no
-    ``rfilter``)."""
+CROP = ("crop_offset_x", "crop_offset_y", "crop_width", "crop_height")
+
+
+def film(r: XmlReader, el) -> tuple[int, int, PixelFilter, tuple | None]:
+    """(width, height, pixel filter, crop window in pixels (x, y, width, height) or None) of an
+    ``hdrfilm`` (Mitsuba's Gaussian where it names no ``rfilter``)."""
     if el.get("type") != "hdrfilm":
         r.fail(el, "unsupported film; supported: hdrfilm")
     f = r.props(el, {"width": ("integer",), "height": ("integer",), "pixel_format": ("string",),
-                     "file_format": ("string",), "component_format": ("string",)},
+                     "file_format": ("string",), "component_format": ("string",),
+                     **{k: ("integer",) for k in CROP}},
                 children=("rfilter",))
     for key, ok in (("pixel_format", ("rgb", "rgba")), ("file_format", ("openexr", "exr")),
                     ("component_format", ("float16", "float32"))):
@@ -208,7 +218,15 @@ def film(r: XmlReader, el) -> tuple[int, int, PixelFilter]:
     for key, v in (("width", width), ("height", height)):
         if not v >= 1:
             r.fail(el, f"{key} {v} must be at least 1 pixel")
-    return width, height, pf
+    if not any(k in f for k in CROP):
+        return width, height, pf, None
+    x, y = f.get("crop_offset_x", 0), f.get("crop_offset_y", 0)
+    w, h = f.get("crop_width", width - x), f.get("crop_height", height - y)
+    if not (0 <= x and 0 <= y and w >= 1 and h >= 1 and x + w <= width and y + h <= height):
+        r.fail(el, f"the crop window at ({x}, {y}) of {w} x {h} pixels does not lie inside the "
+               f"{width} x {height} film; give crop_offset_x/y >= 0 and crop_width/height >= 1 "
+               "within it (as Mitsuba asks)")
+    return width, height, pf, (x, y, w, h)
 
 
 def rfilter(r: XmlReader, el) -> PixelFilter:

@@ -232,7 +232,7 @@ CASES = [
     (dict(film='<rfilter type="box"><float name="radius" value="1"/></rfilter>'), r"s.xml:6: <rfilter type=\"box\">: a box filter of radius 1: .*tent or gaussian"),
     (dict(film='<rfilter type="tent"><float name="radius" value="0.2"/></rfilter>'), r"s.xml:6: .*radius.*above 0.5"),
     (dict(film='<rfilter type="gaussian"><float name="radius" value="1"/></rfilter>'), r"s.xml:6: <float name=\"radius\">: unsupported here.*stddev"),
-    (dict(film='<integer name="crop_width" value="8"/>'), r"s.xml:6: <integer name=\"crop_width\">: unsupported here"),
+    (dict(film='<integer name="crop_width" value="80"/>'), r"s.xml:6: <film type=\"hdrfilm\">: the crop window at \(0, 0\) of 80 x 32 pixels does not lie inside the 64 x 32 film"),
     (dict(film='<string name="pixel_format" value="luminance"/>'), r"s.xml:6: .*pixel_format 'luminance'"),
     (dict(scene="<scene>"), r"s.xml:1: <scene>: missing version attribute.*version=\"3.0.0\""),
     (dict(scene='<scene version="0.6.0">'), r"s.xml:1: <scene>: version 0.6.0: a file for Mitsuba 0.x"),
