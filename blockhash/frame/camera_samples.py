@@ -10,8 +10,8 @@ import numpy as np
 
 from blockhash.frame.gbuffer import rasterize
 from blockhash.frame.shading import SceneRays, shading_points
-from blockhash.frame.subpixel import film_gbuffer, pass_points, raycast_gbuffer
-from blockhash.scene.camera import SPP_SEED, Pinhole, grid_of
+from blockhash.frame.subpixel import LENS_KEY, film_gbuffer, pass_points, raycast_gbuffer
+from blockhash.scene.camera import SPP_SEED, Pinhole, grid_of, jitter_seed
 from blockhash.scene.model import MirrorMaterial
 
 
@@ -21,7 +21,7 @@ def camera_points(scene, rays: SceneRays, samples, *, size=None, backend=None,
     the rasterised pixel centres for one, else stratified jitter cast with ``rays`` (``seed``);
     mirrors and glass followed, glass on both branches unless ``both_branches`` is False
     (:func:`.shading.shading_points`)."""
-    if grid_of(samples) == (1, 1):
+    if grid_of(samples) == (1, 1) and not scene.camera.aperture_radius:  # a lens: cast
         gbuf = rasterize(scene.camera, scene.objects, size=size, backend=backend)
     else:
         gbuf = raycast_gbuffer(scene.camera, rays, size=size, samples=samples, seed=seed)
@@ -37,11 +37,12 @@ def camera_samples(scene, rays: SceneRays, samples, pass_index: int, *, backend=
     sample per pixel from :func:`.subpixel.pass_offsets`, or stratified jitter under a seed
     of their own (:func:`blockhash.scene.camera.jitter_seed`): :func:`.subpixel.pass_points`.
     """
-    if grid_of(samples) == (1, 1) and pass_index == 0:
+    if grid_of(samples) == (1, 1) and pass_index == 0 and not scene.camera.aperture_radius:
         gbuf = rasterize(scene.camera, scene.objects, backend=backend)
     else:
         pin = Pinhole.of(scene.camera)
-        gbuf = film_gbuffer(pin, rays, *pass_points(pin.width, pin.height, samples, pass_index))
+        gbuf = film_gbuffer(pin, rays, *pass_points(pin.width, pin.height, samples, pass_index),
+                            lens_seed=LENS_KEY + jitter_seed(pass_index))
     points = _shade(scene, rays, gbuf, True)
     specular = np.array([o.is_specular for o in scene.objects] + [False])
     seen = ~specular[gbuf.object.reshape(-1)]  # object -1 (nothing hit): the last entry

@@ -72,6 +72,8 @@ class GBuffer:
     normal: np.ndarray
     object: np.ndarray
     front: np.ndarray | None = None
+    #: (h, w, 3) float64 where each camera ray started, for a thin lens (None: the eye).
+    origin: np.ndarray | None = None
 
 
 def scene_triangles(objects) -> np.ndarray:

@@ -145,15 +145,16 @@ def _camera_start(camera, gbuffer, sided, rays: SceneRays):
     pos = gbuffer.position.reshape(-1, 3).astype(np.float64)
     nrm = gbuffer.normal.reshape(-1, 3).astype(np.float64)
     obj = gbuffer.object.reshape(-1).copy()
-    view = np.asarray(camera.eye, dtype=np.float64) - pos
+    start = (np.broadcast_to(np.asarray(camera.eye, dtype=np.float64), pos.shape)
+             if gbuffer.origin is None else gbuffer.origin.reshape(-1, 3))  # a lens's points
+    view = start - pos
     view /= np.maximum(np.linalg.norm(view, axis=1, keepdims=True), 1e-30)
     outer = np.zeros(len(obj), dtype=bool)
     first = np.flatnonzero(sided[obj])
     if gbuffer.front is not None:
         outer[first] = gbuffer.front.reshape(-1)[first]
     elif len(first):
-        eye = np.broadcast_to(np.asarray(camera.eye, np.float64), (len(first), 3)).copy()
-        outer[first] = rays.first_hit(eye, -view[first], sides=True)[5]
+        outer[first] = rays.first_hit(start[first].copy(), -view[first], sides=True)[5]
     return pos, nrm, obj, view, outer
 
 

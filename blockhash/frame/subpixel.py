@@ -88,22 +88,27 @@ def raycast_gbuffer(camera, rays, *, size=None, samples=1, seed: int | None = No
 
     pin = Pinhole.of(camera, size)
     x, y = subpixel_points(pin.width, pin.height, samples, seed, pixels=pixels)
-    return film_gbuffer(pin, rays, x, y)
+    return film_gbuffer(pin, rays, x, y, lens_seed=LENS_KEY + (seed or 0))
 
 
-def film_gbuffer(pin: Pinhole, rays, x: np.ndarray, y: np.ndarray) -> GBuffer:
+#: Offset of the lens samples' seed from the film samples' (a stream of their own).
+LENS_KEY = 0x5DEECE66D
+
+
+def film_gbuffer(pin: Pinhole, rays, x: np.ndarray, y: np.ndarray, *,
+                 lens_seed: int = LENS_KEY) -> GBuffer:
     """The G-buffer of the rays through film points ``(x, y)`` (pixels from the top left,
     any shape), by ray casting."""
-    d = pin.film_rays(x, y)
-    hit, p, n, obj, _, outer = rays.first_hit(np.broadcast_to(pin.eye, d.shape).copy(), d,
-                                              sides=True)
-    flip = np.einsum("ij,ij->i", n, pin.eye - p) < 0
+    o, d = pin.lens_rays(x, y, lens_seed)
+    hit, p, n, obj, _, outer = rays.first_hit(o, d, sides=True)
+    flip = np.einsum("ij,ij->i", n, d) > 0
     n[flip] *= -1.0
     shape = x.shape
     return GBuffer(position=p.reshape(*shape, 3).astype(np.float32),
                    normal=n.reshape(*shape, 3).astype(np.float32),
                    object=np.where(hit, obj, -1).reshape(shape).astype(np.int32),
-                   front=outer.reshape(shape))
+                   front=outer.reshape(shape),
+                   origin=o.reshape(*shape, 3) if pin.aperture > 0 else None)
 
 
 #: The R2 sequence's steps (Roberts 2018): 1 / g and 1 / g^2 for the plastic number g, the

@@ -390,7 +390,7 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
     if not stage.cover:
         return index, radii, None, None
     splat = whole = None
-    if s.schedule.footprint > 0:
+    if s.schedule.footprint > 0 and not setup.pin.aperture:  # a lens blurs what it splats
         t = time.perf_counter()
         whole = (index, FixedRadii(r2))
         index, radii, splat = _split(setup, photons, index, r2, scale, p)

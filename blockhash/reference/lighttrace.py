@@ -191,6 +191,10 @@ def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
                   minimum=0, maximum=2**128 - 1, hint="use a non-negative integer seed")
     batch_size = as_int(batch_size, "batch_size", minimum=1)
     pin = Pinhole.of(scene.camera, size)
+    if pin.aperture > 0:
+        raise InputError(f"the light tracer connects photons to a pinhole; this camera has a thin "
+                         f"lens (aperture_radius {pin.aperture:g}): render its reference with "
+                         "Mitsuba (engine 'mitsuba'), or set aperture_radius 0")
     rays = SceneRays(scene.objects)
     geom: EmbreeGeometry = rays.geometry
     visible = directly_visible(scene, pin, rays)

@@ -70,6 +70,9 @@ class Pinhole:
     #: The image's centre on the image plane (x right, y up), off the view axis for a crop.
     cx: float = 0.0
     cy: float = 0.0
+    #: A thin lens: its radius (0: a pinhole) and the distance in focus along the view axis.
+    aperture: float = 0.0
+    focus: float = 1.0
 
     @classmethod
     def of(cls, camera, size=None) -> "Pinhole":
@@ -78,7 +81,30 @@ class Pinhole:
         right, up, forward = cam.basis()
         tan_x, tan_y, cx, cy = cam.window()
         return cls(np.asarray(cam.eye, np.float64), right, up, forward, tan_x, tan_y,
-                   int(width), int(height), cx, cy)
+                   int(width), int(height), cx, cy, float(cam.aperture_radius),
+                   float(cam.focus_distance))
+
+    def lens_rays(self, x, y, seed: int):
+        """(origins (m, 3), unit directions (m, 3)) of rays through film points ``(x, y)``
+        from points of the thin lens (uniform on its disc, Shirley and Chiu's concentric map of
+        stratum-free uniforms drawn with ``seed``) toward the points those film points see in
+        focus, as Mitsuba's ``thinlens`` samples them; a pinhole's (:meth:`film_rays`) when
+        the aperture is 0."""
+        d = self.film_rays(x, y)
+        if self.aperture <= 0.0:
+            return np.broadcast_to(self.eye, d.shape).copy(), d
+        u = np.random.default_rng(seed).random((len(d), 2)) * 2.0 - 1.0
+        big = np.abs(u[:, 0]) > np.abs(u[:, 1])
+        r = np.where(big, u[:, 0], u[:, 1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            phi = np.where(big, (np.pi / 4) * u[:, 1] / u[:, 0],
+                           np.pi / 2 - (np.pi / 4) * u[:, 0] / u[:, 1])
+        phi = np.nan_to_num(phi)
+        lx, ly = self.aperture * r * np.cos(phi), self.aperture * r * np.sin(phi)
+        origins = self.eye + lx[:, None] * self.right + ly[:, None] * self.up
+        focus = self.eye + d * (self.focus / (d @ self.forward))[:, None]
+        dirs = focus - origins
+        return origins, dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
 
     @property
     def pixel_area(self) -> float:

@@ -24,6 +24,8 @@ typo is never silently ignored)::
     crop = [0.25, 0.0, 0.75, 0.5]   # default none: the part of the film the image holds,
                                     #   [x0, y0, x1, y1] as fractions of it (y from the top);
                                     #   fov_y_deg is the whole film's, width x height the part's
+    aperture_radius = 0.05          # default 0 (a pinhole): a thin lens's radius, scene units
+    focus_distance = 4.0            # default 1: the distance in focus along the view axis
 
     [materials.NAME]                # one table per material; at least one
     kind = "phong"                  # modified Phong (Lafortune & Willems 1994):
@@ -215,12 +217,14 @@ def _array_of_tables(value, key: str, *, what: str) -> list:
 
 def _parse_camera(t) -> Camera:
     _keys(t, "camera", ("eye", "target", "fov_y_deg", "width", "height"),
-          ("up", "spp", "filter", "crop"), what="the camera")
+          ("up", "spp", "filter", "crop", "aperture_radius", "focus_distance"),
+          what="the camera")
     with _under("camera"):
         return Camera(eye=t["eye"], target=t["target"], up=t.get("up", [0.0, 1.0, 0.0]),
                       fov_y_deg=t["fov_y_deg"], width=t["width"], height=t["height"],
                       spp=t.get("spp"), filter=pixel_filter(t.get("filter", "box")),
-                      crop=t.get("crop"))
+                      crop=t.get("crop"), aperture_radius=t.get("aperture_radius", 0.0),
+                      focus_distance=t.get("focus_distance", 1.0))
 
 
 def _parse_materials(t) -> dict:

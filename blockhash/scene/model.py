@@ -63,7 +63,10 @@ class Camera:
     :data:`blockhash.scene.camera.DEFAULT_SPP`).  ``filter``: the pixel filter
     (:mod:`blockhash.scene.pixel_filter`; default the box, each pixel its samples' mean).
     ``crop``: None (the whole film), or ``(x0, y0, x1, y1)``, the part of the film the image
-    holds as fractions of it (y from the top; :meth:`window`).
+    holds as fractions of it (y from the top; :meth:`window`).  ``aperture_radius`` > 0: a thin
+    lens of that radius in the plane of ``eye`` (right and up), in focus at
+    ``focus_distance`` along the view axis (depth of field, as Mitsuba's ``thinlens``); 0 a
+    pinhole.
     """
 
     eye: np.ndarray
@@ -75,11 +78,19 @@ class Camera:
     spp: int | None = None
     filter: PixelFilter = BOX
     crop: tuple | None = None
+    aperture_radius: float = 0.0
+    focus_distance: float = 1.0
 
     def __post_init__(self):
         with _owned("Camera"):
             if self.crop is not None:
                 object.__setattr__(self, "crop", _crop(self.crop))
+            object.__setattr__(self, "aperture_radius", _number(
+                self.aperture_radius, "aperture_radius", lo=0.0,
+                hint="the lens's radius in scene units; 0 for a pinhole"))
+            object.__setattr__(self, "focus_distance", _number(
+                self.focus_distance, "focus_distance", lo=0.0, lo_open=True,
+                hint="the distance of the plane in focus along the view axis, > 0"))
             set_ = object.__setattr__
             set_(self, "eye", _vector(self.eye, "eye"))
             set_(self, "target", _vector(self.target, "target"))

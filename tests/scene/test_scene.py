@@ -617,3 +617,36 @@ def test_a_crop_window_is_part_of_the_whole_films_view(tmp_path):
         path.write_text(text.replace("[camera]", f"[camera]\ncrop = {bad}", 1))
         with pytest.raises(InputError, match=r"camera\.crop: expected"):
             load_scene(path)
+
+
+def test_a_thin_lens_sees_its_focus_plane_sharp_and_the_light_tracer_refuses_it(tmp_path):
+    """``aperture_radius`` and ``focus_distance``: every lens ray through a film point meets
+    the pinhole's ray through it at the plane in focus, the rays start on the lens's disc, a
+    Mitsuba export and import keep the lens, and the light tracer (a pinhole's reference)
+    refuses it by name."""
+    from blockhash.reference.lighttrace import light_trace
+    from blockhash.scene.camera import Pinhole
+    from blockhash.scene.mitsuba.exporter import export_mitsuba
+
+    text = (SCENES / "ring.toml").read_text()
+    path = tmp_path / "lens.toml"
+    path.write_text(text.replace("[camera]", "[camera]\naperture_radius = 0.2\nfocus_distance = 3.0", 1))
+    scene = load_scene(path)
+    pin = Pinhole.of(scene.camera, (32, 24))
+    x, y = np.random.default_rng(3).uniform(0, 24, (2, 400))
+    origins, dirs = pin.lens_rays(x, y, seed=5)
+    pinhole = pin.film_rays(x, y)
+    t = (3.0 - (origins - pin.eye) @ pin.forward) / (dirs @ pin.forward)
+    sharp = pin.eye + pinhole * (3.0 / (pinhole @ pin.forward))[:, None]
+    np.testing.assert_allclose(origins + dirs * t[:, None], sharp, atol=1e-9)
+    offset = origins - pin.eye
+    assert np.abs(offset @ pin.forward).max() < 1e-12
+    assert np.linalg.norm(offset, axis=1).max() <= 0.2 + 1e-12
+    assert np.linalg.norm(offset, axis=1).mean() > 0.1  # spread over the disc
+    back = load_scene(export_mitsuba(scene, tmp_path / "xml", drop_specular=True)).camera
+    assert (back.aperture_radius, back.focus_distance) == (0.2, 3.0)
+    with pytest.raises(InputError, match="light tracer connects photons to a pinhole.*Mitsuba"):
+        light_trace(scene, 1000)
+    path.write_text(text.replace("[camera]", "[camera]\naperture_radius = -1", 1))
+    with pytest.raises(InputError, match=r"camera\.aperture_radius"):
+        load_scene(path)

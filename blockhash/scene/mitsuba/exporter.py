@@ -156,7 +156,10 @@ def scene_xml(scene: Scene, *, drop_specular: bool = False, spp: int = DEFAULT_M
            f'<integrator type="{integrator}">',
            f'    <integer name="max_depth" value="{depth}"/>',
            "</integrator>",
-           '<sensor type="perspective">',
+           f'<sensor type="{"thinlens" if c.aperture_radius else "perspective"}">',
+           *([f'    <float name="aperture_radius" value="{_num(c.aperture_radius)}"/>',
+              f'    <float name="focus_distance" value="{_num(c.focus_distance)}"/>']
+             if c.aperture_radius else []),
            f'    <float name="fov" value="{_num(c.fov_y_deg)}"/>',
            '    <string name="fov_axis" value="y"/>',
            '    <transform name="to_world">',

@@ -117,13 +117,24 @@ def x_fov(r: XmlReader, el, p: dict, width: int, height: int) -> float:
     return out
 
 
+#: A thin lens's distance in focus where a file gives none (Mitsuba's default).
+DEFAULT_FOCUS = 10000.0
+
+
 def sensor(r: XmlReader, el) -> Render:
-    if el.get("type") != "perspective":
-        r.fail(el, "unsupported sensor; supported: perspective (a pinhole camera)")
+    kind = el.get("type")
+    if kind not in ("perspective", "thinlens"):
+        r.fail(el, "unsupported sensor; supported: perspective (a pinhole camera), thinlens")
+    lens = {"aperture_radius": ("float",)} if kind == "thinlens" else {}
     p = r.props(el, {"fov": ("float",), "fov_axis": ("string",), "focal_length": ("string",),
                      "to_world": ("transform",), "near_clip": ("float",),
-                     "far_clip": ("float",), "focus_distance": ("float",)},
+                     "far_clip": ("float",), "focus_distance": ("float",), **lens},
                 children=("film", "sampler", "ref"))  # focus_distance: no effect on a pinhole
+    if kind == "thinlens" and "aperture_radius" not in p:
+        r.fail(el, "a thinlens sensor needs <float name=\"aperture_radius\"> (Mitsuba asks for "
+               "it too)")
+    optics = ({"aperture_radius": p["aperture_radius"],
+               "focus_distance": p.get("focus_distance", DEFAULT_FOCUS)} if lens else {})
     width, height = DEFAULT_SIZE
     pf = DEFAULT_FILTER
     sampler = crop = None
@@ -154,11 +165,11 @@ def sensor(r: XmlReader, el) -> Render:
     eye, target, up = camera_frame(r, el)
     if crop is None:
         camera = r.build(el, Camera, eye=eye, target=target, up=up, fov_y_deg=fov_y,
-                         width=width, height=height, filter=pf)
+                         width=width, height=height, filter=pf, **optics)
     else:  # the image is the crop window's pixels, the field of view the whole film's
         x, y, w, h = crop
         camera = r.build(el, Camera, eye=eye, target=target, up=up, fov_y_deg=fov_y, width=w,
-                         height=h, filter=pf,
+                         height=h, filter=pf, **optics,
                          crop=(x / width, y / height, (x + w) / width, (y + h) / height))
     out = Render(camera=camera, near=near, far=far, sensor=el, sampler=sampler, clips=given)
     if sampler is not None:
