@@ -7,13 +7,14 @@ Every ``*.xml`` directly in each FOLDER (an included part in a subfolder is read
 file that includes it), or the files given.  Needs the extra blockhash[mitsuba].
 
 usage: python tools/mitsuba_folder.py FOLDER_OR_FILE... [--size 64] [--spp 1024]
-                                      [--passes 8] [--json FILE]
+                                      [--passes 8] [-D NAME=VALUE] [--json FILE]
 """
 
 import sys
 from collections import Counter
 from pathlib import Path
 
+from blockhash.cli.args import define_option, defines
 from blockhash.studies.command import ToolParser, count, write_json
 from blockhash.studies.published import compare
 
@@ -39,12 +40,14 @@ def main(argv=None) -> int:
     p.add_argument("--spp", type=count, default=1024, help="Mitsuba's samples per pixel")
     p.add_argument("--passes", type=count, default=8, help="blockhash's passes")
     p.add_argument("--json", help="write the rows to this file")
+    define_option(p)
     args = p.parse_args(argv)
     rows, refusals = [], Counter()
     print("| file | renders | warnings | blockhash s | Mitsuba s | flux (r, g, b) | blurred rel. RMS |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
     for path in files(args.paths):
-        row = compare(path, size=args.size, spp=args.spp, passes=args.passes)
+        row = compare(path, size=args.size, spp=args.spp, passes=args.passes,
+                      defines=defines(args.define))
         rows.append(row)
         if row.refused:
             refusals[reason(row.refused)] += 1

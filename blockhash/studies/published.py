@@ -53,27 +53,29 @@ def small_size(camera, side: int) -> tuple[int, int]:
     return max(1, round(camera.width * scale)), max(1, round(camera.height * scale))
 
 
-def load(path) -> tuple:
-    """(scene or None, the refusal's message or None, the warnings' messages)."""
+def load(path, defines: dict | None = None) -> tuple:
+    """(scene or None, the refusal's message or None, the warnings' messages); ``defines``
+    the file's parameters, as Mitsuba's ``-D``."""
     from blockhash.scene.loader import load_scene
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            scene = load_scene(path)
+            scene = load_scene(path, defines)
         except InputError as exc:
             return None, str(exc), [str(w.message) for w in caught]
     return scene, None, [str(w.message) for w in caught]
 
 
-def mitsuba_render(path, size, spp: int, seed: int = 0) -> tuple[np.ndarray, float]:
+def mitsuba_render(path, size, spp: int, seed: int = 0,
+                   defines: dict | None = None) -> tuple[np.ndarray, float]:
     """(image (h, w, 3) float64, seconds) of Mitsuba's render of the file at ``path`` as it
-    is, its film resized to ``size``."""
+    is (``defines`` its parameters), its film resized to ``size``."""
     from blockhash.reference.mitsuba import load_mitsuba_module
 
     mi, _ = load_mitsuba_module()
     try:
-        scene = mi.load_file(str(path))
+        scene = mi.load_file(str(path), **{k: str(v) for k, v in (defines or {}).items()})
     except RuntimeError as exc:  # a stokes or moment wrapper: RGB variants refuse it
         if "polarized mode" not in str(exc) and "moment" not in str(exc):
             raise
@@ -92,16 +94,17 @@ def mitsuba_render(path, size, spp: int, seed: int = 0) -> tuple[np.ndarray, flo
 
 
 def compare(path, *, size: int = 64, spp: int = 1024, passes: int = 8, photons=None,
-            samples: int | None = None, seed: int = 1) -> Comparison:
+            samples: int | None = None, seed: int = 1, defines: dict | None = None) -> Comparison:
     """The :class:`Comparison` of the file at ``path`` (module docstring): Mitsuba at ``spp``
     samples a pixel, blockhash in ``passes`` passes of ``samples`` a pixel each (None: the
-    file's ``sample_count``) and ``photons`` a pass (None: blockhash's default)."""
+    file's ``sample_count``) and ``photons`` a pass (None: blockhash's default); ``defines``
+    the file's parameters for both, as Mitsuba's ``-D``."""
     import blockhash
     from blockhash.passes.plan import RenderPlan
     from blockhash.studies.measure import box_blur_rel_rms
 
     path = Path(path)
-    scene, refused, caught = load(path)
+    scene, refused, caught = load(path, defines)
     out = Comparison(path, refused=refused, warnings=caught)
     if scene is None:
         return out
@@ -114,7 +117,7 @@ def compare(path, *, size: int = 64, spp: int = 1024, passes: int = 8, photons=N
                                   plan=RenderPlan(passes=passes))
     out.seconds = time.perf_counter() - t
     ours = np.asarray(result.combined, dtype=np.float64)
-    theirs, out.mitsuba_seconds = mitsuba_render(path, out.size, spp)
+    theirs, out.mitsuba_seconds = mitsuba_render(path, out.size, spp, defines=defines)
     out.flux = ours.sum(axis=(0, 1)) / np.maximum(theirs.sum(axis=(0, 1)), 1e-300)
     out.blurred = box_blur_rel_rms(ours, theirs, np.ones(ours.shape[:2], dtype=bool))
     return out
