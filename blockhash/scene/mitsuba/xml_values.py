@@ -132,14 +132,23 @@ class XmlReader:
         a ``<path>`` (the last given first), then beside the top file and the file ``el`` is
         in, as Mitsuba's file resolver looks (:meth:`places`); an error listing where it
         looked when none holds it."""
+        return self._find(el, name, Path.is_file, f"{what} not found",
+                          " (a relative name is searched in each <path value> folder, then "
+                          "beside the XML file); fix the name or add <path value=\"FOLDER\"/>")
+
+    def folder(self, el, value: str) -> Path:
+        """The folder a ``<path value>`` names, through :meth:`places`."""
+        return self._find(el, value, Path.is_dir, "folder not found",
+                          "; a <path value> names a folder to search for the files the scene "
+                          "names")
+
+    def _find(self, el, name: str, test, missing: str, way_out: str) -> Path:
         places = self.places(el, Path(name))
         for place in places:
-            if place.is_file():
+            if test(place):
                 return place
-        self.fail(el, f"{what} not found: {name!r}, looked for at "
-                  + ", ".join(repr(str(p)) for p in places)
-                  + " (a relative name is searched in each <path value> folder, then beside the "
-                  "XML file); fix the name or add <path value=\"FOLDER\"/>")
+        self.fail(el, f"{missing}: {name!r}, looked for at "
+                  + ", ".join(repr(str(p)) for p in places) + way_out)
 
     def places(self, el, given: Path) -> list[Path]:
         """Where a relative name is looked for, in order, as Mitsuba's file resolver looks:
@@ -149,16 +158,6 @@ class XmlReader:
             return [given]
         bases = [*reversed(self.search), self.top.parent, self.file_of(el).parent]
         return list(dict.fromkeys(d / given for d in bases))
-
-    def folder(self, el, value: str) -> Path:
-        """The folder a ``<path value>`` names, through :meth:`places`."""
-        places = self.places(el, Path(value))
-        for place in places:
-            if place.is_dir():
-                return place
-        self.fail(el, f"folder not found: {value!r}, looked for at "
-                  + ", ".join(repr(str(p)) for p in places)
-                  + "; a <path value> names a folder to search for the files the scene names")
 
     def expand(self, root, stack: tuple[Path, ...] = ()) -> None:
         """Read ``root``'s ``<path>`` elements into :attr:`search` and put each ``<include
