@@ -243,3 +243,32 @@ def test_a_thin_lens_blurs_as_mitsubas():
     both = ours + image.caustic.astype(np.float64)
     rel = abs(both[region].sum() / particles[region].sum() - 1)
     assert rel < CAUSTIC_LIMIT, f"the caustic region's light differs by {rel:.4f}"
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("z", ["3", "-3"])
+def test_a_twosided_of_two_bsdfs_shows_each_face_as_mitsuba(z):
+    """twofaced.xml: a card red in front and blue behind, seen from the front (z 3) and from
+    behind (z -3), pixel by pixel as Mitsuba's path tracer renders it (measured: flux within
+    0.15% per channel, blurred relative RMS 0.014 and 0.015)."""
+    import warnings
+
+    import blockhash
+    from blockhash import LookupOptions
+    from blockhash.passes.plan import RenderPlan
+    from blockhash.reference.mitsuba import load_mitsuba_module
+    from blockhash.studies.measure import box_blur_rel_rms
+
+    path = HERE / "twofaced.xml"
+    scene = load_scene(path, {"z": z})
+    assert [o.name for o in scene.objects[-2:]] == ["card/front", "card/back"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # no caustic here
+        ours = blockhash.render(scene, photons=20_000, seed=1, spp=16, plan=RenderPlan(passes=2),
+                                lookup=LookupOptions(method="cpu")).direct.astype(np.float64)
+    mi, _ = load_mitsuba_module()
+    theirs = np.asarray(mi.render(mi.load_file(str(path), z=z), spp=1024, seed=3),
+                        np.float64)[..., :3]
+    np.testing.assert_allclose(ours.sum(axis=(0, 1)) / theirs.sum(axis=(0, 1)), 1.0, atol=0.01)
+    rel = box_blur_rel_rms(ours, theirs, np.ones(ours.shape[:2], dtype=bool), size=3)
+    assert rel < 0.05, f"blurred relative RMS {rel:.3f}"

@@ -1,9 +1,12 @@
 """Mitsuba 3's BSDFs as blockhash's materials (for :mod:`.importer`): ``diffuse`` (one-sided,
 as Mitsuba's; both faces inside ``twosided``), ``conductor`` (a perfect mirror, or a smooth
 metal of ``eta`` and ``k`` or a named preset), ``dielectric`` (``int_ior`` a number or one of
-Mitsuba's named indices) and ``twosided`` around one of them."""
+Mitsuba's named indices) and ``twosided`` around one of them, or around two diffuse ones
+(:class:`TwoFaced`)."""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -28,12 +31,18 @@ def bsdf(r, el, key: str, *, twosided: bool = False):
     kind = el.get("type")
     if kind == "twosided":
         inner = [k for k in el if isinstance(k.tag, str)]
-        if len(inner) != 1 or inner[0].tag != "bsdf":
-            r.fail(el, "expected exactly one <bsdf> inside (the same BSDF on both faces; "
-                   "a different BSDF per face is not supported)")
+        if not 1 <= len(inner) <= 2 or any(k.tag != "bsdf" for k in inner):
+            r.fail(el, "expected one <bsdf> inside (the same on both faces) or two (the front's, "
+                   "then the back's)")
         if twosided:
             r.fail(el, "a twosided inside a twosided; keep one")
-        return bsdf(r, inner[0], key, twosided=True)
+        if len(inner) == 1:
+            return bsdf(r, inner[0], key, twosided=True)
+        faces = [bsdf(r, k, key) for k in inner]  # each one-sided
+        if not all(isinstance(m, PhongMaterial) for m in faces):
+            r.fail(el, "a twosided of two BSDFs is read for two diffuse ones (a front and a "
+                   "back reflectance); give each face a diffuse BSDF, or one BSDF for both")
+        return TwoFaced(*faces)
     if kind == "diffuse":
         p = r.props(el, {"reflectance": ("rgb", "spectrum", "float", "texture")})
         kd = p.get("reflectance", 0.5)
@@ -59,6 +68,36 @@ def bsdf(r, el, key: str, *, twosided: bool = False):
         return r.build(el, DielectricMaterial, ior=float(inside),
                        tint=np.broadcast_to(tint, (3,)))
     r.fail(el, f"unsupported BSDF; supported: {', '.join(BSDFS)}")
+
+
+@dataclass(frozen=True, eq=False)
+class TwoFaced:
+    """A ``twosided`` of two diffuse BSDFs: ``front`` on the faces' front, ``back`` on their
+    back, each one-sided.  A shape with it becomes two sheets (:func:`two_sheets`)."""
+
+    front: PhongMaterial
+    back: PhongMaterial
+
+
+#: How far a two-faced shape's back sheet lies behind its front, over the shape's size: far
+#: above float32's resolution at that size, far below a pixel's footprint.
+SHEET_GAP = 1e-4
+
+
+def two_sheets(mesh):
+    """(front mesh, back mesh) of a shape whose faces reflect differently on each side: the
+    mesh, and a copy turned inside out (winding and normals reversed) that lies
+    :data:`SHEET_GAP` of the shape's size behind it along its normals.  Each sheet is
+    one-sided, so a ray or photon meets the front's face from the front and the back's from
+    the back, and never the other's."""
+    from blockhash.scene.meshes import with_normals
+
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    normals = np.asarray(mesh.vertex_normals, dtype=np.float64)
+    size = float(np.linalg.norm(np.ptp(vertices, axis=0))) or 1.0
+    back = with_normals(vertices - normals * (SHEET_GAP * size), np.asarray(mesh.faces)[:, ::-1],
+                        -normals)
+    return mesh, back
 
 
 def conductor(r, el) -> MirrorMaterial:

@@ -64,6 +64,7 @@ import numpy as np
 from blockhash.errors import InputError
 from blockhash.scene.lights import falloff_solid_angle
 from blockhash.scene.mitsuba import sensor as mitsuba_sensor
+from blockhash.scene.mitsuba.bsdfs import TwoFaced, two_sheets
 from blockhash.scene.mitsuba.bsdfs import bsdf as read_bsdf
 from blockhash.scene.mitsuba.exporter import METADATA_MARK
 from blockhash.scene.mitsuba.shapes import PROPERTIES, SHAPES, placed, shape_mesh, textured_meshes
@@ -183,6 +184,13 @@ class _Reader(XmlReader):
             return [self.build(el, SceneObject, name=f"{name}/{which}", mesh=mesh, material=m)
                     for mesh, m, which in parts if mesh is not None], None
         mesh = shape_mesh(self, el, kind, p)
+        if isinstance(material, TwoFaced):
+            if emitter is not None:
+                self.fail(emitter, "an area emitter on a shape with a twosided of two BSDFs is "
+                          "not supported; give the emitting shape one BSDF")
+            sheets = zip(two_sheets(mesh), (material.front, material.back), ("front", "back"))
+            return [self.build(el, SceneObject, name=f"{name}/{side}", mesh=m, material=mat)
+                    for m, mat, side in sheets], None
         obj = self.build(el, SceneObject, name=name, mesh=mesh, material=material)
         if emitter is None:
             return [obj], None

@@ -737,3 +737,23 @@ def test_a_parameter_is_given_as_mitsubas_dash_d_gives_it(tmp_path):
         load_scene(toml, {"spp": 4})
     with pytest.raises(SystemExit):
         main(["render", str(path), "-D", "spp"])
+
+
+def test_a_twosided_of_two_diffuse_bsdfs_is_two_one_sided_sheets(tmp_path):
+    """The front BSDF on the faces' front, the back one on a copy turned inside out just
+    behind it; a twosided of two other BSDFs is refused by line."""
+    two = ('<bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.1, 0.1"/>'
+           '</bsdf><bsdf type="diffuse"><rgb name="reflectance" value="0.1, 0.1, 0.8"/></bsdf></bsdf>')
+    scene = load(tmp_path, body=f'<shape type="rectangle" id="card">{two}</shape>')
+    front, back = scene.objects[-2:]
+    assert (front.name, back.name) == ("card/front", "card/back")
+    assert front.material.sided == back.material.sided == "one"
+    np.testing.assert_allclose(front.material.kd, [0.8, 0.1, 0.1])
+    np.testing.assert_allclose(back.material.kd, [0.1, 0.1, 0.8])
+    np.testing.assert_allclose(back.mesh.face_normals, -front.mesh.face_normals)
+    gap = (front.mesh.vertices - back.mesh.vertices) @ [0.0, 0.0, 1.0]
+    assert 0 < gap.min() and gap.max() < 1e-3  # just behind the front
+    mixed = two.replace('<bsdf type="diffuse"><rgb name="reflectance" value="0.1, 0.1, 0.8"/></bsdf>',
+                        '<bsdf type="conductor"/>')
+    with pytest.raises(InputError, match=r"s.xml:10: <bsdf type=\"twosided\">: a twosided of two BSDFs .*diffuse"):
+        load(tmp_path, body=f'<shape type="rectangle">{mixed}</shape>')
