@@ -21,7 +21,8 @@ HERE = Path(__file__).resolve().parents[1] / "data" / "mitsuba_published" / "doc
 #: 0.021 to 0.026 (stokes 0.038; at 16 samples a pass 0.07 to 0.09: the limits see noise).
 FLUX, BLURRED = 0.02, 0.05
 RENDERED = ["variants_cbox_rgb", "variants_cbox_spectral", "integrator_depth_2",
-            "integrator_depth_3", "integrator_stokes_cbox", "sampler_independent_16spp"]
+            "integrator_depth_3", "integrator_stokes_cbox", "sampler_independent_16spp",
+            "bsdf_twosided_cbox"]
 
 pytestmark = pytest.mark.gl
 

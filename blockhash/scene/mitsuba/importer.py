@@ -60,9 +60,11 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+import trimesh
 
 from blockhash.errors import InputError
 from blockhash.scene.lights import falloff_solid_angle
+from blockhash.scene.meshes import with_normals
 from blockhash.scene.mitsuba import sensor as mitsuba_sensor
 from blockhash.scene.mitsuba.bsdfs import TwoFaced, two_sheets
 from blockhash.scene.mitsuba.bsdfs import bsdf as read_bsdf
@@ -86,11 +88,14 @@ EMITTERS = ("point", "spot", "directional")
 REFUSED_EMITTERS = {
     "envmap": "an environment map lights from every direction, which blockhash does not "
               "model; use a directional emitter for the sun, or area emitters",
-    "constant": "a constant environment lights from every direction, which blockhash does "
-                "not model; use area emitters (a large emitting shape) or a directional one",
 }
+#: How much larger than the box around the scene and the camera a constant environment's
+#: emitting box is (:func:`environment`).
+ENVIRONMENT_MARGIN = 1.5
 ELEMENTS = ("default", "path", "include", "integrator", "sensor", "sampler", "texture", "bsdf",
             "emitter", "shape")
+
+
 class _Reader(XmlReader):
     def emitter(self, el):
         kind = el.get("type")
@@ -253,6 +258,30 @@ class _Reader(XmlReader):
         return out
 
 
+def environment(r: _Reader, el, objects, eye) -> tuple:
+    """(object, AreaLight) of a ``constant`` emitter: a box around the scene and the camera
+    (:data:`ENVIRONMENT_MARGIN` times larger) whose faces turn inward and emit its
+    ``radiance``, reflecting nothing.  Radiance does not fall off with distance, so every ray
+    that leaves the scene meets the box and sees that radiance, wherever it starts inside:
+    exactly a constant environment, rendered as any area light (photons, direct light, the
+    box seen directly, in mirrors and through glass)."""
+    p = r.props(el, {"radiance": ("rgb", "spectrum", "float")}, emitter=True)
+    points = np.concatenate([np.asarray(o.mesh.vertices, np.float64) for o in objects]
+                            + [np.asarray(eye, np.float64)[None]])
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    half = ENVIRONMENT_MARGIN * max(float((hi - lo).max()) / 2.0, 1e-6)
+    box = trimesh.creation.box(extents=(2.0 * half,) * 3)
+    box.unmerge_vertices()
+    box.apply_translation((lo + hi) / 2.0)
+    inward = np.asarray(box.faces)[:, ::-1]
+    mesh = with_normals(box.vertices, inward, -np.repeat(box.face_normals, 3, axis=0))
+    name = el.get("id") or "constant-environment"
+    obj = r.build(el, SceneObject, name=name, mesh=mesh,
+                  material=PhongMaterial(kd=0.0, ks=0.0, n=0.0, sided="one"))
+    return obj, r.build(el, AreaLight, object=name, mesh=mesh,
+                        radiance=np.broadcast_to(p.get("radiance", 1.0), (3,)))
+
+
 def _metadata(root) -> dict:
     """The settings an export left in its comment (module docstring), {} if none."""
     for el in root:
@@ -313,6 +342,7 @@ def load_mitsuba(path, defines: dict | None = None) -> Scene:
     r.substitute(root)
     meta = _metadata(root)
     render, integrator, lights, objects, bsdfs, groups, areas = None, None, [], [], {}, {}, {}
+    constant = None
     r.used = set()  # the top-level area emitters a shape took
     # What a <ref id> may name is read first: Mitsuba resolves references after the whole file,
     # so a shape may name a BSDF, an area emitter or a sampler defined below it.
@@ -342,6 +372,10 @@ def load_mitsuba(path, defines: dict | None = None) -> Scene:
         elif el.tag in ("sampler", "texture"):
             r.fail(el, f"a {el.tag} at the top of the scene is taken by <ref id>; give it an id "
                    "and refer to it, or move it where it is used")
+        elif el.tag == "emitter" and el.get("type") == "constant":
+            if constant is not None:
+                r.fail(el, "a second constant emitter; give one (the sum of their radiances)")
+            constant = el
         elif el.tag == "emitter":
             lights.append(r.emitter(el))
         elif el.tag == "shape" and el.get("type") == "shapegroup":
@@ -361,6 +395,10 @@ def load_mitsuba(path, defines: dict | None = None) -> Scene:
                    f"that emits); add <ref id=\"{el.get('id')}\"/> inside that shape")
     if render is None:
         r.fail(root, "no <sensor>; add a perspective sensor")
+    if constant is not None and objects:
+        obj, light = environment(r, constant, objects, render.camera.eye)
+        objects.append(obj)
+        lights.append(light)
     if not lights:
         r.fail(root, "no <emitter>: blockhash renders the light of point, spot, directional "
                "and area emitters; add one (an area emitter goes inside a shape)")

@@ -245,7 +245,7 @@ CASES = [
     (dict(light=""), r"s.xml:1: <scene>: no <emitter>.*point, spot, directional and area.*inside a shape"),
     (dict(light='<emitter type="envmap"><string name="filename" value="sky.exr"/></emitter>'),
      r"s.xml:8: <emitter type=\"envmap\">: an environment map .*use a directional emitter for the sun"),
-    (dict(light='<emitter type="constant"/>'), r"s.xml:8: <emitter type=\"constant\">: a constant environment .*area emitters"),
+    (dict(light='<emitter type="constant"><float name="scale" value="2"/></emitter>'), r"s.xml:8: <float name=\"scale\">: unsupported here"),
     (dict(light='<emitter type="area"/>'), r"s.xml:8: <emitter type=\"area\">: an area emitter belongs inside a <shape>.*move it into one"),
     (dict(body='<shape type="sphere"><bsdf type="conductor"><string name="material" value="none"/></bsdf>'
                '<emitter type="area"/></shape>'), r"s.xml:10: <emitter type=\"area\">: an area emitter on a mirror \(conductor\) shape.*diffuse BSDF"),
@@ -757,3 +757,24 @@ def test_a_twosided_of_two_diffuse_bsdfs_is_two_one_sided_sheets(tmp_path):
                         '<bsdf type="conductor"/>')
     with pytest.raises(InputError, match=r"s.xml:10: <bsdf type=\"twosided\">: a twosided of two BSDFs .*diffuse"):
         load(tmp_path, body=f'<shape type="rectangle">{mixed}</shape>')
+
+
+def test_a_constant_environment_is_an_inward_emitting_box_around_the_scene_and_camera(tmp_path):
+    """Mitsuba's constant emitter: every ray leaving the scene meets a box around it and the
+    camera whose faces emit the radiance inward and reflect nothing (radiance does not fall
+    off, so that is the constant environment exactly)."""
+    light = '<emitter type="constant"><rgb name="radiance" value="0.5, 0.6, 0.7"/></emitter>'
+    scene = load(tmp_path, light=light)
+    env = scene.objects[-1]
+    assert env.name == "constant-environment" and not env.material.kd.any()
+    area = scene.lights[-1]
+    np.testing.assert_allclose(area.radiance, [0.5, 0.6, 0.7])
+    lo, hi = env.mesh.bounds
+    inside = np.concatenate([o.mesh.vertices for o in scene.objects[:-1]] + [scene.camera.eye[None]])
+    assert (inside > lo).all() and (inside < hi).all()
+    centre = (lo + hi) / 2
+    towards = (centre - env.mesh.triangles_center) * env.mesh.face_normals
+    assert (towards.sum(axis=1) > 0).all()  # every face turns inward
+    assert load(tmp_path, light='<emitter type="constant"/>').lights[-1].radiance.tolist() == [1, 1, 1]
+    with pytest.raises(InputError, match=r"s.xml:8: <emitter type=\"constant\">: a second constant"):
+        load(tmp_path, light='<emitter type="constant"/><emitter type="constant"/>')
