@@ -162,8 +162,8 @@ def render_scene(scene, *, photons=None, k=None, A=None, method="auto", variant=
         :data:`blockhash.scene.camera.DEFAULT_SPP`).  1 shades the pixel centres the
         rasteriser gives; more casts one ray per cell of a stratified, jittered grid in each
         pixel (S x S for a square count, else rows x cols as near square as it divides,
-        :func:`blockhash.scene.camera.spp_grid`) (a fixed pattern, :data:`blockhash.scene.camera.SPP_SEED`), and
-        every sample gets its own hit, direct light and caustic estimate (one caustic pass
+        :func:`blockhash.scene.camera.spp_grid`; a fixed pattern,
+        :data:`blockhash.scene.camera.SPP_SEED`), and every sample gets its own hit, direct light and caustic estimate (one caustic pass
         over all of them) before the camera's pixel filter weighs them into pixels.
     """
     old_keywords("render_scene", deprecated, _ESTIMATE_KEYWORDS,
@@ -188,8 +188,8 @@ ONE_PASS = RenderPlan(passes=1, schedule=Schedule(footprint=0.0))
 
 def direct_layer(scene, spp=None, *, size=None, backend=None, both_branches: bool = True,
                  seed: int = SPP_SEED) -> np.ndarray:
-    """(h, w, 3) float32 pixels of the direct layer alone (under the camera's filter), as :func:`render_scene`
-    computes it (no photons are traced): ``spp`` samples per pixel (default the scene's)."""
+    """(h, w, 3) float32 pixels of the direct layer alone (under the camera's filter), as
+    :func:`render_scene` computes it (no photons are traced): ``spp`` samples per pixel (default the scene's)."""
     grid = spp_grid((scene.camera.spp or DEFAULT_SPP) if spp is None else spp)
     rays = SceneRays(scene.objects)
     points = camera_points(scene, rays, grid, size=size, backend=backend,

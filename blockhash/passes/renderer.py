@@ -61,7 +61,8 @@ class Renderer:
 
     ``photons``: caustic photons stored in the first pass (every later pass emits as many as
     the first did), or a traced map (``CausticPhotons``) for a one-pass render.  ``spp``:
-    samples per pixel per pass (:func:`blockhash.scene.camera.spp_grid` lays them out).  ``indirect``: trace the light between diffuse
+    samples per pixel per pass (:func:`blockhash.scene.camera.spp_grid` lays them out).
+    ``indirect``: trace the light between diffuse
     surfaces where the scene has it (False: leave it out).  The rest as
     :func:`.pipeline.render`.
     """

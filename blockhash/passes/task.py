@@ -44,8 +44,9 @@ from blockhash.validate import INDIRECT, as_flag, as_int
 class PassSettings:
     """What every pass of a render shares besides the scene: photons stored in pass 0
     (``count``; None with a traced map), the samples a pixel as ``(rows, cols)`` of stratified
-    cells (``grid``, :func:`blockhash.scene.camera.spp_grid`), the photons' seed, the estimate, the resolved search (``method``, ``k``, ``A``, ``variant``), the GL
-    backend and the radius schedule."""
+    cells (``grid``, :func:`blockhash.scene.camera.spp_grid`), the photons' seed, the estimate,
+    the resolved search (``method``, ``k``, ``A``, ``variant``), the GL backend and the radius
+    schedule."""
 
     count: int | None
     grid: tuple[int, int]
@@ -66,7 +67,8 @@ class PassSettings:
            backend=None, schedule: Schedule = Schedule(), indirect: bool = True,
            device: str | None = None) -> "PassSettings":
         """The settings of ``scene`` with these overrides (``photons``: photons stored per
-        pass, or None for the scene's; ``spp``: samples a pixel per pass; a traced map is given to :class:`RenderSetup`;
+        pass, or None for the scene's; ``spp``: samples a pixel per pass; a traced map is given
+        to :class:`RenderSetup`;
         ``indirect``: trace the indirect photons where the scene has diffuse interreflection;
         ``device``: where the caustic photons are traced, :mod:`blockhash.device.choice`)."""
         as_flag(indirect, "indirect", INDIRECT)
