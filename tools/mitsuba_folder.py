@@ -53,6 +53,10 @@ def main(argv=None) -> int:
             refusals[reason(row.refused)] += 1
             print(f"| {path.name} | no: {reason(row.refused)} | | | | | |", flush=True)
             continue
+        if row.mitsuba_error:
+            print(f"| {path.name} | yes | {len(row.warnings)} | {row.seconds:.1f} | Mitsuba "
+                  f"failed: {reason(row.mitsuba_error)} | | |", flush=True)
+            continue
         flux = ", ".join(f"{f:.3f}" for f in row.flux)
         print(f"| {path.name} | yes | {len(row.warnings)} | {row.seconds:.1f} | "
               f"{row.mitsuba_seconds:.1f} | {flux} | {row.blurred:.3f} |", flush=True)

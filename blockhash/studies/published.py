@@ -16,6 +16,7 @@ channel) and the relative RMS after a 5 x 5 box blur
 
 from __future__ import annotations
 
+import re
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -39,12 +40,14 @@ class Comparison:
     mitsuba_seconds: float = float("nan")
     flux: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
     blurred: float = float("nan")
+    #: Mitsuba's own error where it did not render the file (blockhash's image stands alone).
+    mitsuba_error: str | None = None
 
     def as_dict(self) -> dict:
         return {"file": str(self.path), "refused": self.refused, "warnings": self.warnings,
                 "size": list(self.size), "seconds": self.seconds,
                 "mitsuba_seconds": self.mitsuba_seconds, "flux": np.asarray(self.flux).tolist(),
-                "blurred_rel_rms": self.blurred}
+                "blurred_rel_rms": self.blurred, "mitsuba_error": self.mitsuba_error}
 
 
 def small_size(camera, side: int) -> tuple[int, int]:
@@ -74,8 +77,15 @@ def mitsuba_render(path, size, spp: int, seed: int = 0,
     from blockhash.reference.mitsuba import load_mitsuba_module
 
     mi, _ = load_mitsuba_module()
+    given = {k: str(v) for k, v in (defines or {}).items()}
     try:
-        scene = mi.load_file(str(path), **{k: str(v) for k, v in (defines or {}).items()})
+        try:
+            scene = mi.load_file(str(path), **given)
+        except RuntimeError as exc:  # Mitsuba refuses a parameter the file does not use
+            unused = set(re.findall(r"\$(\w+)=", str(exc))) if "unused parameters" in str(exc) else set()
+            if not unused:
+                raise
+            scene = mi.load_file(str(path), **{k: v for k, v in given.items() if k not in unused})
     except RuntimeError as exc:  # a stokes or moment wrapper: RGB variants refuse it
         if "polarized mode" not in str(exc) and "moment" not in str(exc):
             raise
@@ -117,7 +127,11 @@ def compare(path, *, size: int = 64, spp: int = 1024, passes: int = 8, photons=N
                                   plan=RenderPlan(passes=passes))
     out.seconds = time.perf_counter() - t
     ours = np.asarray(result.combined, dtype=np.float64)
-    theirs, out.mitsuba_seconds = mitsuba_render(path, out.size, spp, defines=defines)
+    try:
+        theirs, out.mitsuba_seconds = mitsuba_render(path, out.size, spp, defines=defines)
+    except RuntimeError as exc:  # the peer's own refusal: the row says so, the table goes on
+        out.mitsuba_error = str(exc).splitlines()[0]
+        return out
     out.flux = ours.sum(axis=(0, 1)) / np.maximum(theirs.sum(axis=(0, 1)), 1e-300)
     out.blurred = box_blur_rel_rms(ours, theirs, np.ones(ours.shape[:2], dtype=bool))
     return out
