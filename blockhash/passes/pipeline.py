@@ -196,5 +196,6 @@ def direct_layer(scene, spp=None, *, size=None, backend=None, both_branches: boo
                            both_branches=both_branches, seed=seed)
     values = points.gather(direct_light(points, scene.objects, scene.lights, rays))
     pin = Pinhole.of(scene.camera, size)
-    x, y = subpixel_points(pin.width, pin.height, grid, None if grid == (1, 1) else seed)
+    centres = grid == (1, 1) and not scene.camera.aperture_radius  # the rasteriser's points
+    x, y = subpixel_points(pin.width, pin.height, grid, None if centres else seed)
     return filtered(values, x, y, scene.camera.filter, pin.width, pin.height, grid)
