@@ -99,3 +99,42 @@ def continuous_share(pf: PixelFilter, width: int, height: int) -> np.ndarray:
         return (f[None, :] * ((x >= 0) & (x <= n))).sum(axis=1) / steps
 
     return 1.0 / np.outer(axis(height), axis(width)).ravel()
+
+
+class PassFilm:
+    """The camera's pixel filter ``pf`` over the samples of a render's passes (``grid`` of
+    them a pixel, laid out by :func:`blockhash.frame.subpixel.pass_points`) on the film of
+    ``pin``: each pass's pixels (:meth:`develop`) and its pixel splat's spread
+    (:meth:`spread`), the pass's sample points and weights kept for its layers."""
+
+    def __init__(self, pin, pf: PixelFilter, grid):
+        self.pin, self.pf, self.grid = pin, pf, grid
+        self._pass = None
+
+    def develop(self, values: np.ndarray, p: int) -> np.ndarray:
+        """Pass ``p``'s pixels, (h, w, C) float32, of its samples' ``values`` (the layout of
+        :func:`blockhash.frame.camera_samples.camera_samples`) under the filter."""
+        if self.pf.is_box:
+            return box_filter(values, self.grid)
+        x, y, _ = self._points(p)
+        return filtered(values, x, y, self.pf, self.pin.width, self.pin.height)
+
+    def spread(self, p: int):
+        """The pixel splat's ``spread`` for pass ``p`` (:func:`spread` under the filter; None
+        for the box)."""
+        if self.pf.is_box:
+            return None
+        share = self._points(p)[2]
+        return lambda fx, fy, contrib: spread(self.pf, fx, fy, contrib, self.pin.width,
+                                              self.pin.height, share)
+
+    def _points(self, p: int):
+        """Pass ``p``'s sample points and each pixel's samples over the weight they give it."""
+        if self._pass is None or self._pass[0] != p:
+            from blockhash.frame.subpixel import pass_points
+
+            rows, cols = self.grid
+            x, y = pass_points(self.pin.width, self.pin.height, self.grid, p)
+            w = weights(self.pf, x, y, self.pin.width, self.pin.height)
+            self._pass = (p, x, y, rows * cols / w)
+        return self._pass[1:]

@@ -28,10 +28,9 @@ from blockhash.errors import InputError
 from blockhash.frame.camera_samples import camera_samples, only
 from blockhash.frame.cover_estimate import cover_gather, drop_gather, forget_gathers
 from blockhash.frame.estimate import EstimateOptions
-from blockhash.frame.film_filter import filtered, spread, weights
+from blockhash.frame.film_filter import PassFilm
 from blockhash.frame.options import LookupOptions, resolve_method
 from blockhash.frame.shading import SceneRays, direct_light
-from blockhash.frame.subpixel import box_filter, pass_points
 from blockhash.gl.limits import MAX_K
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.passes.schedule import FixedRadii, PassRadii, Schedule, shrink
@@ -115,36 +114,8 @@ class RenderSetup:
         #: Passes' photons, indices and radii kept for the next frames of an animation whose
         #: camera alone moves (:class:`blockhash.passes.frames.FrameCache`; None: none kept).
         self.cache = None
-        self._film_pass = None
-
-    def develop(self, values: np.ndarray, p: int) -> np.ndarray:
-        """Pass ``p``'s pixels, (h, w, C) float32, of its samples' ``values`` (the layout of
-        :func:`blockhash.frame.camera_samples.camera_samples`) under the camera's filter."""
-        pf = self.scene.camera.filter
-        if pf.is_box:
-            return box_filter(values, self.settings.grid)
-        x, y, _ = self._film(p)
-        return filtered(values, x, y, pf, self.pin.width, self.pin.height)
-
-    def spread(self, p: int):
-        """The pixel splat's ``spread`` for pass ``p`` (:func:`blockhash.frame.film_filter.spread`
-        under the camera's filter; None for the box)."""
-        pf = self.scene.camera.filter
-        if pf.is_box:
-            return None
-        share = self._film(p)[2]
-        return lambda fx, fy, contrib: spread(pf, fx, fy, contrib, self.pin.width,
-                                              self.pin.height, share)
-
-    def _film(self, p: int):
-        """Pass ``p``'s sample points and each pixel's samples over the weight they give it,
-        kept for the pass's layers."""
-        if self._film_pass is None or self._film_pass[0] != p:
-            rows, cols = self.settings.grid
-            x, y = pass_points(self.pin.width, self.pin.height, self.settings.grid, p)
-            w = weights(self.scene.camera.filter, x, y, self.pin.width, self.pin.height)
-            self._film_pass = (p, x, y, rows * cols / w)
-        return self._film_pass[1:]
+        #: The camera's pixel filter over each pass's samples (a :class:`PassFilm`).
+        self.pixel_filter = PassFilm(self.pin, scene.camera.filter, settings.grid)
 
     def _indirect(self, scene, settings: PassSettings):
         """(the :class:`blockhash.photons.indirect.IndirectSource`, the photons it shoots per
@@ -283,7 +254,7 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
     caustic = _layer(setup, built, points, seen, p)
     timings["caustic"] = time.perf_counter() - t
     indirect, indirect_emitted = _indirect_layer(setup, p, scale, points, seen, timings, info)
-    direct = setup.develop(points.gather(direct), p)
+    direct = setup.pixel_filter.develop(points.gather(direct), p)
     timings["total"] = time.perf_counter() - t0
     index, radii = built[0], built[1]
     return PassContribution(p, direct, caustic, shot, stored, scale, timings, info, index, radii,
@@ -308,7 +279,7 @@ def _layer(setup: RenderSetup, built, points, seen, p: int) -> np.ndarray:
         drop_gather(whole[0], setup.settings.k, whole[1])
     elif index is not None:
         image = estimate(setup, index, points, radii)
-    image = setup.develop(points.gather(image), p)
+    image = setup.pixel_filter.develop(points.gather(image), p)
     return image + splat if splat is not None else image
 
 
@@ -414,7 +385,7 @@ def _split(setup: RenderSetup, photons, index, r2, scale, p: int):
     s = setup.settings
     image, keep = splat_subpixel(photons, r2, setup.pin, setup.rays, setup.materials,
                                  footprint=s.schedule.footprint * math.sqrt(scale),
-                                 spread=setup.spread(p))
+                                 spread=setup.pixel_filter.spread(p))
     if keep.all():
         return index, FixedRadii(r2), None
     if not keep.any():  # every photon splatted: nothing left to gather

@@ -60,14 +60,13 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 from blockhash.errors import InputError
 from blockhash.scene.lights import falloff_solid_angle
-from blockhash.scene.meshes import with_normals
 from blockhash.scene.mitsuba import sensor as mitsuba_sensor
 from blockhash.scene.mitsuba.bsdfs import TwoFaced, two_sheets
 from blockhash.scene.mitsuba.bsdfs import bsdf as read_bsdf
+from blockhash.scene.mitsuba.environment import environment
 from blockhash.scene.mitsuba.exporter import METADATA_MARK
 from blockhash.scene.mitsuba.shapes import PROPERTIES, SHAPES, placed, shape_mesh, textured_meshes
 from blockhash.scene.mitsuba.textures import TexturedDiffuse
@@ -89,9 +88,6 @@ REFUSED_EMITTERS = {
     "envmap": "an environment map lights from every direction, which blockhash does not "
               "model; use a directional emitter for the sun, or area emitters",
 }
-#: How much larger than the box around the scene and the camera a constant environment's
-#: emitting box is (:func:`environment`).
-ENVIRONMENT_MARGIN = 1.5
 ELEMENTS = ("default", "path", "include", "integrator", "sensor", "sampler", "texture", "bsdf",
             "emitter", "shape")
 
@@ -256,30 +252,6 @@ class _Reader(XmlReader):
                           "emitting shape outside the group")
             out.extend(objs)
         return out
-
-
-def environment(r: _Reader, el, objects, eye) -> tuple:
-    """(object, AreaLight) of a ``constant`` emitter: a box around the scene and the camera
-    (:data:`ENVIRONMENT_MARGIN` times larger) whose faces turn inward and emit its
-    ``radiance``, reflecting nothing.  Radiance does not fall off with distance, so every ray
-    that leaves the scene meets the box and sees that radiance, wherever it starts inside:
-    exactly a constant environment, rendered as any area light (photons, direct light, the
-    box seen directly, in mirrors and through glass)."""
-    p = r.props(el, {"radiance": ("rgb", "spectrum", "float")}, emitter=True)
-    points = np.concatenate([np.asarray(o.mesh.vertices, np.float64) for o in objects]
-                            + [np.asarray(eye, np.float64)[None]])
-    lo, hi = points.min(axis=0), points.max(axis=0)
-    half = ENVIRONMENT_MARGIN * max(float((hi - lo).max()) / 2.0, 1e-6)
-    box = trimesh.creation.box(extents=(2.0 * half,) * 3)
-    box.unmerge_vertices()
-    box.apply_translation((lo + hi) / 2.0)
-    inward = np.asarray(box.faces)[:, ::-1]
-    mesh = with_normals(box.vertices, inward, -np.repeat(box.face_normals, 3, axis=0))
-    name = el.get("id") or "constant-environment"
-    obj = r.build(el, SceneObject, name=name, mesh=mesh,
-                  material=PhongMaterial(kd=0.0, ks=0.0, n=0.0, sided="one"))
-    return obj, r.build(el, AreaLight, object=name, mesh=mesh,
-                        radiance=np.broadcast_to(p.get("radiance", 1.0), (3,)))
 
 
 def _metadata(root) -> dict:
