@@ -73,7 +73,8 @@ class IndirectSource:
         self.scene, self.geometry = scene, geometry
         #: The streams' offset and the photons traced together (the device's kernels read them).
         self.counter, self.batch_size = INDIRECT_COUNTER, BATCH
-        self.max_events = int(scene.photons.max_bounces) + 1
+        events = scene.photons.indirect_events
+        self.max_events = int(scene.photons.max_bounces) + 1 if events is None else int(events)
         lo, hi = scene.bounds
         self.center = 0.5 * (lo + hi)
         self.radius = 0.5 * float(np.linalg.norm(hi - lo)) * (1.0 + 1e-6) + 1e-9

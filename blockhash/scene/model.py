@@ -249,6 +249,9 @@ class PhotonSettings:
     direct_only: bool = False
     #: Specular events the camera's rays follow (None: blockhash's, 4 or 8 with glass).
     camera_bounces: int | None = None
+    #: Surface events an indirect photon meets at most (None: ``max_bounces`` + 1; Mitsuba's
+    #: unbounded depth: :data:`blockhash.scene.mitsuba.sensor.UNBOUNDED_EVENTS`).
+    indirect_events: int | None = None
 
     def __post_init__(self):
         with _owned("PhotonSettings"):
@@ -264,6 +267,9 @@ class PhotonSettings:
             if self.camera_bounces is not None:
                 _integer(self.camera_bounces, "camera_bounces", lo=0)
                 names.append("camera_bounces")
+            if self.indirect_events is not None:
+                _integer(self.indirect_events, "indirect_events", lo=2)
+                names.append("indirect_events")
             for name in names:
                 object.__setattr__(self, name, int(getattr(self, name)))
             if not isinstance(self.direct_only, (bool, np.bool_)):

@@ -21,12 +21,15 @@ HERE = Path(__file__).resolve().parents[1] / "data" / "mitsuba_published" / "doc
 #: 0.021 to 0.026 (stokes 0.038; at 16 samples a pass 0.07 to 0.09: the limits see noise).
 FLUX, BLURRED = 0.02, 0.05
 RENDERED = ["variants_cbox_rgb", "variants_cbox_spectral", "integrator_depth_2",
-            "integrator_depth_3", "integrator_stokes_cbox", "sampler_independent_16spp",
-            "bsdf_twosided_cbox"]
+            "integrator_depth_3", "integrator_depth_inf", "integrator_stokes_cbox",
+            "sampler_independent_16spp", "bsdf_twosided_cbox"]
 #: Rendered beside Mitsuba here: the others are the same box read otherwise (RGB colours, a
 #: stokes wrapper), which the import test holds; tools/mitsuba_folder.py renders them all.
 COMPARED = ["variants_cbox_spectral", "integrator_depth_2", "integrator_depth_3",
-            "sampler_independent_16spp", "bsdf_twosided_cbox"]
+            "integrator_depth_inf", "sampler_independent_16spp", "bsdf_twosided_cbox"]
+#: Tighter on the box at Mitsuba's unbounded depth: its indirect photons stopped after 5
+#: surface events made it 1.6% dim; they go on to Russian roulette's end now (measured 0.998).
+FLUX_UNBOUNDED = 0.008
 
 pytestmark = pytest.mark.gl
 
@@ -41,7 +44,8 @@ def needs_mitsuba():
 def test_a_published_scene_renders_as_mitsuba_renders_it(name):
     row = compare(HERE / f"{name}.xml", size=48, spp=4096, passes=4, samples=64)
     assert row.refused is None
-    assert np.all(np.abs(row.flux - 1) < FLUX), f"{name}: flux ratio {row.flux}"
+    limit = FLUX_UNBOUNDED if name == "integrator_depth_inf" else FLUX
+    assert np.all(np.abs(row.flux - 1) < limit), f"{name}: flux ratio {row.flux}"
     assert row.blurred < BLURRED, f"{name}: blurred relative RMS {row.blurred:.3f}"
 
 

@@ -387,8 +387,11 @@ def load_mitsuba(path, defines: dict | None = None) -> Scene:
     else:
         glass = any(o.is_dielectric for o in objects)
         bounces, camera_bounces, direct = mitsuba_sensor.depths(r, render, glass)
+        unbounded = render.max_depth in (None, -1)  # Mitsuba's paths end by roulette alone
         photons = PhotonSettings(max_bounces=bounces, camera_bounces=camera_bounces,
-                                 direct_only=direct)
+                                 direct_only=direct,
+                                 indirect_events=mitsuba_sensor.UNBOUNDED_EVENTS if unbounded
+                                 else None)
         spp = render.spp
     if spp:
         camera = replace(camera, spp=spp)

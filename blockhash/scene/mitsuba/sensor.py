@@ -117,6 +117,10 @@ def x_fov(r: XmlReader, el, p: dict, width: int, height: int) -> float:
     return out
 
 
+#: Surface events an indirect photon may meet under Mitsuba's unbounded ``max_depth`` (-1):
+#: Russian roulette ends its path long before (a survival of 0.75 an event leaves 10^-8 of
+#: the photons by the 64th).
+UNBOUNDED_EVENTS = 64
 #: A thin lens's distance in focus where a file gives none (Mitsuba's default).
 DEFAULT_FOCUS = 10000.0
 

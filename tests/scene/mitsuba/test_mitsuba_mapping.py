@@ -778,3 +778,16 @@ def test_a_constant_environment_is_an_inward_emitting_box_around_the_scene_and_c
     assert load(tmp_path, light='<emitter type="constant"/>').lights[-1].radiance.tolist() == [1, 1, 1]
     with pytest.raises(InputError, match=r"s.xml:8: <emitter type=\"constant\">: a second constant"):
         load(tmp_path, light='<emitter type="constant"/><emitter type="constant"/>')
+
+
+@pytest.mark.parametrize("depth, events", [(None, 64), (-1, 64), (3, None), (9, None)])
+def test_an_unbounded_max_depth_lets_the_indirect_photons_go_on(tmp_path, depth, events):
+    """Mitsuba's unbounded depth (-1, its default) ends a path by Russian roulette alone: the
+    indirect photons may meet 64 surface events; a finite max_depth keeps blockhash's rule
+    (max_bounces + 1, max_bounces from max_depth)."""
+    import warnings
+
+    top = "" if depth is None else f'<integrator type="path"><integer name="max_depth" value="{depth}"/></integrator>'
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert load(tmp_path, top=top).photons.indirect_events == events
