@@ -10,22 +10,26 @@ import numpy as np
 
 from blockhash.frame.gbuffer import rasterize
 from blockhash.frame.shading import SceneRays, shading_points
-from blockhash.frame.subpixel import LENS_KEY, film_gbuffer, pass_points, raycast_gbuffer
+from blockhash.frame.subpixel import LENS_KEY, film_gbuffer, pass_points, subpixel_points
 from blockhash.scene.camera import SPP_SEED, Pinhole, grid_of, jitter_seed
 from blockhash.scene.model import MirrorMaterial
 
 
 def camera_points(scene, rays: SceneRays, samples, *, size=None, backend=None,
                   both_branches: bool = True, seed: int = SPP_SEED):
-    """The camera's shading points at ``samples`` per pixel (S for S x S, or ``(rows, cols)``):
-    the rasterised pixel centres for one, else stratified jitter cast with ``rays`` (``seed``);
-    mirrors and glass followed, glass on both branches unless ``both_branches`` is False
+    """The camera's shading points at ``samples`` per pixel (S for S x S, or ``(rows, cols)``)
+    and the film points ``(x, y)`` of its samples: the rasterised pixel centres for one (a
+    pinhole's), else stratified jitter cast with ``rays`` (``seed``); mirrors and glass
+    followed, glass on both branches unless ``both_branches`` is False
     (:func:`.shading.shading_points`)."""
-    if grid_of(samples) == (1, 1) and not scene.camera.aperture_radius:  # a lens: cast
+    pin = Pinhole.of(scene.camera, size)
+    centres = grid_of(samples) == (1, 1) and not scene.camera.aperture_radius  # a lens: cast
+    x, y = subpixel_points(pin.width, pin.height, samples, None if centres else seed)
+    if centres:
         gbuf = rasterize(scene.camera, scene.objects, size=size, backend=backend)
     else:
-        gbuf = raycast_gbuffer(scene.camera, rays, size=size, samples=samples, seed=seed)
-    return _shade(scene, rays, gbuf, both_branches)
+        gbuf = film_gbuffer(pin, rays, x, y, lens_seed=LENS_KEY + seed)
+    return _shade(scene, rays, gbuf, both_branches), (x, y)
 
 
 def camera_samples(scene, rays: SceneRays, samples, pass_index: int, *, backend=None):

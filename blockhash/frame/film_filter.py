@@ -48,20 +48,23 @@ def weights(pf: PixelFilter, x, y, width: int, height: int) -> np.ndarray:
 
 
 def filtered(values: np.ndarray, x, y, pf: PixelFilter, width: int, height: int,
-             samples=1) -> np.ndarray:
+             samples=1, *, total: np.ndarray | None = None) -> np.ndarray:
     """(height, width, C) float32 pixels of ``values`` ((H', W', C) samples at film points
     ``(x, y)``, each (H', W')) under ``pf``; the box filter is the pixel mean of the ``samples``
-    layout (S or (rows, cols)) exactly."""
+    layout (S or (rows, cols)) exactly.  ``total``: the points' :func:`weights`, where the
+    caller keeps them (else summed here)."""
     if pf.is_box:
         return box_filter(values, samples)
     v = np.asarray(values, dtype=np.float64).reshape(-1, values.shape[-1])
     acc = np.zeros((width * height, v.shape[1]))
-    total = np.zeros(width * height)
+    summed = np.zeros(width * height)
     for pix, w in _taps(pf, np.ravel(x), np.ravel(y), width, height):
         ok = pix >= 0
-        total += np.bincount(pix[ok], w[ok], minlength=len(total))
+        if total is None:
+            summed += np.bincount(pix[ok], w[ok], minlength=len(summed))
         for c in range(v.shape[1]):
-            acc[:, c] += np.bincount(pix[ok], w[ok] * v[ok, c], minlength=len(total))
+            acc[:, c] += np.bincount(pix[ok], w[ok] * v[ok, c], minlength=len(acc))
+    total = summed if total is None else total
     return (acc / total[:, None]).reshape(height, width, -1).astype(np.float32)
 
 
@@ -116,25 +119,26 @@ class PassFilm:
         :func:`blockhash.frame.camera_samples.camera_samples`) under the filter."""
         if self.pf.is_box:
             return box_filter(values, self.grid)
-        x, y, _ = self._points(p)
-        return filtered(values, x, y, self.pf, self.pin.width, self.pin.height)
+        x, y, total, _ = self._points(p)
+        return filtered(values, x, y, self.pf, self.pin.width, self.pin.height, total=total)
 
     def spread(self, p: int):
         """The pixel splat's ``spread`` for pass ``p`` (:func:`spread` under the filter; None
         for the box)."""
         if self.pf.is_box:
             return None
-        share = self._points(p)[2]
+        share = self._points(p)[3]
         return lambda fx, fy, contrib: spread(self.pf, fx, fy, contrib, self.pin.width,
                                               self.pin.height, share)
 
     def _points(self, p: int):
-        """Pass ``p``'s sample points and each pixel's samples over the weight they give it."""
+        """Pass ``p``'s sample points, the weight each pixel receives from them, and each
+        pixel's samples over that weight, computed once for the pass's layers."""
         if self._pass is None or self._pass[0] != p:
             from blockhash.frame.subpixel import pass_points
 
             rows, cols = self.grid
             x, y = pass_points(self.pin.width, self.pin.height, self.grid, p)
             w = weights(self.pf, x, y, self.pin.width, self.pin.height)
-            self._pass = (p, x, y, rows * cols / w)
+            self._pass = (p, x, y, w, rows * cols / w)
         return self._pass[1:]

@@ -98,7 +98,7 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
         return branch_points(camera, gbuffer, objects, rays, mirror_types, events)
 
     h, w = gbuffer.object.shape
-    glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types)
+    glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types, rays.geometry)
     backs = one_sided(objects)
     pos, nrm, obj, view, outer = _camera_start(camera, gbuffer, glass | backs, rays)
     _no_back(obj, outer, backs)
@@ -176,23 +176,18 @@ def _follow(rays: SceneRays, pos, nrm, dirs, side):
 
 
 class MirrorReflectance:
-    """Per object, and one more entry for "nothing hit": what a mirror reflects of a ray
-    arriving at ``cos_i`` to its normal, its ``reflectance`` times a conductor's Fresnel
-    reflectance (:class:`blockhash.scene.materials.MirrorMaterial`)."""
+    """What a mirror reflects of a ray arriving at ``cos_i`` to its normal: its
+    ``reflectance`` times a conductor's Fresnel reflectance
+    (:class:`blockhash.scene.materials.MirrorMaterial`), from the per-object tables of the
+    scene's ray caster (:class:`blockhash.scene.raycast.EmbreeGeometry`), which the photons'
+    specular events read too."""
 
-    def __init__(self, objects):
-        n = len(objects) + 1
-        self.reflectance = np.ones((n, 3))
-        self.conductor = np.zeros(n, dtype=bool)
-        self.eta, self.k = np.ones((n, 3)), np.zeros((n, 3))
-        for i, o in enumerate(objects):
-            self.reflectance[i] = getattr(o.material, "reflectance", np.ones(3))
-            if getattr(o.material, "is_conductor", False):
-                self.conductor[i] = True
-                self.eta[i], self.k[i] = o.material.eta, o.material.k
+    def __init__(self, geometry):
+        self.reflectance = geometry.reflectance
+        self.conductor, self.eta, self.k = geometry.conductor, geometry.eta, geometry.k
 
     def __call__(self, obj, cos_i) -> np.ndarray:
-        """(m, 3): the factors of rays on objects ``obj`` (m,) at ``cos_i`` (m,)."""
+        """(m, 3): the factors of rays on mirrors ``obj`` (m,) at ``cos_i`` (m,)."""
         from blockhash.scene.optics import conductor_fresnel
 
         out = self.reflectance[obj].copy()
@@ -203,14 +198,15 @@ class MirrorReflectance:
         return out
 
 
-def _surface_tables(objects, mirror_types):
+def _surface_tables(objects, mirror_types, geometry):
     """Per object, and one more entry for "nothing hit" (index -1): glass, mirror, specular
-    masks, the mirrors' :class:`MirrorReflectance`, ior (n,) and tint (n, 3)."""
+    masks, the mirrors' :class:`MirrorReflectance` (of ``geometry``, the objects' ray caster),
+    ior (n,) and tint (n, 3)."""
     from blockhash.scene.model import DielectricMaterial
 
     glass = np.array([isinstance(o.material, DielectricMaterial) for o in objects] + [False])
     mirror = np.array([isinstance(o.material, mirror_types) for o in objects] + [False]) & ~glass
-    reflectance = MirrorReflectance(objects)
+    reflectance = MirrorReflectance(geometry)
     ior = np.array([getattr(o.material, "ior", 1.0) for o in objects] + [1.0])
     tint = np.array([getattr(o.material, "tint", np.ones(3)) for o in objects] + [np.ones(3)],
                     dtype=np.float64).reshape(-1, 3)
@@ -233,7 +229,7 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     from blockhash.scene.optics import fresnel
 
     h, w = gbuffer.object.shape
-    glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types)
+    glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types, rays.geometry)
     backs = one_sided(objects)
     pos, nrm, obj, view, outer = _camera_start(camera, gbuffer, glass | backs, rays)
     _no_back(obj, outer, backs)

@@ -27,7 +27,6 @@ from blockhash.frame.film_filter import filtered
 from blockhash.frame.options import LookupOptions
 from blockhash.frame.result import RenderResult  # noqa: F401 (importable from here)
 from blockhash.frame.shading import SceneRays, direct_light
-from blockhash.frame.subpixel import subpixel_points
 from blockhash.passes.executors import PassFailed, WorkersFailed
 from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import NoCausticWarning, Renderer  # noqa: F401 (importable from here)
@@ -192,10 +191,8 @@ def direct_layer(scene, spp=None, *, size=None, backend=None, both_branches: boo
     :func:`render_scene` computes it (no photons are traced): ``spp`` samples per pixel (default the scene's)."""
     grid = spp_grid((scene.camera.spp or DEFAULT_SPP) if spp is None else spp)
     rays = SceneRays(scene.objects)
-    points = camera_points(scene, rays, grid, size=size, backend=backend,
-                           both_branches=both_branches, seed=seed)
+    points, (x, y) = camera_points(scene, rays, grid, size=size, backend=backend,
+                                   both_branches=both_branches, seed=seed)
     values = points.gather(direct_light(points, scene.objects, scene.lights, rays))
     pin = Pinhole.of(scene.camera, size)
-    centres = grid == (1, 1) and not scene.camera.aperture_radius  # the rasteriser's points
-    x, y = subpixel_points(pin.width, pin.height, grid, None if centres else seed)
     return filtered(values, x, y, scene.camera.filter, pin.width, pin.height, grid)

@@ -105,6 +105,14 @@ def load_mesh(path, *, normals: str = "auto") -> trimesh.Trimesh:
     if normals not in NORMAL_MODES:
         raise InputError(f"normals={normals!r} is not a normal mode; expected one of "
                          f"{', '.join(map(repr, NORMAL_MODES))}")
+    vertices, faces, given, _ = mesh_arrays(path)
+    return mesh_from_arrays(vertices, faces, given, normals, f"the mesh file {str(path)!r}")
+
+
+def mesh_arrays(path):
+    """(vertices (n, 3), faces (m, 3), the file's vertex normals or None, its texture
+    coordinates (n, 2) or None) of a mesh file, its geometries concatenated with their node
+    transforms and no vertex merged (:func:`load_mesh`'s reading)."""
     try:
         loaded = trimesh.load(str(path), force="scene", process=False)
     except (ValueError, KeyError, IndexError, TypeError, AttributeError, OSError,
@@ -119,16 +127,21 @@ def load_mesh(path, *, normals: str = "auto") -> trimesh.Trimesh:
             continue
         from_file = "vertex_normals" in geom._cache.cache     # set by the loader, not computed
         normal_matrix = np.linalg.inv(transform[:3, :3]).T
+        uv = getattr(geom.visual, "uv", None)
         parts.append((trimesh.transform_points(geom.vertices, transform), np.asarray(geom.faces),
-                      geom.vertex_normals @ normal_matrix.T if from_file else None))
+                      geom.vertex_normals @ normal_matrix.T if from_file else None,
+                      None if uv is None else np.asarray(uv, dtype=np.float64)))
     if not parts:
         raise InputError(f"the mesh file {str(path)!r} has no triangles (empty, or only points or "
                          "lines); expected a triangle mesh")
     offsets = np.cumsum([0] + [len(p[0]) for p in parts[:-1]])
     vertices = np.concatenate([p[0] for p in parts])
     faces = np.concatenate([p[1] + o for p, o in zip(parts, offsets)])
-    given = np.concatenate([p[2] for p in parts]) if all(p[2] is not None for p in parts) else None
-    return mesh_from_arrays(vertices, faces, given, normals, f"the mesh file {str(path)!r}")
+
+    def joined(k):
+        return np.concatenate([p[k] for p in parts]) if all(p[k] is not None for p in parts) else None
+
+    return vertices, faces, joined(2), joined(3)
 
 
 def mesh_from_arrays(vertices, faces, given_normals, normals: str, what: str) -> trimesh.Trimesh:

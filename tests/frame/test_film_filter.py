@@ -44,6 +44,9 @@ def test_a_flat_image_stays_flat_to_the_borders(pf, grid):
     out = filtered(np.full(x.shape + (3,), 2.5), x, y, pf, 9, 7)
     assert out.shape == (7, 9, 3)
     np.testing.assert_allclose(out, 2.5, rtol=1e-6)
+    values = np.random.default_rng(1).random(x.shape + (3,))  # a pass's layers share its weights
+    np.testing.assert_array_equal(filtered(values, x, y, pf, 9, 7, total=weights(pf, x, y, 9, 7)),
+                                  filtered(values, x, y, pf, 9, 7))
 
 
 def test_the_box_is_the_pixel_mean_and_a_wide_filter_blurs_a_point():

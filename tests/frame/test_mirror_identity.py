@@ -46,8 +46,8 @@ def test_the_mirror_shows_rho_times_the_floor_seen_directly(mirror):
 def test_a_wrong_mirror_weight_breaks_the_identity(mirror, monkeypatch):
     tables = shading._surface_tables
 
-    def wrong(objects, mirror_types):
-        glass, mir, spec, refl, ior, tint = tables(objects, mirror_types)
+    def wrong(objects, mirror_types, geometry):
+        glass, mir, spec, refl, ior, tint = tables(objects, mirror_types, geometry)
         refl.reflectance = refl.reflectance * 0.8  # camera rays' reflectance 20% low
         return glass, mir, spec, refl, ior, tint
 

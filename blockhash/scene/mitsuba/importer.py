@@ -176,22 +176,21 @@ class _Reader(XmlReader):
             material = self.build(el, PhongMaterial, kd=np.full(3, 0.5), ks=0.0, n=0.0,
                                   sided="one")
         name = el.get("id") or f"{kind}-{index}"
-        if isinstance(material, TexturedDiffuse):
+        if isinstance(material, (TexturedDiffuse, TwoFaced)):  # two objects of plain materials
+            textured = isinstance(material, TexturedDiffuse)
             if emitter is not None:
-                self.fail(emitter, "an area emitter on a shape with a textured reflectance is not "
-                          "supported; give the emitting shape a plain colour")
-            parts = zip(textured_meshes(self, el, kind, p, material.checker), material.materials(),
-                        ("color0", "color1"))
-            return [self.build(el, SceneObject, name=f"{name}/{which}", mesh=mesh, material=m)
-                    for mesh, m, which in parts if mesh is not None], None
+                what = ("a textured reflectance" if textured else "a twosided of two BSDFs")
+                self.fail(emitter, f"an area emitter on a shape with {what} is not supported; "
+                          "give the emitting shape one plain BSDF")
+            if textured:
+                parts = zip(("color0", "color1"), material.materials(),
+                            textured_meshes(self, el, kind, p, material.checker))
+            else:
+                parts = zip(("front", "back"), (material.front, material.back),
+                            two_sheets(shape_mesh(self, el, kind, p)))
+            return [self.build(el, SceneObject, name=f"{name}/{part}", mesh=mesh, material=m)
+                    for part, m, mesh in parts if mesh is not None], None
         mesh = shape_mesh(self, el, kind, p)
-        if isinstance(material, TwoFaced):
-            if emitter is not None:
-                self.fail(emitter, "an area emitter on a shape with a twosided of two BSDFs is "
-                          "not supported; give the emitting shape one BSDF")
-            sheets = zip(two_sheets(mesh), (material.front, material.back), ("front", "back"))
-            return [self.build(el, SceneObject, name=f"{name}/{side}", mesh=m, material=mat)
-                    for m, mat, side in sheets], None
         obj = self.build(el, SceneObject, name=name, mesh=mesh, material=material)
         if emitter is None:
             return [obj], None
@@ -329,9 +328,9 @@ def load_mitsuba(path, defines: dict | None = None) -> Scene:
         if el.tag == "bsdf":
             bid = r.attr(el, "id")
             bsdfs[bid] = read_bsdf(r, el, bid)
+    referred = {id(v) for v in (*areas.values(), *r.samplers.values(), *r.textures.values())}
     for el in root:
-        if not isinstance(el.tag, str) or el.tag in ("default", "bsdf") or id(el) in {
-                id(v) for v in (*areas.values(), *r.samplers.values(), *r.textures.values())}:
+        if not isinstance(el.tag, str) or el.tag in ("default", "bsdf") or id(el) in referred:
             continue
         if el.tag == "integrator":
             if integrator is not None:

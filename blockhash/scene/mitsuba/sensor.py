@@ -167,14 +167,13 @@ def sensor(r: XmlReader, el) -> Render:
     fx = x_fov(r, el, p, width, height)
     fov_y = math.degrees(2.0 * math.atan(math.tan(math.radians(fx) / 2.0) * height / width))
     eye, target, up = camera_frame(r, el)
-    if crop is None:
-        camera = r.build(el, Camera, eye=eye, target=target, up=up, fov_y_deg=fov_y,
-                         width=width, height=height, filter=pf, **optics)
-    else:  # the image is the crop window's pixels, the field of view the whole film's
+    window = {}
+    if crop is not None:  # the image is the crop window's pixels, the field of view the film's
         x, y, w, h = crop
-        camera = r.build(el, Camera, eye=eye, target=target, up=up, fov_y_deg=fov_y, width=w,
-                         height=h, filter=pf, **optics,
-                         crop=(x / width, y / height, (x + w) / width, (y + h) / height))
+        window = {"width": w, "height": h,
+                  "crop": (x / width, y / height, (x + w) / width, (y + h) / height)}
+    camera = r.build(el, Camera, eye=eye, target=target, up=up, fov_y_deg=fov_y,
+                     **{"width": width, "height": height, **window}, filter=pf, **optics)
     out = Render(camera=camera, near=near, far=far, sensor=el, sampler=sampler, clips=given)
     if sampler is not None:
         out.spp = samples(r, sampler)

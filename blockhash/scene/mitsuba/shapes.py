@@ -17,6 +17,9 @@ from blockhash.scene.mitsuba.serialized import read_serialized
 
 SHAPES = ("ply", "obj", "serialized", "rectangle", "disk", "cylinder", "sphere", "cube")
 _FILE = {"filename": ("string",), "face_normals": ("boolean",)}
+#: Mitsuba's rectangle, [-1, 1]^2 in z = 0 facing +z.
+RECTANGLE = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]])
+RECTANGLE_FACES = np.array([[0, 1, 2], [0, 2, 3]])
 #: Each shape's own properties (beside to_world and flip_normals), as Mitsuba names them.
 PROPERTIES = {"ply": _FILE, "obj": _FILE, "serialized": {**_FILE, "shape_index": ("integer",)},
               "sphere": {"center": ("point",), "radius": ("float",)},
@@ -41,8 +44,7 @@ def shape_mesh(r, el, kind: str, p: dict) -> trimesh.Trimesh:
         except InputError as exc:
             r.fail(el, str(exc))
     elif kind == "rectangle":
-        v = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]])
-        mesh = meshes.with_normals(v, [[0, 1, 2], [0, 2, 3]], np.tile([0.0, 0.0, 1.0], (4, 1)))
+        mesh = meshes.with_normals(RECTANGLE, RECTANGLE_FACES, np.tile([0.0, 0.0, 1.0], (4, 1)))
     elif kind == "disk":
         mesh = meshes.disk()
     elif kind == "cylinder":
@@ -102,10 +104,9 @@ def textured_meshes(r, el, kind: str, p: dict, checker) -> tuple:
 def _raw(r, el, kind: str, p: dict):
     """(vertices, faces, per-vertex normals, texture coordinates) of a textured shape as its
     file or Mitsuba's parametrisation gives them, vertices not merged (texture seams kept)."""
-    if kind == "rectangle":
-        v = np.array([[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]])
-        return (v, np.array([[0, 1, 2], [0, 2, 3]]), np.tile([0.0, 0.0, 1.0], (4, 1)),
-                v[:, :2] * 0.5 + 0.5)
+    if kind == "rectangle":  # Mitsuba's texture coordinates: (x / 2 + 1/2, y / 2 + 1/2)
+        return (RECTANGLE, RECTANGLE_FACES, np.tile([0.0, 0.0, 1.0], (4, 1)),
+                RECTANGLE[:, :2] * 0.5 + 0.5)
     if "filename" not in p:
         r.fail(el, "missing <string name=\"filename\">")
     full = r.resolve(el, p["filename"], "mesh file")
@@ -116,7 +117,9 @@ def _raw(r, el, kind: str, p: dict):
                 full, p.get("shape_index", 0), with_uv=True)
             flat = flat or flat_file
         else:
-            vertices, faces, normals, uv = _mesh_file(full, kind)
+            vertices, faces, normals, uv = meshes.mesh_arrays(full)
+            if uv is not None and kind == "obj":  # Mitsuba's OBJ loader flips v
+                uv = uv * [1.0, -1.0] + [0.0, 1.0]
     except InputError as exc:
         r.fail(el, str(exc))
     if uv is None:  # Mitsuba's texture coordinates of a mesh without them: (0, 0)
@@ -127,27 +130,6 @@ def _raw(r, el, kind: str, p: dict):
         return (vertices[corners], np.arange(len(corners)).reshape(-1, 3),
                 np.repeat(mesh.face_normals, 3, axis=0), uv[corners])
     return vertices, faces, (normals if normals is not None else mesh.vertex_normals), uv
-
-
-def _mesh_file(path, kind: str):
-    """(vertices, faces, vertex normals or None, texture coordinates or None) of an OBJ or PLY
-    file, its vertices as the file orders them (an OBJ's ``vt`` with v flipped, as Mitsuba)."""
-    try:
-        loaded = trimesh.load(str(path), force="mesh", process=False, maintain_order=True)
-    except (ValueError, KeyError, IndexError, TypeError, AttributeError, OSError,
-            NotImplementedError) as exc:
-        raise InputError(f"trimesh could not read {str(path)!r}: {exc}; check that the file is "
-                         "a valid mesh") from None
-    if not isinstance(loaded, trimesh.Trimesh) or not len(loaded.faces):
-        raise InputError(f"the mesh file {str(path)!r} has no triangles; expected a triangle mesh")
-    uv = getattr(loaded.visual, "uv", None)
-    if uv is not None:
-        uv = np.asarray(uv, dtype=np.float64).copy()
-        if kind == "obj":
-            uv[:, 1] = 1.0 - uv[:, 1]
-    normals = loaded.vertex_normals if "vertex_normals" in loaded._cache.cache else None
-    return (np.asarray(loaded.vertices, np.float64), np.asarray(loaded.faces, np.int64),
-            None if normals is None else np.asarray(normals, np.float64), uv)
 
 
 def placed(r, el, mesh: trimesh.Trimesh, m) -> trimesh.Trimesh:

@@ -22,6 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+#: Least area of a piece, as a share of its triangle's (the determinant of its corners'
+#: barycentrics): below it a piece is a sliver the cut left along a border, and is dropped.
+SLIVER = 1e-12
 #: Mitsuba's checkerboard defaults.
 DEFAULT_COLOR0, DEFAULT_COLOR1 = 0.4, 0.2
 
@@ -99,7 +102,7 @@ def split(faces, uv, checker: Checkerboard):
     faces = np.asarray(faces, dtype=np.int64)
     t = checker.uv(np.asarray(uv, dtype=np.float64)[faces])  # (m, 3, 2)
     lo = np.floor(2.0 * t.min(axis=1))
-    hi = np.floor(2.0 * t.max(axis=1))
+    hi = np.maximum(np.ceil(2.0 * t.max(axis=1)) - 1.0, lo)  # a corner on a border: not past it
     whole = (lo == hi).all(axis=1)
     eye = np.broadcast_to(np.eye(3), (len(faces), 3, 3))
     colour0 = checker.is_color0(t.mean(axis=1))
@@ -111,6 +114,9 @@ def split(faces, uv, checker: Checkerboard):
             side = 0 if checker.is_color0(centre) else 1
             fan = np.stack([np.stack([piece[0], piece[k], piece[k + 1]])
                             for k in range(1, len(piece) - 1)])
+            fan = fan[np.abs(np.linalg.det(fan)) > SLIVER]  # no triangle of no area
+            if not len(fan):
+                continue
             out[side][0].append(np.full(len(fan), i))
             out[side][1].append(fan)
     return tuple((np.concatenate(tri).astype(np.int64),
@@ -124,7 +130,7 @@ def _cut(t: np.ndarray) -> list:
     pieces = [np.eye(3)]
     for axis in (0, 1):
         lines = np.arange(np.floor(2.0 * t[:, axis].min()) + 1,
-                          np.floor(2.0 * t[:, axis].max()) + 1) / 2.0
+                          np.ceil(2.0 * t[:, axis].max())) / 2.0  # the borders inside it
         for line in lines:
             cut = []
             for poly in pieces:

@@ -86,3 +86,20 @@ def test_a_checkered_rectangle_becomes_two_objects_of_the_checks_colours(tmp_pat
 def test_what_a_checkerboard_cannot_be_on_is_refused_by_line(tmp_path, body, match):
     with pytest.raises(InputError, match=match):
         load(tmp_path, body=body)
+
+
+def test_an_obj_keeps_its_normals_and_mitsubas_flipped_texture_coordinates(tmp_path):
+    """An OBJ's ``vt`` with v flipped, as Mitsuba's OBJ loader takes them (a square whose v
+    runs 0 .. 0.4 in the file lies at 0.6 .. 1 in Mitsuba: all color1, where the file's own v
+    would give all color0), and its ``vn`` kept on both colours' pieces."""
+    (tmp_path / "square.obj").write_text(
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+        "vt 0 0\nvt 0.4 0\nvt 0.4 0.4\nvt 0 0.4\n"
+        "vn 0 0.6 0.8\n"
+        "f 1/1/1 2/2/1 3/3/1\nf 1/1/1 3/3/1 4/4/1\n")
+    body = ('<shape type="obj" id="sq"><string name="filename" value="square.obj"/>'
+            '<bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>')
+    scene = load(tmp_path, body=body)
+    [square] = [o for o in scene.objects if o.name.startswith("sq/")]
+    assert square.name == "sq/color1"
+    np.testing.assert_allclose(square.mesh.vertex_normals, np.tile([0.0, 0.6, 0.8], (len(square.mesh.vertices), 1)), atol=1e-9)
