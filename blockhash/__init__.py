@@ -17,6 +17,7 @@ from blockhash.passes.pipeline import render
 from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import Renderer
 from blockhash.passes.schedule import Schedule
+from blockhash.passes.session import FrameSession
 
 
 def load_scene(path):
@@ -26,4 +27,4 @@ def load_scene(path):
     return load(path)
 
 
-__all__ = ["load_scene", "render", "Renderer", "RenderPlan", "Schedule", "InProcess", "LocalWorkers", "DaskCluster", "EstimateOptions", "LookupOptions", "BlockHashIndex", "BlockHashParams", "IndexStats", "OrphanWarning", "BlockHashError", "CapacityError", "InputError", "InputTypeError", "ShaderCompileError", "__version__"]
+__all__ = ["load_scene", "render", "Renderer", "FrameSession", "RenderPlan", "Schedule", "InProcess", "LocalWorkers", "DaskCluster", "EstimateOptions", "LookupOptions", "BlockHashIndex", "BlockHashParams", "IndexStats", "OrphanWarning", "BlockHashError", "CapacityError", "InputError", "InputTypeError", "ShaderCompileError", "__version__"]

@@ -227,20 +227,25 @@ def test_time_to_error_races_the_whole_image(tmp_path, needs_mitsuba):
 @pytest.mark.gl
 def test_frames_bench_times_frames_flicker_and_memory(tmp_path):
     out = tmp_path / "frames.json"
-    text = run_tool("frames_bench.py", ["--scenes", "ring", "--sizes", "32", "--passes", "1",
+    root = Path(__file__).resolve().parents[1]
+    text = run_tool("frames_bench.py", ["--scenes", "ring", "--sizes", "32", "--spp", "1",
+                                        "--baseline", root,
                                         "--frames", "3", "--photons", "3000", "--flicker-frames", "3",
                                         "--flicker-size", "32", "--flicker-photons", "20000",
                                         "--reference-photons", "100000", "--memory-frames", "1,2",
                                         "--memory-size", "32", "--memory-photons", "3000",
                                         "--json", out], tmp_path)
     res = json.loads(out.read_text())
-    motions = {r["motion"]: r for r in res["latency"]}
-    assert set(motions) == {"camera orbit", "light circling"}
-    assert all(r["frame"] > 0 and r["still"] > 0 for r in motions.values())
+    motions = {(r["motion"], r["commit"]): r for r in res["latency"]}
+    assert set(motions) == {(m, c) for m in ("camera orbit", "light circling")
+                            for c in ("this", "baseline")}
+    assert all(r["frame"] > 0 and 0 < r["gather"] < r["frame"] and r["fps"] == 1 / r["frame"]
+               for r in motions.values())
     f = res["flicker"]
     assert f["common"] > 0 and f["independent"] > 0 and f["ratio"] == f["independent"] / f["common"]
     assert [m["frames"] for m in res["memory"]] == [1, 2] and res["memory"][0]["peak_bytes"] > 2**20
-    assert len(table_rows(text, "ring")) == 2
+    assert len(table_rows(text, "ring")) == 4
+    assert text.count("| this / baseline |") == 2
 
 
 @pytest.mark.gl

@@ -1,13 +1,17 @@
-"""Frames at low latency: seconds a frame beside a still render, flicker with and without
-common random numbers, and the memory of a camera-only animation.
+"""Frames at low latency: seconds a frame through the frame session beside another commit's
+frames, flicker with and without common random numbers, and the memory of a camera-only
+animation.
 
-1. Latency: for each scene of ``--scenes``, size of ``--sizes`` and pass count of
-   ``--passes``: a camera orbit (``--frames`` frames of a full turn) and the scene's first
-   light circling its target (one turn over the frames, 2 m out: the light moves), rendered in
-   one process (:func:`blockhash.passes.frames.render_frames`); the median seconds of a frame
-   after the first, beside one still render of the same passes and photons in a fresh process
-   (``blockhash render``, timed as a whole: what a frame costs rendered one command at a
-   time), and their ratio.
+1. Latency: for each scene of ``--scenes``, size of ``--sizes`` and samples a pixel of
+   ``--spp`` (one pass of ``--photons`` a frame): a camera orbit (``--frames`` frames of a full
+   turn) and the scene's first light circling its target (one turn over the frames, 2 m out),
+   each a fresh process that hands the frames' states one at a time to a
+   :class:`~blockhash.passes.session.FrameSession`, the next after the last frame returned,
+   writing no file (a ``--baseline`` checkout from before the session renders the same
+   frames with its ``render_frames``).  Per row: the first frame's seconds (setup and
+   compilation), the median of the later frames', of their GL gathers (the ``caustic`` and
+   ``indirect estimate`` stages) and of the rest (a frame less its gathers), frames a second;
+   and the ratio of this checkout's to the baseline's on the line below it.
 2. Flicker: the ring's light moving ``--degrees`` a frame around it, the camera still, at
    ``--flicker-size``: each frame's caustic (``--flicker-photons`` a pass, one pass) with
    common random numbers (one seed for every frame) and with independent streams (seed + frame),
@@ -17,30 +21,33 @@ common random numbers, and the memory of a camera-only animation.
 3. Memory: the peak resident memory of a process rendering 1 and ``--memory-frames`` frames
    of the ring's camera orbit (``--memory-photons`` a pass, ``--memory-size``).
 
-usage: python tools/frames_bench.py [--scenes ring,venus] [--sizes 256,512] [--passes 1,4]
-                                    [--frames 6] [--photons 200000] [--degrees 1]
-                                    [--flicker-frames 6] [--flicker-size 128]
-                                    [--flicker-photons 100000] [--reference-photons 4000000]
-                                    [--memory-frames 100] [--json FILE]
+usage: python tools/frames_bench.py [--baseline /tmp/blockhash-d0deb7b] [--scenes ring,venus]
+                                    [--sizes 256,512] [--spp 1,9] [--frames 6]
+                                    [--photons 200000] [--degrees 1] [--flicker-frames 6]
+                                    [--flicker-size 128] [--flicker-photons 100000]
+                                    [--reference-photons 4000000] [--memory-frames 1,100]
+                                    [--json FILE]
 """
 
+import json
 import math
+import os
 import subprocess
 import sys
 import tempfile
-import time
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 import blockhash
-from blockhash.passes.frames import render_frames
 from blockhash.passes.plan import RenderPlan
 from blockhash.reference.lighttrace import light_trace
 from blockhash.scene.animation import Animation, Key
 from blockhash.scene.loader import load_scene
 from blockhash.studies.command import ToolParser, count, listing, write_json
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def circling(scene, frames: int, degrees: float | None = None):
@@ -61,30 +68,61 @@ def orbiting(scene, frames: int):
     return replace(scene, animation=Animation(frames=frames, orbit=(1.0, None)))
 
 
-def still_seconds(path, size: int, passes: int, photons: int) -> float:
-    """Seconds of ``blockhash render`` of one still, a fresh process timed as a whole."""
-    with tempfile.TemporaryDirectory() as tmp:
-        t = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "blockhash", "render", str(path), "--size",
-                        f"{size}x{size}", "--passes", str(passes), "--photons", str(photons),
-                        "-o", str(Path(tmp) / "still.exr")], check=True, capture_output=True)
-        return time.perf_counter() - t
+#: One checkout's frames in a fresh process (argv: the tools folder, scene, size, samples a
+#: pixel, photons, frames, motion): a JSON list of [seconds, GL gather seconds] a frame.
+CHILD = r"""
+import json, sys, time
+sys.path.insert(0, sys.argv[1])
+from frames_bench import circling, orbiting
+from blockhash.passes.plan import RenderPlan
+from blockhash.scene.loader import load_scene
+scene_path, size, spp, photons, frames, motion = sys.argv[2], *map(int, sys.argv[3:7]), sys.argv[7]
+scene = load_scene(scene_path).with_size(size, size)
+scene = orbiting(scene, frames) if motion == "camera orbit" else circling(scene, frames)
+plan, rows = RenderPlan(passes=1), []
+gather = lambda t: t.get("caustic", 0.0) + t.get("indirect estimate", 0.0)
+try:
+    from blockhash.passes.session import FrameSession
+except ImportError:  # a checkout from before the session
+    from blockhash.passes.frames import render_frames
+    render_frames(scene, range(frames), photons=photons, spp=spp, plan=plan,
+                  on_frame=lambda f, r, sec: rows.append([sec, gather(r.timings)]))
+else:
+    session = FrameSession(scene, photons=photons, spp=spp, plan=plan)
+    for f in range(frames):
+        session.frame(scene.animation.scene_at(scene, f))
+        rows.append([session.seconds[-1], gather(session.last.timings)])
+print(json.dumps(rows))
+"""
 
 
-def latency(path, size, passes, photons, frames) -> list[dict]:
-    scene = load_scene(path).with_size(size, size)
-    still = still_seconds(path, size, passes, photons)
+def frames_of(checkout, path, size, spp, photons, frames, motion) -> dict:
+    """One latency row of ``checkout``'s frames (a fresh process on its own code)."""
+    env = {**os.environ, "PYTHONPATH": str(Path(checkout).resolve())}
+    proc = subprocess.run([sys.executable, "-c", CHILD, str(Path(__file__).parent), str(path),
+                           str(size), str(spp), str(photons), str(frames), motion], env=env,
+                          capture_output=True, text=True, cwd=tempfile.gettempdir())
+    if proc.returncode:
+        raise SystemExit(f"frames of {checkout} failed:\n{proc.stderr[-3000:]}")
+    rows = np.array(json.loads(proc.stdout.strip().splitlines()[-1]))
+    later = rows[1:] if len(rows) > 1 else rows
+    frame, gather = float(np.median(later[:, 0])), float(np.median(later[:, 1]))
+    return {"scene": Path(path).stem, "size": size, "spp": spp, "photons": photons,
+            "motion": motion, "first": float(rows[0, 0]), "frame": frame, "gather": gather,
+            "rest": float(np.median(later[:, 0] - later[:, 1])), "fps": 1.0 / frame}
+
+
+def latency(path, size, spp, photons, frames, baseline) -> list[dict]:
     rows = []
-    for kind, animated in (("camera orbit", orbiting(scene, frames)),
-                           ("light circling", circling(scene, frames))):
-        secs = render_frames(animated, range(frames), photons=photons,
-                             plan=RenderPlan(passes=passes))
-        later = float(np.median([secs[f] for f in range(1, frames)]))
-        rows.append({"scene": path.stem, "size": size, "passes": passes, "photons": photons,
-                     "motion": kind, "first": secs[0], "frame": later, "still": still,
-                     "ratio": later / still})
-        print(f"{path.stem} {size} {passes} passes {kind}: {later:.2f} s a frame, still "
-              f"{still:.2f} s", flush=True)
+    for motion in ("camera orbit", "light circling"):
+        for commit, checkout in (("this", ROOT), ("baseline", baseline)):
+            if checkout is None:
+                continue
+            rows.append({"commit": commit, **frames_of(checkout, path, size, spp, photons, frames,
+                                                       motion)})
+            r = rows[-1]
+            print(f"{r['scene']} {size} {spp} spp {motion} {commit}: {r['frame']:.2f} s a frame "
+                  f"(gather {r['gather']:.2f} s), first {r['first']:.2f} s", flush=True)
     return rows
 
 
@@ -136,11 +174,19 @@ def memory(path, frames_list, size, photons, passes) -> list[dict]:
 
 
 def tables(lat, flick, mem) -> str:
-    out = ["| scene | size | passes x photons | motion | first frame s | a later frame s (median) "
-           "| still in a fresh process s | frame / still |", "| --- " * 8 + "|"]
+    out = ["| scene | size | spp | motion | commit | first frame s | a later frame s (median) "
+           "| its GL gathers s | the rest s | frames a second |", "| --- " * 10 + "|"]
+    base = {(r["scene"], r["size"], r["spp"], r["motion"]): r for r in lat
+            if r["commit"] == "baseline"}
     for r in lat:
-        out.append(f"| {r['scene']} | {r['size']} | {r['passes']} x {r['photons']:,} | {r['motion']} "
-                   f"| {r['first']:.2f} | {r['frame']:.2f} | {r['still']:.2f} | {r['ratio']:.2f} |")
+        out.append(f"| {r['scene']} | {r['size']} | {r['spp']} | {r['motion']} | {r['commit']} "
+                   f"| {r['first']:.2f} | {r['frame']:.3f} | {r['gather']:.3f} | {r['rest']:.3f} "
+                   f"| {r['fps']:.2f} |")
+        b = base.get((r["scene"], r["size"], r["spp"], r["motion"]))
+        if r["commit"] == "this" and b is not None:
+            out.append(f"| | | | | this / baseline | {r['first'] / b['first']:.2f} | "
+                       f"{r['frame'] / b['frame']:.2f} | {r['gather'] / b['gather']:.2f} | "
+                       f"{r['rest'] / b['rest']:.2f} | |")
     if flick:
         out += ["", "| frames | size | photons | degrees a frame | frame-to-frame change less the "
                 "reference's: common random numbers | independent streams | independent / common |",
@@ -160,7 +206,10 @@ def main(argv=None):
     p = ToolParser(__doc__, __file__)
     p.scenes("ring,venus")
     p.size([256, 512], many=True, flag="--sizes", help="image sizes")
-    p.add_argument("--passes", type=listing(count), default=[1, 4], help="passes a frame")
+    p.add_argument("--spp", type=listing(count), default=[1, 9],
+                   help="samples a pixel of a frame's one pass (default 1,9)")
+    p.add_argument("--baseline", type=Path, metavar="DIR",
+                   help="a checkout of another commit (git worktree) whose frames run beside")
     p.add_argument("--frames", type=count, default=6, help="frames of each latency animation")
     p.photons(200_000, help="photons a pass of the latency renders")
     p.add_argument("--degrees", type=float, default=1.0, help="the light's turn a frame (flicker)")
@@ -174,8 +223,8 @@ def main(argv=None):
     p.photons(1_000_000, flag="--memory-photons", help="photons a pass of the memory renders")
     p.json_output()
     args = p.parse_args(argv)
-    lat = [row for path in args.scenes for size in args.sizes for passes in args.passes
-           for row in latency(path, size, passes, args.photons, args.frames)]
+    lat = [row for path in args.scenes for size in args.sizes for spp in args.spp
+           for row in latency(path, size, spp, args.photons, args.frames, args.baseline)]
     ring = p.scene("ring")
     flick = flicker(ring, args.flicker_frames, args.flicker_size, args.flicker_photons,
                     args.reference_photons, args.degrees)

@@ -103,11 +103,12 @@ def render_animation(args, scene, out: Path, plan) -> int:
         bar.close()
     video = writer.close()
     times = list(seconds.values())
+    later = float(np.median(times[1:])) if len(times) > 1 else float("nan")
     print(f"scene: {args.scene} -> {frame_path(out, frames[0], '.exr').name} .. "
           f"{frame_path(out, frames[-1], '.exr').name} (+ .png), video {video}")
     print(f"frames: {len(times)} at {scene.animation.fps:g} fps; seconds a frame: first "
-          f"{times[0]:.2f}, median of the rest "
-          f"{np.median(times[1:]) if len(times) > 1 else float('nan'):.2f}; "
+          f"{times[0]:.2f}, median of the rest {later:.2f} ({1.0 / later:.2f} frames a second "
+          "rendered, files written apart); "
           + ("the camera alone moves: every frame gathers the first frame's photons"
              if not scene.animation.moves_photons else
              "lights or objects move: each frame traces its photons from the same streams"))

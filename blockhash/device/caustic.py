@@ -204,7 +204,7 @@ class DeviceCausticTracer:
         from blockhash.device.emission import DeviceEmitter
 
         self.device = device
-        self.geometry = DeviceGeometry(source.geometry, device)
+        self.geometry = DeviceGeometry.of(source.geometry, device)
         self.emitter = DeviceEmitter(source.emitter, source.lights, source.scene.bounds, device)
         self.max_bounces = int(source.max_bounces)
         self.mi, self.dr = device.modules()

@@ -4,7 +4,8 @@ targets, the cones' projection maps, the mixture densities) sampled on the devic
 
 The same rules as the host's (:mod:`blockhash.photons.emission`,
 :mod:`blockhash.photons.light_targets`), in float32: a source by the pmf; a cone's direction
-in a live cell of its projection map (kept in its own live cell for a ``stable`` emitter), the
+in a live cell of its projection map (kept in its own live cell, else the first live one of
+its hashed sequence), the
 weight the light's intensity over the mixture density of the light's cones that hold it, zero
 outside a spot's cone and its falloff toward the edge; an area light's point uniform by area,
 a direction in the cone toward the target's bounding sphere, the weight ``L cos A / q``; a
@@ -22,7 +23,7 @@ import math
 
 import numpy as np
 
-from blockhash.photons.emission import MAP_CELLS
+from blockhash.photons.emission import MAP_CELLS, STABLE_TRIES, tried_cell
 from blockhash.photons.light_targets import INSIDE
 
 #: A direction is inside a cone when ``1 - cos`` to its axis is at most the cone's times
@@ -165,7 +166,6 @@ class DeviceEmitter:
         self.mi, self.dr = mi, dr = device.modules()
         self.n_sources = emitter.sources
         self.n_cones = len(emitter.cones)
-        self.stable = bool(emitter.stable)
         self.cdf = _f32(mi, emitter.cdf)
         self.intensity = _f32(mi, emitter.intensity, 3)
         pmf = np.asarray(emitter.pmf, dtype=np.float64)
@@ -245,13 +245,17 @@ class DeviceEmitter:
         count = dr.gather(mi.UInt32, self.c_count, k, on)
         u1, u2 = u[1], u[2]
         move = on & (count > 0)
-        if self.stable:  # a photon in a live cell of its own stays there
-            ci = dr.minimum(mi.UInt32(u1 * g), g - 1)
-            cj = dr.minimum(mi.UInt32(u2 * g), g - 1)
-            own = dr.gather(mi.UInt32, self.c_live, k * (g * g) + ci * g + cj, move) != 0
-            u1 = dr.select(move & ~own, u1 * g - mi.Float(ci), u1)
-            u2 = dr.select(move & ~own, u2 * g - mi.Float(cj), u2)
-            move &= ~own
+        # a photon in a live cell of its own stays there
+        ci = dr.minimum(mi.UInt32(u1 * g), g - 1)
+        cj = dr.minimum(mi.UInt32(u2 * g), g - 1)
+        own = dr.gather(mi.UInt32, self.c_live, k * (g * g) + ci * g + cj, move) != 0
+        u1 = dr.select(move & ~own, u1 * g - mi.Float(ci), u1)
+        u2 = dr.select(move & ~own, u2 * g - mi.Float(cj), u2)
+        move &= ~own
+        found, cell = self._tried_cells(k, move, u[3])
+        u1 = dr.select(found, (mi.Float(cell // g) + u1) / g, u1)
+        u2 = dr.select(found, (mi.Float(cell % g) + u2) / g, u2)
+        move &= ~found
         slot = dr.minimum(mi.UInt32(u[3] * mi.Float(count)), dr.maximum(count, 1) - 1)
         cell = dr.gather(mi.UInt32, self.c_cells, dr.gather(mi.UInt32, self.c_first, k, on) + slot,
                          move)
@@ -270,6 +274,27 @@ class DeviceEmitter:
             w = lt.spot_weight(light, d, w, on)
         o = dr.gather(mi.Point3f, lt.position, light, on)
         return o, d, w, light
+
+    def _tried_cells(self, k, active, u3):
+        """(found, cell): the first live cell of cone ``k``'s map among the
+        :data:`~blockhash.photons.emission.STABLE_TRIES` of each ``active`` photon's hashed
+        sequence (:meth:`blockhash.photons.emission.Emitter._stable_cells`, the host's rule;
+        :func:`~blockhash.photons.emission.tried_cell` the same hash), seeded by ``u3``."""
+        mi, dr, g = self.mi, self.dr, MAP_CELLS
+        seed = mi.UInt32(u3 * float(2 ** 24)) << 8  # a float32 uniform's 24 bits, on top
+        base = k * (g * g)
+
+        def body(t, found, cell):
+            x = tried_cell(seed, t, u32=int)
+            hit = ~found & (dr.gather(mi.UInt32, self.c_live, base + x, active & ~found) != 0)
+            return t + 1, found | hit, dr.select(hit, x, cell)
+
+        zero = dr.zeros(mi.UInt32, dr.width(u3))
+        _, found, cell = dr.while_loop(
+            (zero, dr.zeros(mi.Bool, dr.width(u3)), zero),
+            lambda t, found, cell: active & ~found & (t < STABLE_TRIES), body,
+            labels=("t", "found", "cell"), label="stable_cells")
+        return found & active, cell
 
     def _in_cone_j(self, j, d, active):
         """``d`` lies in cone ``j`` and, where it has a projection map, in a live cell."""

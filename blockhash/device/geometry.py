@@ -25,10 +25,45 @@ class DeviceGeometry:
     """``geometry``'s (an :class:`~blockhash.scene.raycast.EmbreeGeometry`) tables and a
     Mitsuba scene of its triangles on ``device`` (:class:`blockhash.device.choice.Device`)."""
 
+    @classmethod
+    def of(cls, geometry, device) -> "DeviceGeometry":
+        """``geometry``'s copy on ``device``, built once (the caustic and the indirect tracers
+        of a render, and the frames that keep its objects, share it)."""
+        copies = geometry.__dict__.setdefault("device_copies", {})
+        if device.variant not in copies:
+            copies[device.variant] = cls(geometry, device)
+        return copies[device.variant]
+
+    @staticmethod
+    def move(old, new) -> None:
+        """Hand ``old``'s device copies to ``new`` (an EmbreeGeometry of the same meshes, some
+        placed elsewhere: a frame whose objects moved), each updated in place: the moved
+        meshes' vertices given to the device's scene, which updates its acceleration
+        structure, and the tables read again.  ``old``'s copies are ``new``'s from then on;
+        copies of other meshes (another face count) are left to be built when asked."""
+        if not np.array_equal(old.face_offset, new.face_offset):
+            return
+        copies = getattr(old, "device_copies", {})
+        for copy in copies.values():
+            copy._moved(old, new)
+        new.__dict__["device_copies"] = copies
+        old.__dict__["device_copies"] = {}
+
+    def _moved(self, old, new) -> None:
+        mi = self.mi
+        params = mi.traverse(self.scene)
+        offsets = new.face_offset
+        for g in range(len(offsets) - 1):
+            first, last = int(offsets[g]), int(offsets[g + 1])
+            if not np.array_equal(old.triangles[first:last], new.triangles[first:last]):
+                tri = np.asarray(new.triangles[first:last], dtype=np.float32)
+                params[f"g{g}.vertex_positions"] = mi.Float(tri.reshape(-1))
+        params.update()
+        self._tables(new)
+
     def __init__(self, geometry, device):
         self.device = device
         mi, dr = self.mi, self.dr = device.modules()
-        self.offset = float(RAY_OFFSET * geometry.scale)
         tri = np.asarray(geometry.triangles, dtype=np.float32)
         shapes = {}
         offsets = geometry.face_offset
@@ -50,8 +85,14 @@ class DeviceGeometry:
         for key, (_, first) in shapes.items():
             face_offset[ids[key]] = first
         self.face_offset = mi.UInt32(face_offset)
+        self._tables(geometry)
+
+    def _tables(self, geometry) -> None:
+        """The per-face and per-object tables the kernels gather from, of ``geometry``."""
+        mi = self.mi
+        self.offset = float(RAY_OFFSET * geometry.scale)
         f32 = lambda a: mi.Float(np.ascontiguousarray(a, dtype=np.float32).reshape(-1))  # noqa: E731
-        self.triangles = f32(tri)
+        self.triangles = f32(geometry.triangles)
         self.vertex_normals = f32(geometry.vertex_normals)
         self.face_normals = f32(geometry.face_normals)
         self.face_object = mi.UInt32(np.asarray(geometry.face_object, dtype=np.uint32))

@@ -38,7 +38,7 @@ class DeviceIndirectTracer:
 
         self.device = device
         self.mi, self.dr = mi, dr = device.modules()
-        self.geometry = DeviceGeometry(source.geometry, device)
+        self.geometry = DeviceGeometry.of(source.geometry, device)
         self.max_events = int(source.max_events)
         self.counter = int(source.counter)
         #: Photons a launch traces at most (the host's batch: its buffers a few tens of bytes a

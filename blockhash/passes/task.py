@@ -90,9 +90,15 @@ class RenderSetup:
     """What a process builds once for a render and reuses for every pass it runs: the photon
     source (embree geometry, emitter), the camera's rays, the receivers' materials and the
     chosen :class:`~blockhash.passes.stages.CausticStage` (the GL context and compiled programs are kept per process by
-    :mod:`blockhash.gl`).  ``traced``: a traced photon map, rendered as pass 0 (one pass)."""
+    :mod:`blockhash.gl`).  ``traced``: a traced photon map, rendered as pass 0 (one pass).
 
-    def __init__(self, scene, settings: PassSettings, traced=None):
+    ``kept``: the setup of the last frame (:class:`blockhash.passes.session.FrameSession`),
+    whose objects are ``scene``'s: its geometry and materials serve this one; with
+    ``objects_moved`` (objects placed elsewhere, the same meshes' triangles) embree's scene is
+    built again and the device's updated in place."""
+
+    def __init__(self, scene, settings: PassSettings, traced=None, *, kept=None,
+                 objects_moved: bool = False):
         from blockhash.passes.heap import return_large_blocks
         from blockhash.photons.tracing import PhotonSource
         from blockhash.scene.materials import receiver_materials
@@ -101,18 +107,21 @@ class RenderSetup:
         self.scene, self.settings, self.traced = scene, settings, traced
         if traced is None:
             as_int(settings.count, "photons", minimum=1)
-        self.rays = SceneRays(scene.objects)
-        # Frames whose lights or objects move keep each photon's direction from frame to
-        # frame (common random numbers, blockhash/passes/frames.py)
-        moving = getattr(scene.animation, "moves_photons", False)
-        self.source = PhotonSource(scene, geometry=self.rays.geometry, stable=moving,
-                                   device=settings.device)
-        self.materials = receiver_materials(scene.objects)
+        if kept is None or objects_moved:
+            self.rays = SceneRays(scene.objects)
+            self.materials = receiver_materials(scene.objects)
+            if kept is not None:
+                from blockhash.device.geometry import DeviceGeometry
+
+                DeviceGeometry.move(kept.rays.geometry, self.rays.geometry)
+        else:
+            self.rays, self.materials = kept.rays, kept.materials
+        self.source = PhotonSource(scene, geometry=self.rays.geometry, device=settings.device)
         self.pin = Pinhole.of(scene.camera)
         self.caustic = caustic_stage(settings)
         self.indirect, self.indirect_emitted, self.indirect_note = self._indirect(scene, settings)
         #: Passes' photons, indices and radii kept for the next frames of an animation whose
-        #: camera alone moves (:class:`blockhash.passes.frames.FrameCache`; None: none kept).
+        #: camera alone moves (:class:`blockhash.passes.session.FrameCache`; None: none kept).
         self.cache = None
         #: The camera's pixel filter over each pass's samples (a :class:`PassFilm`).
         self.pixel_filter = PassFilm(self.pin, scene.camera.filter, settings.grid)

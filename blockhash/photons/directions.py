@@ -11,27 +11,40 @@ def cone_solid_angle(cos_half: float | np.ndarray):
     return 2.0 * np.pi * (1.0 - np.asarray(cos_half, dtype=np.float64))
 
 
+#: The direction every frame's first vector is made square to (:func:`frames`): oblique to the
+#: scene's axes, so that no light above, beside or below a mirror has its axis near it.
+REFERENCE = np.array([1.0, 2.0 ** 0.5, 3.0 ** 0.5]) / 6.0 ** 0.5
+#: The second reference, for an axis within about 0.6 degrees of the first.
+SECOND_REFERENCE = np.array([3.0 ** 0.5, -1.0, 2.0 ** 0.5]) / 6.0 ** 0.5
+#: ``|REFERENCE x axis|`` below which the second reference is used.
+NEAR_REFERENCE = 1e-2
+
+
 def orthonormal_basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors (3,) completing unit ``axis`` to a right-handed frame (Duff et al. 2017)."""
-    x, y, z = (float(c) for c in axis)
-    sign = 1.0 if z >= 0.0 else -1.0
-    a = -1.0 / (sign + z)
-    b = x * y * a
-    t1 = np.array([1.0 + sign * x * x * a, sign * b, -sign * x])
-    t2 = np.array([b, sign + y * y * a, -y])
-    return t1, t2
+    """Two unit vectors (3,) completing unit ``axis`` to a right-handed frame
+    (:func:`frames` of one row)."""
+    t1, t2 = frames(np.asarray(axis, dtype=np.float64).reshape(1, 3))
+    return t1[0], t2[0]
 
 
 def frames(axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(t1, t2) (n, 3): unit vectors completing each unit row of ``axes`` to a right-handed
-    frame (:func:`blockhash.photons.emission.orthonormal_basis`, row by row)."""
-    x, y, z = axes[:, 0], axes[:, 1], axes[:, 2]
-    sign = np.where(z >= 0.0, 1.0, -1.0)
-    a = -1.0 / (sign + z)
-    b = x * y * a
-    t1 = np.stack([1.0 + sign * x * x * a, sign * b, -sign * x], axis=1)
-    t2 = np.stack([b, sign + y * y * a, -y], axis=1)
-    return t1, t2
+    frame (t1, t2, axis), with t1 along ``REFERENCE x axis``.
+
+    The frame turns continuously with its axis everywhere but within :data:`NEAR_REFERENCE` of
+    the two poles +-:data:`REFERENCE`, so a photon's direction in a cone turns with the cone
+    when a light moves (a frame built by the sign of the axis's z, Duff et al. 2017, turns
+    half a circle where z changes sign: every photon of a light circling a mirror at its
+    height would move from one frame to the next)."""
+    axes = np.asarray(axes, dtype=np.float64)
+    t1 = np.cross(REFERENCE, axes)
+    length = np.linalg.norm(t1, axis=1)
+    near = length < NEAR_REFERENCE
+    if near.any():
+        t1[near] = np.cross(SECOND_REFERENCE, axes[near])
+        length[near] = np.linalg.norm(t1[near], axis=1)
+    t1 /= length[:, None]
+    return t1, np.cross(axes, t1)
 
 
 def sample_cones(axes, t1, t2, cos_half, u1, u2) -> np.ndarray:

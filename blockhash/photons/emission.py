@@ -41,6 +41,11 @@ UNIFORMS_PER_PHOTON = 4
 MAP_CELLS = 128
 #: Pilot rays per cell side of a projection map (stratified, at the sub-cells' centres).
 MAP_PILOTS = 2
+#: Cells a photon in a dead cell tries, in its own hashed sequence
+#: (:func:`tried_cell`), before the rank among the live cells places it.
+STABLE_TRIES = 64
+#: The sequence's step and the mixer's multipliers (Wellons' lowbias32 integer hash).
+GOLDEN, MIX1, MIX2 = 0x9E3779B9, 0x7FEB352D, 0x846CA68B
 
 
 def photon_uniforms(seed: int, start: int, count: int) -> np.ndarray:
@@ -143,15 +148,9 @@ class Emitter:
     """Cone sampling toward the specular objects for every light; with ``geometry``, into
     each cone's projection map's live cells (module docstring)."""
 
-    def __init__(self, lights, specular_objects, geometry=None, bounds=None, stable=False):
+    def __init__(self, lights, specular_objects, geometry=None, bounds=None):
         from blockhash.photons.light_targets import SurfaceSampler, light_targets
 
-        #: Directions that follow the light (animations whose lights or objects move): a
-        #: photon whose direction in its cone falls in a live cell of the projection map keeps
-        #: it, and only one in a dead cell is moved into a live cell (:meth:`_cells`); without
-        #: it every photon is moved by its rank among the live cells, so one cell that
-        #: changes from a frame to the next moves every photon after it.
-        self.stable = bool(stable)
 
         self.positions, self.intensity, self.spot_axis, self.spot_cos = [], [], [], []
         cones: list[Cone] = []
@@ -311,26 +310,62 @@ class Emitter:
 
     def _cells(self, k: np.ndarray, u: np.ndarray):
         """The direction uniforms (u1, u2) of each photon, moved into a live cell of its cone's
-        projection map chosen by ``u[:, 3]`` (unchanged for a cone without a map)."""
+        projection map (unchanged for a cone without a map): kept in its own cell when that is
+        live, else the first live cell of its hashed sequence (:meth:`_stable_cells`), else
+        the live cell of rank ``u[:, 3]``."""
         u1, u2 = u[:, 1].copy(), u[:, 2].copy()
         for j, c in enumerate(self.cones):
             if c.live is None:
                 continue
             rows = np.flatnonzero(k == j)
-            if self.stable:
-                # a photon whose own cell is live stays there; one in a dead cell moves into a
-                # live cell chosen by u[:, 3], keeping its place in the cell: the directions
-                # are uniform over the live cells, as below
-                g = MAP_CELLS
-                ci = np.minimum((u1[rows] * g).astype(np.int64), g - 1)
-                cj = np.minimum((u2[rows] * g).astype(np.int64), g - 1)
-                dead = ~c.live[ci, cj]
-                rows = rows[dead]
-                u1[rows] = u1[rows] * g - ci[dead]
-                u2[rows] = u2[rows] * g - cj[dead]
+            rows = self._stable_cells(c, rows, u, u1, u2)
             cells = c.live_cells
             pick = cells[np.minimum((u[rows, 3] * len(cells)).astype(np.int64), len(cells) - 1)]
             i, jj = np.divmod(pick, MAP_CELLS)
             u1[rows] = (i + u1[rows]) / MAP_CELLS
             u2[rows] = (jj + u2[rows]) / MAP_CELLS
         return u1, u2
+
+    @staticmethod
+    def _stable_cells(c: Cone, rows, u, u1, u2):
+        """Cone ``c``'s photons (``rows``) placed stably: a photon whose own cell is live
+        stays there; one in a dead cell tries the cells of its own hashed sequence
+        (:func:`tried_cell`, seeded by ``u[:, 3]``) and moves into the first live one, keeping
+        its place in the cell.  Each try is uniform over the map, so the first live one is
+        uniform over the live cells; and a photon moves between frames (a light that moves, a
+        map that changes) only when its cell dies or a cell before it in its sequence comes
+        alive, not when any other cell changes (common random numbers: frames differ by the
+        light's change, not by reshuffled photons; the rank rule alone moves every photon after
+        a changed cell).
+        Returns the rows still to place (none live among :data:`STABLE_TRIES` tries: the rank
+        rule places them, uniform over the live cells as well)."""
+        g = MAP_CELLS
+        ci = np.minimum((u1[rows] * g).astype(np.int64), g - 1)
+        cj = np.minimum((u2[rows] * g).astype(np.int64), g - 1)
+        dead = ~c.live[ci, cj]
+        rows = rows[dead]
+        u1[rows] = u1[rows] * g - ci[dead]
+        u2[rows] = u2[rows] * g - cj[dead]
+        seed = (u[rows, 3] * 2.0 ** 32).astype(np.uint32)
+        live = c.live.reshape(-1)
+        for t in range(STABLE_TRIES):
+            if not len(rows):
+                break
+            cell = tried_cell(seed, t)
+            ok = live[cell]
+            i, jj = np.divmod(cell[ok].astype(np.int64), g)
+            u1[rows[ok]] = (i + u1[rows[ok]]) / g
+            u2[rows[ok]] = (jj + u2[rows[ok]]) / g
+            rows, seed = rows[~ok], seed[~ok]
+        return rows
+
+
+def tried_cell(seed, t, u32=np.uint32):
+    """Flat map cell of try ``t`` (an int, or a UInt32 on the device) of the photons of uint32
+    ``seed``: Wellons' lowbias32 hash of ``seed ^ (t * GOLDEN)``, modulo the map's cells (a
+    power of two, so uniform).  One code for numpy arrays and Dr.Jit's (:mod:`blockhash.device.
+    emission`, ``u32=int``): ``u32`` makes the constants of ``seed``'s type."""
+    x = seed ^ (t * u32(GOLDEN)) if u32 is int else seed ^ u32((t * GOLDEN) & 0xFFFFFFFF)
+    x = (x ^ (x >> u32(16))) * u32(MIX1)
+    x = (x ^ (x >> u32(15))) * u32(MIX2)
+    return (x ^ (x >> u32(16))) & u32(MAP_CELLS * MAP_CELLS - 1)

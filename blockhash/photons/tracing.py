@@ -168,12 +168,9 @@ PASS_STRIDE = 1 << 44
 class PhotonSource:
     """A scene's lights, emitter and embree geometry, checked and built once: caustic
     photons from any stretch ``start ..`` of the per-photon streams (the module docstring's
-    determinism), so that the passes of a progressive render share one geometry.
-    ``stable``: the emitter's directions follow a moving light
-    (:attr:`blockhash.photons.emission.Emitter.stable`)."""
+    determinism), so that the passes of a progressive render share one geometry."""
 
-    def __init__(self, scene, *, geometry: EmbreeGeometry | None = None, stable: bool = False,
-                 device: str | None = None):
+    def __init__(self, scene, *, geometry: EmbreeGeometry | None = None, device: str | None = None):
         from blockhash.device.choice import resolve
 
         self.scene = scene
@@ -194,8 +191,7 @@ class PhotonSource:
         if not specular or scene.photons.direct_only:
             return
         self.geometry = geometry or EmbreeGeometry(tuple(scene.objects))
-        emitter = Emitter(lights, specular, geometry=self.geometry, bounds=scene.bounds,
-                          stable=stable)
+        emitter = Emitter(lights, specular, geometry=self.geometry, bounds=scene.bounds)
         if not emitter.sources and not all(hasattr(li, "position") for li in lights):
             # an area light facing away from every mirror: a render goes on with direct light
             self.unreachable = (f"no light reaches the specular objects {[o.name for o in specular]} "

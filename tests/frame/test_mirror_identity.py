@@ -16,7 +16,7 @@ from blockhash.evaluate.specular_identity import identity_check, specular_view_m
 from blockhash.frame import shading
 
 ROOT = Path(__file__).resolve().parents[2]
-SMALL = dict(size=(128, 128), photons=100_000, spp=4, seeds=(1, 2, 3))
+SMALL = dict(size=(128, 128), photons=200_000, spp=4, seeds=(1, 2, 3, 4, 5, 6))
 
 pytestmark = pytest.mark.gl
 

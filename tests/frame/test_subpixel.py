@@ -148,7 +148,9 @@ def test_done_when_study_rows_summary_and_tables(small_study):
     fluxes = [r["flux"] for r in rows if r["seed"] in (1, 2, 3) and r["option"] == labels[1]]
     assert default["flux"] == pytest.approx(np.mean(fluxes))
     assert default["regular"] is not None and default["pooled"] is not None
-    assert 0.9 < small_study["splat"]["flux"] < 1.1  # the map's own photons carry the reference's flux
+    # the map's own photons carry the reference's flux: the light tracer's splat of as many
+    # photons as the map emitted (about 3,500) spreads by 0.064 over seeds (12 seeds, measured)
+    assert 0.75 < small_study["splat"]["flux"] < 1.25
     table = done_when_table([small_study])
     assert "| corner | 20 | bh | **default** |" in table and "| corner | 20 | bh | paper |" in table
     assert "8 x 8" not in context_table([small_study]) and "2 x 2 jittered" in context_table([small_study])

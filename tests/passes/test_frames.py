@@ -193,7 +193,7 @@ def test_the_frame_cache_counts_the_arrays_an_index_holds():
     """An index's records and order count toward the cache's limit (they are most of its
     bytes), and a value past the limit is not kept."""
     from blockhash.index.block_hash_index import BlockHashIndex
-    from blockhash.passes.frames import FrameCache
+    from blockhash.passes.session import FrameCache
 
     index = BlockHashIndex(np.random.default_rng(0).random((10_000, 3)).astype(np.float32),
                            tables=False)

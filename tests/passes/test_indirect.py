@@ -155,7 +155,7 @@ def test_the_whole_image_agrees_with_mitsubas_particle_tracer(name):
     scene = without_specular_lobes(load_scene(SCENES / f"{name}.toml")).with_size(48, 48)
     ref, _ = render_mitsuba(scene, "ptracer", 1024)
     mask = receivers_seen(scene, SceneRays(scene.objects))
-    image = blockhash.render(scene, photons=50_000, plan=RenderPlan(passes=4))
+    image = blockhash.render(scene, photons=50_000, plan=RenderPlan(passes=8))
     ours = image.combined.astype(np.float64)[mask].sum()
     assert ours == pytest.approx(float(ref[mask].sum()), rel=0.02)
     partial = (image.direct + image.caustic).astype(np.float64)[mask].sum()
