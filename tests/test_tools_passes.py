@@ -231,6 +231,7 @@ def test_frames_bench_times_frames_flicker_and_memory(tmp_path):
     text = run_tool("frames_bench.py", ["--scenes", "ring", "--sizes", "32", "--spp", "1",
                                         "--baseline", root,
                                         "--frames", "3", "--photons", "3000", "--flicker-frames", "3",
+                                        "--degrees", "1",
                                         "--flicker-size", "32", "--flicker-photons", "20000",
                                         "--reference-photons", "100000", "--memory-frames", "1,2",
                                         "--memory-size", "32", "--memory-photons", "3000",
@@ -241,7 +242,7 @@ def test_frames_bench_times_frames_flicker_and_memory(tmp_path):
                             for c in ("this", "baseline")}
     assert all(r["frame"] > 0 and 0 < r["gather"] < r["frame"] and r["fps"] == 1 / r["frame"]
                for r in motions.values())
-    f = res["flicker"]
+    [f] = res["flicker"]
     assert f["common"] > 0 and f["independent"] > 0 and f["ratio"] == f["independent"] / f["common"]
     assert [m["frames"] for m in res["memory"]] == [1, 2] and res["memory"][0]["peak_bytes"] > 2**20
     assert len(table_rows(text, "ring")) == 4

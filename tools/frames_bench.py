@@ -12,7 +12,7 @@ animation.
    compilation), the median of the later frames', of their GL gathers (the ``caustic`` and
    ``indirect estimate`` stages) and of the rest (a frame less its gathers), frames a second;
    and the ratio of this checkout's to the baseline's on the line below it.
-2. Flicker: the ring's light moving ``--degrees`` a frame around it, the camera still, at
+2. Flicker: the ring's light moving each of ``--degrees`` a frame around it, the camera still, at
    ``--flicker-size``: each frame's caustic (``--flicker-photons`` a pass, one pass) with
    common random numbers (one seed for every frame) and with independent streams (seed + frame),
    against the light tracer's caustic of each frame (``--reference-photons``): the relative RMS,
@@ -23,7 +23,7 @@ animation.
 
 usage: python tools/frames_bench.py [--baseline /tmp/blockhash-d0deb7b] [--scenes ring,venus]
                                     [--sizes 256,512] [--spp 1,9] [--frames 6]
-                                    [--photons 200000] [--degrees 1] [--flicker-frames 6]
+                                    [--photons 200000] [--degrees 1,0.1] [--flicker-frames 6]
                                     [--flicker-size 128] [--flicker-photons 100000]
                                     [--reference-photons 4000000] [--memory-frames 1,100]
                                     [--json FILE]
@@ -190,9 +190,9 @@ def tables(lat, flick, mem) -> str:
     if flick:
         out += ["", "| frames | size | photons | degrees a frame | frame-to-frame change less the "
                 "reference's: common random numbers | independent streams | independent / common |",
-                "| --- " * 7 + "|",
-                f"| {flick['frames']} | {flick['size']} | {flick['photons']:,} | {flick['degrees']:g} | "
-                f"{flick['common']:.4f} | {flick['independent']:.4f} | {flick['ratio']:.2f} |"]
+                "| --- " * 7 + "|"]
+        out += [f"| {f['frames']} | {f['size']} | {f['photons']:,} | {f['degrees']:g} | "
+                   f"{f['common']:.4f} | {f['independent']:.4f} | {f['ratio']:.2f} |" for f in flick]
     if mem:
         out += ["", "| frames of a camera orbit | peak resident memory MiB | over one frame's |",
                 "| --- | --- | --- |"]
@@ -212,7 +212,8 @@ def main(argv=None):
                    help="a checkout of another commit (git worktree) whose frames run beside")
     p.add_argument("--frames", type=count, default=6, help="frames of each latency animation")
     p.photons(200_000, help="photons a pass of the latency renders")
-    p.add_argument("--degrees", type=float, default=1.0, help="the light's turn a frame (flicker)")
+    p.add_argument("--degrees", type=listing(float), default=[1.0, 0.1],
+                   help="the light's turns a frame, a flicker row each (default 1,0.1)")
     p.add_argument("--flicker-frames", type=count, default=6)
     p.size(128, flag="--flicker-size", help="the flicker renders' size")
     p.photons(100_000, flag="--flicker-photons", help="photons of a flicker frame")
@@ -226,8 +227,8 @@ def main(argv=None):
     lat = [row for path in args.scenes for size in args.sizes for spp in args.spp
            for row in latency(path, size, spp, args.photons, args.frames, args.baseline)]
     ring = p.scene("ring")
-    flick = flicker(ring, args.flicker_frames, args.flicker_size, args.flicker_photons,
-                    args.reference_photons, args.degrees)
+    flick = [flicker(ring, args.flicker_frames, args.flicker_size, args.flicker_photons,
+                     args.reference_photons, d) for d in args.degrees]
     mem = memory(ring, args.memory_frames, args.memory_size, args.memory_photons, 1)
     if args.json:
         write_json(args.json, {"latency": lat, "flicker": flick, "memory": mem})

@@ -81,7 +81,7 @@ class FrameSession:
     def frame(self, scene=None, *, number: int | None = None):
         """The :class:`~blockhash.frame.result.RenderResult` of state ``scene`` (None: the
         session's first scene), its setup reached from the last frame's; ``number`` names the
-        frame in errors (default: its place in this session)."""
+        frame in errors (default: its place among the session's frames)."""
         from blockhash.passes.executors import InProcess
         from blockhash.passes.pipeline import make_renderer
         from blockhash.passes.run import run_passes
