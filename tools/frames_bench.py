@@ -21,12 +21,14 @@ animation.
 3. Memory: the peak resident memory of a process rendering 1 and ``--memory-frames`` frames
    of the ring's camera orbit (``--memory-photons`` a pass, ``--memory-size``).
 
+``--steps`` runs some of the three (default ``latency,flicker,memory``).
+
 usage: python tools/frames_bench.py [--baseline /tmp/blockhash-d0deb7b] [--scenes ring,venus]
                                     [--sizes 256,512] [--spp 1,9] [--frames 6]
                                     [--photons 200000] [--degrees 1,0.1] [--flicker-frames 6]
                                     [--flicker-size 128] [--flicker-photons 100000]
                                     [--reference-photons 4000000] [--memory-frames 1,100]
-                                    [--json FILE]
+                                    [--steps latency,flicker,memory] [--json FILE]
 """
 
 import json
@@ -48,6 +50,8 @@ from blockhash.scene.loader import load_scene
 from blockhash.studies.command import ToolParser, count, listing, write_json
 
 ROOT = Path(__file__).resolve().parents[1]
+#: The tool's steps (``--steps``).
+STEPS = ("latency", "flicker", "memory")
 
 
 def circling(scene, frames: int, degrees: float | None = None):
@@ -222,14 +226,22 @@ def main(argv=None):
                    help="frame counts whose peak memory is measured (the first is the base)")
     p.size(256, flag="--memory-size", help="the memory renders' size")
     p.photons(1_000_000, flag="--memory-photons", help="photons a pass of the memory renders")
+    p.add_argument("--steps", type=listing(str), default=list(STEPS),
+                   help="which of latency, flicker, memory to run (default all)")
     p.json_output()
     args = p.parse_args(argv)
+    unknown = set(args.steps) - set(STEPS)
+    if unknown:
+        p.error(f"--steps: unknown {sorted(unknown)}; give some of {','.join(STEPS)}")
     lat = [row for path in args.scenes for size in args.sizes for spp in args.spp
-           for row in latency(path, size, spp, args.photons, args.frames, args.baseline)]
+           for row in latency(path, size, spp, args.photons, args.frames, args.baseline)
+           ] if "latency" in args.steps else []
     ring = p.scene("ring")
     flick = [flicker(ring, args.flicker_frames, args.flicker_size, args.flicker_photons,
-                     args.reference_photons, d) for d in args.degrees]
-    mem = memory(ring, args.memory_frames, args.memory_size, args.memory_photons, 1)
+                     args.reference_photons, d) for d in args.degrees
+             ] if "flicker" in args.steps else []
+    mem = memory(ring, args.memory_frames, args.memory_size, args.memory_photons, 1
+                 ) if "memory" in args.steps else []
     if args.json:
         write_json(args.json, {"latency": lat, "flicker": flick, "memory": mem})
     print(tables(lat, flick, mem))

@@ -15,10 +15,13 @@
 # tests.txt (the GL lookup tests: every variant equals the CPU reference on this device),
 # trace_speed.txt/.json and device_pass.txt/.json (the photons on DEVICE, default gpu there and
 # cpu elsewhere: tracing alone beside Mitsuba's ptracer, and whole passes' photon stages in one
-# process and on 1, 4 and 16 local workers; the wheels of Mitsuba and drjit must be in .whl/).
+# process and on 1, 4 and 16 local workers; the wheels of Mitsuba and drjit must be in .whl/),
+# frames_ring.txt/.json and frames_others.txt/.json (frames through the frame session: the
+# ring's orbit and light circling at SIZE and FRAMES_BIG, 1 and 9 samples a pixel, venus and
+# cbox at SIZE and 1, FRAME_PHOTONS a frame; tools/frames_bench.py's latency step).
 # Figures: min and median of REPEAT back-to-back draws after WARMUP draws of the same program,
 # GPU time (GL timer queries) beside wall time, with the renderer and driver in every row.
-# STEPS (default device,A,k,1m,caustic,tests,photons) names the steps to run; every step runs even
+# STEPS (default device,A,k,1m,caustic,tests,photons,frames) names the steps to run; every step runs even
 # when one before it failed, and the exit status is 1 when any failed.
 set -uo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd); cd "$root"
@@ -26,14 +29,17 @@ OUT=$(mkdir -p "${OUT:-out/gpu_bench}" && cd "${OUT:-out/gpu_bench}" && pwd)
 if [ "${SMALL:-0}" = 1 ]; then
   PHOTONS=${PHOTONS:-100000} QUERIES=${QUERIES:-16384} BIG=${BIG:-65536}
   CAUSTIC=${CAUSTIC:-100000} REPEAT=${REPEAT:-3} AS=${AS:-1,8} KS=${KS:-8,50}
-  SIZE=${SIZE:-128} WORKERS=${WORKERS:-1,2}
+  SIZE=${SIZE:-128} WORKERS=${WORKERS:-1,2} FRAMES_BIG=${FRAMES_BIG:-256}
+  FRAME_PHOTONS=${FRAME_PHOTONS:-20000}
 else
   PHOTONS=${PHOTONS:-1000000} QUERIES=${QUERIES:-262144} BIG=${BIG:-1048576}
   CAUSTIC=${CAUSTIC:-1000000} REPEAT=${REPEAT:-15} AS=${AS:-1,2,4,8,16} KS=${KS:-8,16,32,50}
-  SIZE=${SIZE:-512} WORKERS=${WORKERS:-1,4,16}
+  SIZE=${SIZE:-512} WORKERS=${WORKERS:-1,4,16} FRAMES_BIG=${FRAMES_BIG:-1024}
+  FRAME_PHOTONS=${FRAME_PHOTONS:-100000}
 fi
 WARMUP=${WARMUP:-3}
-STEPS=",${STEPS:-device,A,k,1m,caustic,tests,photons},"
+FRAMES=${FRAMES:-6}
+STEPS=",${STEPS:-device,A,k,1m,caustic,tests,photons,frames},"
 failed=0
 trap 'failed=1' ERR
 if [ -f .whl/run.sh ] && command -v nvidia-smi >/dev/null; then
@@ -87,6 +93,15 @@ py "$root/tools/trace_speed.py" --scenes ring,sun,cbox --photons "$CAUSTIC" --si
    --repeat "$REPEAT" --device "$DEVICE" --json "$OUT/trace_speed.json" | tee "$OUT/trace_speed.txt"
 py "$root/tools/device_pass.py" --scenes ring,venus,cbox --size "$SIZE" --photons "$CAUSTIC" \
    --workers "$WORKERS" --device "$DEVICE" --json "$OUT/device_pass.json" | tee "$OUT/device_pass.txt"
+fi
+if wanted frames; then
+step "frames on $DEVICE: the ring at $SIZE and $FRAMES_BIG, venus and cbox at $SIZE"
+BLOCKHASH_DEVICE="$DEVICE" py "$root/tools/frames_bench.py" --steps latency --scenes ring \
+   --sizes "$SIZE,$FRAMES_BIG" --spp 1,9 --frames "$FRAMES" --photons "$FRAME_PHOTONS" \
+   --json "$OUT/frames_ring.json" | tee "$OUT/frames_ring.txt"
+BLOCKHASH_DEVICE="$DEVICE" py "$root/tools/frames_bench.py" --steps latency --scenes venus,cbox \
+   --sizes "$SIZE" --spp 1 --frames "$FRAMES" --photons "$FRAME_PHOTONS" \
+   --json "$OUT/frames_others.json" | tee "$OUT/frames_others.txt"
 fi
 if [ "$failed" = 0 ]; then step "done: $OUT"; else step "done, with failed steps: $OUT"; fi
 exit "$failed"

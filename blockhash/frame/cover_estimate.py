@@ -47,10 +47,14 @@ def drop_gather(index, k: int, radii=None, *, steps: int = OCTAVE_STEPS) -> None
     _GATHERS.get(index, {}).pop((int(k), radii, int(steps)), None)
 
 
-def forget_gathers(index) -> None:
-    """Drop the gathers built on ``index`` (an index kept for the next frame of an animation
-    gathers with the next frame's radii; the last frame's would otherwise stay with it)."""
-    _GATHERS.pop(index, None)
+def forget_gathers(index, keep=None) -> None:
+    """Drop the gathers built on ``index`` but those with radii ``keep`` (an index kept for
+    the next frame of an animation gathers with the next frame's radii, its pixel splat's; the
+    last frame's would otherwise stay with it; the gather of every photon, radii ``keep``, does
+    not depend on the camera and serves every frame)."""
+    per_index = _GATHERS.get(index, {})
+    for key in [key for key in per_index if keep is None or key[1] is not keep]:
+        del per_index[key]
 
 
 def require_conserving(options: EstimateOptions) -> None:

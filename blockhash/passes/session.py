@@ -178,16 +178,20 @@ class FrameCache(dict):
         self.limit, self.bytes = int(limit), 0
 
     def keep(self, key, value) -> None:
-        size = sum(_nbytes(v) for v in value)
+        size = _nbytes(value, set())
         if self.bytes + size <= self.limit:
             self[key] = value
             self.bytes += size
 
 
-def _nbytes(value, depth: int = 3) -> int:
+def _nbytes(value, seen: set, depth: int = 4) -> int:
     """Bytes of the arrays a kept value holds (a photon map, an index and what it holds, such
-    as its records, radii), followed ``depth`` levels into objects, tuples and dicts."""
+    as its records, radii), followed ``depth`` levels into objects, tuples and dicts, each
+    array counted once (``seen``: the ids counted)."""
     if isinstance(value, np.ndarray):
+        if id(value) in seen:
+            return 0
+        seen.add(id(value))
         return value.nbytes
     if depth == 0 or value is None or isinstance(value, (str, bytes, int, float)):
         return 0
@@ -197,4 +201,4 @@ def _nbytes(value, depth: int = 3) -> int:
         items = value
     else:
         items = vars(value).values() if hasattr(value, "__dict__") else ()
-    return sum(_nbytes(v, depth - 1) for v in items)
+    return sum(_nbytes(v, seen, depth - 1) for v in items)

@@ -260,8 +260,8 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
     direct = direct_light(points, setup.scene.objects, setup.scene.lights, setup.rays, p)
     timings["direct"] = time.perf_counter() - t
     t = time.perf_counter()
-    caustic = _layer(setup, built, points, seen, p)
-    timings["caustic"] = time.perf_counter() - t
+    caustic = _layer(setup, built, points, seen, p, timings)
+    timings["caustic"] = time.perf_counter() - t - timings.get("mirror cover gather", 0.0)
     indirect, indirect_emitted = _indirect_layer(setup, p, scale, points, seen, timings, info)
     direct = setup.pixel_filter.develop(points.gather(direct), p)
     timings["total"] = time.perf_counter() - t0
@@ -270,9 +270,13 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
                             indirect, indirect_emitted)
 
 
-def _layer(setup: RenderSetup, built, points, seen, p: int) -> np.ndarray:
+def _layer(setup: RenderSetup, built, points, seen, p: int, timings: dict) -> np.ndarray:
     """The pixel means of one photon map's estimate at the pass's camera points, from its
-    :func:`_index` (``built``: index, radii, pixel splat, every photon's index and radii)."""
+    :func:`_index` (``built``: index, radii, pixel splat, every photon's index and radii).
+    The gather of every photon, built here where a point sees a mirror or glass, is a photon
+    stage: its seconds go to ``timings["mirror cover gather"]``, not to the estimate's; an
+    index kept for the next frames (:class:`~blockhash.passes.session.FrameCache`) keeps it,
+    since it does not depend on the camera."""
     index, radii, splat, whole = built
     estimate = setup.caustic.estimate
     image = np.zeros(points.shape + (3,), dtype=np.float32)
@@ -284,8 +288,12 @@ def _layer(setup: RenderSetup, built, points, seen, p: int) -> np.ndarray:
         if index is not None:
             image = estimate(setup, index, only(points, seen), radii)
             drop_gather(index, setup.settings.k, radii)
+        t = time.perf_counter()
+        cover_gather(whole[0], setup.settings.k, whole[1])
+        timings["mirror cover gather"] = time.perf_counter() - t
         image += estimate(setup, whole[0], only(points, ~seen), whole[1])
-        drop_gather(whole[0], setup.settings.k, whole[1])
+        if not any(i is whole[0] for i in _kept_indices(setup)):
+            drop_gather(whole[0], setup.settings.k, whole[1])
     elif index is not None:
         image = estimate(setup, index, points, radii)
     image = setup.pixel_filter.develop(points.gather(image), p)
@@ -314,8 +322,8 @@ def _indirect_layer(setup: RenderSetup, p: int, scale: float, points, seen, timi
                                   if isinstance(v, (int, float, str))}
     built = _index(setup, photons, p, scale, stages, {}, name="indirect")
     t = time.perf_counter()
-    image = _layer(setup, built, points, seen, p)
-    stages["estimate"] = time.perf_counter() - t
+    image = _layer(setup, built, points, seen, p, stages)
+    stages["estimate"] = time.perf_counter() - t - stages.get("mirror cover gather", 0.0)
     for name, sec in stages.items():
         timings[f"indirect {name}"] = sec
     return image, photons.emitted
@@ -343,8 +351,8 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
     kept = setup.cache.get((name, p)) if setup.cache is not None else None
     t = time.perf_counter()
     if kept is not None:
-        index, r2 = kept
-        forget_gathers(index)  # the last frame's gathers: this frame builds its own
+        index, r2, every = kept
+        forget_gathers(index, keep=every)  # the last frame's splat's gathers go
     else:
         # The cover gather reads the records in Hilbert order only: the hash tables are
         # built on first use (a caller's k-nearest query), not here.
@@ -364,8 +372,9 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
     t = time.perf_counter()
     if kept is None:
         r2 = radii(index, s.k)
+        every = FixedRadii(r2)  # one object a pass: the key of its gather of every photon
         if setup.cache is not None:
-            setup.cache.keep((name, p), (index, r2))
+            setup.cache.keep((name, p), (index, r2, every))
     else:
         radii = FixedRadii(r2)
     timings["photon radii"] = time.perf_counter() - t
@@ -374,7 +383,7 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
     splat = whole = None
     if s.schedule.footprint > 0 and not setup.pin.aperture:  # a lens blurs what it splats
         t = time.perf_counter()
-        whole = (index, FixedRadii(r2))
+        whole = (index, every)
         index, radii, splat = _split(setup, photons, index, r2, scale, p)
         timings["pixel splat"] = time.perf_counter() - t
     if index is not None:
@@ -400,3 +409,10 @@ def _split(setup: RenderSetup, photons, index, r2, scale, p: int):
     if not keep.any():  # every photon splatted: nothing left to gather
         return None, None, image
     return index, FixedRadii(np.where(keep, r2, np.inf)), image
+
+
+def _kept_indices(setup: RenderSetup) -> list:
+    """The indices the setup's frame cache keeps (none without one)."""
+    if setup.cache is None:
+        return []
+    return [v[0] for v in setup.cache.values() if isinstance(v, tuple) and len(v) == 3]

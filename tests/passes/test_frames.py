@@ -191,8 +191,10 @@ def test_frame_ranges_and_a_still_refused():
 
 def test_the_frame_cache_counts_the_arrays_an_index_holds():
     """An index's records and order count toward the cache's limit (they are most of its
-    bytes), and a value past the limit is not kept."""
+    bytes), each array once (the radii and the radii object holding them), and a value past
+    the limit is not kept."""
     from blockhash.index.block_hash_index import BlockHashIndex
+    from blockhash.passes.schedule import FixedRadii
     from blockhash.passes.session import FrameCache
 
     index = BlockHashIndex(np.random.default_rng(0).random((10_000, 3)).astype(np.float32),
@@ -200,10 +202,10 @@ def test_the_frame_cache_counts_the_arrays_an_index_holds():
     r2 = np.ones(10_000)
     held = index.records.records.nbytes + index.order.nbytes + r2.nbytes
     cache = FrameCache(limit=10**9)
-    cache.keep(("caustic", 0), (index, r2))
-    assert cache.bytes >= held
+    cache.keep(("caustic", 0), (index, r2, FixedRadii(r2)))
+    assert held <= cache.bytes < held + r2.nbytes
     small = FrameCache(limit=held - 1)
-    small.keep(("caustic", 0), (index, r2))
+    small.keep(("caustic", 0), (index, r2, FixedRadii(r2)))
     assert ("caustic", 0) not in small and small.bytes == 0
 
 

@@ -127,3 +127,30 @@ def test_an_object_that_moves_is_updated_in_the_device_scene_and_hit_where_it_we
     assert np.mean(np.abs(old[own] - 0.3) > 1e-3) > 0.9  # the ring did move
 
 
+
+
+def test_a_camera_frame_builds_only_the_gather_its_camera_changes(monkeypatch):
+    """The ring's camera sees the mirror: a pass gathers every photon for those points and
+    the photons the pixel splat left for the rest.  A camera-only frame builds the second
+    again (the splat follows the camera) and keeps the first, a photon stage timed apart
+    from the estimate ("mirror cover gather")."""
+    from blockhash.index.lookups.cover import CoverGather
+
+    builds = []
+    original = CoverGather.build.__func__
+
+    def counted(cls, *args, **kwargs):
+        builds.append(1)
+        return original(cls, *args, **kwargs)
+
+    monkeypatch.setattr(CoverGather, "build", classmethod(counted))
+    scene = ring()
+    session = FrameSession(scene, photons=PHOTONS, plan=RenderPlan(passes=1))
+    session.frame(scene)
+    first = len(builds)
+    assert first == 2 and session.last.timings["mirror cover gather"] > 0
+    session.frame(states(scene)[1])
+    assert len(builds) - first == 1
+    # the kept gather equals a fresh one: the frame is the still render of its camera
+    want = blockhash.render(states(scene)[1], photons=PHOTONS, plan=RenderPlan(passes=1))
+    np.testing.assert_array_equal(session.last.image.caustic, want.caustic)
