@@ -4,7 +4,8 @@ animation.
 
 1. Latency: for each scene of ``--scenes``, size of ``--sizes`` and samples a pixel of
    ``--spp`` (one pass of ``--photons`` a frame): a camera orbit (``--frames`` frames of a full
-   turn) and the scene's first light circling its target (one turn over the frames, 2 m out),
+   turn) and the scene's first light circling its target (one turn over the frames, 2 m out;
+   an area light's object circles its place, :func:`circling`),
    each a fresh process that hands the frames' states one at a time to a
    :class:`~blockhash.passes.session.FrameSession`, the next after the last frame returned,
    writing no file (a ``--baseline`` checkout from before the session renders the same
@@ -56,15 +57,22 @@ STEPS = ("latency", "flicker", "memory")
 
 def circling(scene, frames: int, degrees: float | None = None):
     """``scene`` with its first light circling the camera's target, 2 m out at the light's
-    height: one turn over ``frames``, or ``degrees`` a frame (a key a frame)."""
+    height: one turn over ``frames``, or ``degrees`` a frame (a key a frame).  An area light
+    (which moves with its object) circles its own place instead, a tenth of the scene's size
+    out: its object moves."""
     light = scene.lights[0]
-    target = scene.camera.target
     step = math.radians(360.0 / frames if degrees is None else degrees)
+    turn = [(math.cos(math.pi + f * step), math.sin(math.pi + f * step)) for f in range(frames)]
+    if not hasattr(light, "position"):  # an area light: its object moves
+        lo, hi = np.asarray(scene.bounds[0]), np.asarray(scene.bounds[1])
+        r = 0.1 * float(np.linalg.norm(hi - lo))
+        keys = tuple(Key(f, {"translate": np.array([r * (c + 1.0), 0.0, r * s])})
+                     for f, (c, s) in enumerate(turn))
+        return replace(scene, animation=Animation(frames=frames, objects={light.object: keys}))
+    target = scene.camera.target
     height = float(light.position[1])
-    keys = tuple(Key(f, {"position": np.array([target[0] + 2.0 * math.cos(math.pi + f * step),
-                                               height,
-                                               target[2] + 2.0 * math.sin(math.pi + f * step)])})
-                 for f in range(frames))
+    keys = tuple(Key(f, {"position": np.array([target[0] + 2.0 * c, height, target[2] + 2.0 * s])})
+                 for f, (c, s) in enumerate(turn))
     return replace(scene, animation=Animation(frames=frames, lights={0: keys}))
 
 
