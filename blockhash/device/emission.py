@@ -23,6 +23,7 @@ import math
 
 import numpy as np
 
+from blockhash.photons.directions import NEAR_REFERENCE, REFERENCE, SECOND_REFERENCE
 from blockhash.photons.emission import MAP_CELLS, STABLE_TRIES, tried_cell
 from blockhash.photons.light_targets import INSIDE
 
@@ -49,6 +50,18 @@ def _u32(mi, values):
 
 def _omc(cos_half: float) -> float:
     return 2.0 if cos_half <= -1.0 else float(1.0 - cos_half)
+
+
+def cone_frame(mi, dr, axis):
+    """(t1, t2) completing unit ``axis`` to a right-handed frame, continuous in the axis: the
+    host's :func:`blockhash.photons.directions.frames` on the device (Mitsuba's ``Frame3f``
+    turns half a circle where the axis's z changes sign, which would move a moving area
+    light's photons from one frame to the next)."""
+    ref, second = (mi.Vector3f(*map(float, v)) for v in (REFERENCE, SECOND_REFERENCE))
+    t1 = dr.cross(ref, axis)
+    near = dr.norm(t1) < NEAR_REFERENCE
+    t1 = dr.normalize(dr.select(near, dr.cross(second, axis), t1))
+    return t1, dr.cross(axis, t1)
 
 
 def in_cone(dr, axis, t1, t2, omc, u1, u2):
@@ -347,8 +360,7 @@ class DeviceEmitter:
         lt = self.lights
         y, ny = lt.area_point(light, u[4], u[5], u[6], on)
         axis, omc = self._target_cone(t, y, on)
-        frame = mi.Frame3f(axis)
-        d = in_cone(dr, axis, frame.s, frame.t, omc, u[1], u[2])
+        d = in_cone(dr, axis, *cone_frame(mi, dr, axis), omc, u[1], u[2])
         q = dr.zeros(mi.Float, dr.width(t))
         for group in self.target_groups:  # the mixture over the light's targets
             for j in group:

@@ -122,3 +122,22 @@ def test_a_cones_frame_turns_with_its_axis():
     assert np.allclose(np.cross(*one), [0, 0, 1])
     near = orthonormal_basis(REFERENCE)  # the pole: the second reference
     assert np.allclose(np.cross(*near), REFERENCE)
+
+
+def test_the_device_builds_the_hosts_frames():
+    """An area light's per-photon frames on the device (cone_frame) are the host's (frames),
+    in float32, near the reference's pole too."""
+    from blockhash.device.choice import resolve
+    from blockhash.device.emission import cone_frame
+
+    try:
+        mi, dr = resolve("cpu").modules()
+    except InputError as exc:
+        pytest.skip(f"no Dr.Jit CPU device here: {exc}")
+    axes = np.random.default_rng(4).normal(size=(2000, 3))
+    axes[:3] = [REFERENCE, -REFERENCE, [0.0, -1.0, 0.0]]
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    want = frames(axes)
+    got = cone_frame(mi, dr, mi.Vector3f(*axes.T.astype(np.float32)))
+    for g, w in zip(got, want):
+        np.testing.assert_allclose(np.asarray(g).T, w, atol=2e-5)
