@@ -49,7 +49,8 @@ class FrameSession:
 
     >>> session = FrameSession(scene, photons=200_000, plan=RenderPlan(passes=1))
     >>> first = session.frame()                  # the scene as given
-    >>> moved = session.frame(replace(scene, camera=replace(scene.camera, eye=eye)))
+    >>> moved = session.frame(camera=replace(scene.camera, eye=eye))   # the last state, moved
+    >>> other = session.frame(another_scene)     # a whole state
 
     ``seconds`` and ``moved`` list each frame's seconds and what it moved (:data:`FIRST`,
     :data:`CAMERA`, :data:`LIGHTS`, :data:`OBJECTS`); ``last`` is the last frame's
@@ -68,6 +69,7 @@ class FrameSession:
                               estimate=estimate or EstimateOptions(),
                               lookup=lookup or LookupOptions(), backend=backend)
         self._setup = None
+        self._state = scene
         self.last = None
         self.seconds: list[float] = []
         self.moved: list[str] = []
@@ -78,16 +80,25 @@ class FrameSession:
         before a second frame."""
         return 1.0 / float(np.median(self.seconds[1:])) if len(self.seconds) > 1 else float("nan")
 
-    def frame(self, scene=None, *, number: int | None = None):
-        """The :class:`~blockhash.frame.result.RenderResult` of state ``scene`` (None: the
-        session's first scene), its setup reached from the last frame's; ``number`` names the
-        frame in errors (default: its place among the session's frames)."""
+    def frame(self, scene=None, *, camera=None, lights=None, objects=None,
+              number: int | None = None):
+        """The :class:`~blockhash.frame.result.RenderResult` of state ``scene`` (None: the last
+        frame's state, the session's first scene before any), with ``camera``, ``lights`` (a
+        sequence of the scene's lights) and ``objects`` (of its objects) where given; its setup
+        reached from the last frame's.  ``number`` names the frame in errors (default: its
+        place among the session's frames)."""
         from blockhash.passes.executors import InProcess
         from blockhash.passes.pipeline import make_renderer
         from blockhash.passes.run import run_passes
 
         t = time.perf_counter()
-        scene = self.scene if scene is None else scene
+        scene = self._state if scene is None else scene
+        given = {k: v for k, v in (("camera", camera), ("lights", lights), ("objects", objects))
+                 if v is not None}
+        if given:
+            scene = dataclasses.replace(scene, **{k: v if k == "camera" else tuple(v)
+                                                  for k, v in given.items()})
+        self._state = scene
         renderer, plan = make_renderer(scene, plan=self.plan, **self._keywords)
         moved = FIRST
         if isinstance(plan.executor, InProcess):

@@ -154,3 +154,19 @@ def test_a_camera_frame_builds_only_the_gather_its_camera_changes(monkeypatch):
     # the kept gather equals a fresh one: the frame is the still render of its camera
     want = blockhash.render(states(scene)[1], photons=PHOTONS, plan=RenderPlan(passes=1))
     np.testing.assert_array_equal(session.last.image.caustic, want.caustic)
+
+
+def test_keywords_move_the_last_frames_state():
+    """frame(camera=...) and frame(lights=...) change the last frame's state: the same images
+    as the whole states handed over."""
+    scene = ring()
+    first, camera, light, _, _ = states(scene)
+    by_state = FrameSession(scene, photons=PHOTONS, plan=PLAN)
+    by_keyword = FrameSession(scene, photons=PHOTONS, plan=PLAN)
+    for state, keywords in ((camera, {"camera": camera.camera}),
+                            (light, {"lights": list(light.lights)})):
+        want = by_state.frame(state)
+        got = by_keyword.frame(**keywords)
+        np.testing.assert_array_equal(got.caustic, want.caustic)
+        np.testing.assert_array_equal(got.direct, want.direct)
+    assert by_keyword.moved == [FIRST, LIGHTS]  # the first frame builds the setup
