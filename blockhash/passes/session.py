@@ -171,12 +171,15 @@ def same(a, b) -> bool:
 
 
 def with_scene(setup, scene):
-    """``setup`` for another frame of a camera-only animation: the same geometry, emitters,
-    materials, stages and kept passes, the frame's scene and camera."""
+    """``setup`` for another frame whose camera alone moved: the same geometry, emitters,
+    materials, stages and kept passes, the frame's scene, camera and film (its size and pixel
+    filter may differ from the last frame's)."""
+    from blockhash.frame.film_filter import PassFilm
     from blockhash.scene.camera import Pinhole
 
     out = copy.copy(setup)
     out.scene, out.pin = scene, Pinhole.of(scene.camera)
+    out.pixel_filter = PassFilm(out.pin, scene.camera.filter, setup.settings.grid)
     return out
 
 

@@ -170,3 +170,20 @@ def test_keywords_move_the_last_frames_state():
         np.testing.assert_array_equal(got.caustic, want.caustic)
         np.testing.assert_array_equal(got.direct, want.direct)
     assert by_keyword.moved == [FIRST, LIGHTS]  # the first frame builds the setup
+
+
+def test_a_camera_of_another_size_renders_its_own_film():
+    """A state whose camera has another image size (and so another film: a tent filter's
+    weights follow the film) keeps the photons and renders the still of that camera."""
+    from blockhash.scene.pixel_filter import PixelFilter
+
+    scene = ring()
+    scene = replace(scene, camera=replace(scene.camera, filter=PixelFilter("tent")))
+    session = FrameSession(scene, photons=PHOTONS, plan=PLAN)
+    session.frame()
+    wide = scene.with_size(40, 24)
+    got = session.frame(camera=wide.camera)
+    assert session.moved == [FIRST, CAMERA] and got.caustic.shape == (24, 40, 3)
+    want = blockhash.render(wide, photons=PHOTONS, plan=PLAN)
+    np.testing.assert_array_equal(got.caustic, want.caustic)
+    np.testing.assert_array_equal(got.direct, want.direct)
