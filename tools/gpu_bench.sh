@@ -17,7 +17,7 @@
 # cpu elsewhere: tracing alone beside Mitsuba's ptracer, and whole passes' photon stages in one
 # process and on 1, 4 and 16 local workers; the wheels of Mitsuba and drjit must be in .whl/),
 # frames_ring.txt/.json and frames_others.txt/.json (frames through the frame session: the
-# ring's orbit and light circling at SIZE and FRAMES_BIG, 1 and 9 samples a pixel, venus and
+# ring's orbit and light circling at SIZE and FRAMES_BIG, FRAME_SPP (1 and 9) samples a pixel, venus and
 # cbox at SIZE and 1, FRAME_PHOTONS a frame; tools/frames_bench.py's latency step).
 # Figures: min and median of REPEAT back-to-back draws after WARMUP draws of the same program,
 # GPU time (GL timer queries) beside wall time, with the renderer and driver in every row.
@@ -38,7 +38,7 @@ else
   FRAME_PHOTONS=${FRAME_PHOTONS:-100000}
 fi
 WARMUP=${WARMUP:-3}
-FRAMES=${FRAMES:-6}
+FRAMES=${FRAMES:-6} FRAME_SPP=${FRAME_SPP:-1,9}
 STEPS=",${STEPS:-device,A,k,1m,caustic,tests,photons,frames},"
 failed=0
 trap 'failed=1' ERR
@@ -97,7 +97,7 @@ fi
 if wanted frames; then
 step "frames on $DEVICE: the ring at $SIZE and $FRAMES_BIG, venus and cbox at $SIZE"
 BLOCKHASH_DEVICE="$DEVICE" py "$root/tools/frames_bench.py" --steps latency --scenes ring \
-   --sizes "$SIZE,$FRAMES_BIG" --spp 1,9 --frames "$FRAMES" --photons "$FRAME_PHOTONS" \
+   --sizes "$SIZE,$FRAMES_BIG" --spp "$FRAME_SPP" --frames "$FRAMES" --photons "$FRAME_PHOTONS" \
    --json "$OUT/frames_ring.json" | tee "$OUT/frames_ring.txt"
 BLOCKHASH_DEVICE="$DEVICE" py "$root/tools/frames_bench.py" --steps latency --scenes venus,cbox \
    --sizes "$SIZE" --spp 1 --frames "$FRAMES" --photons "$FRAME_PHOTONS" \
