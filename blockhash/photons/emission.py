@@ -13,7 +13,10 @@ x ``MAP_PILOTS`` pilot rays a cell, and a cell live when a pilot ray of it or of
 neighbouring cell first meets a specular object.  Photons are shot into live cells only,
 their density raised by the cone's live fraction, so the photons that would miss the mirrors
 or first meet a diffuse surface (the light's direct light, which the renderer's shadow rays
-compute) are not traced at all.  A direction that reaches a mirror through a dead cell would
+compute) are not traced at all.  A photon whose own cell is live keeps its direction; one in
+a dead cell moves into the first live cell of its own hashed sequence of cells, keeping its
+place in the cell (:meth:`Emitter._stable_cells`): when the light moves and the map changes,
+only the photons of the cells that changed move (common random numbers for frames).  A direction that reaches a mirror through a dead cell would
 be lost: the dilation by a cell keeps every mirror edge a pilot ray saw; a mirror feature
 thinner than a cell and missed by every pilot ray of three cells is the limit
 (:func:`projection_map`).  The light tracer (:mod:`blockhash.reference.lighttrace`) samples
