@@ -144,13 +144,8 @@ def test_gpu_bench_parses():
 @pytest.mark.gl
 def test_gpu_bench_rehearses_its_k_sweep_on_the_local_gl(tmp_path):
     """A tiny rehearsal on the local GL (llvmpipe): the device, k sweep and GL test steps."""
-    env = dict(os.environ, SMALL="1", OUT=str(tmp_path / "out"), STEPS="device,k,tests",
-               PHOTONS="2000", QUERIES="256", REPEAT="1", WARMUP="0", KS="8")
-    env["PATH"] = f"{os.path.dirname(sys.executable)}{os.pathsep}{env['PATH']}"
-    run = subprocess.run(["bash", str(TOOLS_DIR / "gpu_bench.sh")], cwd=tmp_path, env=env,
-                         capture_output=True, text=True, timeout=600)
-    assert run.returncode == 0, run.stderr[-3000:]
-    out = tmp_path / "out"
+    run, out = _gpu_bench(tmp_path, SMALL="1", STEPS="device,k,tests", PHOTONS="2000",
+                          QUERIES="256", REPEAT="1", WARMUP="0", KS="8")
     assert sorted(p.name for p in out.iterdir()) == ["bench_k.txt", "bench_k8.json", "device.txt",
                                                      "tests.txt"]
     assert "renderer" in (out / "device.txt").read_text()
@@ -167,11 +162,8 @@ def test_gpu_bench_rehearses_its_k_sweep_on_the_local_gl(tmp_path):
 
 def test_gpu_bench_fails_when_a_step_fails(tmp_path):
     """Every step runs even after one failed, and the exit status says one did."""
-    env = dict(os.environ, OUT=str(tmp_path / "out"), STEPS="k", KS="0")
-    env["PATH"] = f"{os.path.dirname(sys.executable)}{os.pathsep}{env['PATH']}"
-    run = subprocess.run(["bash", str(TOOLS_DIR / "gpu_bench.sh")], cwd=tmp_path, env=env,
-                         capture_output=True, text=True, timeout=300)
-    assert run.returncode == 1 and "done, with failed steps" in run.stderr
+    run = _gpu_bench(tmp_path, STEPS="k", KS="0", expect=1)[0]
+    assert "done, with failed steps" in run.stderr
 
 
 def test_gpu_bench_rehearses_its_photon_step_on_the_cpu_kernels(tmp_path):
@@ -186,13 +178,8 @@ def test_gpu_bench_rehearses_its_photon_step_on_the_cpu_kernels(tmp_path):
         resolve("cpu")
     except InputError as exc:
         pytest.skip(f"no Dr.Jit CPU device here: {exc}")
-    env = dict(os.environ, SMALL="1", OUT=str(tmp_path / "out"), STEPS="photons",
-               CAUSTIC="5000", REPEAT="1", SIZE="32", WORKERS="1")
-    env["PATH"] = f"{os.path.dirname(sys.executable)}{os.pathsep}{env['PATH']}"
-    run = subprocess.run(["bash", str(TOOLS_DIR / "gpu_bench.sh")], cwd=tmp_path, env=env,
-                         capture_output=True, text=True, timeout=600)
-    assert run.returncode == 0, run.stderr[-3000:]
-    out = tmp_path / "out"
+    run, out = _gpu_bench(tmp_path, SMALL="1", STEPS="photons", CAUSTIC="5000", REPEAT="1",
+                          SIZE="32", WORKERS="1")
     speed = json.loads((out / "trace_speed.json").read_text())["rows"]
     assert [r["scene"] for r in speed] == ["ring", "sun", "cbox"]
     assert all(r["kernels"]["device"] == "cpu" and r["kernels"]["stored"] == 5000 for r in speed)
@@ -212,13 +199,8 @@ def test_gpu_bench_rehearses_its_frames_step_here(tmp_path):
     """The frames step, tiny: the ring's orbit and light circling through the frame session at
     two sizes (one sample a pixel here; 1 and 9 on the GPU), venus and the box at one
     (tools/frames_bench.py's latency step)."""
-    env = dict(os.environ, SMALL="1", OUT=str(tmp_path / "out"), STEPS="frames", SIZE="24",
-               FRAMES_BIG="32", FRAME_PHOTONS="2000", FRAMES="2", FRAME_SPP="1")
-    env["PATH"] = f"{os.path.dirname(sys.executable)}{os.pathsep}{env['PATH']}"
-    run = subprocess.run(["bash", str(TOOLS_DIR / "gpu_bench.sh")], cwd=tmp_path, env=env,
-                         capture_output=True, text=True, timeout=600)
-    assert run.returncode == 0, run.stderr[-3000:]
-    out = tmp_path / "out"
+    run, out = _gpu_bench(tmp_path, SMALL="1", STEPS="frames", SIZE="24", FRAMES_BIG="32",
+                          FRAME_PHOTONS="2000", FRAMES="2", FRAME_SPP="1")
     ring = json.loads((out / "frames_ring.json").read_text())
     assert {(r["size"], r["spp"], r["motion"]) for r in ring["latency"]} == {
         (s, 1, m) for s in (24, 32) for m in ("camera orbit", "light circling")}
@@ -227,3 +209,14 @@ def test_gpu_bench_rehearses_its_frames_step_here(tmp_path):
     assert {r["scene"] for r in others["latency"]} == {"venus", "cbox"}
     assert all(r["fps"] > 0 and r["commit"] == "this" for r in ring["latency"] + others["latency"])
     assert "== done: " in run.stderr
+
+
+def _gpu_bench(tmp_path, expect: int = 0, **env):
+    """(the finished run, its OUT folder) of tools/gpu_bench.sh with ``env`` (OUT under
+    ``tmp_path``), this interpreter first on PATH; its exit status must be ``expect``."""
+    env = dict(os.environ, OUT=str(tmp_path / "out"), **env)
+    env["PATH"] = f"{os.path.dirname(sys.executable)}{os.pathsep}{env['PATH']}"
+    run = subprocess.run(["bash", str(TOOLS_DIR / "gpu_bench.sh")], cwd=tmp_path, env=env,
+                         capture_output=True, text=True, timeout=600)
+    assert run.returncode == expect, run.stderr[-3000:]
+    return run, tmp_path / "out"
