@@ -8,15 +8,16 @@ frame's, each state is one of:
 
 * **the camera alone** moved (or nothing): the photons are view-independent, so the frame
   gathers the passes' photons, indices and radii kept from the last frame
-  (:class:`FrameCache`) with the last frame's geometry, emitters and
-  materials; it costs the camera's samples, the pixel splat, the gathers and the direct light;
+  (:class:`FrameCache`), and each pass's gather of every photon (for the points seen in
+  mirrors), with the last frame's geometry, emitters and materials; it costs the camera's
+  samples, the pixel splat, the splat's remainder's gather, the estimates and the direct light;
 * **a light** moved (the objects where they were): the geometry (embree's and the device's
   scene), the materials and the compiled kernels are kept; the emitter (projection maps, light
   targets) and the indirect photons' pilot are built again and the photons traced from the
   same streams (common random numbers: the emitter keeps each photon's place where the light's
   change does not move it, :meth:`blockhash.photons.emission.Emitter._stable_cells`);
 * **an object** moved: the device's acceleration structure is updated in place (the moved
-  meshes' vertices, :meth:`blockhash.device.geometry.DeviceGeometry.moved`); embree's host
+  meshes' vertices, :meth:`blockhash.device.geometry.DeviceGeometry.move`); embree's host
   scene, which embreex cannot update, is built again.
 
 Every frame uses the render's one seed: a frame is the still render of its state at that seed,
