@@ -94,12 +94,18 @@ def test_frames_on_local_workers_equal_the_in_process_frames():
         np.testing.assert_array_equal(here[5].combined, there[5].combined)
 
 
-def test_the_command_writes_numbered_frames_and_a_video(tmp_path):
+def test_the_command_writes_numbered_frames_and_a_video(tmp_path, capsys):
+    import re
+
     import imageio.v2 as imageio
 
     out = tmp_path / "orbit.exr"
     assert main(["render", str(SCENES / "ring_orbit.toml"), "--frames", "2:5", "--size", "32x32",
                  "--photons", "3000", "--passes", "1", "-o", str(out)]) == 0
+    summary = capsys.readouterr().out
+    later, fps = re.search(r"median of the rest ([0-9.]+) \(([0-9.]+) frames a second", summary).groups()
+    later, fps = float(later), float(fps)  # each rounded to 0.01
+    assert 1.0 / (later + 0.005) - 0.005 <= fps <= 1.0 / max(later - 0.005, 1e-9) + 0.005
     for f in (2, 3, 4):
         assert (tmp_path / f"orbit-{f:04d}.exr").is_file() and (tmp_path / f"orbit-{f:04d}.png").is_file()
     assert not (tmp_path / "orbit-0001.exr").exists() and not (tmp_path / "orbit-0005.exr").exists()
