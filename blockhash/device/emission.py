@@ -5,9 +5,9 @@ targets, the cones' projection maps, the mixture densities) sampled on the devic
 The same rules as the host's (:mod:`blockhash.photons.emission`,
 :mod:`blockhash.photons.light_targets`), in float32: a source by the pmf; a cone's direction
 in a live cell of its projection map (kept in its own live cell, else the first live one of
-its hashed sequence), the
-weight the light's intensity over the mixture density of the light's cones that hold it, zero
-outside a spot's cone and its falloff toward the edge; an area light's point uniform by area,
+its hashed sequence), the weight the light's intensity over the mixture density of the
+light's cones that hold it, zero outside a spot's cone and its falloff toward the edge; an
+area light's point uniform by area,
 a direction in the cone toward the target's bounding sphere, the weight ``L cos A / q``; a
 directional light's point in the target's disc upstream of the scene, the weight ``E / q``.
 Every number of the scene is an array the kernels gather from (none a literal of the code),

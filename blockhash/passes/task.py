@@ -272,7 +272,8 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
 
 def _layer(setup: RenderSetup, built, points, seen, p: int, timings: dict) -> np.ndarray:
     """The pixel means of one photon map's estimate at the pass's camera points, from its
-    :func:`_index` (``built``: index, radii, pixel splat, every photon's index and radii).
+    :func:`_index` (``built``: index, radii, pixel splat, every photon's index, radii and
+    whether the frame cache keeps them).
     The gather of every photon, built here where a point sees a mirror or glass, is a photon
     stage: its seconds go to ``timings["mirror cover gather"]``, not to the estimate's; an
     index kept for the next frames (:class:`~blockhash.passes.session.FrameCache`) keeps it,
@@ -292,7 +293,7 @@ def _layer(setup: RenderSetup, built, points, seen, p: int, timings: dict) -> np
         cover_gather(whole[0], setup.settings.k, whole[1])
         timings["mirror cover gather"] = time.perf_counter() - t
         image += estimate(setup, whole[0], only(points, ~seen), whole[1])
-        if not any(i is whole[0] for i in _kept_indices(setup)):
+        if not whole[2]:  # kept for the next frames with its index, else let go
             drop_gather(whole[0], setup.settings.k, whole[1])
     elif index is not None:
         image = estimate(setup, index, points, radii)
@@ -331,8 +332,8 @@ def _indirect_layer(setup: RenderSetup, p: int, scale: float, points, seen, timi
 
 def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, info: dict,
            name: str = "caustic"):
-    """The pass's index, radii, pixel splat and (index, radii) of every photon, for the points
-    seen in mirrors; all None without photons.  The index and the photons' radii (not the
+    """The pass's index, radii, pixel splat and (index, radii, kept in the frame cache) of
+    every photon, for the points seen in mirrors; all None without photons.  The index and the photons' radii (not the
     splat, which depends on the camera) come from the setup's frame cache where it keeps
     them (``name``: which map)."""
     s, stage = setup.settings, setup.caustic
@@ -383,7 +384,7 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
     splat = whole = None
     if s.schedule.footprint > 0 and not setup.pin.aperture:  # a lens blurs what it splats
         t = time.perf_counter()
-        whole = (index, every)
+        whole = (index, every, setup.cache is not None and (name, p) in setup.cache)
         index, radii, splat = _split(setup, photons, index, r2, scale, p)
         timings["pixel splat"] = time.perf_counter() - t
     if index is not None:
@@ -410,9 +411,3 @@ def _split(setup: RenderSetup, photons, index, r2, scale, p: int):
         return None, None, image
     return index, FixedRadii(np.where(keep, r2, np.inf)), image
 
-
-def _kept_indices(setup: RenderSetup) -> list:
-    """The indices the setup's frame cache keeps (none without one)."""
-    if setup.cache is None:
-        return []
-    return [v[0] for v in setup.cache.values() if isinstance(v, tuple) and len(v) == 3]

@@ -16,8 +16,9 @@ or first meet a diffuse surface (the light's direct light, which the renderer's 
 compute) are not traced at all.  A photon whose own cell is live keeps its direction; one in
 a dead cell moves into the first live cell of its own hashed sequence of cells, keeping its
 place in the cell (:meth:`Emitter._stable_cells`): when the light moves and the map changes,
-only the photons of the cells that changed move (common random numbers for frames).  A direction that reaches a mirror through a dead cell would
-be lost: the dilation by a cell keeps every mirror edge a pilot ray saw; a mirror feature
+only the photons of the cells that changed move (common random numbers for frames).  A
+direction that reaches a mirror through a dead cell would be lost: the dilation by a cell
+keeps every mirror edge a pilot ray saw; a mirror feature
 thinner than a cell and missed by every pilot ray of three cells is the limit
 (:func:`projection_map`).  The light tracer (:mod:`blockhash.reference.lighttrace`) samples
 the plain cones, so it checks the map independently.
@@ -153,7 +154,6 @@ class Emitter:
 
     def __init__(self, lights, specular_objects, geometry=None, bounds=None):
         from blockhash.photons.light_targets import SurfaceSampler, light_targets
-
 
         self.positions, self.intensity, self.spot_axis, self.spot_cos = [], [], [], []
         cones: list[Cone] = []

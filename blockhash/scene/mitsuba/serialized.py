@@ -25,11 +25,10 @@ VERSIONS = (3, 4)
 HAS_NORMALS, HAS_TEXCOORDS, HAS_COLORS, FACE_NORMALS, DOUBLE = 0x0001, 0x0002, 0x0008, 0x0010, 0x2000
 
 
-def read_serialized(path: Path, shape_index: int = 0, *, with_uv: bool = False):
-    """(vertices (n, 3), faces (m, 3), the file's vertex normals or None, face normals flag) of
-    mesh ``shape_index`` of the ``serialized`` file at ``path``, and with ``with_uv`` its
-    texture coordinates (n, 2) or None after them; an InputError naming the file and what is
-    wrong with it."""
+def read_serialized(path: Path, shape_index: int = 0):
+    """(vertices (n, 3), faces (m, 3), the file's vertex normals or None, face normals flag,
+    texture coordinates (n, 2) or None) of mesh ``shape_index`` of the ``serialized`` file at
+    ``path``; an InputError naming the file and what is wrong with it."""
     data = Path(path).read_bytes()
 
     def bad(what: str):
@@ -90,6 +89,4 @@ def read_serialized(path: Path, shape_index: int = 0, *, with_uv: bool = False):
     if flags & HAS_COLORS:
         array(real, vertices, 3)
     faces = array("<u4", triangles, 3).astype(np.int64)
-    if with_uv:
-        return positions, faces, normals, bool(flags & FACE_NORMALS), uv
-    return positions, faces, normals, bool(flags & FACE_NORMALS)
+    return positions, faces, normals, bool(flags & FACE_NORMALS), uv

@@ -30,17 +30,10 @@ def shape_mesh(r, el, kind: str, p: dict) -> trimesh.Trimesh:
     """The mesh of a ``<shape>`` of ``kind`` with properties ``p`` (read by ``r``, an
     :class:`.xml_values.XmlReader`), in world space."""
     if kind in ("ply", "obj", "serialized"):
-        if "filename" not in p:
-            r.fail(el, "missing <string name=\"filename\">")
-        full = r.resolve(el, p["filename"], "mesh file")
+        vertices, faces, normals, flat, _, what = _file_arrays(r, el, kind, p)
         try:
-            if kind == "serialized":
-                vertices, faces, normals, flat = read_serialized(full, p.get("shape_index", 0))
-                mesh = meshes.mesh_from_arrays(vertices, faces, normals,
-                                               "flat" if flat or p.get("face_normals") else "auto",
-                                               f"{full} (shape_index {p.get('shape_index', 0)})")
-            else:
-                mesh = meshes.load_mesh(full, normals="flat" if p.get("face_normals") else "auto")
+            mesh = meshes.mesh_from_arrays(vertices, faces, normals, "flat" if flat else "auto",
+                                           what)
         except InputError as exc:
             r.fail(el, str(exc))
     elif kind == "rectangle":
@@ -107,21 +100,7 @@ def _raw(r, el, kind: str, p: dict):
     if kind == "rectangle":  # Mitsuba's texture coordinates: (x / 2 + 1/2, y / 2 + 1/2)
         return (RECTANGLE, RECTANGLE_FACES, np.tile([0.0, 0.0, 1.0], (4, 1)),
                 RECTANGLE[:, :2] * 0.5 + 0.5)
-    if "filename" not in p:
-        r.fail(el, "missing <string name=\"filename\">")
-    full = r.resolve(el, p["filename"], "mesh file")
-    flat = bool(p.get("face_normals"))
-    try:
-        if kind == "serialized":
-            vertices, faces, normals, flat_file, uv = read_serialized(
-                full, p.get("shape_index", 0), with_uv=True)
-            flat = flat or flat_file
-        else:
-            vertices, faces, normals, uv = meshes.mesh_arrays(full)
-            if uv is not None and kind == "obj":  # Mitsuba's OBJ loader flips v
-                uv = uv * [1.0, -1.0] + [0.0, 1.0]
-    except InputError as exc:
-        r.fail(el, str(exc))
+    vertices, faces, normals, flat, uv, _ = _file_arrays(r, el, kind, p)
     if uv is None:  # Mitsuba's texture coordinates of a mesh without them: (0, 0)
         uv = np.zeros((len(vertices), 2))
     mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False, validate=False)
@@ -130,6 +109,27 @@ def _raw(r, el, kind: str, p: dict):
         return (vertices[corners], np.arange(len(corners)).reshape(-1, 3),
                 np.repeat(mesh.face_normals, 3, axis=0), uv[corners])
     return vertices, faces, (normals if normals is not None else mesh.vertex_normals), uv
+
+
+def _file_arrays(r, el, kind: str, p: dict):
+    """(vertices, faces, the file's vertex normals or None, flat (face normals asked or
+    stored), texture coordinates as Mitsuba reads them or None, the file's name for errors) of
+    a ``ply``, ``obj`` or ``serialized`` shape, vertices not merged."""
+    if "filename" not in p:
+        r.fail(el, "missing <string name=\"filename\">")
+    full = r.resolve(el, p["filename"], "mesh file")
+    flat = bool(p.get("face_normals"))
+    try:
+        if kind == "serialized":
+            index = p.get("shape_index", 0)
+            vertices, faces, normals, flat_file, uv = read_serialized(full, index)
+            return vertices, faces, normals, flat or flat_file, uv, f"{full} (shape_index {index})"
+        vertices, faces, normals, uv = meshes.mesh_arrays(full)
+    except InputError as exc:
+        r.fail(el, str(exc))
+    if uv is not None and kind == "obj":  # Mitsuba's OBJ loader flips v
+        uv = uv * [1.0, -1.0] + [0.0, 1.0]
+    return vertices, faces, normals, flat, uv, f"the mesh file {str(full)!r}"
 
 
 def placed(r, el, mesh: trimesh.Trimesh, m) -> trimesh.Trimesh:
