@@ -312,12 +312,16 @@ def lambertian(scene):
 
 
 def scene_digest(scene) -> str:
-    """sha256 of what the light tracer sees: camera, lights, geometry, materials, photon settings."""
+    """sha256 of what the light tracer sees: camera, lights, geometry, materials, photon
+    settings (a camera field past the pinhole's, such as a crop or a lens, only where it is
+    not its default: the digests of scenes without them stay as they were)."""
     h = hashlib.sha256()
     c = scene.camera
     h.update(repr((c.eye.tolist(), c.target.tolist(), c.up.tolist(), c.fov_y_deg,
                    c.width, c.height) + (() if c.filter.is_box else (c.filter,))
-                  + (() if c.crop is None else (c.crop,))).encode())
+                  + (() if c.crop is None else (c.crop,))
+                  + (() if not c.aperture_radius else
+                     (c.aperture_radius, c.focus_distance))).encode())
     for light in scene.lights:
         h.update(repr((type(light).__name__, *(np.asarray(getattr(light, a)).tolist()
                                                for a in ("position", "power", "direction",

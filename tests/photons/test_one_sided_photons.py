@@ -82,3 +82,17 @@ def test_the_scene_digest_tells_the_faces_apart():
     two = replace(one, objects=(one.objects[0], replace(
         one.objects[1], material=replace(one.objects[1].material, sided="two"))))
     assert scene_digest(one) != scene_digest(two)
+
+
+def test_the_scene_digest_tells_a_crop_and_a_lens_apart():
+    """A crop and a thin lens change what a reference holds (the tradeoff study's budget cache
+    is keyed by the digest too); a pinhole's digest stays the same."""
+    from blockhash.reference.lighttrace import scene_digest
+
+    scene = mirror_under_a_ceiling(-1.0, "one")
+    digests = {scene_digest(replace(scene, camera=replace(scene.camera, **kw)))
+               for kw in ({}, {"crop": (0.0, 0.0, 0.5, 0.5)}, {"aperture_radius": 0.05},
+                          {"aperture_radius": 0.05, "focus_distance": 2.0})}
+    assert len(digests) == 4
+    assert scene_digest(replace(scene, camera=replace(scene.camera, focus_distance=2.0))) == \
+        scene_digest(scene)  # a pinhole's focus distance changes nothing
