@@ -12,7 +12,7 @@ from blockhash.frame.gbuffer import rasterize
 from blockhash.frame.shading import SceneRays, shading_points
 from blockhash.frame.subpixel import LENS_KEY, film_gbuffer, pass_points, subpixel_points
 from blockhash.scene.camera import SPP_SEED, Pinhole, grid_of, jitter_seed
-from blockhash.scene.model import MirrorMaterial
+from blockhash.scene.model import EnvironmentLight, MirrorMaterial
 
 
 def camera_points(scene, rays: SceneRays, samples, *, size=None, backend=None,
@@ -57,7 +57,9 @@ def camera_samples(scene, rays: SceneRays, samples, pass_index: int, *, backend=
 
 def _shade(scene, rays, gbuf, both_branches: bool):
     return shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,),
-                          both_branches=both_branches, events=scene.photons.camera_bounces)
+                          both_branches=both_branches, events=scene.photons.camera_bounces,
+                          environment=any(isinstance(li, EnvironmentLight)
+                                          for li in scene.lights))
 
 
 def only(points, keep):

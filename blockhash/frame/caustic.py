@@ -61,6 +61,9 @@ class ShadingPoints:
                                      ray was split at glass (:meth:`gather`); None: point
                                      (i, j) is sample (i, j)
     samples : (h, w) or None         the camera samples' grid, with ``owner``
+    escaped : (h, w) bool or None    the ray left the scene (material -1, ``view`` the
+                                     opposite of its direction): it sees an environment
+                                     light; None: none did
     """
 
     position: np.ndarray
@@ -70,6 +73,7 @@ class ShadingPoints:
     weight: np.ndarray
     owner: np.ndarray | None = None
     samples: tuple | None = None
+    escaped: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int]:

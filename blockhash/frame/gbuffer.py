@@ -15,6 +15,7 @@ import numpy as np
 
 from blockhash.errors import CapacityError
 from blockhash.gl.context import check_gl, get_context, home_framebuffer
+from blockhash.scene.camera import Pinhole
 
 VERTEX = """#version 450 core
 uniform mat4 view_proj;
@@ -66,7 +67,9 @@ class GBuffer:
     """position (h, w, 3) float32; normal (h, w, 3) float32; object (h, w) int32, -1 for none;
     front (h, w) bool: the camera sees the front face of the triangle (the side its face
     normal points to), or None where the G-buffer's maker did not say (the shading points
-    then cast the camera ray again where they need it, :func:`.shading.shading_points`)."""
+    then cast the camera ray again where they need it, :func:`.shading.shading_points`).
+    Where nothing is hit the position is one unit along the camera ray from where it started
+    (the shading points read the direction an environment light is seen along from it)."""
 
     position: np.ndarray
     normal: np.ndarray
@@ -127,6 +130,11 @@ def rasterize(camera, objects, *, size=None, backend=None) -> GBuffer:
             for obj in (vao, vbo, prog, fbo, depth, *targets):
                 obj.release()
     obj_id = np.where(pos[..., 3] >= 0, np.rint(pos[..., 3]), -1).astype(np.int32)
-    return GBuffer(position=np.ascontiguousarray(pos[..., :3]),
+    pos = np.array(pos[..., :3])
+    miss = obj_id < 0
+    if miss.any():  # one unit along the ray through the pixel's centre (GBuffer)
+        rays = Pinhole.of(camera, (width, height)).pixel_rays().reshape(height, width, 3)
+        pos[miss] = (np.asarray(camera.eye, dtype=np.float64) + rays[miss]).astype(np.float32)
+    return GBuffer(position=pos,
                    normal=np.ascontiguousarray(nrm[..., :3]), object=obj_id,
                    front=nrm[..., 3] > 0.5)

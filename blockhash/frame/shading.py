@@ -70,7 +70,8 @@ class SceneRays:
 
 
 def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
-                   both_branches: bool = False, events: int | None = None) -> ShadingPoints:
+                   both_branches: bool = False, events: int | None = None,
+                   environment: bool = False) -> ShadingPoints:
     """Per-pixel shading points; a pixel that sees a mirror or glass follows the ray.
 
     At a mirror the ray reflects and its path weight takes the reflectance.  At glass
@@ -84,7 +85,8 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     (:attr:`blockhash.scene.materials.PhongMaterial.sided`): black, as Mitsuba's ``diffuse``.
     ``events``: the most specular events a ray follows (None: :data:`MAX_MIRROR_BOUNCES`, or
     :data:`MAX_DIELECTRIC_EVENTS` in a scene with glass; 0: a ray that meets a mirror or glass
-    shades nothing).
+    shades nothing).  With ``environment`` (the scene has an environment light) the rays that
+    left the scene are marked (:attr:`ShadingPoints.escaped`), for the light they see.
 
     With ``both_branches`` (the renderer's choice) a ray at glass follows both branches
     instead, the reflection weighted by the Fresnel reflectance F and the refraction by
@@ -95,12 +97,14 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     from blockhash.scene.model import DielectricMaterial
 
     if both_branches and any(isinstance(o.material, DielectricMaterial) for o in objects):
-        return branch_points(camera, gbuffer, objects, rays, mirror_types, events)
+        return branch_points(camera, gbuffer, objects, rays, mirror_types, events,
+                             environment=environment)
 
     h, w = gbuffer.object.shape
     glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types, rays.geometry)
     backs = one_sided(objects)
     pos, nrm, obj, view, outer = _camera_start(camera, gbuffer, glass | backs, rays)
+    escaped = obj < 0
     _no_back(obj, outer, backs)
     weight = np.ones((h * w, 3))
     choices = choice_uniforms(CAMERA_CHOICE_SEED, 0, h * w) if glass.any() else None
@@ -127,6 +131,7 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
             weight[gi] *= factor
             side[np.flatnonzero(g)[through]] = -1.0
         pos[idx], nrm[idx], obj[idx], outer[idx] = _follow(rays, pos[idx], n, r, side)
+        escaped[idx] = obj[idx] < 0
         obj[idx] = _no_back(obj[idx], outer[idx], backs)
         view[idx] = -r
     obj[specular[obj]] = -1  # still on a specular surface after the last event: nothing to shade
@@ -134,7 +139,9 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
                          normal=nrm.reshape(h, w, 3).astype(np.float32),
                          view=view.reshape(h, w, 3).astype(np.float32),
                          material=obj.reshape(h, w).astype(np.int32),
-                         weight=weight.reshape(h, w, 3).astype(np.float32))
+                         weight=weight.reshape(h, w, 3).astype(np.float32),
+                         escaped=escaped.reshape(h, w) if environment and escaped.any()
+                         else None)
 
 
 def _camera_start(camera, gbuffer, sided, rays: SceneRays):
@@ -214,7 +221,7 @@ def _surface_tables(objects, mirror_types, geometry):
 
 
 def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
-                  events: int | None = None) -> ShadingPoints:
+                  events: int | None = None, *, environment: bool = False) -> ShadingPoints:
     """Shading points of camera rays that follow both branches at glass
     (:func:`shading_points` with ``both_branches``): at each dielectric event a ray becomes
     a reflected ray of weight F and a refracted one of weight (1 - F) tint (one reflected
@@ -232,16 +239,17 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types, rays.geometry)
     backs = one_sided(objects)
     pos, nrm, obj, view, outer = _camera_start(camera, gbuffer, glass | backs, rays)
+    esc = obj < 0
     _no_back(obj, outer, backs)
     owner = np.arange(h * w)
     weight = np.ones((h * w, 3))
-    done = []  # (owner, pos, nrm, view, obj, weight) of points that left the specular chain
+    done = []  # (owner, pos, nrm, view, obj, weight, escaped) of points off the specular chain
     if events == 0:  # no event followed: the points the camera sees directly
         on = specular[obj]
-        done.append((owner[~on], pos[~on], nrm[~on], view[~on], obj[~on], weight[~on]))
+        done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, weight, esc)))
     for _ in range(MAX_DIELECTRIC_EVENTS if events is None else events):
         on = specular[obj]
-        done.append((owner[~on], pos[~on], nrm[~on], view[~on], obj[~on], weight[~on]))
+        done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, weight, esc)))
         if not on.any():
             owner = owner[:0]
             break
@@ -267,24 +275,27 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
         live = wts.max(axis=1) >= BRANCH_CUTOFF
         parent, dirs, wts, side = parent[live], dirs[live], wts[live], side[live]
         pos, nrm, obj, outer = _follow(rays, pos[parent], nrm[parent], dirs, side)
+        esc = obj < 0
         _no_back(obj, outer, backs)
         owner, view, weight = owner[parent], -dirs, wts
-    # Rays still on a specular surface after the last event, and those that left the scene,
-    # shade nothing: only the points that shade something are kept.
+    # Rays still on a specular surface after the last event shade nothing, and are dropped;
+    # so are those that left the scene, unless an environment light is seen along them.
     parts = [np.concatenate(col) for col in zip(*done)]
-    shade = parts[4] >= 0
+    shade = (parts[4] >= 0) | (parts[6] & environment)
     parts = [a[shade] for a in parts]
     m = len(parts[0])
     rows = max(-(-m // w), 1)  # one row at least: a pass needs a texture
     pad = rows * w - m
-    own, p, n, v, o, wt = (np.concatenate([a, np.zeros((pad,) + a.shape[1:], a.dtype)]) for a in parts)
+    own, p, n, v, o, wt, es = (np.concatenate([a, np.zeros((pad,) + a.shape[1:], a.dtype)])
+                               for a in parts)
     o[m:] = -1
     return ShadingPoints(position=p.reshape(rows, w, 3).astype(np.float32),
                          normal=n.reshape(rows, w, 3).astype(np.float32),
                          view=v.reshape(rows, w, 3).astype(np.float32),
                          material=o.reshape(rows, w).astype(np.int32),
                          weight=wt.reshape(rows, w, 3).astype(np.float32),
-                         owner=own.astype(np.int64), samples=(h, w))
+                         owner=own.astype(np.int64), samples=(h, w),
+                         escaped=es.reshape(rows, w) if environment and es.any() else None)
 
 
 def _cone(light):
@@ -316,7 +327,7 @@ def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
     mat = points.material.reshape(-1)
     live = np.flatnonzero(mat >= 0)
     out = np.zeros((h * w, 3))
-    if not len(live):
+    if not len(live) and points.escaped is None:
         return out.reshape(h, w, 3)
     p = points.position.reshape(-1, 3)
     n = points.normal.reshape(-1, 3)
@@ -328,6 +339,7 @@ def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
 
     kd, ks, e = per_object("kd", np.zeros(3)), per_object("ks", np.zeros(3)), per_object("n", 1.0)[:, 0]
     surface_lights.emission_seen(out, lights, objects, p, wo, mat, rays)
+    surface_lights.environment_seen(out, lights, points)
     owner = np.arange(h * w) if points.owner is None else points.owner
     samples = h * w if points.samples is None else int(np.prod(points.samples))
     for li, light in enumerate(lights):
@@ -337,6 +349,10 @@ def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
             continue
         if hasattr(light, "irradiance"):
             surface_lights.directional_light(out, light, live, p, n, wo, mat, kd, ks, e, rays)
+            continue
+        if hasattr(light, "image"):
+            surface_lights.environment_light(out, light, live, p, n, wo, mat, kd, ks, e, rays,
+                                             pass_index, li, owner, samples)
             continue
         lp = np.asarray(light.position, dtype=np.float64).reshape(1, 3)
         front = _facing(p, n, live, lp[0])

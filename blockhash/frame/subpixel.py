@@ -101,6 +101,7 @@ def film_gbuffer(pin: Pinhole, rays, x: np.ndarray, y: np.ndarray, *,
     any shape), by ray casting."""
     o, d = pin.lens_rays(x, y, lens_seed)
     hit, p, n, obj, _, outer = rays.first_hit(o, d, sides=True)
+    p[~hit] = o[~hit] + d[~hit]  # a miss: a point one unit along its ray (GBuffer)
     flip = np.einsum("ij,ij->i", n, d) > 0
     n[flip] *= -1.0
     shape = x.shape

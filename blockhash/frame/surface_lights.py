@@ -10,9 +10,16 @@
   n stratified samples, and soft shadows converge with passes.
 * **Directional light**: a shadow ray against its direction, out of the scene; radiance
   ``E f_r(wi, wo) cos(theta_x)``.
+* **Environment light** (:class:`blockhash.scene.environment_light.EnvironmentLight`): one
+  direction per shading point and pass drawn by the map's own sampling from the same
+  per-point sequence as an area light's point (the cell and its column from the first
+  coordinate, the band from the second), a shadow ray out of the scene; radiance
+  ``L(w) f_r(wi, wo) cos(theta_x) / p(w)``.
 * **Emission seen**: a shading point on an area light's object whose viewer is on the front
   of the face it lies on adds the light's radiance ``L`` (times the path weight, as every
-  term of the direct layer), so the light is seen directly and in mirrors and glass.
+  term of the direct layer), so the light is seen directly and in mirrors and glass; a camera
+  ray that left the scene (:attr:`blockhash.frame.caustic.ShadingPoints.escaped`) sees the
+  environment's radiance along it.
 """
 
 from __future__ import annotations
@@ -95,14 +102,51 @@ def directional_light(out, light, live, p, n, wo, mat, kd, ks, e, rays) -> None:
     ok = np.flatnonzero(nx @ toward > 0.0)
     if not len(ok):
         return
-    offset = RAY_OFFSET * rays.scale
-    origins = p[live[ok]].astype(np.float64) + nx[ok] * offset
     dirs = np.broadcast_to(toward, (len(ok), 3)).copy()
-    far = np.full(len(ok), 4.0 * rays.scale + float(np.abs(origins).max()) * 2.0 + 1.0)
-    lit = ~rays.geometry.occluded(origins, dirs, far)
+    lit = _open(rays, p[live[ok]], nx[ok], dirs)
     ok = ok[lit]
     li = np.broadcast_to(light.irradiance, (len(ok), 3))
     _shade(out, live[ok], dirs[lit], n, wo, mat, kd, ks, e, np.ascontiguousarray(li))
+
+
+def environment_light(out, light, live, p, n, wo, mat, kd, ks, e, rays, pass_index: int,
+                      light_index: int, owner: np.ndarray, samples: int) -> None:
+    """Adds to ``out`` the direct light of ``light`` (an EnvironmentLight) at ``live``: one
+    direction per point by the map's sampling (module docstring)."""
+    if not len(live):
+        return
+    u = light_uniforms(samples, owner[live], pass_index, light_index)
+    toward, pdf = light.sample(u[:, 0], None, u[:, 1])
+    nx = n[live].astype(np.float64)
+    ok = np.flatnonzero((np.einsum("ij,ij->i", toward, nx) > 0.0) & (pdf > 0.0))
+    if not len(ok):
+        return
+    lit = _open(rays, p[live[ok]], nx[ok], toward[ok])
+    ok = ok[lit]
+    li = light.emitted(toward[ok]) / pdf[ok, None]
+    _shade(out, live[ok], toward[ok], n, wo, mat, kd, ks, e, li)
+
+
+def environment_seen(out, lights, points) -> None:
+    """Adds to ``out`` (flat (m, 3)) an environment light's radiance along each camera ray
+    that left the scene (:attr:`blockhash.frame.caustic.ShadingPoints.escaped`)."""
+    if points.escaped is None:
+        return
+    gone = np.flatnonzero(points.escaped.reshape(-1))
+    toward = -points.view.reshape(-1, 3)[gone].astype(np.float64)
+    toward /= np.maximum(np.linalg.norm(toward, axis=1, keepdims=True), 1e-30)
+    for light in lights:
+        if hasattr(light, "image"):
+            out[gone] += light.emitted(toward)
+
+
+def _open(rays, points, normals, dirs) -> np.ndarray:
+    """(m,) bool: nothing of the scene lies along ``dirs`` from ``points`` (lifted off their
+    surface along ``normals``): the ray leaves the scene."""
+    offset = RAY_OFFSET * rays.scale
+    origins = points.astype(np.float64) + normals * offset
+    far = np.full(len(origins), 4.0 * rays.scale + float(np.abs(origins).max()) * 2.0 + 1.0)
+    return ~rays.geometry.occluded(origins, np.ascontiguousarray(dirs), far)
 
 
 def emission_seen(out, lights, objects, p, wo, mat, rays) -> None:

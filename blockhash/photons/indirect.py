@@ -6,8 +6,11 @@ point or spot light uniformly inside the narrower of its own cone (the whole sph
 point light) and the cone that holds the scene's bounding sphere (a direction outside a
 spot's cone carries nothing), an area light
 from a point uniform by area in a cosine-distributed direction, a directional light from a
-disc across its direction that covers the scene's bounding sphere.  A light is chosen by its
-power (a directional light's: its irradiance over that disc), and a photon carries the
+disc across its direction that covers the scene's bounding sphere, an environment light the
+same across a direction drawn by its map's sampling
+(:meth:`blockhash.scene.environment_light.EnvironmentLight.sample`, weight ``L / p`` times
+the disc's area).  A light is chosen by its power (a directional light's: its irradiance over
+that disc; an environment's: its radiance over the sphere times the disc), and a photon carries the
 light's power over that probability, divided by the photons shot.  They follow mirrors and
 glass as the caustic photons do (:func:`blockhash.photons.paths.specular_step`) and at a
 diffuse (modified Phong) surface bounce on: a cosine-distributed direction about the shading
@@ -118,6 +121,8 @@ class IndirectSource:
         or spot light's into the cone it is sampled in."""
         if hasattr(light, "irradiance"):
             return np.asarray(light.irradiance) * np.pi * self.radius ** 2
+        if hasattr(light, "image"):  # an environment: its light through the disc
+            return np.asarray(light.integral) * np.pi * self.radius ** 2
         if cone is not None:
             return cone[2] * 2.0 * np.pi * (1.0 - cone[1])
         return np.asarray(light.power, dtype=np.float64)
@@ -191,6 +196,18 @@ class IndirectSource:
                 o[rows] = (self.center - 2.0 * self.radius * D + (rho * np.cos(phi))[:, None] * t1
                            + (rho * np.sin(phi))[:, None] * t2)
                 d[rows] = D
+            elif hasattr(light, "image"):  # an environment: a direction by its map, then a disc
+                if extra is None:
+                    extra = _uniforms(seed + EMIT_KEY, start, n)
+                toward, p = light.sample(extra[rows, 0], extra[rows, 1], extra[rows, 2])
+                D = -toward
+                t1, t2 = frames(D)
+                rho, phi = self.radius * np.sqrt(u1), 2.0 * np.pi * u2
+                o[rows] = (self.center - 2.0 * self.radius * D + (rho * np.cos(phi))[:, None] * t1
+                           + (rho * np.sin(phi))[:, None] * t2)
+                d[rows] = D
+                w[rows] = (light.emitted(toward) / p[:, None]) * (np.pi * self.radius ** 2
+                                                                   / self.pmf[li])
             elif hasattr(light, "radiance"):  # a point by area, a cosine direction
                 if extra is None:
                     extra = _uniforms(seed + EMIT_KEY, start, n)

@@ -19,6 +19,10 @@ radius ``r``):
   shadow on it, radius ``r``); a photon picks target ``j`` by ``pmf_j``, a point uniform in its
   disc and travels along ``D``; its weight is ``E / q(x)``, ``q(x) = sum_j pmf_j [x in disc_j]
   / (pi r_j^2)``.  No photon is shot where no specular object is.
+* **Environment light** (:class:`blockhash.scene.environment_light.EnvironmentLight`): a
+  direction ``w`` toward the map drawn by its own sampling (density ``p(w)`` per steradian),
+  then the directional light's discs across ``-w``; the weight is ``L(w) / (p(w) q(x | w))``.
+  A target's brightness is ``pi r^2`` times the radiance integrated over the sphere.
 
 ``pmf_j`` is proportional to an estimate of the flux the light sends into target ``j``'s cone
 or disc (:func:`area_brightness`); a poor estimate costs noise, never bias.  A target that the
@@ -85,7 +89,7 @@ def area_brightness(light, center: np.ndarray, radius: float) -> float:
 def light_targets(lights, specular_objects, scene_bounds: np.ndarray) -> list[Target]:
     """The targets of the scene's area and directional lights (point and spot lights are
     :mod:`.emission`'s cones), those with positive brightness only."""
-    from blockhash.scene.model import AreaLight, DirectionalLight
+    from blockhash.scene.model import AreaLight, DirectionalLight, EnvironmentLight
 
     spheres = [(str(o.name), *bounding_sphere(np.asarray(o.mesh.vertices, dtype=np.float64)))
                for o in specular_objects if len(o.mesh.faces)]
@@ -98,6 +102,9 @@ def light_targets(lights, specular_objects, scene_bounds: np.ndarray) -> list[Ta
             elif isinstance(light, DirectionalLight):
                 b = float(np.mean(light.irradiance)) * np.pi * radius * radius
                 kind = "directional"
+            elif isinstance(light, EnvironmentLight):
+                b = float(np.mean(light.integral)) * np.pi * radius * radius
+                kind = "environment"
             else:
                 continue
             if b > 0.0:
@@ -142,6 +149,8 @@ class SurfaceSampler:
             light = self.lights[li]
             if hasattr(light, "face_areas"):
                 o, d, w = self._area(li, light, j[rows], u[rows], extra[rows])
+            elif hasattr(light, "image"):
+                o, d, w = self._environment(li, light, j[rows], u[rows], extra[rows])
             else:
                 o, d, w = self._directional(li, light, j[rows], u[rows])
             origins[rows], dirs[rows], weights[rows] = o, d, w
@@ -174,23 +183,35 @@ class SurfaceSampler:
         return y, d, w
 
     def _directional(self, li, light, j, u):
-        n = len(j)
         D = np.asarray(light.direction, dtype=np.float64)
         t1, t2 = orthonormal_basis(D)
-        s0 = float((self._corners @ D).min()) - self._margin  # upstream of every object
+        origins, q = self._disc(li, j, u, np.broadcast_to(D, (len(j), 3)),
+                                np.broadcast_to(t1, (len(j), 3)), np.broadcast_to(t2, (len(j), 3)))
+        dirs = np.broadcast_to(D, (len(j), 3)).copy()
+        return origins, dirs, light.irradiance[None, :] / q[:, None]
+
+    def _environment(self, li, light, j, u, extra):
+        toward, p = light.sample(extra[:, 0], extra[:, 1], extra[:, 2])
+        D = -toward
+        t1, t2 = frames(D)
+        origins, q = self._disc(li, j, u, D, t1, t2)
+        w = light.emitted(toward) / (p * q)[:, None]
+        return origins, D, w
+
+    def _disc(self, li, j, u, D, t1, t2):
+        """(origins (n, 3), mixture density q (n,) per square metre) of photons travelling
+        along ``D`` (n, 3) (frames ``t1``, ``t2``) from a point in target ``j``'s disc across
+        it, upstream of every object (module docstring)."""
+        s0 = (self._corners @ D.T).min(axis=0) - self._margin
         c = self.centers[j]
-        r = self.radii[j]
-        rho = r * np.sqrt(u[:, 1])
+        rho = self.radii[j] * np.sqrt(u[:, 1])
         phi = 2.0 * np.pi * u[:, 2]
-        a = c @ t1 + rho * np.cos(phi)
-        b = c @ t2 + rho * np.sin(phi)
-        q = np.zeros(n)
+        a = np.einsum("ij,ij->i", c, t1) + rho * np.cos(phi)
+        b = np.einsum("ij,ij->i", c, t2) + rho * np.sin(phi)
+        q = np.zeros(len(j))
         for t in np.flatnonzero(self.light == li):
-            da = a - self.centers[t] @ t1
-            db = b - self.centers[t] @ t2
+            da = a - t1 @ self.centers[t]
+            db = b - t2 @ self.centers[t]
             inside = da * da + db * db <= self.radii[t] ** 2 * (1.0 + 1e-12)
             q += np.where(inside, self.pmf[t] / (np.pi * self.radii[t] ** 2), 0.0)
-        origins = a[:, None] * t1 + b[:, None] * t2 + s0 * D
-        dirs = np.broadcast_to(D, (n, 3)).copy()
-        w = light.irradiance[None, :] / q[:, None]
-        return origins, dirs, w
+        return a[:, None] * t1 + b[:, None] * t2 + s0[:, None] * D, q

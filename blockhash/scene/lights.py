@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from blockhash.scene.environment_light import EnvironmentLight
 from blockhash.scene.values import FieldError as _FieldError
 from blockhash.scene.values import check_mesh
 from blockhash.scene.values import fmt as _fmt
@@ -245,7 +246,7 @@ class DirectionalLight:
 
 
 #: The light classes a :class:`Scene` takes.
-LIGHTS = (PointLight, SpotLight, AreaLight, DirectionalLight)
+LIGHTS = (PointLight, SpotLight, AreaLight, DirectionalLight, EnvironmentLight)
 
 
 def check_lights(lights, objects) -> None:
@@ -253,10 +254,15 @@ def check_lights(lights, objects) -> None:
     and not a mirror or glass (blockhash's emitters are diffuse surfaces)."""
     by_name = {o.name: o for o in objects}
     emitting = set()
+    environments = 0
     for i, light in enumerate(lights):
         if not isinstance(light, LIGHTS):
-            raise _FieldError(f"lights[{i}]", "expected a PointLight, SpotLight, AreaLight or "
-                              f"DirectionalLight; got {type(light).__name__}")
+            raise _FieldError(f"lights[{i}]", "expected a PointLight, SpotLight, AreaLight, "
+                              f"DirectionalLight or EnvironmentLight; got {type(light).__name__}")
+        if isinstance(light, EnvironmentLight) and environments:
+            raise _FieldError(f"lights[{i}]", "a second environment light; give one (the sum "
+                              "of their radiances, in one map)")
+        environments += isinstance(light, EnvironmentLight)
         if not isinstance(light, AreaLight):
             continue
         obj = by_name.get(light.object)

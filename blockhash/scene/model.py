@@ -25,6 +25,7 @@ from blockhash.scene.lights import (  # noqa: F401 (the lights, importable from 
     LIGHTS,
     AreaLight,
     DirectionalLight,
+    EnvironmentLight,
     PointLight,
     SpotLight,
     check_lights,
@@ -346,6 +347,10 @@ class Scene:
             elif isinstance(light, DirectionalLight):
                 lines.append(f"  light   directional along {_fmt(light.direction)}, irradiance "
                              f"{_fmt(light.irradiance)} W/m^2")
+            elif isinstance(light, EnvironmentLight):
+                h, w = light.image.shape[:2]
+                lines.append(f"  light   environment {light.name!r}, {w} x {h} pixels, radiance "
+                             f"over the sphere {_fmt(light.integral)} W/m^2")
             elif isinstance(light, SpotLight):
                 lines.append(f"  light   spot at {_fmt(light.position)} along {_fmt(light.direction)}, "
                              f"cone {light.cone_deg:g} deg"

@@ -29,7 +29,10 @@ Mapped:
 * emitters ``point`` (``position`` or ``to_world``, not both, as in Mitsuba;
   ``intensity``), ``spot`` (``to_world``, ``intensity``, ``cutoff_angle``,
   ``beam_width`` with its linear falloff) and
-  ``directional`` (``direction`` or ``to_world``'s +z, not both; ``irradiance``), and an
+  ``directional`` (``direction`` or ``to_world``'s +z, not both; ``irradiance``), ``envmap``
+  (``filename``, ``scale``, ``to_world``'s rotation: an
+  :class:`blockhash.scene.environment_light.EnvironmentLight`), ``constant`` (an emitting box
+  around the scene, :mod:`.environment`), and an
   ``area`` emitter inside a shape (``radiance``; the shape becomes an
   :class:`blockhash.scene.model.AreaLight`, emitting from its front face, and keeps its BSDF
   for the light it reflects).  An emitter's ``<spectrum value="v"/>`` is a flat spectrum,
@@ -37,8 +40,7 @@ Mapped:
   (:data:`.xml_values.FLAT_EMITTER_RGB`); a spectrum of wavelength:value pairs as those
   variants take it (:mod:`.spectra`).
 
-Refused: every other element, plugin type and property (``envmap`` and ``constant``
-emitters, an area emitter on a mirror or glass shape or with a textured radiance, textures, media, rough
+Refused: every other element, plugin type and property (an area emitter on a mirror or glass shape or with a textured radiance, textures, media, rough
 or measured BSDFs, other sensors and integrators, filters other than box, tent and
 Gaussian, spectra from a file, a sensor to_world with scale, shear or a mirror flip,
 clip planes that would clip the scene, more than 1024 samples a pixel, depths its
@@ -66,7 +68,7 @@ from blockhash.scene.lights import falloff_solid_angle
 from blockhash.scene.mitsuba import sensor as mitsuba_sensor
 from blockhash.scene.mitsuba.bsdfs import TwoFaced, two_sheets
 from blockhash.scene.mitsuba.bsdfs import bsdf as read_bsdf
-from blockhash.scene.mitsuba.environment import environment
+from blockhash.scene.mitsuba.environment import environment, envmap
 from blockhash.scene.mitsuba.exporter import METADATA_MARK
 from blockhash.scene.mitsuba.shapes import PROPERTIES, SHAPES, placed, shape_mesh, textured_meshes
 from blockhash.scene.mitsuba.textures import TexturedDiffuse
@@ -82,12 +84,8 @@ from blockhash.scene.model import (
     SpotLight,
 )
 
-EMITTERS = ("point", "spot", "directional")
+EMITTERS = ("point", "spot", "directional", "envmap")
 #: Emitters Mitsuba has that blockhash does not model, with the way out.
-REFUSED_EMITTERS = {
-    "envmap": "an environment map lights from every direction, which blockhash does not "
-              "model; use a directional emitter for the sun, or area emitters",
-}
 ELEMENTS = ("default", "path", "include", "integrator", "sensor", "sampler", "texture", "bsdf",
             "emitter", "shape")
 
@@ -95,15 +93,15 @@ ELEMENTS = ("default", "path", "include", "integrator", "sensor", "sampler", "te
 class _Reader(XmlReader):
     def emitter(self, el):
         kind = el.get("type")
-        if kind in REFUSED_EMITTERS:
-            self.fail(el, REFUSED_EMITTERS[kind])
         if kind == "area":
             self.fail(el, "an area emitter belongs inside a <shape> (the surface that emits); "
                       "move it into one, or give it an id and <ref id> it from the shape")
         if kind not in EMITTERS:
-            self.fail(el, f"unsupported emitter; supported: {', '.join(EMITTERS)}, and area "
-                      "inside a shape (blockhash's lights)")
+            self.fail(el, f"unsupported emitter; supported: {', '.join(EMITTERS)}, constant, "
+                      "and area inside a shape (blockhash's lights)")
         spectra = ("rgb", "spectrum", "float")
+        if kind == "envmap":
+            return envmap(self, el)
         if kind == "directional":
             p = self.props(el, {"direction": ("vector",), "irradiance": spectra,
                                 "to_world": ("transform",)}, children=("texture",),

@@ -244,7 +244,8 @@ CASES = [
     (dict(lens='<float name="fov" value="40"/><string name="fov_axis" value="z"/>'), r"s.xml:2: .*fov_axis 'z'"),
     (dict(light=""), r"s.xml:1: <scene>: no <emitter>.*point, spot, directional and area.*inside a shape"),
     (dict(light='<emitter type="envmap"><string name="filename" value="sky.exr"/></emitter>'),
-     r"s.xml:8: <emitter type=\"envmap\">: an environment map .*use a directional emitter for the sun"),
+     r"s.xml:8: <emitter type=\"envmap\">: environment map not found: 'sky.exr', looked for at .*"
+     r"fix the name or add <path"),
     (dict(light='<emitter type="constant"><float name="scale" value="2"/></emitter>'), r"s.xml:8: <float name=\"scale\">: unsupported here"),
     (dict(light='<emitter type="area"/>'), r"s.xml:8: <emitter type=\"area\">: an area emitter belongs inside a <shape>.*move it into one"),
     (dict(body='<shape type="sphere"><bsdf type="conductor"><string name="material" value="none"/></bsdf>'
