@@ -9,7 +9,10 @@ its hashed sequence), the weight the light's intensity over the mixture density 
 light's cones that hold it, zero outside a spot's cone and its falloff toward the edge; an
 area light's point uniform by area,
 a direction in the cone toward the target's bounding sphere, the weight ``L cos A / q``; a
-directional light's point in the target's disc upstream of the scene, the weight ``E / q``.
+directional light's point in the target's disc upstream of the scene, the weight ``E / q``;
+an environment light's direction by its map's cells (:mod:`.environment`), then the
+directional light's discs across it, the weight ``L / (p q)``.  The lights' own tables are
+:mod:`.light_tables`'.
 Every number of the scene is an array the kernels gather from (none a literal of the code),
 so a light that moves between frames reuses the compiled kernel.
 
@@ -23,6 +26,7 @@ import math
 
 import numpy as np
 
+from blockhash.device.light_tables import LightTables, float_table, uint_table
 from blockhash.photons.directions import NEAR_REFERENCE, REFERENCE, SECOND_REFERENCE
 from blockhash.photons.emission import MAP_CELLS, STABLE_TRIES, tried_cell
 from blockhash.photons.light_targets import INSIDE
@@ -33,19 +37,6 @@ REL_EPS, ABS_EPS = 1e-4, 1e-9
 #: Uniforms a photon's emission draws: the source, two for the direction, the map's cell, and
 #: an area light's triangle and point.
 EMISSION_UNIFORMS = 7
-
-
-def _f32(mi, values, width=None):
-    a = np.asarray(values, dtype=np.float64)
-    if width is not None:
-        a = a.reshape(-1, width)
-    return mi.Float(np.ascontiguousarray(a, dtype=np.float32).reshape(-1) if a.size else
-                    np.zeros(1, np.float32))
-
-
-def _u32(mi, values):
-    a = np.asarray(values, dtype=np.uint32).reshape(-1)
-    return mi.UInt32(a if a.size else np.zeros(1, np.uint32))
 
 
 def _omc(cos_half: float) -> float:
@@ -74,103 +65,6 @@ def in_cone(dr, axis, t1, t2, omc, u1, u2):
     return dr.normalize(cos_t * axis + (sin_t * cos_p) * t1 + (sin_t * sin_p) * t2)
 
 
-class LightTables:
-    """The scene's lights as device tables, by light index: positions, spot cones and their
-    falloff, area lights' triangles (each light's own area cdf), directional lights' frames
-    and the plane upstream of every object."""
-
-    def __init__(self, lights, bounds, device):
-        self.mi, self.dr = mi, dr = device.modules()
-        from blockhash.photons.directions import orthonormal_basis
-        from blockhash.scene.model import AreaLight, DirectionalLight
-
-        n = len(lights)
-        spot = np.zeros(n, np.uint32)
-        axis = np.zeros((n, 3))
-        cos = np.full(n, -1.0)
-        ramp = np.zeros(n, np.uint32)
-        cone_rad = np.zeros(n)
-        beam_rad = np.zeros(n)
-        for li, light in enumerate(lights):
-            cone_deg = getattr(light, "cone_deg", None)
-            if cone_deg is not None:
-                a = np.asarray(light.direction, dtype=np.float64)
-                spot[li], axis[li], cos[li] = 1, a / np.linalg.norm(a), math.cos(math.radians(cone_deg))
-                if not light.uniform:
-                    ramp[li] = 1
-                    cone_rad[li] = math.radians(light.cone_deg)
-                    beam_rad[li] = math.radians(light.beam_deg)
-        self.position = _f32(mi, [getattr(li, "position", (0.0, 0.0, 0.0)) for li in lights], 3)
-        self.spot, self.spot_axis, self.spot_cos = _u32(mi, spot), _f32(mi, axis), _f32(mi, cos)
-        self.ramp, self.cone_rad, self.beam_rad = _u32(mi, ramp), _f32(mi, cone_rad), _f32(mi, beam_rad)
-        self.any_spot, self.any_ramp = bool(spot.any()), bool(ramp.any())
-        # area lights: their triangles one after another, each light's area cdf over its own
-        tri, normals, cdf, first, count, area, radiance = [], [], [], np.zeros(n), np.zeros(n), \
-            np.zeros(n), np.zeros((n, 3))
-        # directional lights: the direction, its frame and the plane upstream of every object
-        sun_d, sun_t1, sun_t2, sun_s0, irradiance = (np.zeros((n, 3)), np.zeros((n, 3)),
-                                                     np.zeros((n, 3)), np.zeros(n), np.zeros((n, 3)))
-        lo, hi = np.asarray(bounds, dtype=np.float64)
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
-                            for z in (lo[2], hi[2])])
-        margin = 1e-3 * max(float(np.linalg.norm(hi - lo)), 1e-9)
-        for li, light in enumerate(lights):
-            if isinstance(light, AreaLight):
-                first[li], count[li] = sum(len(t) for t in tri), len(light.face_areas)
-                tri.append(light.triangles)
-                normals.append(light.face_normals)
-                cdf.append(light.area_cdf)
-                area[li], radiance[li] = light.area, light.radiance
-            elif isinstance(light, DirectionalLight):
-                d = np.asarray(light.direction, dtype=np.float64)
-                d = d / np.linalg.norm(d)
-                sun_d[li] = d
-                sun_t1[li], sun_t2[li] = orthonormal_basis(d)
-                sun_s0[li] = float((corners @ d).min()) - margin
-                irradiance[li] = light.irradiance
-        cat = lambda parts, w: np.concatenate(parts).reshape(-1, w) if parts else np.zeros((1, w))  # noqa: E731
-        self.area_tri, self.area_normal = _f32(mi, cat(tri, 9)), _f32(mi, cat(normals, 3))
-        self.area_cdf = _f32(mi, cat(cdf, 1))
-        self.area_first, self.area_count = _u32(mi, first), _u32(mi, count)
-        self.area, self.radiance = _f32(mi, area), _f32(mi, radiance)
-        self.sun_d, self.sun_t1, self.sun_t2 = _f32(mi, sun_d), _f32(mi, sun_t1), _f32(mi, sun_t2)
-        self.sun_s0, self.irradiance = _f32(mi, sun_s0), _f32(mi, irradiance)
-
-    def spot_weight(self, light, d, w, on):
-        """Nothing outside a spot's cone; its falloff between the beam and the cone."""
-        mi, dr = self.mi, self.dr
-        spot = on & (dr.gather(mi.UInt32, self.spot, light, on) != 0)
-        cos = dr.dot(d, dr.gather(mi.Vector3f, self.spot_axis, light, spot))
-        out = spot & (cos < dr.gather(mi.Float, self.spot_cos, light, spot) - 1e-6)
-        w = dr.select(out, 0.0, w)
-        if self.any_ramp:
-            ramp = spot & (dr.gather(mi.UInt32, self.ramp, light, spot) != 0)
-            c = dr.gather(mi.Float, self.cone_rad, light, ramp)
-            b = dr.gather(mi.Float, self.beam_rad, light, ramp)
-            theta = dr.acos(dr.clip(cos, -1.0, 1.0))
-            f = dr.select(theta <= b, 1.0, dr.clip((c - theta) / dr.maximum(c - b, 1e-30), 0.0, 1.0))
-            w = dr.select(ramp, w * dr.select(cos > dr.cos(c), f, 0.0), w)
-        return w
-
-    def area_point(self, light, u_face, u1, u2, on):
-        """(points, front normals) uniform by area on the area lights ``light`` (the
-        triangle of its area cdf that holds ``u_face``, barycentrics 1 - sqrt(u1),
-        sqrt(u1) u2), as :meth:`blockhash.scene.lights.AreaLight.points`."""
-        mi, dr = self.mi, self.dr
-        first = dr.gather(mi.UInt32, self.area_first, light, on)
-        count = dr.gather(mi.UInt32, self.area_count, light, on)
-        last = dr.maximum(count, 1) - 1
-        cdf = self.area_cdf
-        f = dr.binary_search(0, 1 << 30, lambda i: (i < count) & (dr.gather(
-            mi.Float, cdf, first + dr.minimum(i, last), on) <= u_face))
-        f = first + dr.minimum(mi.UInt32(f), last)
-        s = dr.sqrt(u1)
-        b0, b2 = 1.0 - s, s * u2
-        p = [dr.gather(mi.Point3f, self.area_tri, f * 3 + c, on) for c in range(3)]
-        return b0 * p[0] + (1.0 - b0 - b2) * p[1] + b2 * p[2], \
-            dr.gather(mi.Vector3f, self.area_normal, f, on)
-
-
 class DeviceEmitter:
     """An :class:`~blockhash.photons.emission.Emitter` (``emitter``) of the scene's ``lights``
     as device tables (module docstring); :meth:`sample` emits."""
@@ -179,8 +73,8 @@ class DeviceEmitter:
         self.mi, self.dr = mi, dr = device.modules()
         self.n_sources = emitter.sources
         self.n_cones = len(emitter.cones)
-        self.cdf = _f32(mi, emitter.cdf)
-        self.intensity = _f32(mi, emitter.intensity, 3)
+        self.cdf = float_table(mi, emitter.cdf)
+        self.intensity = float_table(mi, emitter.intensity, 3)
         pmf = np.asarray(emitter.pmf, dtype=np.float64)
         self.lights = LightTables(lights, bounds, device)
         self._cones(emitter, pmf[:self.n_cones])
@@ -195,21 +89,21 @@ class DeviceEmitter:
         self.cone_groups = [(j, o) for j, o in self.cone_groups if o]
         if not cones:
             return
-        self.c_axis = _f32(mi, [c.axis for c in cones])
-        self.c_t1 = _f32(mi, [c.t1 for c in cones])
-        self.c_t2 = _f32(mi, [c.t2 for c in cones])
-        self.c_omc = _f32(mi, [_omc(c.cos_half) for c in cones])
-        self.c_light = _u32(mi, [c.light for c in cones])
-        self.c_density = _f32(mi, [p / (c.solid_angle * c.live_fraction) for c, p in zip(cones, pmf)])
+        self.c_axis = float_table(mi, [c.axis for c in cones])
+        self.c_t1 = float_table(mi, [c.t1 for c in cones])
+        self.c_t2 = float_table(mi, [c.t2 for c in cones])
+        self.c_omc = float_table(mi, [_omc(c.cos_half) for c in cones])
+        self.c_light = uint_table(mi, [c.light for c in cones])
+        self.c_density = float_table(mi, [p / (c.solid_angle * c.live_fraction) for c, p in zip(cones, pmf)])
         cells, first, count, live = [], [], [], []
         for c in cones:
             first.append(sum(len(x) for x in cells))
             cells.append(c.live_cells)
             count.append(len(c.live_cells))
             live.append(c.live.reshape(-1) if c.live is not None else np.ones(g * g, bool))
-        self.c_cells = _u32(mi, np.concatenate(cells))
-        self.c_first, self.c_count = _u32(mi, first), _u32(mi, count)
-        self.c_live = _u32(mi, np.concatenate(live))
+        self.c_cells = uint_table(mi, np.concatenate(cells))
+        self.c_first, self.c_count = uint_table(mi, first), uint_table(mi, count)
+        self.c_live = uint_table(mi, np.concatenate(live))
 
     def _targets(self, emitter, pmf):
         mi = self.mi
@@ -218,11 +112,12 @@ class DeviceEmitter:
         self.kinds = {t.kind for t in targets}
         self.target_groups = [[j for j, t in enumerate(targets) if t.light == li]
                               for li in sorted({t.light for t in targets})]
-        self.t_light = _u32(mi, [t.light for t in targets])
-        self.t_center = _f32(mi, [t.center for t in targets])
-        self.t_radius = _f32(mi, [t.radius for t in targets])
-        self.t_pmf = _f32(mi, pmf)
-        self.t_area = _u32(mi, [t.kind == "area" for t in targets])
+        self.t_light = uint_table(mi, [t.light for t in targets])
+        self.t_center = float_table(mi, [t.center for t in targets])
+        self.t_radius = float_table(mi, [t.radius for t in targets])
+        self.t_pmf = float_table(mi, pmf)
+        self.t_area = uint_table(mi, [t.kind == "area" for t in targets])
+        self.t_environment = uint_table(mi, [t.kind == "environment" for t in targets])
 
     # ------------------------------------------------------------------ sampling
     def sample(self, rng):
@@ -335,8 +230,12 @@ class DeviceEmitter:
         if "area" in self.kinds:
             oa, da, wa = self._area(t, light, area, u)
             o, d, w = dr.select(area, oa, o), dr.select(area, da, d), dr.select(area, wa, w)
+        env = on & (dr.gather(mi.UInt32, self.t_environment, t, on) != 0)
+        if "environment" in self.kinds:
+            oe, de, we = self._environment(t, light, env, u)
+            o, d, w = dr.select(env, oe, o), dr.select(env, de, d), dr.select(env, we, w)
         if "directional" in self.kinds:
-            sun = on & ~area
+            sun = on & ~area & ~env
             os_, ds, ws = self._directional(t, light, sun, u)
             o, d, w = dr.select(sun, os_, o), dr.select(sun, ds, d), dr.select(sun, ws, w)
         return o, d, w, light
@@ -377,9 +276,28 @@ class DeviceEmitter:
     def _directional(self, t, light, on, u):
         mi, dr = self.mi, self.dr
         lt = self.lights
-        gv = lambda table, i=light: dr.gather(mi.Vector3f, table, i, on)  # noqa: E731
+        gv = lambda table: dr.gather(mi.Vector3f, table, light, on)  # noqa: E731
         D, t1, t2 = gv(lt.sun_d), gv(lt.sun_t1), gv(lt.sun_t2)
-        c = gv(self.t_center, t)
+        o, q = self._disc(t, light, on, u, D, t1, t2, dr.gather(mi.Float, lt.sun_s0, light, on))
+        return o, D, dr.gather(mi.Color3f, lt.irradiance, light, on) / dr.maximum(q, 1e-30)
+
+    def _environment(self, t, light, on, u):
+        """An environment light's photons: a direction by its map (:mod:`.environment`), then
+        the directional light's discs across it; the weight ``L / (p q)``."""
+        mi, dr = self.mi, self.dr
+        env = self.lights.environment
+        toward, p = env.sample(u[4], u[5], u[6], on)
+        D = -toward
+        t1, t2 = cone_frame(mi, dr, D)
+        o, q = self._disc(t, light, on, u, D, t1, t2, self.lights.upstream(D, on))
+        return o, D, env.emitted(toward, on) / dr.maximum(p * q, 1e-30)
+
+    def _disc(self, t, light, on, u, D, t1, t2, s0):
+        """(origins, mixture density q per square metre) of photons along ``D`` (frame ``t1``
+        ``t2``) from a point in target ``t``'s disc across it, on the plane ``s0`` upstream
+        (:meth:`blockhash.photons.light_targets.SurfaceSampler._disc`)."""
+        mi, dr = self.mi, self.dr
+        c = dr.gather(mi.Vector3f, self.t_center, t, on)
         r = dr.gather(mi.Float, self.t_radius, t, on)
         rho = r * dr.sqrt(u[1])
         sin_p, cos_p = dr.sincos(2.0 * dr.pi * u[2])
@@ -395,6 +313,4 @@ class DeviceEmitter:
                 da, db = a - dr.dot(cj, t1), b - dr.dot(cj, t2)
                 inside = mine & ((t == j) | (da * da + db * db <= rj * rj * (1.0 + REL_EPS)))
                 q += dr.select(inside, dr.gather(mi.Float, self.t_pmf, jj) / (dr.pi * rj * rj), 0.0)
-        o = a * t1 + b * t2 + dr.gather(mi.Float, lt.sun_s0, light, on) * D
-        w = dr.gather(mi.Color3f, lt.irradiance, light, on) / dr.maximum(q, 1e-30)
-        return mi.Point3f(o), D, w
+        return mi.Point3f(a * t1 + b * t2 + s0 * D), q

@@ -20,13 +20,14 @@ from __future__ import annotations
 import numpy as np
 
 from blockhash.device.caustic import photon_streams, specular_event
-from blockhash.device.emission import LightTables, in_cone
+from blockhash.device.emission import cone_frame, in_cone
 from blockhash.device.geometry import DIFFUSE, DeviceGeometry
+from blockhash.device.light_tables import LightTables
 from blockhash.photons.directions import orthonormal_basis
 from blockhash.photons.paths import CausticPhotons
 
 #: Light kinds of the indirect emission.
-CONE, DISC, SURFACE = 0, 1, 2
+CONE, DISC, SURFACE, ENVIRONMENT = 0, 1, 2, 3
 
 
 class DeviceIndirectTracer:
@@ -34,7 +35,7 @@ class DeviceIndirectTracer:
     on ``device``: :meth:`emit` gives what the source's host ``emit`` gives, in distribution."""
 
     def __init__(self, source, device):
-        from blockhash.scene.model import AreaLight, DirectionalLight
+        from blockhash.scene.model import AreaLight, DirectionalLight, EnvironmentLight
 
         self.device = device
         self.mi, self.dr = mi, dr = device.modules()
@@ -50,6 +51,7 @@ class DeviceIndirectTracer:
         kind = np.zeros(n, np.uint32)
         axis, t1, t2, omc = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n)
         disc = np.zeros((n, 3))  # a directional light's disc centre, upstream of the scene
+        disc_over_pmf = 0.0  # an environment's disc's area over its light's probability
         for li, (light, cone) in enumerate(zip(lights, source.cones)):
             if isinstance(light, DirectionalLight):
                 kind[li] = DISC
@@ -60,6 +62,9 @@ class DeviceIndirectTracer:
                 disc[li] = source.center - 2.0 * source.radius * D
             elif isinstance(light, AreaLight):
                 kind[li] = SURFACE
+            elif isinstance(light, EnvironmentLight):
+                kind[li] = ENVIRONMENT
+                disc_over_pmf = np.pi * source.radius ** 2 / source.pmf[li]
             else:
                 a, cos_c, _ = cone
                 axis[li] = a
@@ -71,6 +76,7 @@ class DeviceIndirectTracer:
         self.radius = float(source.radius)
         self.weight = f32(source.power / source.pmf[:, None])
         self.cdf = f32(source.cdf)
+        self.center, self.disc_over_pmf = f32(source.center), f32([disc_over_pmf])
         self.n_lights = n
         self.kinds = set(kind.tolist())
         self.kd, self.ks, self.e = f32(source.kd), f32(source.ks), f32(source.e)
@@ -100,6 +106,20 @@ class DeviceIndirectTracer:
             sin_p, cos_p = dr.sincos(2.0 * dr.pi * u[2])
             o = dr.select(sun, gv(self.disc) + (rho * cos_p) * t1 + (rho * sin_p) * t2, o)
             d = dr.select(sun, axis, d)
+        if ENVIRONMENT in self.kinds:  # a direction by the map, a disc across it
+            env = kind == ENVIRONMENT
+            toward, p = lt.environment.sample(u[3], u[4], u[5], env)
+            D = -toward
+            e1, e2 = cone_frame(mi, dr, D)
+            rho = self.radius * dr.sqrt(u[1])
+            sin_p, cos_p = dr.sincos(2.0 * dr.pi * u[2])
+            c = dr.gather(mi.Point3f, self.center, mi.UInt32(0), env)
+            o = dr.select(env, c - (2.0 * self.radius) * D + (rho * cos_p) * e1
+                          + (rho * sin_p) * e2, o)
+            d = dr.select(env, D, d)
+            scale = dr.gather(mi.Float, self.disc_over_pmf, mi.UInt32(0), env)
+            w = dr.select(env, lt.environment.emitted(toward, env) * (scale / dr.maximum(p, 1e-30)),
+                          w)
         if SURFACE in self.kinds:
             area = kind == SURFACE
             y, ny = lt.area_point(k, u[3], u[1], u[2], area)
