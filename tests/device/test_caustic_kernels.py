@@ -67,6 +67,13 @@ def falloff_spot(scene):
     return replace(scene, lights=(spot,) + tuple(scene.lights[1:]))
 
 
+def under_sky(scene):
+    """``scene`` lit by the synthetic environment map alone."""
+    from environment_maps import sky
+
+    return replace(scene, lights=(sky(0.05),))
+
+
 CASES = {
     "ring (point light, mirror)": lambda: small("ring"),
     "glass (point light, Fresnel choices)": lambda: small("glass"),
@@ -74,6 +81,7 @@ CASES = {
     "sun (directional light, glass)": lambda: small("sun"),
     "venus (two point lights)": lambda: small("venus"),
     "ring under a spot with a falloff": lambda: falloff_spot(small("ring")),
+    "sun under an environment map (glass)": lambda: under_sky(small("sun")),
 }
 
 
