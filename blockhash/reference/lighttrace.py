@@ -328,6 +328,9 @@ def scene_digest(scene) -> str:
                                                          "cone_deg", "object", "radiance",
                                                          "irradiance")
                                                if hasattr(light, a)))).encode())
+        if hasattr(light, "image"):  # an environment light: its map and its turn
+            h.update(np.ascontiguousarray(light.image).tobytes())
+            h.update(np.ascontiguousarray(light.to_world).tobytes())
     for o in scene.objects:
         m = o.material
         h.update(repr((o.name, type(m).__name__,

@@ -44,6 +44,7 @@ from blockhash.scene.model import (
     AreaLight,
     DielectricMaterial,
     DirectionalLight,
+    EnvironmentLight,
     MirrorMaterial,
     PhongMaterial,
     Scene,
@@ -107,9 +108,21 @@ def _bsdf(material, bsdf_id: str, drop_specular: bool, owner: str) -> list[str]:
                     *("    " + line for line in diffuse), "</bsdf>"]
 
 
+#: The file an environment light's map is written to, beside ``scene.xml``.
+ENVIRONMENT_FILE = "environment.exr"
+
+
 def _emitter(light) -> list[str]:
     if isinstance(light, AreaLight):
         return []  # written inside its shape (scene_xml)
+    if isinstance(light, EnvironmentLight):  # its map written by export_mitsuba
+        m = np.eye(4)
+        m[:3, :3] = light.to_world
+        return ['<emitter type="envmap">',
+                f'    <string name="filename" value="{ENVIRONMENT_FILE}"/>',
+                '    <transform name="to_world">',
+                f'        <matrix value="{" ".join(_num(v) for v in m.reshape(-1))}"/>',
+                "    </transform>", "</emitter>"]
     if isinstance(light, DirectionalLight):
         return ['<emitter type="directional">',
                 f'    <vector name="direction" x="{_num(light.direction[0])}" '
@@ -213,9 +226,25 @@ def export_mitsuba(scene: Scene, directory, *, drop_specular: bool = False,
         data = mesh.export(file_type="ply", encoding="binary", include_attributes=True,
                            vertex_normal=True)
         (root / name).write_bytes(data)
+    for light in scene.lights:
+        if isinstance(light, EnvironmentLight):
+            _write_map(root / ENVIRONMENT_FILE, light.image)
     xml = root / "scene.xml"
     xml.write_text(text, encoding="utf-8")
     return xml
+
+
+def _write_map(path: Path, image: np.ndarray) -> None:
+    """An environment map as a plain RGB float EXR (channels R, G, B, as Mitsuba reads one)."""
+    import OpenImageIO as oiio
+
+    h, w, _ = image.shape
+    out = oiio.ImageOutput.create(str(path))
+    if out is None or not out.open(str(path), oiio.ImageSpec(w, h, 3, oiio.FLOAT)) \
+            or not out.write_image(np.ascontiguousarray(image, dtype=np.float32)):
+        raise InputError(f"cannot write the environment map {str(path)!r}: {oiio.geterror()}; "
+                         "check that the folder is writable")
+    out.close()
 
 
 def _film_size(c) -> list[str]:
