@@ -154,3 +154,16 @@ def test_an_8_bit_map_is_decoded_from_srgb(tmp_path):
 def test_a_bad_envmap_element_names_its_line(tmp_path, props, match):
     with pytest.raises(InputError, match=match):
         load_scene(_xml(tmp_path, props))
+
+
+def test_an_exported_environment_reads_back_the_same(tmp_path):
+    from blockhash.scene.mitsuba.exporter import export_mitsuba
+
+    scene = load_scene(_xml(tmp_path, '<string name="filename" value="sky.exr"/>'
+                       '<transform name="to_world"><rotate x="1" y="1" angle="30"/></transform>'))
+    xml = export_mitsuba(scene, tmp_path / "out", integrator="path")
+    assert '<emitter type="envmap">' in xml.read_text()
+    (back,) = load_scene(xml).lights
+    (light,) = scene.lights
+    assert np.array_equal(back.image, light.image.astype(np.float32))
+    assert np.allclose(back.to_world, light.to_world, atol=1e-6)
