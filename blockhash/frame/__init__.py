@@ -1,7 +1,7 @@
 """The frame: takes a scene, its photons and their index; gives a pass's image and its layers.
 
 In the order a frame is made: the G-buffer and the camera's samples (:mod:`.gbuffer`,
-:mod:`.subpixel`, :mod:`.camera_samples`), shading points and direct light (:mod:`.shading`),
+:mod:`.subpixel`, :mod:`.camera_samples`), shading points (:mod:`.shading`), direct light (:mod:`.direct_light`),
 the photon radii and the density estimate (:mod:`.photon_radius`, :mod:`.estimate`), the
 search it uses (:mod:`.options`), the caustic pass in the fragment shader (:mod:`.caustic`: the
 cover gather's or the k nearest's; :mod:`.cover_estimate` the cover gather's CPU reference),

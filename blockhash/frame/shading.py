@@ -1,4 +1,4 @@
-"""Shading points and direct light (the non-caustic part of the image).
+"""Shading points (the camera's view of the scene, through mirrors and glass).
 
 Ray queries go through the photon tracer's embree scene
 (:class:`blockhash.scene.raycast.EmbreeGeometry`, embreex called directly).  Perfect mirrors seen by the camera are resolved by
@@ -8,8 +8,7 @@ refracts each shading point's ray by the Fresnel probabilities (up to
 ``MAX_DIELECTRIC_EVENTS``).  A one-sided receiver seen from behind shades nothing (black,
 as Mitsuba's ``diffuse``), and one seen from the front takes light from its front only
 (the normals face the camera, and the lights are shaded on the normal's side).  Direct light
-is point, spot, area and directional lights with shadow rays (an area light sampled at a
-point per pass, :mod:`.surface_lights`), through the modified Phong BRDF.
+is :mod:`.direct_light`'s.
 """
 
 from __future__ import annotations
@@ -298,84 +297,6 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
                          escaped=es.reshape(rows, w) if environment and es.any() else None)
 
 
-def _cone(light):
-    """(axis (3,), cos of the half angle, intensity (3,) W/sr at the peak, cos of the beam's
-    half angle, the cone's and the beam's half angles in radians): a point light's cone is the
-    whole sphere (cos -2: every direction is inside, all of it beam)."""
-    power = np.asarray(light.power, dtype=np.float64)
-    cone = getattr(light, "cone_deg", None)
-    if cone is None:
-        return np.zeros(3), -2.0, power / (4.0 * np.pi), -2.0, np.pi, np.pi
-    c, b = np.radians(cone), np.radians(light.beam_deg)
-    cos_c = float(np.cos(c))
-    return (np.asarray(light.direction, dtype=np.float64), cos_c, light.peak_intensity,
-            cos_c if light.uniform else float(np.cos(b)), float(c), float(b))
-
-
-def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
-                 pass_index: int = 0) -> np.ndarray:
-    """(h, w, 3) direct radiance from the lights, shadowed, times the path weight
-    (the modified Phong BRDF, :func:`blockhash.scene.materials.phong_brdf`): per light, the
-    points on its side of their surface cast one shadow ray each (:meth:`SceneRays.visible`'s
-    segments, embree's occlusion query), and :func:`_lit` adds the unshadowed ones' radiance.
-    Area and directional lights, and an area light's radiance seen, are
-    :mod:`blockhash.frame.surface_lights`' (an area light's point per sample from
-    ``pass_index``'s light sample)."""
-    from blockhash.frame import surface_lights
-
-    h, w = points.shape
-    mat = points.material.reshape(-1)
-    live = np.flatnonzero(mat >= 0)
-    out = np.zeros((h * w, 3))
-    if not len(live) and points.escaped is None:
-        return out.reshape(h, w, 3)
-    p = points.position.reshape(-1, 3)
-    n = points.normal.reshape(-1, 3)
-    wo = points.view.reshape(-1, 3)
-
-    def per_object(attr, default):
-        return np.array([getattr(o.material, attr, default) for o in objects],
-                        dtype=np.float64).reshape(len(objects), -1)
-
-    kd, ks, e = per_object("kd", np.zeros(3)), per_object("ks", np.zeros(3)), per_object("n", 1.0)[:, 0]
-    surface_lights.emission_seen(out, lights, objects, p, wo, mat, rays)
-    surface_lights.environment_seen(out, lights, points)
-    owner = np.arange(h * w) if points.owner is None else points.owner
-    samples = h * w if points.samples is None else int(np.prod(points.samples))
-    for li, light in enumerate(lights):
-        if hasattr(light, "radiance"):
-            surface_lights.area_light(out, light, live, p, n, wo, mat, kd, ks, e, rays,
-                                      pass_index, li, owner, samples)
-            continue
-        if hasattr(light, "irradiance"):
-            surface_lights.directional_light(out, light, live, p, n, wo, mat, kd, ks, e, rays)
-            continue
-        if hasattr(light, "image"):
-            surface_lights.environment_light(out, light, live, p, n, wo, mat, kd, ks, e, rays,
-                                             pass_index, li, owner, samples)
-            continue
-        lp = np.asarray(light.position, dtype=np.float64).reshape(1, 3)
-        front = _facing(p, n, live, lp[0])
-        origins, wi, dist = shadow_segments(p[front], n[front], lp, RAY_OFFSET * rays.scale)
-        lit = ~rays.geometry.occluded(origins, wi, dist * (1 - 1e-6))
-        _lit(out, front[lit], wi[lit], dist[lit], n, wo, mat, kd, ks, e, *_cone(light))
-    out *= points.weight.reshape(-1, 3)
-    return out.reshape(h, w, 3)
-
-
-@numba.njit(cache=True, nogil=True)
-def _facing(p, n, live, lp):
-    """The points of ``live`` whose normal faces the light at ``lp``."""
-    keep = np.empty(len(live), dtype=np.int64)
-    count = 0
-    for i in live:
-        if ((lp[0] - p[i, 0]) * n[i, 0] + (lp[1] - p[i, 1]) * n[i, 1]) \
-                + (lp[2] - p[i, 2]) * n[i, 2] > 0.0:
-            keep[count] = i
-            count += 1
-    return keep[:count]
-
-
 @numba.njit(cache=True, nogil=True, parallel=True)
 def shadow_segments(points, normals, targets, offset):
     """Shadow rays from ``points`` (m, 3), lifted by ``offset`` along their ``normals``, to
@@ -395,29 +316,3 @@ def shadow_segments(points, normals, targets, offset):
         for c in range(3):
             origins[i, c] = np.float64(points[i, c]) + np.float64(normals[i, c]) * offset
     return origins, dirs, dist
-
-
-@numba.njit(cache=True, nogil=True, parallel=True)
-def _lit(out, idx, wi, dist, n, wo, mat, kd, ks, e, axis, cos_c, intensity, cos_b, cone, beam):
-    """Adds to ``out[idx]`` the radiance from one light reaching each point unshadowed along
-    ``wi`` from ``dist`` away: f_r(wi, wo) I cos / d^2, the modified Phong f_r of
-    :func:`blockhash.scene.materials.phong_brdf` and I the light's intensity toward the point
-    (:func:`_cone`: the peak inside the beam, falling linearly in the angle to 0 at the
-    cone's edge, :meth:`blockhash.scene.lights.SpotLight.falloff`)."""
-    for j in numba.prange(len(idx)):
-        i = idx[j]
-        w0, w1, w2 = wi[j, 0], wi[j, 1], wi[j, 2]
-        cos = (w0 * n[i, 0] + w1 * n[i, 1]) + w2 * n[i, 2]
-        c_axis = -((w0 * axis[0] + w1 * axis[1]) + w2 * axis[2])
-        if cos <= 0.0 or c_axis < cos_c:
-            continue  # behind the surface, or outside a spot light's cone
-        fall = 1.0
-        if c_axis < cos_b:  # between the beam and the cone's edge
-            fall = min(max((cone - np.arccos(min(c_axis, 1.0))) / (cone - beam), 0.0), 1.0)
-        m = mat[i]
-        c_alpha = ((2.0 * cos * n[i, 0] - w0) * wo[i, 0] + (2.0 * cos * n[i, 1] - w1) * wo[i, 1]) \
-            + (2.0 * cos * n[i, 2] - w2) * wo[i, 2]
-        lobe = (e[m] + 2.0) / (2.0 * np.pi) * max(c_alpha, 0.0) ** e[m]
-        scale = cos / (dist[j] * dist[j])
-        for c in range(3):
-            out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * intensity[c] * fall * scale

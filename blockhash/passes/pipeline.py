@@ -22,11 +22,12 @@ import numpy as np
 
 from blockhash.errors import InputError, NonFiniteError
 from blockhash.frame.camera_samples import camera_points
+from blockhash.frame.direct_light import direct_light
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.film_filter import filtered
 from blockhash.frame.options import LookupOptions
 from blockhash.frame.result import RenderResult  # noqa: F401 (importable from here)
-from blockhash.frame.shading import SceneRays, direct_light
+from blockhash.frame.shading import SceneRays
 from blockhash.passes.executors import PassFailed, WorkersFailed
 from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import NoCausticWarning, Renderer  # noqa: F401 (importable from here)

@@ -27,10 +27,11 @@ import numpy as np
 from blockhash.errors import InputError
 from blockhash.frame.camera_samples import camera_samples, only
 from blockhash.frame.cover_estimate import cover_gather, drop_gather, forget_gathers
+from blockhash.frame.direct_light import direct_light
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.film_filter import PassFilm
 from blockhash.frame.options import LookupOptions, resolve_method
-from blockhash.frame.shading import SceneRays, direct_light
+from blockhash.frame.shading import SceneRays
 from blockhash.gl.limits import MAX_K
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.passes.schedule import FixedRadii, PassRadii, Schedule, shrink

@@ -251,7 +251,7 @@ class PhotonSettings:
     #: Specular events the camera's rays follow (None: blockhash's, 4 or 8 with glass).
     camera_bounces: int | None = None
     #: Surface events an indirect photon meets at most (None: ``max_bounces`` + 1; Mitsuba's
-    #: unbounded depth: :data:`blockhash.scene.mitsuba.sensor.UNBOUNDED_EVENTS`).
+    #: unbounded depth: :data:`blockhash.scene.mitsuba.integrator.UNBOUNDED_EVENTS`).
     indirect_events: int | None = None
 
     def __post_init__(self):

@@ -68,8 +68,19 @@ def _preview_light(light):
     """(kind, pose (4, 4), intensity) of a pyrender light standing in for ``light``: a point
     light of the same intensity (W/sr; a spot's power fills its cone), an area light as a
     point at its centre a little in front of it with its intensity along the normal (L A,
-    its power over pi), a directional light as pyrender's, shining along its direction."""
+    its power over pi), a directional light as pyrender's, shining along its direction, an
+    environment as a directional light from its brightest cell (its radiance over the sphere
+    over pi)."""
     pose = np.eye(4)
+    if hasattr(light, "image"):  # an environment: a sun from its brightest cell
+        c = int(np.argmax(light.cell_pmf))
+        toward, _ = light.sample(np.array([light.cell_cdf[c] - 0.5 * light.cell_pmf[c]]),
+                                 np.array([0.5]), np.array([0.5]))
+        z = toward[0]
+        x = np.cross([0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0], z)
+        x /= np.linalg.norm(x)
+        pose[:3, :3] = np.stack([x, np.cross(z, x), z], axis=1)
+        return "directional", pose.tolist(), tuple(np.asarray(light.integral) / np.pi)
     if hasattr(light, "irradiance"):
         z = -np.asarray(light.direction, dtype=np.float64)  # pyrender's light shines along -z
         x = np.cross([0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0], z)

@@ -38,7 +38,7 @@ def direct_passes(scene, rays, passes: int, keep=()) -> dict:
     ``passes``): one camera sample and one light sample a pass, as a render's passes take
     them."""
     from blockhash.frame.camera_samples import camera_samples
-    from blockhash.frame.shading import direct_light
+    from blockhash.frame.direct_light import direct_light
     from blockhash.frame.subpixel import box_filter
 
     out, acc = {}, None

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from blockhash.frame.shading import SceneRays, direct_light, shading_points
+from blockhash.frame.direct_light import direct_light
+from blockhash.frame.shading import SceneRays, shading_points
 from blockhash.frame.subpixel import raycast_gbuffer
 from blockhash.scene.loader import load_scene
 from blockhash.scene.materials import phong_brdf

@@ -136,13 +136,20 @@ def test_gbuffer_depth_agrees_with_pyrender(ring):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["cbox", "sun"])
+@pytest.mark.parametrize("name", ["cbox", "sun", "sun under a sky"])
 def test_pyrender_previews_area_and_directional_lights(name):
-    """The preview stands a pyrender light in for an area light and the sun: the image is
-    lit well beyond pyrender's ambient light (0.15 of the albedo, about 25 of 255 at most)."""
+    """The preview stands a pyrender light in for an area light, the sun and an environment
+    map: the image is lit well beyond pyrender's ambient light (0.15 of the albedo, about 25
+    of 255 at most)."""
+    from dataclasses import replace
+
+    from environment_maps import sky
+
     from blockhash.scene.loader import load_scene
 
-    scene = load_scene(RING.parent / f"{name}.toml")
+    scene = load_scene(RING.parent / f"{name.split()[0]}.toml")
+    if name.endswith("sky"):
+        scene = replace(scene, lights=(sky(0.05, to_world=np.eye(3)),))
     colour, depth = preview(scene, size=(48, 48))
     assert (depth > 0).mean() > 0.5
     assert np.percentile(colour, 90) > 60, np.percentile(colour, 90)

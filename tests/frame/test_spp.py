@@ -159,8 +159,9 @@ def test_spp_1_is_the_pixel_centre_render_of_the_rasteriser():
     context_or_skip("egl")
     from blockhash import BlockHashIndex
     from blockhash.frame.caustic import CausticPass
+    from blockhash.frame.direct_light import direct_light
     from blockhash.frame.gbuffer import rasterize
-    from blockhash.frame.shading import SceneRays, direct_light, shading_points
+    from blockhash.frame.shading import SceneRays, shading_points
     from blockhash.photons.tracing import trace_caustic_photons
     from blockhash.scene.materials import receiver_materials
     from blockhash.scene.model import MirrorMaterial

@@ -29,7 +29,7 @@ COMPARED = ["variants_cbox_spectral", "integrator_depth_2", "integrator_depth_3"
             "integrator_depth_inf", "sampler_independent_16spp", "bsdf_twosided_cbox",
             "bsdf_diffuse_plain", "bsdf_dielectric_glass", "sensor_thinlens"]
 #: Under the museum's environment map (``envmap``): a diffuse material preview, the water one
-#: (unbounded depth: light trapped in the water, :data:`blockhash.scene.mitsuba.sensor.
+#: (unbounded depth: light trapped in the water, :data:`blockhash.scene.mitsuba.integrator.
 #: UNBOUNDED_SPECULAR`) and the thin lens's depth of field over the same map; measured here
 #: flux within 0.8% and blurred 0.019 to 0.030.  The thin lens's file leaves ``$spp`` to the
 #: command line.

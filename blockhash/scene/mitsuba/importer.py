@@ -65,6 +65,7 @@ import numpy as np
 
 from blockhash.errors import InputError
 from blockhash.scene.lights import falloff_solid_angle
+from blockhash.scene.mitsuba import integrator as mitsuba_integrator
 from blockhash.scene.mitsuba import sensor as mitsuba_sensor
 from blockhash.scene.mitsuba.bsdfs import TwoFaced, two_sheets
 from blockhash.scene.mitsuba.bsdfs import bsdf as read_bsdf
@@ -333,7 +334,7 @@ def load_mitsuba(path, defines: dict | None = None) -> Scene:
         if el.tag == "integrator":
             if integrator is not None:
                 r.fail(el, "a second integrator; a scene takes one")
-            integrator = mitsuba_sensor.integrator(r, el)
+            integrator = mitsuba_integrator.integrator(r, el)
         elif el.tag == "sensor":
             if render is not None:
                 r.fail(el, "a second sensor; blockhash renders one camera")
@@ -383,11 +384,12 @@ def load_mitsuba(path, defines: dict | None = None) -> Scene:
         spp = meta.get("spp")
     else:
         glass = any(o.is_dielectric for o in objects)
-        bounces, camera_bounces, direct = mitsuba_sensor.depths(r, render, glass)
+        bounces, camera_bounces, direct = mitsuba_integrator.depths(
+            r, render, glass, any(o.is_specular for o in objects))
         unbounded = render.max_depth in (None, -1)  # Mitsuba's paths end by roulette alone
         photons = PhotonSettings(max_bounces=bounces, camera_bounces=camera_bounces,
                                  direct_only=direct,
-                                 indirect_events=mitsuba_sensor.UNBOUNDED_EVENTS if unbounded
+                                 indirect_events=mitsuba_integrator.UNBOUNDED_EVENTS if unbounded
                                  else None)
         spp = render.spp
     if spp:

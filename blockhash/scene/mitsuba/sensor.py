@@ -1,5 +1,5 @@
-"""Mitsuba 3's sensor, film, sampler, reconstruction filter and integrator, mapped onto
-blockhash's camera, samples per pixel and specular depth (for :mod:`.importer`).
+"""Mitsuba 3's sensor, film, sampler and reconstruction filter, mapped onto blockhash's camera
+and samples per pixel (for :mod:`.importer`).
 
 What is mapped, each as Mitsuba 3.9 does it:
 
@@ -21,15 +21,7 @@ What is mapped, each as Mitsuba 3.9 does it:
   up to the square of a prime, ``multijitter`` up to floor(sqrt(n)) rows of ceil(n / rows)),
   up to 1024, stratified in cells as near square as the count divides
   (:func:`blockhash.scene.camera.spp_grid`; 32: 4 x 8); without one, blockhash's default.  ``seed`` and ``jitter = true`` change only the noise and are accepted.
-* ``integrator`` ``direct``: direct light only (:func:`depths`, one warning saying what
-  differs); ``path`` or ``ptracer``: ``max_depth`` -1 (Mitsuba's default, unbounded)
-  keeps blockhash's depth (4 specular events, 8 in a scene with glass, for photons and
-  camera rays alike); max_depth d >= that + 2 follows d - 2 specular events per photon
-  (camera rays keep blockhash's, as for -1); a smaller d >= 3 follows d - 2 on either path
-  and d = 2 is direct light alone, each with one warning (:func:`depths`); 0 and 1 are
-  refused.  ``rr_depth``, ``hide_emitters`` (point and spot lights
-  are never seen directly) and ``samples_per_pass`` change no expected pixel and are
-  accepted.
+* ``integrator``: :mod:`.integrator` (its ``max_depth`` as the specular events followed).
 
 Refused: scale or shear in the sensor's to_world (Mitsuba refuses them too), a mirror flip
 (negative determinant: Mitsuba renders the image mirrored, which blockhash's camera cannot),
@@ -50,7 +42,7 @@ from blockhash.scene.mitsuba.xml_values import (  # noqa: F401 (MitsubaWarning i
     MitsubaWarning,
     XmlReader,
 )
-from blockhash.scene.model import DIELECTRIC_MAX_BOUNCES, MAX_BOUNCES, Camera
+from blockhash.scene.model import Camera
 from blockhash.scene.pixel_filter import FILTERS, PixelFilter
 
 #: Mitsuba's defaults: film size, clip planes, focal length (mm) and its film's diagonal.
@@ -58,7 +50,6 @@ DEFAULT_SIZE = (768, 576)
 DEFAULT_NEAR, DEFAULT_FAR = 0.01, 10000.0
 DEFAULT_FOCAL = "50mm"
 FILM_DIAGONAL_MM = math.hypot(36.0, 24.0)
-INTEGRATORS = ("path", "ptracer", "direct")
 #: A film's filter where it names none: Mitsuba's Gaussian of standard deviation 0.5 pixel.
 DEFAULT_FILTER = PixelFilter("gaussian")
 SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
@@ -117,17 +108,6 @@ def x_fov(r: XmlReader, el, p: dict, width: int, height: int) -> float:
     return out
 
 
-#: Surface events an indirect photon may meet under Mitsuba's unbounded ``max_depth`` (-1):
-#: Russian roulette ends its path long before (a survival of 0.75 an event leaves 10^-8 of
-#: the photons by the 64th).
-UNBOUNDED_EVENTS = 64
-#: Specular events a photon and a camera ray follow in a scene with glass under an unbounded
-#: (or deep) ``max_depth``: light trapped in glass by total internal reflection goes on past
-#: blockhash's own 8 (by Mitsuba's own renders at those depths, its documentation's water
-#: preview lost 8% of its light at 8 events and 3% at 14, the diamond preview 5% at 32); a
-#: camera branch still ends once its weight falls below
-#: :data:`blockhash.frame.shading.BRANCH_CUTOFF`.
-UNBOUNDED_SPECULAR = 128
 #: A thin lens's distance in focus where a file gives none (Mitsuba's default).
 DEFAULT_FOCUS = 10000.0
 
@@ -312,90 +292,6 @@ def samples(r: XmlReader, el) -> int | None:
     return spp
 
 
-#: Integrators that wrap one other and add what blockhash's layers do not hold, with what
-#: blockhash renders of them.
-WRAPPERS = {"moment": "its second moment (a variance estimate) is not rendered: blockhash renders "
-                      "the integrator inside, the pixel means",
-            "stokes": "the Stokes vector of polarised light is not rendered: blockhash renders "
-                      "the integrator inside, intensity only (Stokes component s0)"}
-
-
-def integrator(r: XmlReader, el) -> tuple[int | None, object]:
-    """(max_depth or None, the element) of an ``<integrator>``; a ``moment`` or ``stokes``
-    wrapper gives the one inside's, with one :class:`MitsubaWarning` saying what differs."""
-    kind = el.get("type")
-    if kind in WRAPPERS:
-        import warnings
-
-        r.props(el, {}, children=("integrator",))
-        inner = [k for k in el if isinstance(k.tag, str)]
-        if len(inner) != 1:
-            r.fail(el, f"expected exactly one <integrator> inside the {kind} integrator")
-        warnings.warn(f"{r.where(el)}: <integrator type=\"{kind}\">: {WRAPPERS[kind]}",
-                      MitsubaWarning, stacklevel=2)
-        return integrator(r, inner[0])
-    if kind not in INTEGRATORS:
-        r.fail(el, f"unsupported integrator; supported: {', '.join(INTEGRATORS)} (blockhash "
-               "renders direct light and caustics by photon mapping; their max_depth is read)")
-    allowed = {"max_depth": ("integer",), "rr_depth": ("integer",),
-               "hide_emitters": ("boolean",)}
-    if kind == "ptracer":
-        allowed["samples_per_pass"] = ("integer",)
-    if kind == "direct":  # its sample counts change the noise only
-        allowed = {name: ("integer",) for name in ("shading_samples", "emitter_samples",
-                                                    "bsdf_samples")} | {"hide_emitters": ("boolean",)}
-    p = r.props(el, allowed)
-    depth = p.get("max_depth")
-    if depth is not None and depth < -1:
-        r.fail(el, f"max_depth {depth}: must be -1 (unbounded) or >= 0 (as in Mitsuba)")
-    if p.get("rr_depth", 1) < 1:
-        r.fail(el, f"rr_depth {p['rr_depth']} must be > 0 (as in Mitsuba)")
-    return depth, el
-
-
-#: What blockhash renders otherwise than Mitsuba at a small max_depth or with its direct
-#: integrator (the warnings' text).
-DIRECT_DIFFERS = ("blockhash renders the direct light alone, as Mitsuba (no caustic, no light "
-                  "between diffuse surfaces, nothing seen in mirrors and glass), except the area "
-                  "lights seen in mirrors and glass, which Mitsuba shows and blockhash does not")
-DEPTH_DIFFERS = ("blockhash follows at most {events} specular event(s) on the photons' paths and "
-                 "as many on the camera's, each on its own, where Mitsuba's max_depth {depth} "
-                 "bounds the whole path: a caustic seen in a mirror or through glass is in "
-                 "blockhash's image and not in Mitsuba's")
-
-
-def depths(r: XmlReader, render: Render, glass: bool) -> tuple[int | None, int | None, bool]:
-    """(specular events per photon, specular events per camera ray, direct light only) for the
-    integrator (None: the scene's defaults): ``direct``, or ``max_depth`` 2, is direct light
-    alone; a ``max_depth`` d below blockhash's own depth + 2 follows d - 2 specular events on
-    either path; each of these with one :class:`MitsubaWarning` saying what differs."""
-    import warnings
-
-    if render.integrator is not None and render.integrator.get("type") == "direct":
-        warnings.warn(f"{r.where(render.integrator)}: <integrator type=\"direct\">: {DIRECT_DIFFERS}",
-                      MitsubaWarning, stacklevel=3)
-        return None, 0, True
-    d = render.max_depth
-    if d is None or d == -1:
-        return (UNBOUNDED_SPECULAR, UNBOUNDED_SPECULAR, False) if glass else (None, None, False)
-    if d < 2:
-        r.fail(render.integrator, f"max_depth {d} renders {'nothing' if d == 0 else 'only the emitters the camera sees'}; "
-               "blockhash renders light on surfaces: give max_depth -1 or >= 2")
-    events = DIELECTRIC_MAX_BOUNCES if glass else MAX_BOUNCES
-    if d == 2:
-        warnings.warn(f"{r.where(render.integrator)}: max_depth 2: {DIRECT_DIFFERS}", MitsubaWarning,
-                      stacklevel=3)
-        return None, 0, True
-    if d < events + 2:
-        warnings.warn(f"{r.where(render.integrator)}: max_depth {d}: "
-                      + DEPTH_DIFFERS.format(events=d - 2, depth=d), MitsubaWarning, stacklevel=3)
-        return d - 2, d - 2, False
-    if glass:
-        deep = min(d - 2, UNBOUNDED_SPECULAR)
-        return deep, deep, False
-    return d - 2, None, False
-
-
 def _default(render: Render, key: str) -> str:
     return "" if key in (render.clips or ()) else " (Mitsuba's default)"
 
@@ -421,4 +317,4 @@ def check_clip(r: XmlReader, render: Render, objects) -> None:
                f"near_clip <= {nearest * cos_corner:.4g}")
 
 
-__all__ = ["sensor", "integrator", "depths", "check_clip", "sample_count", "x_fov", "Render"]
+__all__ = ["sensor", "check_clip", "sample_count", "x_fov", "Render"]
