@@ -70,6 +70,13 @@ typo is never silently ignored)::
     direction = [0.3, -1.0, 0.2]    # required, the direction the light travels (normalised)
     irradiance = 4.0                # required, W m^-2 on a surface facing the light,
                                     #   number (white) or [r, g, b]; each >= 0, not all 0
+    [[lights]]
+    kind = "environment"            # an environment map: light from infinitely far, by
+    file = "sky.exr"                #   direction; required, a latitude-longitude image
+                                    #   (EXR, HDR, PNG, JPEG) of radiance, W m^-2 sr^-1,
+                                    #   Mitsuba's envmap layout (+y its pole); one a scene
+    scale = 1.0                     # optional, > 0, times the image
+    rotate_deg = [0.0, 90.0, 0.0]   # optional, degrees about x, then y, then z
     # [[lights]] may be left out where an object emits (an area light, below)
 
     [[objects]]                     # one table per object; at least one
@@ -136,11 +143,13 @@ import trimesh
 
 from blockhash.errors import InputError
 from blockhash.scene import meshes
+from blockhash.scene.environment_light import read_map
 from blockhash.scene.model import (
     AreaLight,
     Camera,
     DielectricMaterial,
     DirectionalLight,
+    EnvironmentLight,
     MirrorMaterial,
     PhongMaterial,
     PhotonSettings,
@@ -260,13 +269,31 @@ def _parse_materials(t) -> dict:
     return out
 
 
-def _parse_light(t, i: int):
+def _parse_light(t, i: int, base: Path):
     key = f"lights[{i}]"
     if "kind" not in t:
-        raise _FieldError(f"{key}.kind", "missing required key; expected \"point\", \"spot\" or "
-                          "\"directional\" (an area light is an object with emission)")
-    kind = _choice(t["kind"], f"{key}.kind", ("point", "spot", "directional"))
+        raise _FieldError(f"{key}.kind", "missing required key; expected \"point\", \"spot\", "
+                          "\"directional\" or \"environment\" (an area light is an object with "
+                          "emission)")
+    kind = _choice(t["kind"], f"{key}.kind", ("point", "spot", "directional", "environment"))
     with _under(key):
+        if kind == "environment":
+            _keys(t, "", ("kind", "file"), ("scale", "rotate_deg"), what="an environment light")
+            text = _string(t["file"], "file", what="an image file path")
+            full = Path(text).expanduser()
+            full = full if full.is_absolute() else base / full
+            if not full.is_file():
+                raise _FieldError("file", f"image not found: {str(full)!r} ({text!r} is resolved "
+                                  f"relative to the scene file's folder {str(base)!r}); check "
+                                  "the path or give an absolute one")
+            try:
+                image = read_map(full)
+            except InputError as exc:
+                raise _FieldError("file", str(exc)) from None
+            scale = _number(t.get("scale", 1.0), "scale", lo=0.0, lo_open=True)
+            turn = meshes.rotation(_vector(t.get("rotate_deg", [0.0, 0.0, 0.0]), "rotate_deg",
+                                           unit="degrees"))
+            return EnvironmentLight(image=image * scale, to_world=turn, name=full.name)
         if kind == "directional":
             _keys(t, "", ("kind", "direction", "irradiance"), what="a directional light")
             return DirectionalLight(direction=t["direction"], irradiance=t["irradiance"])
@@ -393,7 +420,7 @@ def _parse(data: dict, base: Path, path: Path | None) -> Scene:
         if "description" in data else ""
     camera = _parse_camera(data["camera"])
     materials = _parse_materials(data["materials"])
-    lights = [_parse_light(t, i) for i, t in enumerate(
+    lights = [_parse_light(t, i, base) for i, t in enumerate(
         _array_of_tables(data["lights"], "lights", what="a light"))] if "lights" in data else []
     objects, seen = [], {}
     for i, t in enumerate(_array_of_tables(data["objects"], "objects", what="an object")):

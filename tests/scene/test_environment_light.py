@@ -6,6 +6,8 @@ to_world, 8-bit images decoded from sRGB."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import OpenImageIO as oiio
 import pytest
@@ -167,3 +169,20 @@ def test_an_exported_environment_reads_back_the_same(tmp_path):
     (light,) = scene.lights
     assert np.array_equal(back.image, light.image.astype(np.float32))
     assert np.allclose(back.to_world, light.to_world, atol=1e-6)
+
+
+def test_a_scene_file_takes_an_environment_light(tmp_path):
+    _write(tmp_path / "sky.exr", sky_image())
+    text = (Path(__file__).resolve().parents[2] / "scenes" / "ring.toml").read_text()
+    head, rest = text.split("[[lights]]", 1)
+    rest = rest.split("\n\n", 1)[1] if "\n\n" in rest else ""
+    path = tmp_path / "lit.toml"
+    path.write_text(head + '[[lights]]\nkind = "environment"\nfile = "sky.exr"\nscale = 2.0\n'
+                    'rotate_deg = [0.0, 90.0, 0.0]\n\n' + rest)
+    scene = load_scene(path)
+    (light,) = [li for li in scene.lights if isinstance(li, EnvironmentLight)]
+    assert np.allclose(light.image, 2 * sky_image(), rtol=1e-6)
+    assert np.allclose(light.to_world @ [0.0, 0.0, 1.0], [1.0, 0.0, 0.0], atol=1e-12)
+    path.write_text(path.read_text().replace('file = "sky.exr"', 'file = "nowhere.exr"'))
+    with pytest.raises(InputError, match=r"lights\[0\]\.file: image not found"):
+        load_scene(path)

@@ -411,7 +411,7 @@ ERRORS = {
                               "reflectance = [0.95, 0.78, 0.45]\nkd = 0.5",
                               r"materials\.mirror\.kd: unknown key"),
     "unknown light kind": ('kind = "point"', 'kind = "area"',
-                           r"lights\[0\]\.kind: expected one of 'point', 'spot', 'directional'; got 'area'"),
+                           r"lights\[0\]\.kind: expected one of 'point', 'spot', 'directional', 'environment'; got 'area'"),
     "light without power": ("power = 100.0", "power = 0.0",
                             r"lights\[0\]\.power: the light emits nothing"),
     "point light with cone": ("power = 100.0", "power = 100.0\ncone_deg = 20.0",

@@ -7,7 +7,7 @@ import numpy as np
 import trimesh
 
 from blockhash.errors import InputError
-from blockhash.scene.environment_light import EnvironmentLight
+from blockhash.scene.environment_light import EnvironmentLight, read_map
 from blockhash.scene.meshes import with_normals
 from blockhash.scene.model import AreaLight, PhongMaterial, SceneObject
 
@@ -60,28 +60,3 @@ def envmap(r, el) -> EnvironmentLight:
     m = p.get("to_world", np.eye(4))[:3, :3]
     return r.build(el, EnvironmentLight, image=image * scale, to_world=m,
                    name=el.get("id") or path.name)
-
-
-def read_map(path) -> np.ndarray:
-    """(H, W, 3) float64 linear RGB of an image file (OpenImageIO): floating-point files
-    (EXR, HDR) as stored, 8- and 16-bit ones (PNG, JPEG) decoded from sRGB, as Mitsuba's
-    bitmaps are; one channel is grey, a fourth (alpha) is dropped."""
-    import OpenImageIO as oiio
-
-    buf = oiio.ImageBuf(str(path))
-    if buf.has_error:
-        raise InputError(f"cannot read the image {str(path)!r}: {buf.geterror()}; give an EXR, "
-                         "HDR, PNG or JPEG file")
-    spec = buf.spec()
-    pixels = np.asarray(buf.get_pixels(oiio.FLOAT), dtype=np.float64)
-    pixels = pixels.reshape(spec.height, spec.width, spec.nchannels)
-    if spec.nchannels == 1:
-        pixels = np.repeat(pixels, 3, axis=2)
-    elif spec.nchannels in (3, 4):
-        pixels = pixels[..., :3]
-    else:
-        raise InputError(f"the image {str(path)!r} has {spec.nchannels} channels; expected "
-                         "grey (1), RGB (3) or RGBA (4)")
-    if spec.format.basetype in (oiio.UINT8, oiio.UINT16):
-        pixels = np.where(pixels <= 0.04045, pixels / 12.92, ((pixels + 0.055) / 1.055) ** 2.4)
-    return pixels
