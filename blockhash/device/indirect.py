@@ -80,6 +80,12 @@ class DeviceIndirectTracer:
         self.n_lights = n
         self.kinds = set(kind.tolist())
         self.kd, self.ks, self.e = f32(source.kd), f32(source.ks), f32(source.e)
+        #: The textured receivers' reflectance (None: the scene has none).
+        self.textures = None
+        if source.geometry.textures:
+            from blockhash.device.textures import DeviceTextures
+
+            self.textures = DeviceTextures(source.geometry, device)
         #: Stored photons a photon shot, the most seen so far (sizes the output buffers).
         self.stores_per_photon = 1.0
         self._kernel = dr.syntax(_paths)
@@ -234,8 +240,11 @@ def _paths(tr, o, d, w, rng, capacity, out):
         c_alpha = dr.maximum(dr.dot(refl, wo), 0.0)
         e = dr.gather(mi.Float, tr.e, obj, bounce)
         lobe = (e + 2.0) * 0.5 * dr.select(e == 0.0, 1.0, dr.power(c_alpha, e))
-        factor = (dr.gather(mi.Color3f, tr.kd, obj, bounce)
-                  + dr.gather(mi.Color3f, tr.ks, obj, bounce) * lobe)
+        kd = dr.gather(mi.Color3f, tr.kd, obj, bounce)
+        if tr.textures is not None:
+            textured, albedo = tr.textures.albedo(obj, face, u, v, bounce)
+            kd = dr.select(textured, albedo, kd)
+        factor = kd + dr.gather(mi.Color3f, tr.ks, obj, bounce) * lobe
         factor = dr.select((dr.dot(wo, ng) <= 0.0) | (cos_n <= 0.0), 0.0, factor)
         q = dr.minimum(dr.max(factor), 1.0)
         survive = bounce & (ur < q)

@@ -14,7 +14,8 @@ for a photon at distance d, seen at cos(theta_x) from its surface and cos(theta_
 camera's axis (A_pixel the pixel's area on the image plane at distance 1).  A photon under the
 footprint (:mod:`blockhash.passes.schedule` says which) that the camera sees directly (in the
 image, on the side it faces, nothing between) is splatted into its pixel this way; every other
-photon stays in the gather.  Each photon's
+photon stays in the gather, and so does every photon on a textured receiver (its reflectance
+is the texture's where the camera's point is, :mod:`blockhash.scene.texture`).  Each photon's
 power goes to one estimate, so the flux is kept.  A photon seen only in a mirror or through
 glass stays in the gather: its pixel is not where it projects.
 """
@@ -65,6 +66,8 @@ def _splat_rows(photons, rows: slice, r2, pin, rays, material, footprint, image,
     d2 = np.einsum("ij,ij->i", to_eye, to_eye)
     pixel_angle = 2.0 * pin.tan_y / pin.height
     small = 4.0 * r2 < (footprint * pixel_angle) ** 2 * d2
+    if len(rays.geometry.textures):  # a textured receiver's photons stay in the gather
+        small &= rays.geometry.texture_of[np.asarray(photons.objects[rows])] < 0
     idx = np.flatnonzero(small)
     if not idx.size:
         return

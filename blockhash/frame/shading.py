@@ -42,9 +42,10 @@ class SceneRays:
         self.geometry = EmbreeGeometry(tuple(objects))
         self.scale = self.geometry.scale
 
-    def first_hit(self, origins, dirs, *, sides: bool = False):
+    def first_hit(self, origins, dirs, *, sides: bool = False, faces: bool = False):
         """(hit mask, points, shading normals, object ids, geometric normals) for each ray,
-        and with ``sides`` also (n,) bool: the ray met the face's outer side.
+        with ``sides`` also (n,) bool: the ray met the face's outer side, and with ``faces``
+        also (global face (n,), -1 for a miss; barycentrics (n, 2)), where a texture is read.
 
         Normals face the side the ray came from; rays that hit nothing get zeros and -1.
         """
@@ -56,11 +57,16 @@ class SceneRays:
         points[hit], shade[hit], geo[hit] = p, ns, ng
         obj = np.full(n, -1)
         obj[hit] = self.geometry.face_object[face]
-        if not sides:
-            return hit, points, shade, obj, geo
-        outer = np.zeros(n, dtype=bool)
-        outer[hit] = entering(self.geometry, face, d)
-        return hit, points, shade, obj, geo, outer
+        out = (hit, points, shade, obj, geo)
+        if sides:
+            outer = np.zeros(n, dtype=bool)
+            outer[hit] = entering(self.geometry, face, d)
+            out += (outer,)
+        if faces:
+            f, bary = np.full(n, -1), np.zeros((n, 2))
+            f[hit], bary[hit, 0], bary[hit, 1] = face, u, v
+            out += (f, bary)
+        return out
 
     def visible(self, points, normals, targets) -> np.ndarray:
         """(n,) bool: nothing blocks the segment from each point (lifted off its surface) to its target."""
@@ -134,6 +140,7 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
         obj[idx] = _no_back(obj[idx], outer[idx], backs)
         view[idx] = -r
     obj[specular[obj]] = -1  # still on a specular surface after the last event: nothing to shade
+    _textures(rays, objects, pos, view, obj, weight)
     return ShadingPoints(position=pos.reshape(h, w, 3).astype(np.float32),
                          normal=nrm.reshape(h, w, 3).astype(np.float32),
                          view=view.reshape(h, w, 3).astype(np.float32),
@@ -162,6 +169,26 @@ def _camera_start(camera, gbuffer, sided, rays: SceneRays):
     elif len(first):
         outer[first] = rays.first_hit(start[first].copy(), -view[first], sides=True)[5]
     return pos, nrm, obj, view, outer
+
+
+def _textures(rays: SceneRays, objects, pos, view, obj, weight) -> None:
+    """Scales ``weight`` (in place) at the points on textured receivers by the texture's value
+    there over the material's ``kd`` (its mean: :mod:`blockhash.scene.texture`); each point's
+    face and barycentrics from a ray cast back at it from just off the surface (as
+    :func:`blockhash.frame.surface_lights.emission_seen` tells a side)."""
+    geom = rays.geometry
+    if not len(geom.textures):
+        return
+    on = np.flatnonzero(geom.texture_of[np.maximum(obj, 0)] >= 0)
+    on = on[obj[on] >= 0]
+    if not len(on):
+        return
+    lift = 8.0 * RAY_OFFSET * rays.scale
+    hit, _, _, o, _, face, bary = rays.first_hit(pos[on] + view[on] * lift, -view[on], faces=True)
+    ok = np.flatnonzero(hit & (o == obj[on]))
+    _, albedo = geom.albedo(face[ok], bary[ok, 0], bary[ok, 1])
+    kd = np.array([objects[i].material.kd for i in obj[on[ok]]], dtype=np.float64).reshape(-1, 3)
+    weight[on[ok]] *= np.divide(albedo, kd, out=np.zeros_like(albedo), where=kd > 0)
 
 
 def _no_back(obj, outer, backs):
@@ -280,6 +307,7 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     # Rays still on a specular surface after the last event shade nothing, and are dropped;
     # so are those that left the scene, unless an environment light is seen along them.
     parts = [np.concatenate(col) for col in zip(*done)]
+    _textures(rays, objects, parts[1], parts[3], parts[4], parts[5])
     shade = (parts[4] >= 0) | (parts[6] & environment)
     parts = [a[shade] for a in parts]
     m = len(parts[0])

@@ -265,7 +265,8 @@ class IndirectSource:
             new = []
             if len(diff) and not last:
                 new.append(self._bounce(idx[diff], d[diff], w[diff], obj[diff], p, ns, ng,
-                                        seed, start, event, counts))
+                                        seed, start, event, counts,
+                                        (face[diff], u[diff], v[diff])))
             sp = np.flatnonzero(spec)
             if len(sp) and not last:
                 absorbed, (si, sd, sw, spn, sng, side) = specular_step(
@@ -280,10 +281,11 @@ class IndirectSource:
             idx, d, w, o = (np.concatenate(a) for a in zip(*new))
         return parts, counts
 
-    def _bounce(self, idx, d, w, obj, p, ns, ng, seed, start, event, counts):
+    def _bounce(self, idx, d, w, obj, p, ns, ng, seed, start, event, counts, hits=None):
         """A diffuse bounce: cosine-distributed about the shading normal on the incoming side
         (the geometric normal where the shading normal leans past it), weight times pi f_r
-        and Russian roulette (module docstring)."""
+        and Russian roulette (module docstring); ``hits`` (face, u, v) where the photons are,
+        for a textured receiver's reflectance there."""
         u = _uniforms(seed + (event + 1) * BOUNCE_KEY, start, 0 if not len(idx) else int(idx.max()) + 1)
         u = u[idx]
         up = np.where((np.einsum("ij,ij->i", ns, ng) > 0.0)[:, None], ns, ng)
@@ -295,7 +297,11 @@ class IndirectSource:
         c_alpha = np.maximum(np.einsum("ij,ij->i", refl, wo), 0.0)
         e = self.e[obj]
         lobe = (e + 2.0) / 2.0 * c_alpha ** e
-        factor = self.kd[obj] + self.ks[obj] * lobe[:, None]
+        kd = self.kd[obj]
+        if hits is not None and len(self.geometry.textures):
+            textured, albedo = self.geometry.albedo(*hits)
+            kd[textured] = albedo[textured]
+        factor = kd + self.ks[obj] * lobe[:, None]
         factor[under | (cos_n <= 0.0)] = 0.0
         q = np.minimum(factor.max(axis=1), 1.0)
         live = u[:, 2] < q
@@ -334,7 +340,7 @@ def needs_indirect(source: IndirectSource, seed: int):
     p, ns, ng = surface_hits(geom, f, u[diff], v[diff], d[rows])
     counts = {"roulette": 0}
     idx, wo, _, start = source._bounce(rows, d[rows], w[rows], geom.face_object[f], p, ns, ng,
-                                       seed, 0, 0, counts)
+                                       seed, 0, 0, counts, (f, u[diff], v[diff]))
     hit2, face2, _, _ = geom.intersect(start, wo)
     second = ~geom.is_specular[geom.face_object[face2]]
     dd = int(second.sum())

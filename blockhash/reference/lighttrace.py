@@ -186,6 +186,11 @@ def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
         All zeros when the scene has no mirror (no caustic).
     """
     t0 = time.perf_counter()
+    textured = [o.name for o in scene.objects if getattr(o.material, "texture", None) is not None]
+    if textured:
+        raise InputError(f"objects {textured} have textured reflectances, which the light tracer "
+                         "does not model (its camera connections read one kd an object); take "
+                         "the reference with Mitsuba (engine 'mitsuba')")
     m_total = as_int(photons, "photons", minimum=1, hint="shoot at least one photon")
     seed = as_int(scene.photons.seed + REFERENCE_SEED_OFFSET if seed is None else seed, "seed",
                   minimum=0, maximum=2**128 - 1, hint="use a non-negative integer seed")

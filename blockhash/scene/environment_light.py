@@ -26,7 +26,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from blockhash.errors import InputError
 from blockhash.scene.values import FieldError as _FieldError
 from blockhash.scene.values import owned as _owned
 from blockhash.scene.values import readonly as _readonly
@@ -183,28 +182,3 @@ class EnvironmentLight:
         h, w = self.image.shape[:2]
         return (f"EnvironmentLight(name={self.name!r}, {w} x {h} pixels, integral="
                 f"{np.array2string(self.integral, precision=4)} W/m^2)")
-
-
-def read_map(path) -> np.ndarray:
-    """(H, W, 3) float64 linear RGB of an image file (OpenImageIO): floating-point files
-    (EXR, HDR) as stored, 8- and 16-bit ones (PNG, JPEG) decoded from sRGB, as Mitsuba's
-    bitmaps are; one channel is grey, a fourth (alpha) is dropped."""
-    import OpenImageIO as oiio
-
-    buf = oiio.ImageBuf(str(path))
-    if buf.has_error:
-        raise InputError(f"cannot read the image {str(path)!r}: {buf.geterror()}; give an EXR, "
-                         "HDR, PNG or JPEG file")
-    spec = buf.spec()
-    pixels = np.asarray(buf.get_pixels(oiio.FLOAT), dtype=np.float64)
-    pixels = pixels.reshape(spec.height, spec.width, spec.nchannels)
-    if spec.nchannels == 1:
-        pixels = np.repeat(pixels, 3, axis=2)
-    elif spec.nchannels in (3, 4):
-        pixels = pixels[..., :3]
-    else:
-        raise InputError(f"the image {str(path)!r} has {spec.nchannels} channels; expected "
-                         "grey (1), RGB (3) or RGBA (4)")
-    if spec.format.basetype in (oiio.UINT8, oiio.UINT16):
-        pixels = np.where(pixels <= 0.04045, pixels / 12.92, ((pixels + 0.055) / 1.055) ** 2.4)
-    return pixels

@@ -143,7 +143,6 @@ import trimesh
 
 from blockhash.errors import InputError
 from blockhash.scene import meshes
-from blockhash.scene.environment_light import read_map
 from blockhash.scene.model import (
     AreaLight,
     Camera,
@@ -160,6 +159,7 @@ from blockhash.scene.model import (
     check_mesh,
 )
 from blockhash.scene.pixel_filter import pixel_filter
+from blockhash.scene.texture import read_image
 from blockhash.scene.values import FieldError as _FieldError
 from blockhash.scene.values import boolean as _boolean
 from blockhash.scene.values import choice as _choice
@@ -287,7 +287,7 @@ def _parse_light(t, i: int, base: Path):
                                   f"relative to the scene file's folder {str(base)!r}); check "
                                   "the path or give an absolute one")
             try:
-                image = read_map(full)
+                image = read_image(full)
             except InputError as exc:
                 raise _FieldError("file", str(exc)) from None
             scale = _number(t.get("scale", 1.0), "scale", lo=0.0, lo_open=True)

@@ -38,9 +38,22 @@ class PhongMaterial:
     ks: np.ndarray
     n: float
     sided: str = "two"
+    #: A diffuse reflectance that varies over the surface (:class:`blockhash.scene.texture.
+    #: Texture`, looked up at the object's texture coordinates); ``kd`` is then its mean and
+    #: ``ks`` must be 0.
+    texture: object = None
 
     def __post_init__(self):
         with _owned("PhongMaterial"):
+            if self.texture is not None:
+                from blockhash.scene.texture import Texture
+
+                if not isinstance(self.texture, Texture):
+                    raise _FieldError("texture", f"expected a Texture; got "
+                                      f"{type(self.texture).__name__}")
+                if np.any(np.asarray(self.ks, dtype=np.float64) != 0.0):
+                    raise _FieldError("ks", "a textured reflectance is diffuse: ks must be 0 "
+                                      "with a texture")
             if self.sided not in SIDES:
                 raise _FieldError("sided", f"expected one of {', '.join(map(repr, SIDES))}; got "
                                   f"{self.sided!r}; \"one\" reflects on the front face only "
@@ -64,7 +77,8 @@ class PhongMaterial:
 
     def __repr__(self) -> str:
         return (f"PhongMaterial(kd={_fmt(self.kd)}, ks={_fmt(self.ks)}, n={self.n:g}"
-                + (", sided='one')" if self.one_sided else ")"))
+                + (", sided='one'" if self.one_sided else "")
+                + (f", texture={self.texture!r})" if self.texture is not None else ")"))
 
 
 @dataclass(frozen=True, eq=False)

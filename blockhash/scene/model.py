@@ -38,6 +38,7 @@ from blockhash.scene.values import fmt as _fmt
 from blockhash.scene.values import integer as _integer
 from blockhash.scene.values import number as _number
 from blockhash.scene.values import owned as _owned
+from blockhash.scene.values import readonly as _readonly
 from blockhash.scene.values import string as _string
 from blockhash.scene.values import vector as _vector
 
@@ -199,6 +200,9 @@ class SceneObject:
     name: str
     mesh: trimesh.Trimesh
     material: PhongMaterial | MirrorMaterial | DielectricMaterial
+    #: (vertices, 2) texture coordinates, one pair a vertex of ``mesh``: where a textured
+    #: material (:attr:`PhongMaterial.texture`) is looked up; None where the mesh has none.
+    uv: np.ndarray | None = None
 
     def __post_init__(self):
         with _owned("SceneObject"):
@@ -209,6 +213,16 @@ class SceneObject:
             if not isinstance(self.material, (PhongMaterial, *SPECULAR_MATERIALS)):
                 raise _FieldError("material", "expected a PhongMaterial, MirrorMaterial or "
                                   f"DielectricMaterial; got {type(self.material).__name__}")
+            if self.uv is not None:
+                uv = np.asarray(self.uv, dtype=np.float64)
+                if uv.shape != (len(self.mesh.vertices), 2) or not np.isfinite(uv).all():
+                    raise _FieldError("uv", f"expected ({len(self.mesh.vertices):,}, 2) finite "
+                                      f"texture coordinates, one pair a vertex; got shape "
+                                      f"{uv.shape}")
+                object.__setattr__(self, "uv", _readonly(uv))
+            if getattr(self.material, "texture", None) is not None and self.uv is None:
+                raise _FieldError("uv", "a textured material needs the mesh's texture "
+                                  "coordinates; give uv (one pair a vertex), or a plain kd")
 
     @property
     def is_specular(self) -> bool:

@@ -53,8 +53,17 @@ class EmbreeGeometry:
         #: per object: a receiver that reflects on its front face only (PhongMaterial.sided)
         self.one_sided = np.array([bool(getattr(o.material, "one_sided", False)) for o in objects],
                                   dtype=bool)
+        #: the textured receivers' textures (PhongMaterial.texture), and per object the index
+        #: of its texture in it (-1: none); per face its corners' texture coordinates
+        self.textures = []
+        self.texture_of = np.full(len(objects), -1, dtype=np.int64)
+        face_uv = []
         all_vertices = []
         for i, obj in enumerate(objects):
+            texture = getattr(obj.material, "texture", None)
+            if texture is not None and len(obj.mesh.faces):
+                self.texture_of[i] = len(self.textures)
+                self.textures.append(texture)
             if self.is_specular[i] and not self.is_dielectric[i]:
                 self.reflectance[i] = np.asarray(obj.material.reflectance, dtype=np.float64)
                 if self.conductor[i]:
@@ -73,12 +82,15 @@ class EmbreeGeometry:
             vnrm.append(np.asarray(mesh.vertex_normals, dtype=np.float64)[faces])
             fnrm.append(np.asarray(mesh.face_normals, dtype=np.float64))
             fobj.append(np.full(len(faces), i, dtype=np.int64))
+            face_uv.append(np.asarray(obj.uv, dtype=np.float64)[faces] if texture is not None
+                           else np.zeros((len(faces), 3, 2)))
         # geomIDs are assigned 0, 1, ... in creation order
         self.face_offset = np.concatenate([[0], np.cumsum(geom_faces)]).astype(np.int64)
         self.triangles = np.concatenate(tri)
         self.vertex_normals = np.concatenate(vnrm)
         self.face_normals = np.concatenate(fnrm)
         self.face_object = np.concatenate(fobj)
+        self.face_uv = np.concatenate(face_uv)
         allv = np.concatenate(all_vertices)
         self.scale = float(np.linalg.norm(allv.max(axis=0) - allv.min(axis=0))) or 1.0
         #: per object, the mirrors' table the compiled specular event reads
@@ -95,6 +107,20 @@ class EmbreeGeometry:
         face = self.face_offset[geom[hit]] + res["primID"][hit].astype(np.int64)
         return hit, face, res["u"][hit].astype(np.float64), res["v"][hit].astype(np.float64)
 
+
+    def albedo(self, face, u, v) -> tuple[np.ndarray, np.ndarray]:
+        """(textured (m,) bool, (m, 3) the texture's value there) at hits on ``face`` with
+        barycentrics ``u``, ``v``: the reflectance of a textured receiver
+        (:mod:`blockhash.scene.texture`), zeros where the object has no texture."""
+        face = np.asarray(face, dtype=np.int64)
+        which = self.texture_of[self.face_object[face]]
+        out = np.zeros((len(face), 3))
+        for t in np.unique(which[which >= 0]):
+            rows = np.flatnonzero(which == t)
+            b = np.stack([1.0 - u[rows] - v[rows], u[rows], v[rows]], axis=1)
+            uv = np.einsum("ij,ijk->ik", b, self.face_uv[face[rows]])
+            out[rows] = self.textures[t].value(uv)
+        return which >= 0, out
 
     def occluded(self, origins: np.ndarray, dirs: np.ndarray, tmax: np.ndarray) -> np.ndarray:
         """(n,) bool: each ray meets a surface before ``tmax`` (embree's occlusion query,

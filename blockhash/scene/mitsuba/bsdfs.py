@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from blockhash.scene.mitsuba.spectra import conductor_preset, conductor_presets
-from blockhash.scene.mitsuba.textures import TexturedDiffuse, texture
+from blockhash.scene.mitsuba.textures import Checkerboard, TexturedDiffuse, texture
 from blockhash.scene.model import DielectricMaterial, MirrorMaterial, PhongMaterial
 
 BSDFS = ("diffuse", "conductor", "dielectric", "twosided")
@@ -47,7 +47,12 @@ def bsdf(r, el, key: str, *, twosided: bool = False):
         p = r.props(el, {"reflectance": ("rgb", "spectrum", "float", "texture")})
         kd = p.get("reflectance", 0.5)
         if not isinstance(kd, (float, np.ndarray)):  # a texture's element
-            return TexturedDiffuse(texture(r, kd), "two" if twosided else "one")
+            tex = texture(r, kd)
+            sided = "two" if twosided else "one"
+            if isinstance(tex, Checkerboard):
+                return TexturedDiffuse(tex, sided)
+            return r.build(el, PhongMaterial, kd=tex.mean, ks=0.0, n=0.0, sided=sided,
+                           texture=tex)
         # Mitsuba's diffuse reflects on the front face only; twosided on both
         return r.build(el, PhongMaterial, kd=np.broadcast_to(kd, (3,)), ks=0.0, n=0.0,
                           sided="two" if twosided else "one")

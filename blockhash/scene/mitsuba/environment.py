@@ -7,9 +7,10 @@ import numpy as np
 import trimesh
 
 from blockhash.errors import InputError
-from blockhash.scene.environment_light import EnvironmentLight, read_map
+from blockhash.scene.environment_light import EnvironmentLight
 from blockhash.scene.meshes import with_normals
 from blockhash.scene.model import AreaLight, PhongMaterial, SceneObject
+from blockhash.scene.texture import read_image
 
 #: How much larger than the box around the scene and the camera a constant environment's
 #: emitting box is (:func:`environment`).
@@ -42,7 +43,7 @@ def environment(r, el, objects, eye) -> tuple:
 
 def envmap(r, el) -> EnvironmentLight:
     """The :class:`EnvironmentLight` of an ``envmap`` emitter: its ``filename`` (found as a
-    mesh file is, :meth:`resolve`) read by :func:`read_map`, times ``scale``, turned by
+    mesh file is, :meth:`resolve`) read by :func:`blockhash.scene.texture.read_image`, times ``scale``, turned by
     ``to_world``'s rotation.  ``mis_compensation`` changes only how Mitsuba samples the map,
     not the image: accepted without a word."""
     p = r.props(el, {"filename": ("string",), "scale": ("float",), "to_world": ("transform",),
@@ -51,7 +52,7 @@ def envmap(r, el) -> EnvironmentLight:
         r.fail(el, "an envmap needs its image: add <string name=\"filename\" value=\"sky.exr\"/>")
     path = r.resolve(el, p["filename"], "environment map")
     try:
-        image = read_map(path)
+        image = read_image(path)
     except InputError as exc:
         r.fail(el, str(exc))
     scale = float(p.get("scale", 1.0))

@@ -71,7 +71,14 @@ from blockhash.scene.mitsuba.bsdfs import TwoFaced, two_sheets
 from blockhash.scene.mitsuba.bsdfs import bsdf as read_bsdf
 from blockhash.scene.mitsuba.environment import environment, envmap
 from blockhash.scene.mitsuba.exporter import METADATA_MARK
-from blockhash.scene.mitsuba.shapes import PROPERTIES, SHAPES, placed, shape_mesh, textured_meshes
+from blockhash.scene.mitsuba.shapes import (
+    PROPERTIES,
+    SHAPES,
+    placed,
+    shape_mesh,
+    textured_meshes,
+    uv_mesh,
+)
 from blockhash.scene.mitsuba.textures import TexturedDiffuse
 from blockhash.scene.mitsuba.xml_values import XmlReader, parse
 from blockhash.scene.model import (
@@ -189,6 +196,13 @@ class _Reader(XmlReader):
                             two_sheets(shape_mesh(self, el, kind, p)))
             return [self.build(el, SceneObject, name=f"{name}/{part}", mesh=mesh, material=m)
                     for part, m, mesh in parts if mesh is not None], None
+        if getattr(material, "texture", None) is not None:  # a bitmap: the mesh's coordinates
+            if emitter is not None:
+                self.fail(emitter, "an area emitter on a shape with a textured reflectance is "
+                          "not supported; give the emitting shape one plain BSDF")
+            mesh, uv = uv_mesh(self, el, kind, p)
+            return [self.build(el, SceneObject, name=name, mesh=mesh, material=material,
+                               uv=uv)], None
         mesh = shape_mesh(self, el, kind, p)
         obj = self.build(el, SceneObject, name=name, mesh=mesh, material=material)
         if emitter is None:

@@ -94,6 +94,20 @@ def textured_meshes(r, el, kind: str, p: dict, checker) -> tuple:
     return tuple(out)
 
 
+def uv_mesh(r, el, kind: str, p: dict) -> tuple:
+    """(mesh in world space, its (vertices, 2) texture coordinates) of a ``<shape>`` whose
+    reflectance is a bitmap (:class:`blockhash.scene.texture.Texture`): vertices not merged,
+    so a texture seam keeps both sides' coordinates."""
+    if kind not in TEXTURED:
+        r.fail(el, f"a bitmap texture on a {kind}: blockhash reads texture coordinates from "
+               f"{', '.join(TEXTURED)} shapes; give this shape a plain colour, or export it "
+               "as a mesh with its texture coordinates")
+    vertices, faces, normals, uv = _raw(r, el, kind, p)
+    if p.get("flip_normals"):
+        faces, normals = faces[:, ::-1], -normals
+    return placed(r, el, meshes.with_normals(vertices, faces, normals), p.get("to_world")), uv
+
+
 def _raw(r, el, kind: str, p: dict):
     """(vertices, faces, per-vertex normals, texture coordinates) of a textured shape as its
     file or Mitsuba's parametrisation gives them, vertices not merged (texture seams kept)."""

@@ -62,19 +62,53 @@ def checkerboard(r, el) -> Checkerboard:
                         el.get("id") or "checkerboard")
 
 
-def texture(r, el) -> Checkerboard:
+def texture(r, el):
     """The texture a property element ``el`` gives: an inline ``<texture>``, or a ``<ref id>``
-    to one at the scene's top; a checkerboard, else an error naming the kind."""
+    to one at the scene's top; a :class:`Checkerboard` or a bitmap's
+    :class:`blockhash.scene.texture.Texture`, else an error naming the kind."""
     if el.tag == "ref":
         tid = r.attr(el, "id")
         if tid not in r.textures:
             r.fail(el, f"no texture with id {tid!r}; defined: {', '.join(r.textures) or 'none'}")
         el = r.textures[tid]
+    if el.get("type") == "bitmap":
+        return bitmap(r, el)
     if el.get("type") != "checkerboard":
-        r.fail(el, f"a {el.get('type')} texture is not supported; supported: checkerboard (on a "
-               "diffuse reflectance); give the colour as <rgb value=\"r, g, b\"/>, e.g. the "
-               "texture's mean")
+        r.fail(el, f"a {el.get('type')} texture is not supported; supported: checkerboard and "
+               "bitmap (on a diffuse reflectance); give the colour as <rgb value=\"r, g, b\"/>, "
+               "e.g. the texture's mean")
     return checkerboard(r, el)
+
+
+def bitmap(r, el):
+    """The :class:`blockhash.scene.texture.Texture` of a ``<texture type="bitmap">``: its
+    ``filename`` found as a mesh file is, ``filter_type``, ``wrap_mode``, ``raw`` (8-bit
+    values not decoded from sRGB) and ``to_uv``, as Mitsuba reads them; ``format`` (the
+    precision Mitsuba keeps it in) changes nothing here."""
+    from blockhash.errors import InputError
+    from blockhash.scene.texture import FILTERS, WRAPS, Texture, read_image
+
+    p = r.props(el, {"filename": ("string",), "filter_type": ("string",),
+                     "wrap_mode": ("string",), "raw": ("boolean",), "to_uv": ("transform",),
+                     "format": ("string",)})
+    if "filename" not in p:
+        r.fail(el, "a bitmap needs its image: add <string name=\"filename\" value=\"wood.jpg\"/>")
+    path = r.resolve(el, p["filename"], "texture image")
+    filt, wrap = p.get("filter_type", "bilinear"), p.get("wrap_mode", "repeat")
+    if filt not in FILTERS or wrap not in WRAPS:
+        r.fail(el, f"filter_type {filt!r}, wrap_mode {wrap!r}: supported filter_type "
+               f"{', '.join(FILTERS)} and wrap_mode {', '.join(WRAPS)}")
+    try:
+        image = read_image(path, raw=bool(p.get("raw", False)))
+    except InputError as exc:
+        r.fail(el, str(exc))
+    if image.max() > 1.0:
+        r.fail(el, f"the image {path.name!r} reaches {image.max():g}: a reflectance texture's "
+               "values lie in [0, 1] (above 1 it would make light); scale the image down")
+    m = p.get("to_uv", np.eye(4))
+    to_uv = np.array([[m[0, 0], m[0, 1], m[0, 3]], [m[1, 0], m[1, 1], m[1, 3]]])
+    return r.build(el, Texture, image=image, to_uv=to_uv, wrap=wrap, filter=filt,
+                   name=el.get("id") or path.name)
 
 
 @dataclass(frozen=True, eq=False)

@@ -76,7 +76,10 @@ def test_a_checkered_rectangle_becomes_two_objects_of_the_checks_colours(tmp_pat
     ('<shape type="sphere"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>',
      r"s.xml:10: <shape type=\"sphere\">: a checkerboard on a sphere: .*rectangle, obj, ply, serialized"),
     ('<shape type="rectangle"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"/></bsdf></shape>',
-     r"s.xml:10: <texture type=\"bitmap\" name=\"reflectance\">: a bitmap texture is not supported; supported: checkerboard"),
+     r"s.xml:10: <texture type=\"bitmap\" name=\"reflectance\">: a bitmap needs its image"),
+    ('<shape type="rectangle"><bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"/></bsdf></shape>',
+     r"s.xml:10: <texture type=\"mesh_attribute\" name=\"reflectance\">: a mesh_attribute texture is not "
+     r"supported; supported: checkerboard and bitmap"),
     ('<shape type="rectangle"><bsdf type="diffuse"><ref name="reflectance" id="nope"/></bsdf></shape>',
      r"s.xml:10: <ref name=\"reflectance\">: no texture with id 'nope'"),
     ('<shape type="rectangle"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf>'
