@@ -140,7 +140,7 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
         obj[idx] = _no_back(obj[idx], outer[idx], backs)
         view[idx] = -r
     obj[specular[obj]] = -1  # still on a specular surface after the last event: nothing to shade
-    _textures(rays, objects, pos, view, obj, weight)
+    _textures(rays, objects, pos, nrm, view, obj, weight)
     return ShadingPoints(position=pos.reshape(h, w, 3).astype(np.float32),
                          normal=nrm.reshape(h, w, 3).astype(np.float32),
                          view=view.reshape(h, w, 3).astype(np.float32),
@@ -171,11 +171,12 @@ def _camera_start(camera, gbuffer, sided, rays: SceneRays):
     return pos, nrm, obj, view, outer
 
 
-def _textures(rays: SceneRays, objects, pos, view, obj, weight) -> None:
+def _textures(rays: SceneRays, objects, pos, nrm, view, obj, weight) -> None:
     """Scales ``weight`` (in place) at the points on textured receivers by the texture's value
     there over the material's ``kd`` (its mean: :mod:`blockhash.scene.texture`); each point's
     face and barycentrics from a ray cast back at it from just off the surface (as
-    :func:`blockhash.frame.surface_lights.emission_seen` tells a side)."""
+    :func:`blockhash.frame.surface_lights.emission_seen` tells a side), or where that meets
+    another surface first (a corner) along its normal."""
     geom = rays.geometry
     if not len(geom.textures):
         return
@@ -185,7 +186,12 @@ def _textures(rays: SceneRays, objects, pos, view, obj, weight) -> None:
         return
     lift = 8.0 * RAY_OFFSET * rays.scale
     hit, _, _, o, _, face, bary = rays.first_hit(pos[on] + view[on] * lift, -view[on], faces=True)
-    ok = np.flatnonzero(hit & (o == obj[on]))
+    again = np.flatnonzero(~hit | (o != obj[on]))  # in a corner: cast along the normal instead
+    if len(again):
+        n = nrm[on[again]]
+        found = rays.first_hit(pos[on[again]] + n * lift, -n, faces=True)
+        face[again], bary[again], o[again] = found[5], found[6], np.where(found[0], found[3], -1)
+    ok = np.flatnonzero(o == obj[on])
     _, albedo = geom.albedo(face[ok], bary[ok, 0], bary[ok, 1])
     kd = np.array([objects[i].material.kd for i in obj[on[ok]]], dtype=np.float64).reshape(-1, 3)
     weight[on[ok]] *= np.divide(albedo, kd, out=np.zeros_like(albedo), where=kd > 0)
@@ -307,7 +313,7 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     # Rays still on a specular surface after the last event shade nothing, and are dropped;
     # so are those that left the scene, unless an environment light is seen along them.
     parts = [np.concatenate(col) for col in zip(*done)]
-    _textures(rays, objects, parts[1], parts[3], parts[4], parts[5])
+    _textures(rays, objects, *parts[1:6])
     shade = (parts[4] >= 0) | (parts[6] & environment)
     parts = [a[shade] for a in parts]
     m = len(parts[0])

@@ -1,0 +1,74 @@
+"""A bitmap texture in a Mitsuba file (blockhash/scene/mitsuba/textures.py): an 8-bit floor
+texture, repeated twice by ``to_uv``, under an area light beside a plain wall, rendered by
+blockhash and by Mitsuba from the same file: the direct light on the floor, the floor's colours
+bounced onto the wall and back, within 2% of Mitsuba's flux and a blurred relative RMS of
+0.05 (measured 0.8% and 0.036 at 48 pixels, 4 passes of 16 samples).
+
+Needs the extra blockhash[mitsuba]; skipped without it, unless BLOCKHASH_REQUIRE_MITSUBA is
+set (CI sets it), where it fails instead."""
+
+from __future__ import annotations
+
+import numpy as np
+import OpenImageIO as oiio
+import pytest
+from conftest import mitsuba_or_skip
+
+from blockhash.studies.published import compare, load
+
+SCENE = """<scene version="3.0.0">
+ <integrator type="path"/>
+ <sensor type="perspective"><float name="fov" value="45"/>
+  <transform name="to_world"><lookat origin="0, 2.5, 5" target="0, 0.3, 0" up="0, 1, 0"/></transform>
+  <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
+  <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="48"/>
+  <rfilter type="box"/></film></sensor>
+ <shape type="sphere"><point name="center" x="-1.5" y="3" z="1"/><float name="radius" value="0.25"/>
+  <emitter type="area"><rgb name="radiance" value="20"/></emitter></shape>
+ <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/><scale value="3"/></transform>
+  <bsdf type="diffuse"><texture name="reflectance" type="bitmap"><string name="filename" value="floor.png"/>
+   <transform name="to_uv"><scale x="2" y="2"/></transform></texture></bsdf></shape>
+ <shape type="rectangle"><transform name="to_world"><scale value="3"/><translate z="-2"/></transform>
+  <bsdf type="diffuse"><rgb name="reflectance" value="0.7"/></bsdf></shape>
+</scene>"""
+
+
+def floor_texture() -> np.ndarray:
+    """(24, 32, 3) uint8: red across, green down, blue checks of 4 pixels."""
+    y, x = np.mgrid[0:24, 0:32]
+    img = np.stack([0.15 + 0.7 * x / 32, 0.15 + 0.7 * y / 24,
+                    np.where((x // 4 + y // 4) % 2 == 0, 0.8, 0.1)], axis=-1)
+    return (img * 255).astype(np.uint8)
+
+
+@pytest.fixture
+def textured(tmp_path):
+    out = oiio.ImageOutput.create(str(tmp_path / "floor.png"))
+    out.open(str(tmp_path / "floor.png"), oiio.ImageSpec(32, 24, 3, oiio.UINT8))
+    out.write_image(floor_texture())
+    out.close()
+    (tmp_path / "floor.xml").write_text(SCENE)
+    return tmp_path / "floor.xml"
+
+
+def test_the_bitmap_is_read_with_its_coordinates(textured):
+    scene, refused, warned = load(textured)
+    assert refused is None and not warned
+    floor = scene.objects[1]
+    t = floor.material.texture
+    assert t is not None and t.image.shape == (24, 32, 3) and t.wrap == "repeat"
+    srgb = floor_texture()[0, 0, 0] / 255.0
+    assert np.isclose(t.image[0, 0, 0], ((srgb + 0.055) / 1.055) ** 2.4)  # decoded from sRGB
+    assert np.allclose(t.to_uv, [[2.0, 0.0, 0.0], [0.0, 2.0, 0.0]])
+    assert floor.uv.shape == (len(floor.mesh.vertices), 2)
+    assert np.allclose(floor.material.kd, t.mean)
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_a_textured_floor_renders_as_mitsuba_renders_it(textured):
+    mitsuba_or_skip()
+    row = compare(textured, size=48, spp=4096, passes=4, samples=16)
+    assert row.refused is None
+    assert np.all(np.abs(row.flux - 1) < 0.02), row.flux
+    assert row.blurred < 0.05, row.blurred
