@@ -63,8 +63,8 @@ def shape_mesh(r, el, kind: str, p: dict) -> trimesh.Trimesh:
         mesh = meshes.with_normals(mesh.vertices, mesh.faces[:, ::-1], -mesh.vertex_normals)
     return placed(r, el, mesh, p.get("to_world"))
 
-#: The shapes whose texture coordinates a checkerboard may be cut by (:mod:`.textures`).
-TEXTURED = ("rectangle", "obj", "ply", "serialized")
+#: The shapes whose texture coordinates a texture is read at (:mod:`.textures`).
+TEXTURED = ("rectangle", "obj", "ply", "serialized", "sphere", "disk", "cylinder")
 
 
 def textured_meshes(r, el, kind: str, p: dict, checker) -> tuple:
@@ -114,6 +114,8 @@ def _raw(r, el, kind: str, p: dict):
     if kind == "rectangle":  # Mitsuba's texture coordinates: (x / 2 + 1/2, y / 2 + 1/2)
         return (RECTANGLE, RECTANGLE_FACES, np.tile([0.0, 0.0, 1.0], (4, 1)),
                 RECTANGLE[:, :2] * 0.5 + 0.5)
+    if kind in ("sphere", "disk", "cylinder"):
+        return _parametrised(r, el, kind, p)
     vertices, faces, normals, flat, uv, _ = _file_arrays(r, el, kind, p)
     if uv is None:  # Mitsuba's texture coordinates of a mesh without them: (0, 0)
         uv = np.zeros((len(vertices), 2))
@@ -155,3 +157,65 @@ def placed(r, el, mesh: trimesh.Trimesh, m) -> trimesh.Trimesh:
     normal = np.linalg.inv(m[:3, :3]).T
     return meshes.with_normals(trimesh.transform_points(mesh.vertices, m), mesh.faces,
                                np.asarray(mesh.vertex_normals) @ normal.T)
+
+
+def _parametrised(r, el, kind: str, p: dict):
+    """(vertices, faces, normals, texture coordinates) of Mitsuba's analytic ``sphere``
+    (u = phi / 2 pi about its z axis, v = theta / pi from +z), ``disk`` (u = the radius,
+    v = phi / 2 pi) or ``cylinder`` (u = phi / 2 pi about the axis in Mitsuba's frame of it,
+    v = the height along it over its length), at each corner of the tessellated shape: every
+    triangle its own corners, one that crosses phi = 0 taking phi + 2 pi on its small side,
+    and a pole's or the centre's corner (no phi of its own) its triangle's other two's mean.
+    Linear over each triangle, as the mesh's coordinates are."""
+    if kind == "sphere":
+        center, radius = p.get("center", np.zeros(3)), p.get("radius", 1.0)
+        mesh = shape_mesh(r, el, kind, {k: v for k, v in p.items() if k in ("center", "radius")})
+        local = (np.asarray(mesh.vertices) - center) / radius
+        phi, other = _phi(local[:, 0], local[:, 1]), np.arccos(np.clip(local[:, 2], -1, 1)) / np.pi
+        undefined = np.hypot(local[:, 0], local[:, 1]) < 1e-9
+    elif kind == "disk":
+        mesh = meshes.disk()
+        local = np.asarray(mesh.vertices)
+        phi, other = _phi(local[:, 0], local[:, 1]), np.hypot(local[:, 0], local[:, 1])
+        undefined = other < 1e-12
+    else:
+        p0, p1 = p.get("p0", np.zeros(3)), p.get("p1", np.array([0.0, 0.0, 1.0]))
+        mesh = shape_mesh(r, el, kind, {k: v for k, v in p.items() if k in ("p0", "p1", "radius")})
+        axis = np.asarray(p1, np.float64) - p0
+        length = float(np.linalg.norm(axis))
+        s_, t_ = _mitsuba_frame(axis / length)
+        q = np.asarray(mesh.vertices) - p0
+        phi, other = _phi(q @ t_, q @ s_), (q @ axis) / length ** 2
+        undefined = np.zeros(len(q), dtype=bool)
+    faces = np.asarray(mesh.faces)
+    corners = faces.reshape(-1)
+    f_phi = phi[faces].copy()
+    span = np.where(undefined[faces], np.nan, f_phi)
+    wide = (np.nanmax(span, axis=1) - np.nanmin(span, axis=1)) > 0.5
+    f_phi[wide] = np.where(f_phi[wide] < 0.5, f_phi[wide] + 1.0, f_phi[wide])
+    hole = undefined[faces]
+    if hole.any():  # a pole or the centre: its triangle's other corners' mean
+        rows = np.flatnonzero(hole.any(axis=1))
+        known = np.where(hole[rows], 0.0, f_phi[rows])
+        mean = known.sum(axis=1) / np.maximum((~hole[rows]).sum(axis=1), 1)
+        f_phi[rows] = np.where(hole[rows], mean[:, None], f_phi[rows])
+    uv = np.stack([f_phi.reshape(-1), other[corners]], axis=1)
+    if kind == "disk":
+        uv = uv[:, ::-1]
+    return (np.asarray(mesh.vertices)[corners], np.arange(len(corners)).reshape(-1, 3),
+            np.asarray(mesh.vertex_normals)[corners], uv)
+
+
+def _phi(x, y) -> np.ndarray:
+    """atan2(y, x) / 2 pi in [0, 1), as Mitsuba's analytic shapes take their azimuth."""
+    return np.mod(np.arctan2(y, x), 2.0 * np.pi) / (2.0 * np.pi)
+
+
+def _mitsuba_frame(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(s, t) of Mitsuba's ``Frame3f(n)`` (Duff et al. 2017), the frame its cylinder's azimuth
+    is measured in."""
+    sign = 1.0 if n[2] >= 0.0 else -1.0
+    a = -1.0 / (sign + n[2])
+    b = n[0] * n[1] * a
+    return (np.array([1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]]),
+            np.array([b, sign + n[1] * n[1] * a, -n[1]]))

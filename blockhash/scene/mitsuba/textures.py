@@ -12,8 +12,11 @@ and on the device, the gathers, direct light, the light tracer) renders it uncha
 
 Texture coordinates are Mitsuba's: a ``rectangle``'s (x / 2 + 1/2, y / 2 + 1/2) in its own
 frame; an OBJ file's ``vt`` with v flipped (1 - v), as Mitsuba's OBJ loader takes them; a PLY
-file's ``u``, ``v`` (or ``s``, ``t``); a ``serialized`` mesh's own.  A mesh without texture
-coordinates has (0, 0) everywhere in Mitsuba, so it takes ``color0`` whole.
+file's ``u``, ``v`` (or ``s``, ``t``); a ``serialized`` mesh's own; a ``sphere``'s, ``disk``'s
+and ``cylinder``'s Mitsuba's parametrisation at the tessellation's corners
+(:func:`.shapes.uv_mesh`).  A mesh without texture coordinates has (0, 0) everywhere in
+Mitsuba, so it takes ``color0`` whole.  A ``bitmap`` is read by :func:`bitmap` as a
+:class:`blockhash.scene.texture.Texture`, looked up per point, not cut.
 """
 
 from __future__ import annotations
