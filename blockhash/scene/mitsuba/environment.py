@@ -1,44 +1,40 @@
-"""Mitsuba 3's ``constant`` and ``envmap`` emitters (for :mod:`.importer`):
-:func:`environment` and :func:`envmap`."""
+"""Mitsuba 3's ``constant`` and ``envmap`` emitters (for :mod:`.importer`): :func:`constant`
+and :func:`envmap`, each an :class:`~blockhash.scene.environment_light.EnvironmentLight`."""
 
 from __future__ import annotations
 
 import numpy as np
-import trimesh
 
 from blockhash.errors import InputError
 from blockhash.scene.environment_light import EnvironmentLight
-from blockhash.scene.meshes import with_normals
-from blockhash.scene.model import AreaLight, PhongMaterial, SceneObject
 from blockhash.scene.texture import read_image
 
-#: How much larger than the box around the scene and the camera a constant environment's
-#: emitting box is (:func:`environment`).
-ENVIRONMENT_MARGIN = 1.5
+#: The smallest map Mitsuba's envmap takes (2 x 3 pixels): a ``constant`` emitter's, every
+#: pixel its radiance.
+CONSTANT_MAP = (3, 2)
 
 
-def environment(r, el, objects, eye) -> tuple:
-    """(object, AreaLight) of a ``constant`` emitter: a box around the scene and the camera
-    (:data:`ENVIRONMENT_MARGIN` times larger) whose faces turn inward and emit its
-    ``radiance``, reflecting nothing.  Radiance does not fall off with distance, so every ray
-    that leaves the scene meets the box and sees that radiance, wherever it starts inside:
-    exactly a constant environment, rendered as any area light (photons, direct light, the
-    box seen directly, in mirrors and through glass)."""
+def constant(r, el) -> EnvironmentLight:
+    """The :class:`EnvironmentLight` of a ``constant`` emitter: its ``radiance`` from every
+    direction, a map of that radiance everywhere (the bilinear lookup of a constant map is the
+    constant), so its photons cross the scene's disc, its direct light is sampled with shadow
+    rays and the camera sees it where a ray leaves the scene, as any environment map's."""
     p = r.props(el, {"radiance": ("rgb", "spectrum", "float")}, emitter=True)
-    points = np.concatenate([np.asarray(o.mesh.vertices, np.float64) for o in objects]
-                            + [np.asarray(eye, np.float64)[None]])
-    lo, hi = points.min(axis=0), points.max(axis=0)
-    half = ENVIRONMENT_MARGIN * max(float((hi - lo).max()) / 2.0, 1e-6)
-    box = trimesh.creation.box(extents=(2.0 * half,) * 3)
-    box.unmerge_vertices()
-    box.apply_translation((lo + hi) / 2.0)
-    inward = np.asarray(box.faces)[:, ::-1]
-    mesh = with_normals(box.vertices, inward, -np.repeat(box.face_normals, 3, axis=0))
-    name = el.get("id") or "constant-environment"
-    obj = r.build(el, SceneObject, name=name, mesh=mesh,
-                  material=PhongMaterial(kd=0.0, ks=0.0, n=0.0, sided="one"))
-    return obj, r.build(el, AreaLight, object=name, mesh=mesh,
-                        radiance=np.broadcast_to(p.get("radiance", 1.0), (3,)))
+    radiance = np.broadcast_to(p.get("radiance", 1.0), (3,))
+    return r.build(el, EnvironmentLight, image=np.broadcast_to(radiance, (*CONSTANT_MAP, 3)),
+                   name=el.get("id") or "constant-environment")
+
+
+def add_constant(r, el, lights: list) -> None:
+    """Adds a ``constant`` emitter to ``lights`` (changed in place): its :func:`constant` map,
+    or where an ``envmap`` is there already its radiance added to every pixel of that map (the
+    two emitters as one environment light)."""
+    sky = constant(r, el)
+    for i, light in enumerate(lights):
+        if isinstance(light, EnvironmentLight):
+            lights[i] = EnvironmentLight(light.image + sky.image[0, 0], light.to_world, light.name)
+            return
+    lights.append(sky)
 
 
 def envmap(r, el) -> EnvironmentLight:

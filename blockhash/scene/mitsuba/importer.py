@@ -31,8 +31,8 @@ Mapped:
   ``beam_width`` with its linear falloff) and
   ``directional`` (``direction`` or ``to_world``'s +z, not both; ``irradiance``), ``envmap``
   (``filename``, ``scale``, ``to_world``'s rotation: an
-  :class:`blockhash.scene.environment_light.EnvironmentLight`), ``constant`` (an emitting box
-  around the scene, :mod:`.environment`), and an
+  :class:`blockhash.scene.environment_light.EnvironmentLight`), ``constant`` (an environment
+  light of that radiance everywhere, :mod:`.environment`), and an
   ``area`` emitter inside a shape (``radiance``; the shape becomes an
   :class:`blockhash.scene.model.AreaLight`, emitting from its front face, and keeps its BSDF
   for the light it reflects).  An emitter's ``<spectrum value="v"/>`` is a flat spectrum,
@@ -65,11 +65,11 @@ import numpy as np
 
 from blockhash.errors import InputError
 from blockhash.scene.lights import falloff_solid_angle
+from blockhash.scene.mitsuba import environment as mitsuba_environment
 from blockhash.scene.mitsuba import integrator as mitsuba_integrator
 from blockhash.scene.mitsuba import sensor as mitsuba_sensor
 from blockhash.scene.mitsuba.bsdfs import TwoFaced, two_sheets
 from blockhash.scene.mitsuba.bsdfs import bsdf as read_bsdf
-from blockhash.scene.mitsuba.environment import environment, envmap
 from blockhash.scene.mitsuba.exporter import METADATA_MARK
 from blockhash.scene.mitsuba.shapes import (
     PROPERTIES,
@@ -109,7 +109,7 @@ class _Reader(XmlReader):
                       "and area inside a shape (blockhash's lights)")
         spectra = ("rgb", "spectrum", "float")
         if kind == "envmap":
-            return envmap(self, el)
+            return mitsuba_environment.envmap(self, el)
         if kind == "directional":
             p = self.props(el, {"direction": ("vector",), "irradiance": spectra,
                                 "to_world": ("transform",)}, children=("texture",),
@@ -379,10 +379,8 @@ def load_mitsuba(path, defines: dict | None = None) -> Scene:
                    f"that emits); add <ref id=\"{el.get('id')}\"/> inside that shape")
     if render is None:
         r.fail(root, "no <sensor>; add a perspective sensor")
-    if constant is not None and objects:
-        obj, light = environment(r, constant, objects, render.camera.eye)
-        objects.append(obj)
-        lights.append(light)
+    if constant is not None:
+        mitsuba_environment.add_constant(r, constant, lights)
     if not lights:
         r.fail(root, "no <emitter>: blockhash renders the light of point, spot, directional "
                "and area emitters; add one (an area emitter goes inside a shape)")

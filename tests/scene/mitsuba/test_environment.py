@@ -1,5 +1,6 @@
 """Mitsuba's constant emitter (blockhash/scene/mitsuba/environment.py) rendered against the
-in-project light tracer, which models it as it models any area light: the glass ball of
+in-project light tracer, which models it as any environment light (its photons across the
+scene's disc): the glass ball of
 tests/reference/mitsuba_xml/ball.xml under its point light and a constant environment, whose
 light the ball focuses too."""
 
@@ -36,7 +37,7 @@ def test_the_environments_caustic_is_the_light_tracers(tmp_path):
     from blockhash.reference.lighttrace import light_trace
 
     scene = ball(tmp_path, True)
-    assert [type(light).__name__ for light in scene.lights] == ["PointLight", "AreaLight"]
+    assert [type(light).__name__ for light in scene.lights] == ["PointLight", "EnvironmentLight"]
     image = blockhash.render(scene, photons=100_000, seed=1, plan=RenderPlan(passes=2))
     ref = light_trace(scene, 1_000_000, seed=2)
     seen = ref.visible

@@ -760,23 +760,21 @@ def test_a_twosided_of_two_diffuse_bsdfs_is_two_one_sided_sheets(tmp_path):
         load(tmp_path, body=f'<shape type="rectangle">{mixed}</shape>')
 
 
-def test_a_constant_environment_is_an_inward_emitting_box_around_the_scene_and_camera(tmp_path):
-    """Mitsuba's constant emitter: every ray leaving the scene meets a box around it and the
-    camera whose faces emit the radiance inward and reflect nothing (radiance does not fall
-    off, so that is the constant environment exactly)."""
+def test_a_constant_environment_is_an_environment_light_of_its_radiance(tmp_path):
+    """Mitsuba's constant emitter: an environment light whose radiance is the constant in every
+    direction (no object added); beside an envmap, their sum in one map."""
+    from blockhash.scene.model import EnvironmentLight
+
     light = '<emitter type="constant"><rgb name="radiance" value="0.5, 0.6, 0.7"/></emitter>'
     scene = load(tmp_path, light=light)
-    env = scene.objects[-1]
-    assert env.name == "constant-environment" and not env.material.kd.any()
-    area = scene.lights[-1]
-    np.testing.assert_allclose(area.radiance, [0.5, 0.6, 0.7])
-    lo, hi = env.mesh.bounds
-    inside = np.concatenate([o.mesh.vertices for o in scene.objects[:-1]] + [scene.camera.eye[None]])
-    assert (inside > lo).all() and (inside < hi).all()
-    centre = (lo + hi) / 2
-    towards = (centre - env.mesh.triangles_center) * env.mesh.face_normals
-    assert (towards.sum(axis=1) > 0).all()  # every face turns inward
-    assert load(tmp_path, light='<emitter type="constant"/>').lights[-1].radiance.tolist() == [1, 1, 1]
+    env = scene.lights[-1]
+    assert isinstance(env, EnvironmentLight) and env.name == "constant-environment"
+    d = np.random.default_rng(0).normal(size=(50, 3))
+    np.testing.assert_allclose(env.emitted(d / np.linalg.norm(d, axis=1, keepdims=True)),
+                               np.broadcast_to([0.5, 0.6, 0.7], (50, 3)))
+    np.testing.assert_allclose(env.integral, 4 * np.pi * np.array([0.5, 0.6, 0.7]))
+    assert "constant-environment" not in [o.name for o in scene.objects]
+    assert load(tmp_path, light='<emitter type="constant"/>').lights[-1].image.max() == 1.0
     with pytest.raises(InputError, match=r"s.xml:8: <emitter type=\"constant\">: a second constant"):
         load(tmp_path, light='<emitter type="constant"/><emitter type="constant"/>')
 
