@@ -72,3 +72,21 @@ def test_a_textured_floor_renders_as_mitsuba_renders_it(textured):
     assert row.refused is None
     assert np.all(np.abs(row.flux - 1) < 0.02), row.flux
     assert row.blurred < 0.05, row.blurred
+
+
+def test_an_exported_texture_reads_back_the_same(textured, tmp_path):
+    """The export writes the bitmap (linear, as an EXR) and the mesh's texture coordinates (the
+    PLY's u and v): read back, the same texture at the same coordinates."""
+    from blockhash.scene.mitsuba.exporter import export_mitsuba
+
+    scene, _, _ = load(textured)
+    xml = export_mitsuba(scene, tmp_path / "out", integrator="path")
+    back, refused, _ = load(xml)
+    assert refused is None
+    a, b = scene.objects[1], back.objects[1]
+    assert np.allclose(b.material.texture.image, a.material.texture.image, atol=1e-6)
+    assert np.allclose(b.material.texture.to_uv, a.material.texture.to_uv)
+    assert b.material.texture.wrap == a.material.texture.wrap
+    centres = np.asarray(a.mesh.vertices)
+    order = [int(np.argmin(np.linalg.norm(np.asarray(b.mesh.vertices) - c, axis=1))) for c in centres]
+    assert np.allclose(b.uv[order], a.uv, atol=1e-6)

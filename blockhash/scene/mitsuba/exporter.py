@@ -76,6 +76,11 @@ def mesh_file_name(name: str) -> str:
     return "meshes/" + re.sub(r"[^A-Za-z0-9_.-]", "_", name) + ".ply"
 
 
+def texture_file_name(bsdf_id: str) -> str:
+    """The EXR a textured material's image is written to, under ``textures/``."""
+    return "textures/" + re.sub(r"[^A-Za-z0-9_.-]", "_", bsdf_id) + ".exr"
+
+
 def _bsdf(material, bsdf_id: str, drop_specular: bool, owner: str) -> list[str]:
     if isinstance(material, MirrorMaterial):
         metal = ([f"    {_rgb('eta', material.eta)}", f"    {_rgb('k', material.k)}"]
@@ -102,6 +107,17 @@ def _bsdf(material, bsdf_id: str, drop_specular: bool, owner: str) -> list[str]:
                      f"{np.round(material.ks, 6).tolist()}, n = {material.n:g} is dropped "
                      "(Mitsuba has no modified Phong); diffuse kd only -->")
     diffuse = ['<bsdf type="diffuse">', "    " + _rgb("reflectance", material.kd), "</bsdf>"]
+    if material.texture is not None:  # its image written by export_mitsuba
+        t = material.texture
+        m = np.eye(4)
+        m[:2, :2], m[:2, 3] = t.to_uv[:, :2], t.to_uv[:, 2]
+        diffuse[1:2] = ['    <texture type="bitmap" name="reflectance">',
+                        f'        <string name="filename" value={quoteattr(texture_file_name(bsdf_id))}/>',
+                        f'        <string name="filter_type" value="{t.filter}"/>',
+                        f'        <string name="wrap_mode" value="{t.wrap}"/>',
+                        '        <transform name="to_uv">',
+                        f'            <matrix value="{" ".join(_num(v) for v in m.reshape(-1))}"/>',
+                        "        </transform>", "    </texture>"]
     if material.one_sided:  # Mitsuba's diffuse is one-sided
         return lines + [diffuse[0][:-1] + f" id={quoteattr(bsdf_id)}>", *diffuse[1:]]
     return lines + [f'<bsdf type="twosided" id={quoteattr(bsdf_id)}>',
@@ -223,9 +239,20 @@ def export_mitsuba(scene: Scene, directory, *, drop_specular: bool = False,
     (root / "meshes").mkdir(parents=True, exist_ok=True)
     for obj, name in zip(scene.objects, names):
         mesh = obj.mesh
+        if obj.uv is not None:  # the texture coordinates as the PLY's u and v
+            mesh = mesh.copy()
+            mesh.vertex_attributes["u"] = np.ascontiguousarray(obj.uv[:, 0], np.float32)
+            mesh.vertex_attributes["v"] = np.ascontiguousarray(obj.uv[:, 1], np.float32)
         data = mesh.export(file_type="ply", encoding="binary", include_attributes=True,
                            vertex_normal=True)
         (root / name).write_bytes(data)
+    written = set()
+    for obj in scene.objects:
+        t = getattr(obj.material, "texture", None)
+        if t is not None and id(obj.material) not in written:
+            written.add(id(obj.material))
+            (root / "textures").mkdir(exist_ok=True)
+            _write_map(root / texture_file_name(f"{obj.name}-bsdf"), t.image)
     for light in scene.lights:
         if isinstance(light, EnvironmentLight):
             _write_map(root / ENVIRONMENT_FILE, light.image)
@@ -235,7 +262,8 @@ def export_mitsuba(scene: Scene, directory, *, drop_specular: bool = False,
 
 
 def _write_map(path: Path, image: np.ndarray) -> None:
-    """An environment map as a plain RGB float EXR (channels R, G, B, as Mitsuba reads one)."""
+    """An environment map or a texture as a plain RGB float EXR (channels R, G, B, as Mitsuba
+    reads one: linear, as stored)."""
     import OpenImageIO as oiio
 
     h, w, _ = image.shape
