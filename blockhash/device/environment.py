@@ -17,12 +17,13 @@ class DeviceEnvironment:
         h, w = light.image.shape[:2]
         f32 = lambda a: mi.Float(np.ascontiguousarray(a, dtype=np.float32).reshape(-1))  # noqa: E731
         self.image = f32(light.image)
-        self.cdf, self.pmf = f32(light.cell_cdf), f32(light.cell_pmf)
+        self.row_cdf, self.col_cdf = f32(light.row_cdf), f32(light.column_cdf)
+        self.pmf = f32(light.cell_pmf)
         self.band_cos, self.omega = f32(light.band_cos), f32(light.cell_solid_angle)
         self.rotation = f32(light.to_world)  # row by row
         self.size = mi.UInt32(np.array([w, h], dtype=np.uint32))
-        self.cells = int(w * (h - 1))
-        dr.make_opaque(self.image, self.cdf, self.pmf, self.band_cos, self.omega, self.rotation,
+        self.rows, self.columns = int(h - 1), int(w)
+        dr.make_opaque(self.image, self.row_cdf, self.col_cdf, self.pmf, self.band_cos, self.omega, self.rotation,
                        self.size)
 
     def _frame(self, active):
@@ -36,15 +37,23 @@ class DeviceEnvironment:
 
     def sample(self, u0, u1, u2, active):
         """(unit directions toward the map, density per steradian) of uniforms ``u0`` (the
-        cell), ``u1`` (across its column), ``u2`` (across its band of cos theta), as
+        row of cells), ``u1`` (the cell in it, its remainder across the cell's column), ``u2``
+        (across its band of cos theta), as
         :meth:`~blockhash.scene.environment_light.EnvironmentLight.sample`."""
         mi, dr = self.mi, self.dr
         w, _ = self._dims()
-        cdf, last = self.cdf, self.cells - 1
-        cell = dr.binary_search(0, last, lambda i: dr.gather(mi.Float, cdf, i, active) <= u0)
-        cell = dr.minimum(mi.UInt32(cell), last)
-        j, i = cell // w, cell % w
-        phi = 2.0 * dr.pi * ((mi.Float(i) + u1 + 0.5) / mi.Float(w))
+        rows, cols = self.row_cdf, self.col_cdf
+        j = dr.binary_search(0, self.rows - 1, lambda k: dr.gather(mi.Float, rows, k, active) <= u0)
+        j = dr.minimum(mi.UInt32(j), self.rows - 1)
+        first = j * w
+        i = dr.binary_search(0, self.columns - 1,
+                             lambda k: dr.gather(mi.Float, cols, first + k, active) <= u1)
+        i = dr.minimum(mi.UInt32(i), w - 1)
+        lo = dr.select(i > 0, dr.gather(mi.Float, cols, first + i - 1, active & (i > 0)), 0.0)
+        hi = dr.gather(mi.Float, cols, first + i, active)
+        across = dr.clip((u1 - lo) / dr.maximum(hi - lo, 1e-30), 0.0, 0.99999994)
+        cell = first + i
+        phi = 2.0 * dr.pi * ((mi.Float(i) + across + 0.5) / mi.Float(w))
         c0 = dr.gather(mi.Float, self.band_cos, j, active)
         c1 = dr.gather(mi.Float, self.band_cos, j + 1, active)
         cos_t = dr.clip(c0 - u2 * (c0 - c1), -1.0, 1.0)

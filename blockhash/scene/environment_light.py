@@ -11,7 +11,7 @@ as Mitsuba's RGB variants evaluate it.
 
 **Sampling.**  The bilinear cells (W columns, H - 1 rows, each between four pixels) are
 chosen with probability proportional to the mean luminance of their corners times their solid
-angle; within a cell the direction is uniform in solid angle (``x`` uniform, ``cos theta``
+angle (a row of cells first, then a cell in the row); within a cell the direction is uniform in solid angle (``x`` uniform, ``cos theta``
 uniform across the cell's band), so the density per steradian is constant over a cell,
 ``P_cell / Omega_cell``, and finite at the poles.  A cell whose corners are all black is never
 chosen, and the bilinear radiance is zero everywhere in it: the estimate ``L(w) / p(w)`` is
@@ -87,12 +87,19 @@ class EnvironmentLight:
             raise _FieldError("image", "the map is black (no radiance anywhere); an "
                               "environment light must emit somewhere")
         pmf = (mass / total).reshape(-1)
-        cdf = np.cumsum(pmf)
-        cdf[-1] = 1.0
+        row_pmf = mass.sum(axis=1) / total
+        row_cdf = np.cumsum(row_pmf)
+        row_cdf[-1] = 1.0
+        row_mass = mass.sum(axis=1, keepdims=True)
+        col_cdf = np.cumsum(mass, axis=1) / np.where(row_mass > 0.0, row_mass, 1.0)
+        col_cdf[:, -1] = 1.0
         rgb = 0.25 * (img[:-1] + np.roll(img, -1, axis=1)[:-1] + img[1:]
                       + np.roll(img, -1, axis=1)[1:])
         object.__setattr__(self, "_pmf", _readonly(pmf))
-        object.__setattr__(self, "_cdf", _readonly(cdf))
+        object.__setattr__(self, "_row_cdf", _readonly(row_cdf))
+        object.__setattr__(self, "_col_cdf", _readonly(col_cdf))
+        object.__setattr__(self, "_col_flat", _readonly(
+            (col_cdf + np.arange(h - 1)[:, None]).reshape(-1)))
         object.__setattr__(self, "_cos_edge", _readonly(cos_edge))
         object.__setattr__(self, "_omega", _readonly(omega))
         object.__setattr__(self, "_integral", _readonly(
@@ -106,9 +113,14 @@ class EnvironmentLight:
         return self._pmf
 
     @property
-    def cell_cdf(self) -> np.ndarray:
-        """(W (H - 1),) the cells' cumulative probability (the last 1)."""
-        return self._cdf
+    def row_cdf(self) -> np.ndarray:
+        """(H - 1,) the rows of cells' cumulative probability (the last 1)."""
+        return self._row_cdf
+
+    @property
+    def column_cdf(self) -> np.ndarray:
+        """(H - 1, W) within each row, its cells' cumulative probability (the last 1)."""
+        return self._col_cdf
 
     @property
     def band_cos(self) -> np.ndarray:
@@ -149,24 +161,30 @@ class EnvironmentLight:
 
     def sample(self, u0: np.ndarray, u1: np.ndarray | None, u2: np.ndarray):
         """(directions toward the map (n, 3), density per steradian (n,)) from uniforms: the
-        cell by ``u0`` on :attr:`cell_cdf`, then ``u1`` across its column and ``u2`` across its
-        band of cos theta (module docstring).  ``u1`` None: ``u0``'s remainder in the cell's
-        stretch of the CDF, rescaled to [0, 1), takes its place (two uniforms a direction,
-        as the shading points' light samples come)."""
+        row of cells by ``u0`` on :attr:`row_cdf`, the cell in it by ``u1`` on its
+        :attr:`column_cdf` (the remainder of ``u1`` in the cell's stretch, rescaled, across
+        the cell's column), then ``u2`` across its band of cos theta (module docstring).
+        ``u1`` None: ``u0``'s remainder in its row's stretch takes its place (two uniforms a
+        direction, as the shading points' light samples come).  Row, then column: each
+        table is short, so a map of millions of cells keeps every cell's share in float32 on
+        the device (:mod:`blockhash.device.environment`)."""
         h, w = self.image.shape[:2]
         u0 = np.asarray(u0, dtype=np.float64)
-        cdf = self._cdf
-        cell = np.minimum(np.searchsorted(cdf, u0, side="right"), len(cdf) - 1)
-        if u1 is None:
-            lo = np.where(cell > 0, cdf[np.maximum(cell - 1, 0)], 0.0)
-            u1 = np.clip((u0 - lo) / np.maximum(cdf[cell] - lo, 1e-300), 0.0, 1.0 - 1e-12)
-        j, i = np.divmod(cell, w)
-        phi = 2.0 * math.pi * ((i + np.asarray(u1)) / w + 0.5 / w)
+        j, rest = _pick(self._row_cdf, u0)
+        u1 = rest if u1 is None else np.asarray(u1, dtype=np.float64)
+        # each row's cdf shifted by its row number: one sorted table for every row's search
+        flat = np.searchsorted(self._col_flat, j + u1, side="right")
+        i = np.clip(flat - j * w, 0, w - 1)
+        cols = self._col_cdf.reshape(-1)
+        lo = np.where(i > 0, cols[j * w + np.maximum(i - 1, 0)], 0.0)
+        width = np.maximum(cols[j * w + i] - lo, 1e-300)
+        across = np.clip((u1 - lo) / width, 0.0, 1.0 - 1e-12)
+        phi = 2.0 * math.pi * ((i + across) / w + 0.5 / w)
         c0, c1 = self._cos_edge[j], self._cos_edge[j + 1]
         cos_t = np.clip(c0 - np.asarray(u2) * (c0 - c1), -1.0, 1.0)
         sin_t = np.sqrt(np.maximum(1.0 - cos_t * cos_t, 0.0))
         v = np.stack([np.sin(phi) * sin_t, cos_t, -np.cos(phi) * sin_t], axis=1)
-        return v @ self.to_world.T, self._pmf[cell] / self._omega[j]
+        return v @ self.to_world.T, self._pmf[j * w + i] / self._omega[j]
 
     def pdf(self, toward: np.ndarray) -> np.ndarray:
         """(n,) the density per steradian :meth:`sample` draws each direction ``toward`` with."""
@@ -182,3 +200,12 @@ class EnvironmentLight:
         h, w = self.image.shape[:2]
         return (f"EnvironmentLight(name={self.name!r}, {w} x {h} pixels, integral="
                 f"{np.array2string(self.integral, precision=4)} W/m^2)")
+
+
+def _pick(cdf: np.ndarray, u: np.ndarray):
+    """(the entry of ``cdf`` whose stretch holds each uniform ``u``, the uniform's remainder
+    in that stretch rescaled to [0, 1))."""
+    k = np.minimum(np.searchsorted(cdf, u, side="right"), len(cdf) - 1)
+    lo = np.where(k > 0, cdf[np.maximum(k - 1, 0)], 0.0)
+    rest = np.clip((u - lo) / np.maximum(cdf[k] - lo, 1e-300), 0.0, 1.0 - 1e-12)
+    return k, rest

@@ -73,10 +73,12 @@ def _preview_light(light):
     over pi)."""
     pose = np.eye(4)
     if hasattr(light, "image"):  # an environment: a sun from its brightest cell
-        c = int(np.argmax(light.cell_pmf))
-        toward, _ = light.sample(np.array([light.cell_cdf[c] - 0.5 * light.cell_pmf[c]]),
-                                 np.array([0.5]), np.array([0.5]))
-        z = toward[0]
+        h, w = light.image.shape[:2]
+        j, i = divmod(int(np.argmax(light.cell_pmf)), w)
+        phi = 2.0 * np.pi * (i + 1.0) / w  # the cell's centre (its columns start half a pixel on)
+        theta = np.pi * (j + 0.5) / (h - 1)
+        z = light.to_world @ [np.sin(phi) * np.sin(theta), np.cos(theta),
+                              -np.cos(phi) * np.sin(theta)]
         x = np.cross([0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0], z)
         x /= np.linalg.norm(x)
         pose[:3, :3] = np.stack([x, np.cross(z, x), z], axis=1)
