@@ -83,9 +83,9 @@ class DeviceIndirectTracer:
         #: The textured receivers' reflectance (None: the scene has none).
         self.textures = None
         if source.geometry.textures:
-            from blockhash.device.textures import DeviceTextures
+            from blockhash.device.textures import SurfaceTextures
 
-            self.textures = DeviceTextures(source.geometry, device)
+            self.textures = SurfaceTextures(source.geometry, device)
         #: Stored photons a photon shot, the most seen so far (sizes the output buffers).
         self.stores_per_photon = 1.0
         self._kernel = dr.syntax(_paths)

@@ -54,6 +54,22 @@ class LightTables:
         self.spot, self.spot_axis, self.spot_cos = uint_table(mi, spot), float_table(mi, axis), float_table(mi, cos)
         self.ramp, self.cone_rad, self.beam_rad = uint_table(mi, ramp), float_table(mi, cone_rad), float_table(mi, beam_rad)
         self.any_spot, self.any_ramp = bool(spot.any()), bool(ramp.any())
+        # spots' projected textures: each one's index (-1: none), its frame's rows and tan(cone)
+        textured = [li for li, light in enumerate(lights) if getattr(light, "texture", None)
+                    is not None]
+        self.spot_textures = None
+        if textured:
+            from blockhash.device.textures import DeviceTextures
+
+            self.spot_textures = DeviceTextures([lights[li].texture for li in textured], device)
+            which = np.full(n, -1, np.int32)
+            frames, tan = np.zeros((n, 3, 3)), np.ones(n)
+            for k, li in enumerate(textured):
+                which[li] = k
+                frames[li] = lights[li].frame.T  # rows: the frame's x, y and axis
+                tan[li] = math.tan(math.radians(lights[li].cone_deg))
+            self.spot_texture, self.spot_frame = mi.Int32(which), float_table(mi, frames)
+            self.spot_tan = float_table(mi, tan)
         # area lights: their triangles one after another, each light's area cdf over its own
         tri, normals, cdf, first, count, area, radiance = [], [], [], np.zeros(n), np.zeros(n), \
             np.zeros(n), np.zeros((n, 3))
@@ -95,7 +111,8 @@ class LightTables:
         self.sun_s0, self.irradiance = float_table(mi, sun_s0), float_table(mi, irradiance)
 
     def spot_weight(self, light, d, w, on):
-        """Nothing outside a spot's cone; its falloff between the beam and the cone."""
+        """Nothing outside a spot's cone; its falloff between the beam and the cone; its
+        projected texture (:meth:`blockhash.scene.lights.SpotLight.texture_factor`)."""
         mi, dr = self.mi, self.dr
         spot = on & (dr.gather(mi.UInt32, self.spot, light, on) != 0)
         cos = dr.dot(d, dr.gather(mi.Vector3f, self.spot_axis, light, spot))
@@ -108,6 +125,15 @@ class LightTables:
             theta = dr.acos(dr.clip(cos, -1.0, 1.0))
             f = dr.select(theta <= b, 1.0, dr.clip((c - theta) / dr.maximum(c - b, 1e-30), 0.0, 1.0))
             w = dr.select(ramp, w * dr.select(cos > dr.cos(c), f, 0.0), w)
+        if self.spot_textures is not None:  # the texture projected across the cone
+            t = dr.gather(mi.Int32, self.spot_texture, light, spot)
+            on_t = spot & (t >= 0)
+            x, y, z = (dr.dot(d, dr.gather(mi.Vector3f, self.spot_frame, light * 3 + r, on_t))
+                       for r in range(3))
+            k = 0.5 / (dr.select(z > 0.0, z, 1.0) * dr.gather(mi.Float, self.spot_tan, light, on_t))
+            tint = self.spot_textures.value(mi.UInt32(dr.maximum(t, 0)),
+                                            mi.Point2f(0.5 + x * k, 0.5 + y * k), on_t)
+            w = dr.select(on_t, w * dr.select(z > 0.0, tint, 0.0), w)
         return w
 
     def upstream(self, D, on):

@@ -73,7 +73,10 @@ def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
         front = _facing(p, n, live, lp[0])
         origins, wi, dist = shadow_segments(p[front], n[front], lp, RAY_OFFSET * rays.scale)
         lit = ~rays.geometry.occluded(origins, wi, dist * (1 - 1e-6))
-        _lit(out, front[lit], wi[lit], dist[lit], n, wo, mat, kd, ks, e, *_cone(light))
+        # a spot's projected texture toward each point (ones where it has none)
+        tint = (light.texture_factor(-wi[lit]) if getattr(light, "texture", None) is not None
+                else np.ones((int(lit.sum()), 3)))
+        _lit(out, front[lit], wi[lit], dist[lit], n, wo, mat, kd, ks, e, *_cone(light), tint)
     out *= points.weight.reshape(-1, 3)
     return out.reshape(h, w, 3)
 
@@ -92,12 +95,14 @@ def _facing(p, n, live, lp):
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _lit(out, idx, wi, dist, n, wo, mat, kd, ks, e, axis, cos_c, intensity, cos_b, cone, beam):
+def _lit(out, idx, wi, dist, n, wo, mat, kd, ks, e, axis, cos_c, intensity, cos_b, cone, beam,
+         tint):
     """Adds to ``out[idx]`` the radiance from one light reaching each point unshadowed along
     ``wi`` from ``dist`` away: f_r(wi, wo) I cos / d^2, the modified Phong f_r of
     :func:`blockhash.scene.materials.phong_brdf` and I the light's intensity toward the point
     (:func:`_cone`: the peak inside the beam, falling linearly in the angle to 0 at the
-    cone's edge, :meth:`blockhash.scene.lights.SpotLight.falloff`)."""
+    cone's edge, :meth:`blockhash.scene.lights.SpotLight.falloff`), times ``tint[j]`` (a
+    spot's projected texture toward the point)."""
     for j in numba.prange(len(idx)):
         i = idx[j]
         w0, w1, w2 = wi[j, 0], wi[j, 1], wi[j, 2]
@@ -114,4 +119,5 @@ def _lit(out, idx, wi, dist, n, wo, mat, kd, ks, e, axis, cos_c, intensity, cos_
         lobe = (e[m] + 2.0) / (2.0 * np.pi) * max(c_alpha, 0.0) ** e[m]
         scale = cos / (dist[j] * dist[j])
         for c in range(3):
-            out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * intensity[c] * fall * scale
+            out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * intensity[c] * tint[j, c] \
+                * fall * scale

@@ -309,6 +309,8 @@ class Emitter:
             weights[rows[cos < self.spot_cos[li] - CONE_TEST_EPS]] = 0.0
             if not self.lights[li].uniform:  # the beam's falloff toward the cone's edge
                 weights[rows] *= self.lights[li].falloff(cos)[:, None]
+            if self.lights[li].texture is not None:  # a texture projected across the cone
+                weights[rows] *= self.lights[li].texture_factor(dirs[rows])
         return origins, dirs, weights, light
 
     def _cells(self, k: np.ndarray, u: np.ndarray):

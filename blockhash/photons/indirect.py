@@ -226,6 +226,8 @@ class IndirectSource:
                     w[rows[cos < np.cos(np.radians(cone)) - 1e-12]] = 0.0
                     if not light.uniform:  # the beam's falloff toward the cone's edge
                         w[rows] *= light.falloff(cos)[:, None]
+                    if light.texture is not None:  # a texture projected across the cone
+                        w[rows] *= light.texture_factor(d[rows])
         return o, d, w
 
     # ------------------------------------------------------------------ paths

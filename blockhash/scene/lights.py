@@ -72,9 +72,22 @@ class SpotLight:
     power: np.ndarray
     cone_deg: float
     beam_deg: float | None = None
+    #: A texture projected across the cone (:class:`blockhash.scene.texture.Texture`, as
+    #: Mitsuba's spot's ``texture``): the intensity toward a direction times the texture at
+    #: ``(1/2 + x / (2 z tan cone), 1/2 + y / (2 z tan cone))``, (x, y, z) the direction in
+    #: ``frame``'s axes (3 x 3, columns x, y and the cone's axis).  ``power`` stays the
+    #: untextured cone's.
+    texture: object = None
+    frame: np.ndarray | None = None
 
     def __post_init__(self):
         with _owned("SpotLight"):
+            if self.texture is not None:
+                f = np.asarray(self.frame, dtype=np.float64) if self.frame is not None else None
+                if f is None or f.shape != (3, 3) or not np.allclose(f.T @ f, np.eye(3), atol=1e-6):
+                    raise _FieldError("frame", "a textured spot needs its frame: 3 x 3, "
+                                      "orthonormal columns x, y and the cone's axis")
+                object.__setattr__(self, "frame", _readonly(f))
             object.__setattr__(self, "position", _vector(self.position, "position"))
             d = _vector(self.direction, "direction", unit="a direction")
             length = float(np.linalg.norm(d))
@@ -122,6 +135,18 @@ class SpotLight:
         theta = np.arccos(np.clip(cos_axis, -1.0, 1.0))
         ramp = np.where(theta <= b, 1.0, (c - theta) / (c - b))
         return np.where(inside, np.clip(ramp, 0.0, 1.0), 0.0)
+
+    def texture_factor(self, dirs) -> np.ndarray:
+        """(n, 3) the texture toward unit world directions ``dirs`` (n, 3) leaving the light
+        (ones without a texture; zeros behind the light)."""
+        dirs = np.asarray(dirs, dtype=np.float64)
+        if self.texture is None:
+            return np.ones((len(dirs), 3))
+        local = dirs @ self.frame  # (x, y, z) in the frame's axes
+        z = local[:, 2]
+        scale = 0.5 / (np.where(z > 0.0, z, 1.0) * math.tan(math.radians(self.cone_deg)))
+        uv = 0.5 + local[:, :2] * scale[:, None]
+        return np.where((z > 0.0)[:, None], self.texture.value(uv), 0.0)
 
     def __repr__(self) -> str:
         beam = "" if self.uniform else f", beam_deg={self.beam_deg:g}"

@@ -31,7 +31,8 @@ FILTERS = ("bilinear", "nearest")
 
 @dataclass(frozen=True, eq=False)
 class Texture:
-    """``image`` (H, W, 3) linear RGB in [0, 1], ``to_uv`` (2, 3) the affine map of the texture
+    """``image`` (H, W, 3) linear RGB in [0, 1] (>= 0 where not ``bounded``), ``to_uv`` (2, 3)
+    the affine map of the texture
     coordinates (None: the identity), ``wrap`` one of :data:`WRAPS`, ``filter`` one of
     :data:`FILTERS`; ``name`` what errors and summaries call it (module docstring)."""
 
@@ -40,15 +41,19 @@ class Texture:
     wrap: str = "repeat"
     filter: str = "bilinear"
     name: str = "texture"
+    #: A reflectance's values lie in [0, 1]; a light's (a spot light's texture) are only >= 0.
+    bounded: bool = True
 
     def __post_init__(self):
         with _owned(f"Texture {self.name!r}"):
             img = np.asarray(self.image, dtype=np.float64)
             if img.ndim != 3 or img.shape[2] != 3 or min(img.shape[:2]) < 1:
                 raise _FieldError("image", f"expected (height, width, 3) RGB; got shape {img.shape}")
-            if not np.isfinite(img).all() or (img < 0).any() or (img > 1).any():
+            if not np.isfinite(img).all() or (img < 0).any() or (self.bounded and (img > 1).any()):
                 raise _FieldError("image", "a reflectance texture's values must lie in [0, 1]; "
-                                  "fix the image (a reflectance above 1 would make light)")
+                                  "fix the image (a reflectance above 1 would make light)"
+                                  if self.bounded else "a light's texture must be finite and "
+                                  ">= 0; fix the image")
             m = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]) if self.to_uv is None \
                 else np.asarray(self.to_uv, dtype=np.float64)
             if m.shape != (2, 3) or not np.isfinite(m).all():

@@ -74,6 +74,22 @@ def under_sky(scene):
     return replace(scene, lights=(sky(0.05),))
 
 
+def textured_spot(scene):
+    """``scene`` under :func:`falloff_spot` with a texture projected across its cone (a
+    stripe of red, one of blue, the rest grey)."""
+    from blockhash.scene.texture import Texture
+
+    spot = falloff_spot(scene).lights[0]
+    z = np.asarray(spot.direction)
+    x = np.cross([0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    img = np.full((8, 8, 3), 0.5)
+    img[:, :2], img[:, 6:] = [1.0, 0.1, 0.1], [0.1, 0.1, 1.0]
+    spot = replace(spot, texture=Texture(img, wrap="clamp", bounded=False),
+                   frame=np.column_stack([x, np.cross(z, x), z]))
+    return replace(scene, lights=(spot,) + tuple(scene.lights[1:]))
+
+
 CASES = {
     "ring (point light, mirror)": lambda: small("ring"),
     "glass (point light, Fresnel choices)": lambda: small("glass"),
@@ -82,6 +98,7 @@ CASES = {
     "venus (two point lights)": lambda: small("venus"),
     "ring under a spot with a falloff": lambda: falloff_spot(small("ring")),
     "sun under an environment map (glass)": lambda: under_sky(small("sun")),
+    "ring under a spot with a projected texture": lambda: textured_spot(small("ring")),
 }
 
 

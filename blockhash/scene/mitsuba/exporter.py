@@ -81,6 +81,27 @@ def texture_file_name(bsdf_id: str) -> str:
     return "textures/" + re.sub(r"[^A-Za-z0-9_.-]", "_", bsdf_id) + ".exr"
 
 
+def spot_texture_file(light) -> str:
+    """The EXR a spot light's projected texture is written to, under ``textures/``."""
+    import hashlib
+
+    digest = hashlib.sha1(np.ascontiguousarray(light.texture.image).tobytes()).hexdigest()[:12]
+    return f"textures/spot-{digest}.exr"
+
+
+def _bitmap_lines(t, filename: str, name: str) -> list[str]:
+    """The ``<texture type="bitmap">`` lines of texture ``t`` read from ``filename``."""
+    m = np.eye(4)
+    m[:2, :2], m[:2, 3] = t.to_uv[:, :2], t.to_uv[:, 2]
+    return [f'    <texture type="bitmap" name="{name}">',
+            f'        <string name="filename" value={quoteattr(filename)}/>',
+            f'        <string name="filter_type" value="{t.filter}"/>',
+            f'        <string name="wrap_mode" value="{t.wrap}"/>',
+            '        <transform name="to_uv">',
+            f'            <matrix value="{" ".join(_num(v) for v in m.reshape(-1))}"/>',
+            "        </transform>", "    </texture>"]
+
+
 def _bsdf(material, bsdf_id: str, drop_specular: bool, owner: str) -> list[str]:
     if isinstance(material, MirrorMaterial):
         metal = ([f"    {_rgb('eta', material.eta)}", f"    {_rgb('k', material.k)}"]
@@ -108,16 +129,8 @@ def _bsdf(material, bsdf_id: str, drop_specular: bool, owner: str) -> list[str]:
                      "(Mitsuba has no modified Phong); diffuse kd only -->")
     diffuse = ['<bsdf type="diffuse">', "    " + _rgb("reflectance", material.kd), "</bsdf>"]
     if material.texture is not None:  # its image written by export_mitsuba
-        t = material.texture
-        m = np.eye(4)
-        m[:2, :2], m[:2, 3] = t.to_uv[:, :2], t.to_uv[:, 2]
-        diffuse[1:2] = ['    <texture type="bitmap" name="reflectance">',
-                        f'        <string name="filename" value={quoteattr(texture_file_name(bsdf_id))}/>',
-                        f'        <string name="filter_type" value="{t.filter}"/>',
-                        f'        <string name="wrap_mode" value="{t.wrap}"/>',
-                        '        <transform name="to_uv">',
-                        f'            <matrix value="{" ".join(_num(v) for v in m.reshape(-1))}"/>',
-                        "        </transform>", "    </texture>"]
+        diffuse[1:2] = _bitmap_lines(material.texture, texture_file_name(bsdf_id),
+                                     "reflectance")
     if material.one_sided:  # Mitsuba's diffuse is one-sided
         return lines + [diffuse[0][:-1] + f" id={quoteattr(bsdf_id)}>", *diffuse[1:]]
     return lines + [f'<bsdf type="twosided" id={quoteattr(bsdf_id)}>',
@@ -150,11 +163,18 @@ def _emitter(light) -> list[str]:
         intensity = light.peak_intensity
         target = np.asarray(light.position) + np.asarray(light.direction)
         up = (0.0, 1.0, 0.0) if abs(float(light.direction[1])) < 0.9 else (1.0, 0.0, 0.0)
+        place = [f'        <lookat origin="{_vec(light.position)}" target="{_vec(target)}" '
+                 f'up="{_vec(up)}"/>']
+        texture = []
+        if light.texture is not None:  # its frame's axes orient the texture: the whole matrix
+            m = np.eye(4)
+            m[:3, :3], m[:3, 3] = light.frame, light.position
+            place = [f'        <matrix value="{" ".join(_num(v) for v in m.reshape(-1))}"/>']
+            texture = _bitmap_lines(light.texture, spot_texture_file(light), "texture")
         return ['<emitter type="spot">',
                 '    <transform name="to_world">',
-                f'        <lookat origin="{_vec(light.position)}" target="{_vec(target)}" '
-                f'up="{_vec(up)}"/>',
-                "    </transform>",
+                *place,
+                "    </transform>", *texture,
                 "    " + _rgb("intensity", intensity),
                 f'    <float name="cutoff_angle" value="{_num(cone)}"/>',
                 f'    <float name="beam_width" value="{_num(light.beam_deg)}"/>', "</emitter>"]
@@ -256,6 +276,9 @@ def export_mitsuba(scene: Scene, directory, *, drop_specular: bool = False,
     for light in scene.lights:
         if isinstance(light, EnvironmentLight):
             _write_map(root / ENVIRONMENT_FILE, light.image)
+        if getattr(light, "texture", None) is not None:
+            (root / "textures").mkdir(exist_ok=True)
+            _write_map(root / spot_texture_file(light), light.texture.image)
     xml = root / "scene.xml"
     xml.write_text(text, encoding="utf-8")
     return xml

@@ -56,7 +56,6 @@ one is refused).
 from __future__ import annotations
 
 import json
-import math
 import re
 from dataclasses import replace
 from pathlib import Path
@@ -64,7 +63,7 @@ from pathlib import Path
 import numpy as np
 
 from blockhash.errors import InputError
-from blockhash.scene.lights import falloff_solid_angle
+from blockhash.scene.mitsuba import emitters as mitsuba_emitters
 from blockhash.scene.mitsuba import environment as mitsuba_environment
 from blockhash.scene.mitsuba import integrator as mitsuba_integrator
 from blockhash.scene.mitsuba import sensor as mitsuba_sensor
@@ -81,70 +80,14 @@ from blockhash.scene.mitsuba.shapes import (
 )
 from blockhash.scene.mitsuba.textures import TexturedDiffuse
 from blockhash.scene.mitsuba.xml_values import XmlReader, parse
-from blockhash.scene.model import (
-    AreaLight,
-    DirectionalLight,
-    PhongMaterial,
-    PhotonSettings,
-    PointLight,
-    Scene,
-    SceneObject,
-    SpotLight,
-)
+from blockhash.scene.model import PhongMaterial, PhotonSettings, Scene, SceneObject
 
-EMITTERS = ("point", "spot", "directional", "envmap")
-#: Emitters Mitsuba has that blockhash does not model, with the way out.
+#: The elements a scene's top level takes.
 ELEMENTS = ("default", "path", "include", "integrator", "sensor", "sampler", "texture", "bsdf",
             "emitter", "shape")
 
 
 class _Reader(XmlReader):
-    def emitter(self, el):
-        kind = el.get("type")
-        if kind == "area":
-            self.fail(el, "an area emitter belongs inside a <shape> (the surface that emits); "
-                      "move it into one, or give it an id and <ref id> it from the shape")
-        if kind not in EMITTERS:
-            self.fail(el, f"unsupported emitter; supported: {', '.join(EMITTERS)}, constant, "
-                      "and area inside a shape (blockhash's lights)")
-        spectra = ("rgb", "spectrum", "float")
-        if kind == "envmap":
-            return mitsuba_environment.envmap(self, el)
-        if kind == "directional":
-            p = self.props(el, {"direction": ("vector",), "irradiance": spectra,
-                                "to_world": ("transform",)}, children=("texture",),
-                           emitter=True)
-            self._no_texture(el, p, "irradiance")
-            if "direction" in p and "to_world" in p:
-                self.fail(el, "only one of direction and to_world can be given (Mitsuba refuses "
-                          "both too); keep one")
-            d = (p["to_world"][:3, :3] @ [0.0, 0.0, 1.0] if "to_world" in p
-                 else p.get("direction", np.array([0.0, 0.0, 1.0])))
-            return self.build(el, DirectionalLight, direction=d,
-                              irradiance=np.broadcast_to(p.get("irradiance", 1.0), (3,)))
-        if kind == "point":
-            p = self.props(el, {"position": ("point",), "intensity": spectra,
-                                "to_world": ("transform",)}, emitter=True)
-            if "position" in p and "to_world" in p:
-                self.fail(el, "only one of position and to_world can be given (Mitsuba refuses "
-                          "both too); keep one")
-            pos = p["to_world"][:3, 3] if "to_world" in p else p.get("position", np.zeros(3))
-            power = np.broadcast_to(p.get("intensity", 1.0), (3,)) * 4.0 * math.pi
-            return self.build(el, PointLight, position=pos, power=power)
-        p = self.props(el, {"intensity": spectra, "to_world": ("transform",),
-                            "cutoff_angle": ("float",), "beam_width": ("float",)}, emitter=True)
-        cone = float(p.get("cutoff_angle", 20.0))
-        beam = float(p.get("beam_width", cone * 0.75))  # Mitsuba's default: 3/4 of the cutoff
-        if beam > cone:
-            self.fail(el, f"beam_width {beam:g} exceeds cutoff_angle {cone:g}; give a beam_width "
-                      "at most the cutoff angle")
-        m = p.get("to_world", np.eye(4))
-        axis = m[:3, :3] @ [0.0, 0.0, 1.0]
-        # Mitsuba's intensity is the beam's peak
-        power = np.broadcast_to(p.get("intensity", 1.0), (3,)) * falloff_solid_angle(cone, beam)
-        return self.build(el, SpotLight, position=m[:3, 3], direction=axis, power=power,
-                          cone_deg=cone, beam_deg=beam)
-
     def shape(self, el, bsdfs: dict, index: int, areas: dict):
         """(objects, their AreaLight or None) of a ``<shape>``: one object, or two for a
         checkerboard's colours (:mod:`.textures`); ``areas``: the top-level area emitters by
@@ -207,29 +150,7 @@ class _Reader(XmlReader):
         obj = self.build(el, SceneObject, name=name, mesh=mesh, material=material)
         if emitter is None:
             return [obj], None
-        return [obj], self.area(emitter, obj)
-
-    def area(self, el, obj):
-        """The AreaLight of an ``<emitter type="area">`` inside the shape of ``obj``."""
-        kind = el.get("type")
-        if kind != "area":
-            self.fail(el, f"a {kind!r} emitter inside a shape; the emitter inside a shape is "
-                      "area (a point, spot or directional emitter goes at the top level)")
-        if obj.is_specular:
-            what = "glass (dielectric)" if obj.is_dielectric else "mirror (conductor)"
-            self.fail(el, f"an area emitter on a {what} shape: blockhash's emitters are diffuse "
-                      "surfaces; give the emitting shape a diffuse BSDF (or none, Mitsuba's "
-                      "default)")
-        p = self.props(el, {"radiance": ("rgb", "spectrum", "float")}, children=("texture",),
-                       emitter=True)
-        self._no_texture(el, p, "radiance")
-        return self.build(el, AreaLight, object=obj.name, mesh=obj.mesh,
-                          radiance=np.broadcast_to(p.get("radiance", 1.0), (3,)))
-
-    def _no_texture(self, el, p: dict, name: str) -> None:
-        for kid in p["<children>"]:
-            self.fail(kid, f"a textured {name} is not supported: blockhash's lights emit one "
-                      f"RGB value; give <rgb name=\"{name}\" value=\"r, g, b\"/>")
+        return [obj], mitsuba_emitters.area(self, emitter, obj)
 
     def instance(self, el, groups: dict, index: int) -> list:
         """The objects of the ``shapegroup`` an ``<shape type="instance">`` refers to, each
@@ -361,7 +282,7 @@ def load_mitsuba(path, defines: dict | None = None) -> Scene:
                 r.fail(el, "a second constant emitter; give one (the sum of their radiances)")
             constant = el
         elif el.tag == "emitter":
-            lights.append(r.emitter(el))
+            lights.append(mitsuba_emitters.emitter(r, el))
         elif el.tag == "shape" and el.get("type") == "shapegroup":
             groups[r.attr(el, "id")] = r.group(el, bsdfs)
         elif el.tag == "shape" and el.get("type") == "instance":

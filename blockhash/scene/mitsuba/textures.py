@@ -83,11 +83,12 @@ def texture(r, el):
     return checkerboard(r, el)
 
 
-def bitmap(r, el):
+def bitmap(r, el, *, bounded: bool = True):
     """The :class:`blockhash.scene.texture.Texture` of a ``<texture type="bitmap">``: its
     ``filename`` found as a mesh file is, ``filter_type``, ``wrap_mode``, ``raw`` (8-bit
     values not decoded from sRGB) and ``to_uv``, as Mitsuba reads them; ``format`` (the
-    precision Mitsuba keeps it in) changes nothing here."""
+    precision Mitsuba keeps it in) changes nothing here.  ``bounded``: a reflectance's, its
+    values at most 1 (a light's texture may exceed it)."""
     from blockhash.errors import InputError
     from blockhash.scene.texture import FILTERS, WRAPS, Texture, read_image
 
@@ -105,13 +106,13 @@ def bitmap(r, el):
         image = read_image(path, raw=bool(p.get("raw", False)))
     except InputError as exc:
         r.fail(el, str(exc))
-    if image.max() > 1.0:
+    if bounded and image.max() > 1.0:
         r.fail(el, f"the image {path.name!r} reaches {image.max():g}: a reflectance texture's "
                "values lie in [0, 1] (above 1 it would make light); scale the image down")
     m = p.get("to_uv", np.eye(4))
     to_uv = np.array([[m[0, 0], m[0, 1], m[0, 3]], [m[1, 0], m[1, 1], m[1, 3]]])
     return r.build(el, Texture, image=image, to_uv=to_uv, wrap=wrap, filter=filt,
-                   name=el.get("id") or path.name)
+                   name=el.get("id") or path.name, bounded=bounded)
 
 
 @dataclass(frozen=True, eq=False)
