@@ -257,7 +257,7 @@ class DeviceEmitter:
     def _area(self, t, light, on, u):
         mi, dr = self.mi, self.dr
         lt = self.lights
-        y, ny = lt.area_point(light, u[4], u[5], u[6], on)
+        y, ny, radiance = lt.area_point(light, u[4], u[5], u[6], on)
         axis, omc = self._target_cone(t, y, on)
         d = in_cone(dr, axis, *cone_frame(mi, dr, axis), omc, u[1], u[2])
         q = dr.zeros(mi.Float, dr.width(t))
@@ -269,7 +269,7 @@ class DeviceEmitter:
                 inside = mine & ((t == j) | (0.5 * dr.squared_norm(d - a) <= m))
                 q += dr.select(inside, dr.gather(mi.Float, self.t_pmf, jj) / (2.0 * dr.pi * m), 0.0)
         cos_y = dr.maximum(dr.dot(d, ny), 0.0)
-        w = dr.gather(mi.Color3f, lt.radiance, light, on) * (
+        w = radiance * (
             cos_y * dr.gather(mi.Float, lt.area, light, on) / dr.maximum(q, 1e-30))
         return y, d, w
 

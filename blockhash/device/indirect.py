@@ -128,7 +128,10 @@ class DeviceIndirectTracer:
                           w)
         if SURFACE in self.kinds:
             area = kind == SURFACE
-            y, ny = lt.area_point(k, u[3], u[1], u[2], area)
+            y, ny, radiance = lt.area_point(k, u[3], u[1], u[2], area)
+            if lt.area_textures is not None:  # the radiance there over its mean
+                mean = dr.gather(mi.Color3f, lt.radiance, k, area)
+                w = dr.select(area, w * dr.select(mean > 0.0, radiance / mean, 0.0), w)
             o = dr.select(area, y, o)
             d = dr.select(area, _cosine(mi, dr, ny, u[4], u[5]), d)
         return o, d, w

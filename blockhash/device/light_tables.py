@@ -55,8 +55,8 @@ class LightTables:
         self.ramp, self.cone_rad, self.beam_rad = uint_table(mi, ramp), float_table(mi, cone_rad), float_table(mi, beam_rad)
         self.any_spot, self.any_ramp = bool(spot.any()), bool(ramp.any())
         # spots' projected textures: each one's index (-1: none), its frame's rows and tan(cone)
-        textured = [li for li, light in enumerate(lights) if getattr(light, "texture", None)
-                    is not None]
+        textured = [li for li, light in enumerate(lights) if hasattr(light, "cone_deg")
+                    and light.texture is not None]
         self.spot_textures = None
         if textured:
             from blockhash.device.textures import DeviceTextures
@@ -84,6 +84,7 @@ class LightTables:
         #: environment light's photons start, across each one's own direction.
         self.corners, self.margin = float_table(mi, corners), float_table(mi, [margin])
         self.environment, self.environment_light = None, None
+        area_textures, area_uv, area_texture = [], [], np.full(n, -1, np.int32)
         for li, light in enumerate(lights):
             if isinstance(light, EnvironmentLight):
                 from blockhash.device.environment import DeviceEnvironment
@@ -91,6 +92,12 @@ class LightTables:
                 self.environment, self.environment_light = DeviceEnvironment(light, device), li
             elif isinstance(light, AreaLight):
                 first[li], count[li] = sum(len(t) for t in tri), len(light.face_areas)
+                if light.texture is not None:
+                    area_texture[li] = len(area_textures)
+                    area_textures.append(light.texture)
+                    area_uv.append(light.uv[np.asarray(light.mesh.faces)])
+                else:
+                    area_uv.append(np.zeros((len(light.face_areas), 3, 2)))
                 tri.append(light.triangles)
                 normals.append(light.face_normals)
                 cdf.append(light.area_cdf)
@@ -106,6 +113,15 @@ class LightTables:
         self.area_tri, self.area_normal = float_table(mi, cat(tri, 9)), float_table(mi, cat(normals, 3))
         self.area_cdf = float_table(mi, cat(cdf, 1))
         self.area_first, self.area_count = uint_table(mi, first), uint_table(mi, count)
+        #: textured radiances: each area light's texture (-1: none), its triangles' corners'
+        #: texture coordinates (in the area tables' order) and the textures
+        self.area_textures = None
+        if area_textures:
+            from blockhash.device.textures import DeviceTextures
+
+            self.area_textures = DeviceTextures(area_textures, device)
+            self.area_texture = mi.Int32(area_texture)
+            self.area_uv = float_table(mi, np.concatenate(area_uv))
         self.area, self.radiance = float_table(mi, area), float_table(mi, radiance)
         self.sun_d, self.sun_t1, self.sun_t2 = float_table(mi, sun_d), float_table(mi, sun_t1), float_table(mi, sun_t2)
         self.sun_s0, self.irradiance = float_table(mi, sun_s0), float_table(mi, irradiance)
@@ -146,9 +162,10 @@ class LightTables:
         return s0 - dr.gather(mi.Float, self.margin, mi.UInt32(0), on)
 
     def area_point(self, light, u_face, u1, u2, on):
-        """(points, front normals) uniform by area on the area lights ``light`` (the
-        triangle of its area cdf that holds ``u_face``, barycentrics 1 - sqrt(u1),
-        sqrt(u1) u2), as :meth:`blockhash.scene.lights.AreaLight.points`."""
+        """(points, front normals, radiance there) uniform by area on the area lights
+        ``light`` (the triangle of its area cdf that holds ``u_face``, barycentrics
+        1 - sqrt(u1), sqrt(u1) u2), as :meth:`blockhash.scene.lights.AreaLight.points` and
+        ``emitted_at``."""
         mi, dr = self.mi, self.dr
         first = dr.gather(mi.UInt32, self.area_first, light, on)
         count = dr.gather(mi.UInt32, self.area_count, light, on)
@@ -160,5 +177,13 @@ class LightTables:
         s = dr.sqrt(u1)
         b0, b2 = 1.0 - s, s * u2
         p = [dr.gather(mi.Point3f, self.area_tri, f * 3 + c, on) for c in range(3)]
+        radiance = dr.gather(mi.Color3f, self.radiance, light, on)
+        if self.area_textures is not None:  # a textured radiance at the point
+            t = dr.gather(mi.Int32, self.area_texture, light, on)
+            on_t = on & (t >= 0)
+            c = [dr.gather(mi.Point2f, self.area_uv, f * 3 + k, on_t) for k in range(3)]
+            uv = b0 * c[0] + (1.0 - b0 - b2) * c[1] + b2 * c[2]
+            radiance = dr.select(on_t, self.area_textures.value(mi.UInt32(dr.maximum(t, 0)), uv,
+                                                                 on_t), radiance)
         return b0 * p[0] + (1.0 - b0 - b2) * p[1] + b2 * p[2], \
-            dr.gather(mi.Vector3f, self.area_normal, f, on)
+            dr.gather(mi.Vector3f, self.area_normal, f, on), radiance

@@ -52,15 +52,16 @@ def light_uniforms(samples: int, owner: np.ndarray, pass_index: int,
 
 
 def points_on_light(light, u: np.ndarray):
-    """(points (n, 3), front normals (n, 3)) on ``light`` (an AreaLight) from uniforms
-    ``u`` (n, 2): the triangle by area from ``u[:, 0]``, its remainder in that triangle's
-    stretch of the CDF and ``u[:, 1]`` the uniform barycentrics
+    """(points (n, 3), front normals (n, 3), radiance there (n, 3)) on ``light`` (an
+    AreaLight) from uniforms ``u`` (n, 2): the triangle by area from ``u[:, 0]``, its remainder
+    in that triangle's stretch of the CDF and ``u[:, 1]`` the uniform barycentrics
     (:meth:`blockhash.scene.lights.AreaLight.points`)."""
     cdf = light.area_cdf
     f = np.minimum(np.searchsorted(cdf, u[:, 0], side="right"), len(cdf) - 1)
     lo = np.where(f > 0, cdf[np.maximum(f - 1, 0)], 0.0)
     width = np.maximum(cdf[f] - lo, 1e-300)
-    return light.points(u[:, 0], np.clip((u[:, 0] - lo) / width, 0.0, 1.0), u[:, 1])
+    args = (u[:, 0], np.clip((u[:, 0] - lo) / width, 0.0, 1.0), u[:, 1])
+    return (*light.points(*args), light.emitted_at(*args))
 
 
 def area_light(out, light, live, p, n, wo, mat, kd, ks, e, rays, pass_index: int,
@@ -70,7 +71,7 @@ def area_light(out, light, live, p, n, wo, mat, kd, ks, e, rays, pass_index: int
     if not len(live):
         return
     u = light_uniforms(samples, owner[live], pass_index, light_index)
-    y, ny = points_on_light(light, u)
+    y, ny, radiance = points_on_light(light, u)
     x = p[live].astype(np.float64)
     nx = n[live].astype(np.float64)
     to = y - x
@@ -89,7 +90,7 @@ def area_light(out, light, live, p, n, wo, mat, kd, ks, e, rays, pass_index: int
     length = np.linalg.norm(seg, axis=1)
     lit = ~rays.geometry.occluded(origins, seg / length[:, None], length * (1 - 1e-6))
     ok = ok[lit]
-    li = light.radiance[None, :] * (cos_y[ok] * light.area / d2[ok])[:, None]
+    li = radiance[ok] * (cos_y[ok] * light.area / d2[ok])[:, None]
     _shade(out, live[ok], wi[ok], n, wo, mat, kd, ks, e, li)
 
 
@@ -161,10 +162,13 @@ def emission_seen(out, lights, objects, p, wo, mat, rays) -> None:
             continue
         v = wo[on].astype(np.float64)
         lift = 8.0 * RAY_OFFSET * rays.scale
-        hit, _, _, obj, _, outer = rays.first_hit(p[on].astype(np.float64) + v * lift, -v,
-                                                  sides=True)
+        hit, _, _, obj, _, outer, face, bary = rays.first_hit(
+            p[on].astype(np.float64) + v * lift, -v, sides=True, faces=True)
         front = hit & outer & (obj == names[light.object])
-        out[on[front]] += light.radiance
+        # the light's own face: the geometry numbers the faces object by object
+        first = int(np.searchsorted(rays.geometry.face_object, names[light.object]))
+        f = face[front] - first
+        out[on[front]] += light.emitted_on(f, bary[front, 0], bary[front, 1])
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)

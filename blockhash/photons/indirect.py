@@ -213,6 +213,9 @@ class IndirectSource:
                     extra = _uniforms(seed + EMIT_KEY, start, n)
                 o[rows], normals = light.points(u[rows, 3], u1, u2)
                 d[rows] = _cosine(normals, extra[rows, 0], extra[rows, 1])
+                if light.texture is not None:  # the radiance there over its mean
+                    w[rows] *= np.divide(light.emitted_at(u[rows, 3], u1, u2), light.radiance,
+                                         out=np.zeros((len(rows), 3)), where=light.radiance > 0)
             else:  # point or spot: uniform in solid angle inside the cone of _cone
                 axis, cos_c, _ = self.cones[li]
                 t1, t2 = orthonormal_basis(axis)

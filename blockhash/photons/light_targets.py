@@ -179,7 +179,8 @@ class SurfaceSampler:
             inside = np.einsum("ij,ij->i", d, axes[:, col]) >= cos_h[:, col] - 1e-12
             q += np.where(inside, self.pmf[t] / (2.0 * np.pi * (1.0 - cos_h[:, col])), 0.0)
         cos_y = np.maximum(np.einsum("ij,ij->i", d, ny), 0.0)
-        w = light.radiance[None, :] * (cos_y * light.area / q)[:, None]
+        radiance = light.emitted_at(extra[:, 0], extra[:, 1], extra[:, 2])
+        w = radiance * (cos_y * light.area / q)[:, None]
         return y, d, w
 
     def _directional(self, li, light, j, u):

@@ -165,9 +165,20 @@ class AreaLight:
     object: str
     mesh: trimesh.Trimesh
     radiance: np.ndarray
+    #: A radiance that varies over the surface (:class:`blockhash.scene.texture.Texture`,
+    #: looked up at ``uv``, the mesh's (vertices, 2) texture coordinates); ``radiance`` is
+    #: then its mean, which the power and the choice between lights take.
+    texture: object = None
+    uv: np.ndarray | None = None
 
     def __post_init__(self):
         with _owned(f"AreaLight {self.object!r}" if isinstance(self.object, str) else "AreaLight"):
+            if self.texture is not None:
+                uv = None if self.uv is None else np.asarray(self.uv, dtype=np.float64)
+                if uv is None or uv.shape != (len(self.mesh.vertices), 2) or not np.isfinite(uv).all():
+                    raise _FieldError("uv", "a textured radiance needs the mesh's texture "
+                                      "coordinates, one finite pair a vertex")
+                object.__setattr__(self, "uv", _readonly(uv))
             _string(self.object, "object", what="the emitting object's name")
             if not isinstance(self.mesh, trimesh.Trimesh):
                 raise _FieldError("mesh", f"expected a trimesh.Trimesh; got {type(self.mesh).__name__}")
@@ -226,6 +237,24 @@ class AreaLight:
         tri = self._triangles[f]
         y = b0[:, None] * tri[:, 0] + (1.0 - b0 - b2)[:, None] * tri[:, 1] + b2[:, None] * tri[:, 2]
         return y, self._normals[f]
+
+    def emitted_at(self, u_face: np.ndarray, u1: np.ndarray, u2: np.ndarray) -> np.ndarray:
+        """(m, 3) the radiance at the points :meth:`points` gives for the same uniforms."""
+        if self.texture is None:
+            return np.broadcast_to(self.radiance, (len(u_face), 3))
+        f = np.minimum(np.searchsorted(self._cdf, u_face, side="right"), len(self._cdf) - 1)
+        s = np.sqrt(u1)
+        b0, b2 = 1.0 - s, s * u2
+        return self.emitted_on(f, 1.0 - b0 - b2, b2)
+
+    def emitted_on(self, face: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """(m, 3) the radiance on the mesh's ``face`` at barycentrics ``u``, ``v`` (the point
+        ``(1 - u - v) v0 + u v1 + v v2``, embree's)."""
+        if self.texture is None:
+            return np.broadcast_to(self.radiance, (len(face), 3))
+        corners = self.uv[np.asarray(self.mesh.faces)[face]]  # (m, 3, 2)
+        b = np.stack([1.0 - u - v, u, v], axis=1)
+        return self.texture.value(np.einsum("ij,ijk->ik", b, corners))
 
     @property
     def area(self) -> float:

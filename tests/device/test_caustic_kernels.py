@@ -90,6 +90,25 @@ def textured_spot(scene):
     return replace(scene, lights=(spot,) + tuple(scene.lights[1:]))
 
 
+def textured_lamp(scene):
+    """``scene`` with its area light's radiance a texture (a red half, a blue half) over the
+    lamp's (x, z)."""
+    from blockhash.scene.lights import AreaLight
+    from blockhash.scene.texture import Texture
+
+    lights = []
+    for light in scene.lights:
+        if isinstance(light, AreaLight):
+            v = np.asarray(light.mesh.vertices)
+            uv = (v[:, [0, 2]] - v[:, [0, 2]].min(axis=0)) / np.ptp(v[:, [0, 2]], axis=0)
+            img = np.zeros((4, 4, 3))
+            img[:, :2], img[:, 2:] = [30.0, 3.0, 3.0], [3.0, 3.0, 30.0]
+            texture = Texture(img, wrap="clamp", filter="nearest", bounded=False)
+            light = replace(light, radiance=texture.mean, texture=texture, uv=uv)
+        lights.append(light)
+    return replace(scene, lights=tuple(lights))
+
+
 CASES = {
     "ring (point light, mirror)": lambda: small("ring"),
     "glass (point light, Fresnel choices)": lambda: small("glass"),
@@ -99,6 +118,7 @@ CASES = {
     "ring under a spot with a falloff": lambda: falloff_spot(small("ring")),
     "sun under an environment map (glass)": lambda: under_sky(small("sun")),
     "ring under a spot with a projected texture": lambda: textured_spot(small("ring")),
+    "cbox under a lamp of textured radiance": lambda: textured_lamp(small("cbox")),
 }
 
 

@@ -38,12 +38,17 @@ def per_object(scene, photons):
     return total, np.sqrt(np.maximum(second - total ** 2 / n, 0.0))
 
 
-@pytest.mark.parametrize("name", ["cbox", "corner", "venus", "corner under a sky"])
+@pytest.mark.parametrize("name", ["cbox", "corner", "venus", "corner under a sky",
+                                  "cbox under a textured lamp"])
 def test_the_kernels_indirect_photons_carry_the_hosts_power_to_every_receiver(name):
     if name.endswith("under a sky"):  # the synthetic environment map alone
         from environment_maps import sky
 
         scene = replace(load_scene(SCENES / f"{name.split()[0]}.toml"), lights=(sky(),))
+    elif name.endswith("textured lamp"):
+        from test_caustic_kernels import textured_lamp
+
+        scene = textured_lamp(load_scene(SCENES / "cbox.toml"))
     else:
         scene = load_scene(SCENES / f"{name}.toml")
     geometry = EmbreeGeometry(tuple(scene.objects))

@@ -63,7 +63,7 @@ def emitter(r, el):
     power = np.broadcast_to(p.get("intensity", 1.0), (3,)) * falloff_solid_angle(cone, beam)
     texture = frame = None
     if "texture" in p:  # projected across the cone, in the to_world's axes
-        texture = spot_texture(r, p["texture"])
+        texture = light_texture(r, p["texture"])
         frame = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
         if not np.allclose(frame.T @ frame, np.eye(3), atol=1e-6):
             r.fail(el, "a textured spot's to_world must turn and move it only (no shear); "
@@ -72,9 +72,10 @@ def emitter(r, el):
                    cone_deg=cone, beam_deg=beam, texture=texture, frame=frame)
 
 
-def spot_texture(r, el):
-    """The :class:`blockhash.scene.texture.Texture` of a spot's ``texture``: a ``bitmap``
-    (its values any >= 0: they scale the intensity), else an error naming the kind."""
+def light_texture(r, el):
+    """The :class:`blockhash.scene.texture.Texture` of a light's texture (a spot's ``texture``,
+    an area emitter's ``radiance``): a ``bitmap`` (its values any >= 0), else an error naming
+    the kind."""
     from blockhash.scene.mitsuba.textures import bitmap
 
     if el.tag == "ref":
@@ -83,13 +84,20 @@ def spot_texture(r, el):
             r.fail(el, f"no texture with id {tid!r}; defined: {', '.join(r.textures) or 'none'}")
         el = r.textures[tid]
     if el.get("type") != "bitmap":
-        r.fail(el, f"a {el.get('type')} texture on a spot light is not supported; supported: "
+        r.fail(el, f"a {el.get('type')} texture on a light is not supported; supported: "
                "bitmap")
     return bitmap(r, el, bounded=False)
 
 
-def area(r, el, obj):
-    """The AreaLight of an ``<emitter type="area">`` inside the shape of ``obj``."""
+def textured(el) -> bool:
+    """An ``<emitter>`` element gives its ``radiance`` by a texture."""
+    return any(kid.tag in ("texture", "ref") and kid.get("name") == "radiance" for kid in el)
+
+
+def area(r, el, obj, uv=None):
+    """The AreaLight of an ``<emitter type="area">`` inside the shape of ``obj``; a bitmap
+    ``radiance`` looked up at ``uv``, the shape's texture coordinates (its mean the light's
+    ``radiance``)."""
     kind = el.get("type")
     if kind != "area":
         r.fail(el, f"a {kind!r} emitter inside a shape; the emitter inside a shape is "
@@ -99,9 +107,11 @@ def area(r, el, obj):
         r.fail(el, f"an area emitter on a {what} shape: blockhash's emitters are diffuse "
                "surfaces; give the emitting shape a diffuse BSDF (or none, Mitsuba's "
                "default)")
-    p = r.props(el, {"radiance": ("rgb", "spectrum", "float")}, children=("texture",),
-                emitter=True)
-    no_texture(r, el, p, "radiance")
+    p = r.props(el, {"radiance": ("rgb", "spectrum", "float", "texture")}, emitter=True)
+    if textured(el):
+        texture = light_texture(r, p["radiance"])
+        return r.build(el, AreaLight, object=obj.name, mesh=obj.mesh, radiance=texture.mean,
+                       texture=texture, uv=uv)
     return r.build(el, AreaLight, object=obj.name, mesh=obj.mesh,
                    radiance=np.broadcast_to(p.get("radiance", 1.0), (3,)))
 

@@ -81,12 +81,13 @@ def texture_file_name(bsdf_id: str) -> str:
     return "textures/" + re.sub(r"[^A-Za-z0-9_.-]", "_", bsdf_id) + ".exr"
 
 
-def spot_texture_file(light) -> str:
-    """The EXR a spot light's projected texture is written to, under ``textures/``."""
+def light_texture_file(light) -> str:
+    """The EXR a light's texture (a spot's, an area light's radiance) is written to, under
+    ``textures/``, named by its content."""
     import hashlib
 
     digest = hashlib.sha1(np.ascontiguousarray(light.texture.image).tobytes()).hexdigest()[:12]
-    return f"textures/spot-{digest}.exr"
+    return f"textures/light-{digest}.exr"
 
 
 def _bitmap_lines(t, filename: str, name: str) -> list[str]:
@@ -170,7 +171,7 @@ def _emitter(light) -> list[str]:
             m = np.eye(4)
             m[:3, :3], m[:3, 3] = light.frame, light.position
             place = [f'        <matrix value="{" ".join(_num(v) for v in m.reshape(-1))}"/>']
-            texture = _bitmap_lines(light.texture, spot_texture_file(light), "texture")
+            texture = _bitmap_lines(light.texture, light_texture_file(light), "texture")
         return ['<emitter type="spot">',
                 '    <transform name="to_world">',
                 *place,
@@ -235,8 +236,13 @@ def scene_xml(scene: Scene, *, drop_specular: bool = False, spp: int = DEFAULT_M
                 f'    <string name="filename" value={quoteattr(mesh_file_name(obj.name))}/>',
                 f'    <ref id={quoteattr(ids[id(obj.material)])}/>']
         if obj.name in areas:
-            out += ['    <emitter type="area">',
-                    "        " + _rgb("radiance", areas[obj.name].radiance), "    </emitter>"]
+            light = areas[obj.name]
+            radiance = (["    " + line for line in _bitmap_lines(light.texture,
+                                                               light_texture_file(light),
+                                                               "radiance")]
+                        if light.texture is not None else
+                        ["        " + _rgb("radiance", light.radiance)])
+            out += ['    <emitter type="area">', *radiance, "    </emitter>"]
         out.append("</shape>")
     out.append("</scene>")
     return "\n".join(out) + "\n"
@@ -257,12 +263,14 @@ def export_mitsuba(scene: Scene, directory, *, drop_specular: bool = False,
                          "[A-Za-z0-9_.-]")
     root = Path(directory)
     (root / "meshes").mkdir(parents=True, exist_ok=True)
+    areas = {light.object: light for light in scene.lights if isinstance(light, AreaLight)}
     for obj, name in zip(scene.objects, names):
         mesh = obj.mesh
-        if obj.uv is not None:  # the texture coordinates as the PLY's u and v
+        uv = obj.uv if obj.uv is not None else getattr(areas.get(obj.name), "uv", None)
+        if uv is not None:  # the texture coordinates as the PLY's u and v
             mesh = mesh.copy()
-            mesh.vertex_attributes["u"] = np.ascontiguousarray(obj.uv[:, 0], np.float32)
-            mesh.vertex_attributes["v"] = np.ascontiguousarray(obj.uv[:, 1], np.float32)
+            mesh.vertex_attributes["u"] = np.ascontiguousarray(uv[:, 0], np.float32)
+            mesh.vertex_attributes["v"] = np.ascontiguousarray(uv[:, 1], np.float32)
         data = mesh.export(file_type="ply", encoding="binary", include_attributes=True,
                            vertex_normal=True)
         (root / name).write_bytes(data)
@@ -278,7 +286,7 @@ def export_mitsuba(scene: Scene, directory, *, drop_specular: bool = False,
             _write_map(root / ENVIRONMENT_FILE, light.image)
         if getattr(light, "texture", None) is not None:
             (root / "textures").mkdir(exist_ok=True)
-            _write_map(root / spot_texture_file(light), light.texture.image)
+            _write_map(root / light_texture_file(light), light.texture.image)
     xml = root / "scene.xml"
     xml.write_text(text, encoding="utf-8")
     return xml

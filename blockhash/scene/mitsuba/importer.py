@@ -40,7 +40,7 @@ Mapped:
   (:data:`.xml_values.FLAT_EMITTER_RGB`); a spectrum of wavelength:value pairs as those
   variants take it (:mod:`.spectra`).
 
-Refused: every other element, plugin type and property (an area emitter on a mirror or glass shape or with a textured radiance, textures, media, rough
+Refused: every other element, plugin type and property (an area emitter on a mirror or glass shape, textures but a bitmap or a checkerboard where :mod:`.textures` takes them, media, rough
 or measured BSDFs, other sensors and integrators, filters other than box, tent and
 Gaussian, spectra from a file, a sensor to_world with scale, shear or a mirror flip,
 clip planes that would clip the scene, more than 1024 samples a pixel, depths its
@@ -146,11 +146,15 @@ class _Reader(XmlReader):
             mesh, uv = uv_mesh(self, el, kind, p)
             return [self.build(el, SceneObject, name=name, mesh=mesh, material=material,
                                uv=uv)], None
-        mesh = shape_mesh(self, el, kind, p)
+        uv = None
+        if emitter is not None and mitsuba_emitters.textured(emitter):  # its coordinates
+            mesh, uv = uv_mesh(self, el, kind, p)
+        else:
+            mesh = shape_mesh(self, el, kind, p)
         obj = self.build(el, SceneObject, name=name, mesh=mesh, material=material)
         if emitter is None:
             return [obj], None
-        return [obj], mitsuba_emitters.area(self, emitter, obj)
+        return [obj], mitsuba_emitters.area(self, emitter, obj, uv)
 
     def instance(self, el, groups: dict, index: int) -> list:
         """The objects of the ``shapegroup`` an ``<shape type="instance">`` refers to, each

@@ -252,9 +252,13 @@ CASES = [
                '<emitter type="area"/></shape>'), r"s.xml:10: <emitter type=\"area\">: an area emitter on a mirror \(conductor\) shape.*diffuse BSDF"),
     (dict(body='<shape type="sphere"><bsdf type="dielectric"/><emitter type="area"/></shape>'),
      r"s.xml:10: <emitter type=\"area\">: an area emitter on a glass"),
-    (dict(body='<shape type="rectangle"><emitter type="area"><texture type="bitmap" name="radiance">'
+    (dict(body='<shape type="rectangle"><emitter type="area"><texture type="checkerboard" name="radiance">'
+               '</texture></emitter></shape>'),
+     r"s.xml:10: <texture type=\"checkerboard\" name=\"radiance\">: a checkerboard texture on a light is not "
+     r"supported; supported: bitmap"),
+    (dict(body='<shape type="sphere"><emitter type="area"><texture type="bitmap" name="radiance">'
                '<string name="filename" value="a.png"/></texture></emitter></shape>'),
-     r"s.xml:10: <texture type=\"bitmap\" name=\"radiance\">: a textured radiance is not supported.*<rgb name=\"radiance\""),
+     r"s.xml:10: <texture type=\"bitmap\" name=\"radiance\">: texture image not found: 'a.png'"),
     (dict(body='<shape type="rectangle"><emitter type="area"><rgb name="radiance" value="-1, 1, 1"/></emitter></shape>'),
      r"s.xml:10: <emitter type=\"area\">: .*emission\[0\]: expected a number in \[0, inf\); got -1"),
     (dict(body='<shape type="rectangle"><emitter type="area"><rgb name="radiance" value="0"/></emitter></shape>'),
