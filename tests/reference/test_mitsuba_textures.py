@@ -19,14 +19,16 @@ from conftest import mitsuba_or_skip
 
 from blockhash.studies.published import compare, load
 
-SCENE = """<scene version="3.0.0">
+#: The scenes' integrator and camera (64 x 48, 16 samples a pixel, a box filter).
+HEAD = """<scene version="3.0.0">
  <integrator type="path"/>
- <sensor type="perspective"><float name="fov" value="45"/>
-  <transform name="to_world"><lookat origin="0, 2.5, 5" target="0, 0.3, 0" up="0, 1, 0"/></transform>
+ <sensor type="perspective"><float name="fov" value="{fov}"/>
+  <transform name="to_world"><lookat origin="{origin}" target="{target}" up="0, 1, 0"/></transform>
   <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
   <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="48"/>
   <rfilter type="box"/></film></sensor>
- <shape type="sphere"><point name="center" x="-1.5" y="3" z="1"/><float name="radius" value="0.25"/>
+"""
+SCENE = HEAD.format(fov=45, origin="0, 2.5, 5", target="0, 0.3, 0") + """ <shape type="sphere"><point name="center" x="-1.5" y="3" z="1"/><float name="radius" value="0.25"/>
   <emitter type="area"><rgb name="radiance" value="20"/></emitter></shape>
  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/><scale value="3"/></transform>
   <bsdf type="diffuse"><texture name="reflectance" type="bitmap"><string name="filename" value="floor.png"/>
@@ -95,14 +97,7 @@ def test_an_exported_texture_reads_back_the_same(textured, tmp_path):
     assert np.allclose(b.uv[order], a.uv, atol=1e-6)
 
 
-SPOT = """<scene version="3.0.0">
- <integrator type="path"/>
- <sensor type="perspective"><float name="fov" value="50"/>
-  <transform name="to_world"><lookat origin="0, 3, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
-  <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
-  <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="48"/>
-  <rfilter type="box"/></film></sensor>
- <emitter type="spot"><transform name="to_world"><lookat origin="-1, 3, 1" target="0, 0, 0" up="0, 0, 1"/></transform>
+SPOT = HEAD.format(fov=50, origin="0, 3, 4", target="0, 0, 0") + """ <emitter type="spot"><transform name="to_world"><lookat origin="-1, 3, 1" target="0, 0, 0" up="0, 0, 1"/></transform>
   <rgb name="intensity" value="20"/><float name="cutoff_angle" value="35"/><float name="beam_width" value="30"/>
   <texture name="texture" type="bitmap"><string name="filename" value="floor.png"/></texture></emitter>
  <shape type="rectangle"><transform name="to_world"><rotate x="1" angle="-90"/><scale value="3"/></transform>
@@ -142,14 +137,7 @@ def test_an_exported_spot_texture_reads_back_the_same(textured, tmp_path):
     assert np.allclose(b.texture_factor(d), a.texture_factor(d), atol=1e-5)
 
 
-AREA = """<scene version="3.0.0">
- <integrator type="path"/>
- <sensor type="perspective"><float name="fov" value="50"/>
-  <transform name="to_world"><lookat origin="0, 3, 4" target="0, 0.5, 0" up="0, 1, 0"/></transform>
-  <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
-  <film type="hdrfilm"><integer name="width" value="64"/><integer name="height" value="48"/>
-  <rfilter type="box"/></film></sensor>
- <shape type="rectangle"><transform name="to_world"><scale x="1" y="0.7"/><rotate x="1" angle="20"/>
+AREA = HEAD.format(fov=50, origin="0, 3, 4", target="0, 0.5, 0") + """ <shape type="rectangle"><transform name="to_world"><scale x="1" y="0.7"/><rotate x="1" angle="20"/>
   <translate y="1" z="-1"/></transform><bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf>
   <emitter type="area"><texture name="radiance" type="bitmap"><string name="filename" value="floor.png"/>
   </texture></emitter></shape>
