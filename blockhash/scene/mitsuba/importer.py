@@ -121,8 +121,9 @@ class _Reader(XmlReader):
                 material = bsdfs[ref]
             else:
                 material = read_bsdf(self, kid, "")
-        if material is None:  # Mitsuba's default BSDF: diffuse, reflectance 0.5, one-sided
-            material = self.build(el, PhongMaterial, kd=np.full(3, 0.5), ks=0.0, n=0.0,
+        if material is None:  # Mitsuba's default: a one-sided diffuse, 0.5 (0 on an emitter)
+            material = self.build(el, PhongMaterial, kd=np.full(3, 0.0 if emitter is not None
+                                                               else 0.5), ks=0.0, n=0.0,
                                   sided="one")
         name = el.get("id") or f"{kind}-{index}"
         if isinstance(material, (TexturedDiffuse, TwoFaced)):  # two objects of plain materials

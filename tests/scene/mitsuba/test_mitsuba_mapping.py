@@ -318,8 +318,8 @@ def test_the_camera_depth_max_depth_is_checked_against_is_the_renderers():
 
 
 def test_an_area_emitter_inside_a_shape_and_a_directional_emitter_are_read(tmp_path):
-    """A rectangle holding <emitter type="area"> (no BSDF: Mitsuba's default diffuse 0.5) is
-    an object and an AreaLight of its radiance, emitting along the rectangle's +z turned by
+    """A rectangle holding <emitter type="area"> (no BSDF: Mitsuba's default for an emitting
+    shape, a black diffuse) is an object and an AreaLight of its radiance, emitting along the rectangle's +z turned by
     to_world; a directional emitter's to_world turns its +z into the direction."""
     from blockhash.scene.model import AreaLight, DirectionalLight, PhongMaterial
 
@@ -336,7 +336,7 @@ def test_an_area_emitter_inside_a_shape_and_a_directional_emitter_are_read(tmp_p
     obj = next(o for o in scene.objects if o.name == "lamp")
     assert lamp.object == "lamp" and lamp.mesh is obj.mesh
     assert isinstance(obj.material, PhongMaterial) and obj.material.one_sided
-    np.testing.assert_allclose(obj.material.kd, 0.5)
+    np.testing.assert_allclose(obj.material.kd, 0.0)  # 0.5 on a shape that does not emit
     np.testing.assert_allclose(lamp.radiance, [10.0, 8.0, 6.0])
     assert lamp.area == pytest.approx(0.25, rel=1e-12)  # (2 x 0.25)^2
     np.testing.assert_allclose(lamp.face_normals, np.tile([0.0, -1.0, 0.0], (2, 1)), atol=1e-12)
@@ -794,3 +794,25 @@ def test_an_unbounded_max_depth_lets_the_indirect_photons_go_on(tmp_path, depth,
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         assert load(tmp_path, top=top).photons.indirect_events == events
+
+
+@needs_mitsuba
+def test_mitsubas_default_bsdf_is_black_on_an_emitting_shape_and_grey_elsewhere(tmp_path):
+    """What blockhash's import takes as a shape's BSDF when the file gives none, held to what
+    Mitsuba itself builds: a diffuse of 0 on a shape that emits (its light reflects nothing:
+    a default of 0.5 there rendered a lamp over a floor 3% brighter than Mitsuba), of 0.5
+    elsewhere."""
+    from blockhash.reference.mitsuba import load_mitsuba_module
+
+    mi, _ = load_mitsuba_module()
+    body = ('<shape type="rectangle" id="lamp"><emitter type="area"><rgb name="radiance" '
+            'value="1"/></emitter></shape><shape type="rectangle" id="plain"/>')
+    scene = load(tmp_path, body=body)
+    ours = {o.name: float(o.material.kd[0]) for o in scene.objects if o.name in ("lamp", "plain")}
+    theirs = mi.load_string(f'<scene version="3.0.0">{body}</scene>')
+    params = mi.traverse(theirs)
+    got = {}
+    for shape in theirs.shapes():
+        key = [k for k in params.keys() if k.startswith(shape.id() + ".bsdf.reflectance")]
+        got[shape.id()] = float(np.ravel(params[key[0]])[0])
+    assert ours == pytest.approx(got) and got == pytest.approx({"lamp": 0.0, "plain": 0.5})
