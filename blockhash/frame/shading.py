@@ -193,7 +193,9 @@ def _textures(rays: SceneRays, objects, pos, nrm, view, obj, weight) -> None:
         face[again], bary[again], o[again] = found[5], found[6], np.where(found[0], found[3], -1)
     ok = np.flatnonzero(o == obj[on])
     _, albedo = geom.albedo(face[ok], bary[ok, 0], bary[ok, 1])
-    kd = np.array([objects[i].material.kd for i in obj[on[ok]]], dtype=np.float64).reshape(-1, 3)
+    table = np.array([getattr(o.material, "kd", np.zeros(3)) for o in objects],
+                     dtype=np.float64).reshape(-1, 3)
+    kd = table[obj[on[ok]]]
     weight[on[ok]] *= np.divide(albedo, kd, out=np.zeros_like(albedo), where=kd > 0)
 
 

@@ -191,20 +191,14 @@ class IndirectSource:
             w[rows] = self.power[li] / self.pmf[li]
             if hasattr(light, "irradiance"):  # a disc across the direction, upstream
                 D = np.asarray(light.direction, dtype=np.float64)
-                t1, t2 = orthonormal_basis(D)
-                rho, phi = self.radius * np.sqrt(u1), 2.0 * np.pi * u2
-                o[rows] = (self.center - 2.0 * self.radius * D + (rho * np.cos(phi))[:, None] * t1
-                           + (rho * np.sin(phi))[:, None] * t2)
+                o[rows] = self._disc(D, *orthonormal_basis(D), u1, u2)
                 d[rows] = D
             elif hasattr(light, "image"):  # an environment: a direction by its map, then a disc
                 if extra is None:
                     extra = _uniforms(seed + EMIT_KEY, start, n)
                 toward, p = light.sample(extra[rows, 0], extra[rows, 1], extra[rows, 2])
                 D = -toward
-                t1, t2 = frames(D)
-                rho, phi = self.radius * np.sqrt(u1), 2.0 * np.pi * u2
-                o[rows] = (self.center - 2.0 * self.radius * D + (rho * np.cos(phi))[:, None] * t1
-                           + (rho * np.sin(phi))[:, None] * t2)
+                o[rows] = self._disc(D, *frames(D), u1, u2)
                 d[rows] = D
                 w[rows] = (light.emitted(toward) / p[:, None]) * (np.pi * self.radius ** 2
                                                                    / self.pmf[li])
@@ -232,6 +226,13 @@ class IndirectSource:
                     if light.texture is not None:  # a texture projected across the cone
                         w[rows] *= light.texture_factor(d[rows])
         return o, d, w
+
+    def _disc(self, D, t1, t2, u1, u2) -> np.ndarray:
+        """(n, 3) origins uniform on the disc of the scene's bounding sphere across ``D`` ((3,)
+        or (n, 3), frame ``t1``, ``t2``), upstream of the scene, from uniforms ``u1``, ``u2``."""
+        rho, phi = self.radius * np.sqrt(u1), 2.0 * np.pi * u2
+        return (self.center - 2.0 * self.radius * D + (rho * np.cos(phi))[:, None] * t1
+                + (rho * np.sin(phi))[:, None] * t2)
 
     # ------------------------------------------------------------------ paths
 

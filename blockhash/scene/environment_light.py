@@ -16,7 +16,7 @@ uniform across the cell's band), so the density per steradian is constant over a
 ``P_cell / Omega_cell``, and finite at the poles.  A cell whose corners are all black is never
 chosen, and the bilinear radiance is zero everywhere in it: the estimate ``L(w) / p(w)`` is
 unbiased whatever the map.  The host's numpy and the device's Dr.Jit kernels
-(:mod:`blockhash.device.emission`) sample the same tables by the same rule.
+(:mod:`blockhash.device.environment`) sample the same tables by the same rule.
 """
 
 from __future__ import annotations
@@ -75,9 +75,9 @@ class EnvironmentLight:
     def _tables(self):
         img = self.image
         h, w = img.shape[:2]
-        lum = img @ LUMINANCE
-        right = np.roll(lum, -1, axis=1)
-        corners = 0.25 * (lum[:-1] + right[:-1] + lum[1:] + right[1:])  # (H - 1, W)
+        rgb = 0.25 * (img[:-1] + np.roll(img, -1, axis=1)[:-1] + img[1:]
+                      + np.roll(img, -1, axis=1)[1:])  # (H - 1, W, 3) each cell's corners' mean
+        corners = rgb @ LUMINANCE
         cos_edge = np.cos(np.arange(h) * (math.pi / (h - 1)))
         band = cos_edge[:-1] - cos_edge[1:]  # each row of cells' share of 2 (the sphere / 2 pi)
         omega = (2.0 * math.pi / w) * band  # (H - 1,) steradians of one cell of the row
@@ -93,8 +93,6 @@ class EnvironmentLight:
         row_mass = mass.sum(axis=1, keepdims=True)
         col_cdf = np.cumsum(mass, axis=1) / np.where(row_mass > 0.0, row_mass, 1.0)
         col_cdf[:, -1] = 1.0
-        rgb = 0.25 * (img[:-1] + np.roll(img, -1, axis=1)[:-1] + img[1:]
-                      + np.roll(img, -1, axis=1)[1:])
         object.__setattr__(self, "_pmf", _readonly(pmf))
         object.__setattr__(self, "_row_cdf", _readonly(row_cdf))
         object.__setattr__(self, "_col_cdf", _readonly(col_cdf))
@@ -144,14 +142,8 @@ class EnvironmentLight:
     def emitted(self, toward: np.ndarray) -> np.ndarray:
         """(n, 3) radiance arriving from the environment along each world direction
         ``toward`` (n, 3) (unit, pointing from the scene out to the map; module docstring)."""
-        v = np.asarray(toward, dtype=np.float64) @ self.to_world  # R^T w, row by row
-        h, w = self.image.shape[:2]
-        u = np.arctan2(v[:, 0], -v[:, 2]) / (2.0 * math.pi) - 0.5 / w
-        t = np.arccos(np.clip(v[:, 1], -1.0, 1.0)) / math.pi
-        x = (u - np.floor(u)) * w
-        y = t * (h - 1)
-        i = np.minimum(x.astype(np.int64), w - 1)
-        j = np.minimum(y.astype(np.int64), h - 2)
+        x, y, i, j = self._cells_of(toward)
+        w = self.image.shape[1]
         fx, fy = (x - i)[:, None], (y - j)[:, None]
         i1 = (i + 1) % w
         img = self.image
@@ -188,13 +180,18 @@ class EnvironmentLight:
 
     def pdf(self, toward: np.ndarray) -> np.ndarray:
         """(n,) the density per steradian :meth:`sample` draws each direction ``toward`` with."""
-        v = np.asarray(toward, dtype=np.float64) @ self.to_world
+        _, _, i, j = self._cells_of(toward)
+        return self._pmf[j * self.image.shape[1] + i] / self._omega[j]
+
+    def _cells_of(self, toward: np.ndarray):
+        """(x, y, column i, row j): the pixel coordinates of world directions ``toward`` and
+        the bilinear cell that holds them (module docstring)."""
+        v = np.asarray(toward, dtype=np.float64) @ self.to_world  # R^T w, row by row
         h, w = self.image.shape[:2]
         u = np.arctan2(v[:, 0], -v[:, 2]) / (2.0 * math.pi) - 0.5 / w
-        i = np.minimum(((u - np.floor(u)) * w).astype(np.int64), w - 1)
-        t = np.arccos(np.clip(v[:, 1], -1.0, 1.0)) / math.pi
-        j = np.minimum((t * (h - 1)).astype(np.int64), h - 2)
-        return self._pmf[j * w + i] / self._omega[j]
+        x = (u - np.floor(u)) * w
+        y = np.arccos(np.clip(v[:, 1], -1.0, 1.0)) / math.pi * (h - 1)
+        return x, y, np.minimum(x.astype(np.int64), w - 1), np.minimum(y.astype(np.int64), h - 2)
 
     def __repr__(self) -> str:
         h, w = self.image.shape[:2]

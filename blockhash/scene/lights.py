@@ -230,10 +230,7 @@ class AreaLight:
         """(points (m, 3), front normals (m, 3)) uniform by area on the light: the triangle
         whose stretch of :attr:`area_cdf` holds ``u_face``, and in it the point of uniforms
         ``u1``, ``u2`` (barycentrics 1 - sqrt(u1), sqrt(u1) u2)."""
-        cdf = self._cdf
-        f = np.minimum(np.searchsorted(cdf, u_face, side="right"), len(cdf) - 1)
-        s = np.sqrt(u1)
-        b0, b2 = 1.0 - s, s * u2
+        f, b0, b2 = self._faces(u_face, u1, u2)
         tri = self._triangles[f]
         y = b0[:, None] * tri[:, 0] + (1.0 - b0 - b2)[:, None] * tri[:, 1] + b2[:, None] * tri[:, 2]
         return y, self._normals[f]
@@ -242,10 +239,14 @@ class AreaLight:
         """(m, 3) the radiance at the points :meth:`points` gives for the same uniforms."""
         if self.texture is None:
             return np.broadcast_to(self.radiance, (len(u_face), 3))
+        f, b0, b2 = self._faces(u_face, u1, u2)
+        return self.emitted_on(f, 1.0 - b0 - b2, b2)
+
+    def _faces(self, u_face, u1, u2):
+        """(triangle (m,), barycentrics b0, b2) of :meth:`points`' rule."""
         f = np.minimum(np.searchsorted(self._cdf, u_face, side="right"), len(self._cdf) - 1)
         s = np.sqrt(u1)
-        b0, b2 = 1.0 - s, s * u2
-        return self.emitted_on(f, 1.0 - b0 - b2, b2)
+        return f, 1.0 - s, s * u2
 
     def emitted_on(self, face: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         """(m, 3) the radiance on the mesh's ``face`` at barycentrics ``u``, ``v`` (the point

@@ -29,8 +29,8 @@ UNBOUNDED_EVENTS = 64
 #: Specular events a photon and a camera ray follow in a scene with mirrors or glass under an
 #: unbounded (or deep) ``max_depth``: light between mirrors (the gold material preview's
 #: hollows lost a quarter of some pixels at blockhash's own 4) and light trapped in glass by
-#: total internal reflection goes on past blockhash's own 8 (by Mitsuba's own renders at those depths, its documentation's water
-#: preview lost 8% of its light at 8 events and 3% at 14, the diamond preview 5% at 32); a
+#: total internal reflection goes on past blockhash's own 8 (its documentation's water and
+#: diamond previews rendered 0.914 and 0.885 of Mitsuba's flux at 8, BENCHMARKS.md); a
 #: camera branch still ends once its weight falls below
 #: :data:`blockhash.frame.shading.BRANCH_CUTOFF`.
 UNBOUNDED_SPECULAR = 128
