@@ -90,6 +90,11 @@ def light_texture_file(light) -> str:
     return f"textures/light-{digest}.exr"
 
 
+def _matrix(m: np.ndarray) -> str:
+    """A 4 x 4 matrix as Mitsuba's ``<matrix value>``, row by row."""
+    return " ".join(_num(v) for v in np.asarray(m).reshape(-1))
+
+
 def _bitmap_lines(t, filename: str, name: str) -> list[str]:
     """The ``<texture type="bitmap">`` lines of texture ``t`` read from ``filename``."""
     m = np.eye(4)
@@ -99,7 +104,7 @@ def _bitmap_lines(t, filename: str, name: str) -> list[str]:
             f'        <string name="filter_type" value="{t.filter}"/>',
             f'        <string name="wrap_mode" value="{t.wrap}"/>',
             '        <transform name="to_uv">',
-            f'            <matrix value="{" ".join(_num(v) for v in m.reshape(-1))}"/>',
+            f'            <matrix value="{_matrix(m)}"/>',
             "        </transform>", "    </texture>"]
 
 
@@ -151,7 +156,7 @@ def _emitter(light) -> list[str]:
         return ['<emitter type="envmap">',
                 f'    <string name="filename" value="{ENVIRONMENT_FILE}"/>',
                 '    <transform name="to_world">',
-                f'        <matrix value="{" ".join(_num(v) for v in m.reshape(-1))}"/>',
+                f'        <matrix value="{_matrix(m)}"/>',
                 "    </transform>", "</emitter>"]
     if isinstance(light, DirectionalLight):
         return ['<emitter type="directional">',
@@ -170,7 +175,7 @@ def _emitter(light) -> list[str]:
         if light.texture is not None:  # its frame's axes orient the texture: the whole matrix
             m = np.eye(4)
             m[:3, :3], m[:3, 3] = light.frame, light.position
-            place = [f'        <matrix value="{" ".join(_num(v) for v in m.reshape(-1))}"/>']
+            place = [f'        <matrix value="{_matrix(m)}"/>']
             texture = _bitmap_lines(light.texture, light_texture_file(light), "texture")
         return ['<emitter type="spot">',
                 '    <transform name="to_world">',
