@@ -117,9 +117,12 @@ def specular_event(geo, d, ns, ng, outer, obj, kind, rng, active):
     geometric normals ``ns``, ``ng`` facing it (met from the ``outer`` side): (the new
     direction, unnormalised; the factor on its weight; +1 leaving on the incoming side or -1
     passing through; a mirror's fallback to the geometric normal), the rules of
-    :func:`blockhash.photons.bounce._event`.  Glass draws its choice from ``rng``."""
+    :func:`blockhash.photons.bounce._event`.  Glass draws its choice from ``rng``, and a
+    rough mirror or glass its microfacet (:mod:`.microfacet`)."""
     mi, dr = geo.mi, geo.dr
     mirror = active & (kind == MIRROR)
+    if geo.any_rough:
+        mirror &= dr.gather(mi.Float, geo.alpha, obj, active) <= 0.0
     r = _reflect(dr, d, ns)
     wrong = dr.dot(r, ng) <= 0.0
     r = dr.select(wrong, _reflect(dr, d, ng), r)
@@ -146,6 +149,24 @@ def specular_event(geo, d, ns, ng, outer, obj, kind, rng, active):
         r = dr.select(glass, dr.select(through, t, r_glass), r)
         factor = dr.select(through, dr.gather(mi.Color3f, geo.tint, obj, through), factor)
         side = dr.select(through, -1.0, side)
+    if geo.any_rough:  # rough mirrors and glass: about a sampled microfacet, as the host's
+        from blockhash.device.microfacet import rough_event
+
+        rough = active & (dr.gather(mi.Float, geo.alpha, obj, active) > 0.0)
+        r_r, f_r, t_r, i_m = rough_event(geo, d, ns, ng, outer, obj, rough & (kind == GLASS),
+                                         rng, rough, _fresnel)
+        on_mirror = rough & (kind == MIRROR)
+        f_m = dr.gather(mi.Color3f, geo.reflectance, obj, on_mirror)
+        if geo.any_conductor:
+            metal = on_mirror & (dr.gather(mi.UInt32, geo.conductor, obj, on_mirror) != 0)
+            f_m = dr.select(metal, f_m * _conductor(dr, i_m, dr.gather(mi.Color3f, geo.eta, obj, metal),
+                                                    dr.gather(mi.Color3f, geo.k, obj, metal)), f_m)
+        f_m = dr.select(on_mirror, f_m, dr.select(t_r, dr.gather(mi.Color3f, geo.tint, obj, t_r),
+                                                  1.0))
+        r = dr.select(rough, r_r, r)
+        factor = dr.select(rough, f_m * f_r, factor)
+        side = dr.select(rough, dr.select(t_r, -1.0, 1.0), side)
+        wrong &= ~rough
     return r, factor, side, mirror & wrong
 
 

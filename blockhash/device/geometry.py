@@ -108,6 +108,9 @@ class DeviceGeometry:
         self.tint = f32(geometry.tint)
         self.ior = f32(geometry.ior)
         self.any_glass = bool(np.any(geometry.is_dielectric))
+        self.alpha = f32(geometry.alpha)
+        self.ggx = mi.UInt32(np.asarray(geometry.ggx, dtype=np.uint32))
+        self.any_rough = bool(np.any(geometry.alpha > 0.0))
 
     def intersect(self, o, d, active):
         """(hit, global face) of the rays ``o + t d`` (Mitsuba's preliminary intersection:

@@ -47,7 +47,7 @@ def camera_samples(scene, rays: SceneRays, samples, pass_index: int, *, backend=
         pin = Pinhole.of(scene.camera)
         gbuf = film_gbuffer(pin, rays, *pass_points(pin.width, pin.height, samples, pass_index),
                             lens_seed=LENS_KEY + jitter_seed(pass_index))
-    points = _shade(scene, rays, gbuf, True)
+    points = _shade(scene, rays, gbuf, True, pass_index)
     specular = np.array([o.is_specular for o in scene.objects] + [False])
     seen = ~specular[gbuf.object.reshape(-1)]  # object -1 (nothing hit): the last entry
     if points.owner is not None:
@@ -55,11 +55,11 @@ def camera_samples(scene, rays: SceneRays, samples, pass_index: int, *, backend=
     return points, seen.reshape(points.shape)
 
 
-def _shade(scene, rays, gbuf, both_branches: bool):
+def _shade(scene, rays, gbuf, both_branches: bool, pass_index: int = 0):
     return shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,),
                           both_branches=both_branches, events=scene.photons.camera_bounces,
                           environment=any(isinstance(li, EnvironmentLight)
-                                          for li in scene.lights))
+                                          for li in scene.lights), pass_index=pass_index)
 
 
 def only(points, keep):

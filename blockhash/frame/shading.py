@@ -33,6 +33,9 @@ BRANCH_CUTOFF = 1e-3
 #: Seed of the camera rays' reflect-or-refract choices at glass (one stream, fixed, so an
 #: image is the same in every run).
 CAMERA_CHOICE_SEED = 0x9A55
+#: Seed of the camera rays' microfacets on rough mirrors and glass (with the pass and the
+#: event: each pass draws its own, so that passes average them).
+ROUGH_SEED = 0x60F5
 
 
 class SceneRays:
@@ -76,7 +79,7 @@ class SceneRays:
 
 def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
                    both_branches: bool = False, events: int | None = None,
-                   environment: bool = False) -> ShadingPoints:
+                   environment: bool = False, pass_index: int = 0) -> ShadingPoints:
     """Per-pixel shading points; a pixel that sees a mirror or glass follows the ray.
 
     At a mirror the ray reflects and its path weight takes the reflectance.  At glass
@@ -93,6 +96,9 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     shades nothing).  With ``environment`` (the scene has an environment light) the rays that
     left the scene are marked (:attr:`ShadingPoints.escaped`), for the light they see.
 
+    A rough mirror or glass (``alpha > 0``) sends the ray about a sampled microfacet
+    (:mod:`blockhash.scene.microfacet`), drawn for pass ``pass_index`` (each pass its own).
+
     With ``both_branches`` (the renderer's choice) a ray at glass follows both branches
     instead, the reflection weighted by the Fresnel reflectance F and the refraction by
     (1 - F) times the tint (:func:`branch_points`): no choice is drawn, so the glass is seen
@@ -103,7 +109,7 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
 
     if both_branches and any(isinstance(o.material, DielectricMaterial) for o in objects):
         return branch_points(camera, gbuffer, objects, rays, mirror_types, events,
-                             environment=environment)
+                             environment=environment, pass_index=pass_index)
 
     h, w = gbuffer.object.shape
     glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types, rays.geometry)
@@ -125,9 +131,14 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
         d = -wi
         r = 2.0 * np.sum(n * wi, axis=1, keepdims=True) * n - wi
         side = np.ones(len(idx))
-        m = mirror[obj[idx]]
+        rough = rays.geometry.alpha[obj[idx]] > 0.0
+        if rough.any():
+            ri = idx[rough]
+            r[rough], side[rough] = _rough(rays, ri, obj[ri], d[rough], n[rough], outer[ri],
+                                           weight, pass_index, event)
+        m = mirror[obj[idx]] & ~rough
         weight[idx[m]] *= reflectance(obj[idx[m]], np.sum(n[m] * wi[m], axis=1))
-        g = ~m
+        g = ~m & ~rough
         if g.any():
             gi = idx[g]
             og = obj[gi]
@@ -254,8 +265,26 @@ def _surface_tables(objects, mirror_types, geometry):
     return glass, mirror, mirror | glass, reflectance, ior, tint
 
 
+def _rough(rays: SceneRays, idx, obj, d, n, outer, weight, pass_index: int, event: int):
+    """The rough events (:func:`blockhash.scene.microfacet.rough_scatter`) of camera rays
+    ``idx`` (the rays ``d`` on objects ``obj`` with normals ``n`` facing them, met from the
+    ``outer`` side): their weights (rows ``idx`` of ``weight``) scaled in place; returns
+    (new directions, sides: +1 reflected, -1 passed through).  The uniforms are pass
+    ``pass_index``'s and event ``event``'s own, so that passes average the microfacets."""
+    from blockhash.scene.microfacet import UNIFORMS, rough_scatter
+
+    geom = rays.geometry
+    u = np.random.default_rng([ROUGH_SEED, int(pass_index), int(event)]).random(
+        (len(idx), UNIFORMS))
+    dirs, factor, through = rough_scatter(d, n, n, outer, obj, geom.mirror, geom.is_dielectric,
+                                          geom.ior, u)
+    weight[idx] *= np.where(through[:, None], geom.tint[obj], 1.0) * factor
+    return dirs, np.where(through, -1.0, 1.0)
+
+
 def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
-                  events: int | None = None, *, environment: bool = False) -> ShadingPoints:
+                  events: int | None = None, *, environment: bool = False,
+                  pass_index: int = 0) -> ShadingPoints:
     """Shading points of camera rays that follow both branches at glass
     (:func:`shading_points` with ``both_branches``): at each dielectric event a ray becomes
     a reflected ray of weight F and a refracted one of weight (1 - F) tint (one reflected
@@ -266,7 +295,8 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     (a branch that leaves the scene, or is still on a specular surface after the last event,
     adds nothing), laid out in rows of the G-buffer's width in the order they left the
     specular chain, padded with points that shade nothing; a one-sided receiver's back face
-    shades nothing, as in :func:`shading_points`."""
+    shades nothing, as in :func:`shading_points`.  A rough mirror or glass does not branch:
+    its ray takes one sampled microfacet, as in :func:`shading_points`."""
     from blockhash.scene.optics import fresnel
 
     h, w = gbuffer.object.shape
@@ -281,7 +311,7 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     if events == 0:  # no event followed: the points the camera sees directly
         on = specular[obj]
         done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, weight, esc)))
-    for _ in range(MAX_DIELECTRIC_EVENTS if events is None else events):
+    for event in range(MAX_DIELECTRIC_EVENTS if events is None else events):
         on = specular[obj]
         done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, weight, esc)))
         if not on.any():
@@ -296,7 +326,14 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
         f[g] = fresnel(-np.sum(d[g] * nrm[g], axis=1), np.where(outer[g], 1.0 / ior[obj[g]], ior[obj[g]]))
         w_refl = weight * np.where(g, f, 1.0)[:, None] * np.where(
             g[:, None], 1.0, reflectance(obj, -np.sum(d * nrm, axis=1)))
-        through = np.flatnonzero(g & (f < 1.0))
+        rough = rays.geometry.alpha[obj] > 0.0
+        rough_side = np.ones(len(obj))
+        if rough.any():
+            ri = np.flatnonzero(rough)
+            w_refl[ri] = weight[ri]  # one sampled branch, scaled by _rough
+            refl[ri], rough_side[ri] = _rough(rays, ri, obj[ri], d[ri], nrm[ri], outer[ri],
+                                              w_refl, pass_index, event)
+        through = np.flatnonzero(g & ~rough & (f < 1.0))
         t_dir, t_through, t_factor = scatter(d[through], nrm[through], nrm[through], outer[through],
                                              ior[obj[through]], tint[obj[through]],
                                              np.ones(len(through)))
@@ -305,7 +342,7 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
         parent = np.concatenate([np.arange(len(obj)), keep_t])
         dirs = np.concatenate([refl, t_dir[t_through]])
         wts = np.concatenate([w_refl, w_refr])
-        side = np.concatenate([np.ones(len(obj)), -np.ones(len(keep_t))])
+        side = np.concatenate([rough_side, -np.ones(len(keep_t))])
         live = wts.max(axis=1) >= BRANCH_CUTOFF
         parent, dirs, wts, side = parent[live], dirs[live], wts[live], side[live]
         pos, nrm, obj, outer = _follow(rays, pos[parent], nrm[parent], dirs, side)

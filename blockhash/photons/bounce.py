@@ -4,8 +4,9 @@ ray cast (:func:`bounce`), for :func:`blockhash.photons.paths.trace_batch`.
 Per ray: a miss escapes; a diffuse hit is direct light on the first bounce, absorbed on a
 one-sided receiver's back face, else stored; a mirror reflects (its reflectance on the
 weight, times a conductor's Fresnel reflectance; about the geometric normal where the
-shading normal sends the ray into the surface); glass reflects or refracts with the Fresnel probability (:mod:`blockhash.scene.optics`,
-the same formulas, scalar); a ray whose weight falls to 0 is absorbed.  The rays that go on
+shading normal sends the ray into the surface); glass reflects or refracts with the Fresnel
+probability (:mod:`blockhash.scene.optics`, the same formulas, scalar); a rough mirror or glass
+does the same about a sampled microfacet (:mod:`blockhash.scene.microfacet`); a ray whose weight falls to 0 is absorbed.  The rays that go on
 are written, in order, to the front of the next bounce's arrays: no boolean mask, fancy
 index or temporary array per step, which the numpy version spent as much time on as embree
 on its rays (BENCHMARKS.md, "What a photon costs").
@@ -16,6 +17,10 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from blockhash.scene import microfacet
+from blockhash.scene.microfacet import ALPHA, DISTRIBUTION, UNIFORMS
+from blockhash.scene.microfacet import conductor as _conductor
+from blockhash.scene.microfacet import fresnel as _fresnel
 from blockhash.scene.raycast import hit_frame
 
 # Photon fates (blockhash.photons.paths)
@@ -26,41 +31,6 @@ STORED, OUTSIDE_SPOT, MISSED, DIRECT, ESCAPED, ABSORBED, MAX_BOUNCES = range(7)
 def _reflect(d0, d1, d2, n0, n1, n2):
     k = 2.0 * ((d0 * n0 + d1 * n1) + d2 * n2)
     return d0 - k * n0, d1 - k * n1, d2 - k * n2
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _fresnel(cos_i, eta):
-    cos_i = min(max(cos_i, 0.0), 1.0)
-    sin2_t = eta * eta * (1.0 - cos_i * cos_i)
-    if sin2_t >= 1.0:
-        return 1.0
-    cos_t = np.sqrt(max(1.0 - sin2_t, 0.0))
-    a = eta * cos_i + cos_t
-    b = cos_i + eta * cos_t
-    if a == 0.0 or b == 0.0:
-        return 1.0
-    rs = (eta * cos_i - cos_t) / a
-    rp = (cos_i - eta * cos_t) / b
-    return 0.5 * (rs * rs + rp * rp)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _conductor(cos_i, eta, k):
-    """:func:`blockhash.scene.optics.conductor_fresnel` of one channel, scalar."""
-    c = min(max(cos_i, 0.0), 1.0)
-    c2 = c * c
-    s2 = 1.0 - c2
-    t0 = eta * eta - k * k - s2
-    a2b2 = np.sqrt(t0 * t0 + 4.0 * eta * eta * k * k)
-    a = np.sqrt(max(0.5 * (a2b2 + t0), 0.0))
-    t1 = a2b2 + c2
-    t2 = 2.0 * c * a
-    rs = (t1 - t2) / (t1 + t2)
-    t3 = c2 * a2b2 + s2 * s2
-    t4 = t2 * s2
-    if t3 + t4 <= 0.0:  # 0 / 0 at eta = k = 0, cos_i = 1: the limit, a perfect reflector
-        return rs
-    return 0.5 * (rs + rs * (t3 - t4) / (t3 + t4))
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -83,6 +53,26 @@ def _event(pid, obj, outer, d0, d1, d2, n0, n1, n2, g0, g1, g2, w0, w1, w2, diel
     new weight, +1 leaving on the incoming side or -1 passing through).  ``reflectance``: the
     mirrors' table (:attr:`blockhash.scene.raycast.EmbreeGeometry.mirror`)."""
     side = 1.0
+    alpha = reflectance[obj, ALPHA]
+    if alpha > 0.0:  # a rough mirror or glass: about a sampled microfacet
+        width = choices.shape[1]
+        e = events[pid]
+        events[pid] += UNIFORMS
+        r0, r1, r2, f, through, c = microfacet.event(
+            d0, d1, d2, n0, n1, n2, g0, g1, g2, outer, dielectric[obj], ior[obj], alpha,
+            reflectance[obj, DISTRIBUTION] != 0.0, choices[pid, e % width],
+            choices[pid, (e + 1) % width], choices[pid, (e + 2) % width])
+        if through:
+            return r0, r1, r2, w0 * f * tint[obj, 0], w1 * f * tint[obj, 1], \
+                w2 * f * tint[obj, 2], -1.0
+        if not dielectric[obj]:
+            w0, w1, w2 = (w0 * reflectance[obj, 0], w1 * reflectance[obj, 1],
+                          w2 * reflectance[obj, 2])
+            if reflectance[obj, 9] != 0.0:
+                w0 *= _conductor(c, reflectance[obj, 3], reflectance[obj, 6])
+                w1 *= _conductor(c, reflectance[obj, 4], reflectance[obj, 7])
+                w2 *= _conductor(c, reflectance[obj, 5], reflectance[obj, 8])
+        return r0, r1, r2, w0 * f, w1 * f, w2 * f, 1.0
     if not dielectric[obj]:
         w0, w1, w2 = (w0 * reflectance[obj, 0], w1 * reflectance[obj, 1],
                       w2 * reflectance[obj, 2])

@@ -241,7 +241,7 @@ class IndirectSource:
         n = len(o)
         idx = np.arange(n)
         diffuse_seen = np.zeros(n, dtype=np.int64)  # diffuse vertices so far
-        choices = choice_uniforms(seed + GLASS_KEY, start, n) if geom.is_dielectric.any() else None
+        choices = choice_uniforms(seed + GLASS_KEY, start, n) if geom.draws else None
         events = np.zeros(n, dtype=np.int64)
         fallbacks = np.zeros(n, dtype=np.uint16)
         offset = RAY_OFFSET * geom.scale

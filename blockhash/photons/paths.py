@@ -154,7 +154,7 @@ def trace_batch(geom: EmbreeGeometry, origins, dirs, weights, max_bounces: int, 
     idx = np.flatnonzero(~zero)
     d = np.ascontiguousarray(dirs[idx], dtype=np.float64)
     w = np.ascontiguousarray(weights[idx], dtype=np.float64)
-    choices = (choice_uniforms(seed, start, n) if geom.is_dielectric.any()
+    choices = (choice_uniforms(seed, start, n) if geom.draws
                else np.zeros((1, 1)))
     events = np.zeros(n, dtype=np.int64)  # dielectric events so far, per photon
     parts = []

@@ -45,12 +45,17 @@ typo is never silently ignored)::
     eta = [0.143, 0.375, 1.442]     # optional, with k: a smooth conductor, the reflectance
     k = [3.983, 2.386, 1.603]       #   times the Fresnel reflectance of eta + i k per channel
                                     #   (here Mitsuba's gold, Au); both or neither
+    alpha = 0.1                     # default 0 (smooth): a rough mirror, microfacets of this
+                                    #   roughness in [0, 1] (Mitsuba's roughconductor)
+    distribution = "ggx"            # default "beckmann"; or "ggx"
 
     [materials.GLASS]
     kind = "dielectric"             # smooth dielectric: Fresnel reflection, Snell refraction
     ior = 1.5                       #   required, index of refraction, 1 < ior <= 4 (air outside)
     tint = [1.0, 0.95, 0.9]         #   default 1, number or [r, g, b] in [0, 1]: the
                                     #   transmittance per crossing of the surface
+                                    # alpha and distribution as a mirror's: frosted glass
+                                    #   (Mitsuba's roughdielectric)
 
     [[lights]]                      # one table per light; at least one
     kind = "point"                  # isotropic point light
@@ -260,13 +265,22 @@ def _parse_materials(t) -> dict:
                 out[name] = PhongMaterial(kd=m["kd"], ks=ks, n=m.get("n", 0.0),
                                           sided=m.get("sided", "two"))
             elif kind == "mirror":
-                _keys(m, "", ("kind", "reflectance"), ("eta", "k"), what="a mirror material")
+                _keys(m, "", ("kind", "reflectance"), ("eta", "k", *ROUGH_KEYS),
+                      what="a mirror material")
                 out[name] = MirrorMaterial(reflectance=m["reflectance"], eta=m.get("eta"),
-                                           k=m.get("k"))
+                                           k=m.get("k"), **_rough(m))
             else:
-                _keys(m, "", ("kind", "ior"), ("tint",), what="a dielectric material")
-                out[name] = DielectricMaterial(ior=m["ior"], tint=m.get("tint", 1.0))
+                _keys(m, "", ("kind", "ior"), ("tint", *ROUGH_KEYS), what="a dielectric material")
+                out[name] = DielectricMaterial(ior=m["ior"], tint=m.get("tint", 1.0), **_rough(m))
     return out
+
+
+#: The optional keys of a rough mirror or dielectric.
+ROUGH_KEYS = ("alpha", "distribution")
+
+
+def _rough(m: dict) -> dict:
+    return {k: m[k] for k in ROUGH_KEYS if k in m}
 
 
 def _parse_light(t, i: int, base: Path):

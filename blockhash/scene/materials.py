@@ -94,9 +94,14 @@ class MirrorMaterial:
     reflectance: np.ndarray
     eta: np.ndarray | None = None
     k: np.ndarray | None = None
+    #: Microfacet roughness (:func:`roughness`): 0, the default, a smooth mirror; above 0 a
+    #: rough one, as Mitsuba's ``roughconductor``.
+    alpha: float = 0.0
+    distribution: str = "beckmann"
 
     def __post_init__(self):
         with _owned("MirrorMaterial"):
+            roughness(self)
             object.__setattr__(self, "reflectance",
                                _rgb(self.reflectance, "reflectance", hi=1.0, what="reflectance"))
             if (self.eta is None) != (self.k is None):
@@ -115,7 +120,32 @@ class MirrorMaterial:
 
     def __repr__(self) -> str:
         extra = f", eta={_fmt(self.eta)}, k={_fmt(self.k)}" if self.is_conductor else ""
-        return f"MirrorMaterial(reflectance={_fmt(self.reflectance)}{extra})"
+        return f"MirrorMaterial(reflectance={_fmt(self.reflectance)}{extra}{_rough(self)})"
+
+
+#: Microfacet distributions of rough mirrors and glass, numbered as the compiled events read
+#: them (:mod:`blockhash.scene.microfacet`).
+DISTRIBUTIONS = ("beckmann", "ggx")
+#: Largest microfacet roughness a material may have (Mitsuba's documentation calls 0.3 very
+#: rough; past 1 the distributions stop describing a surface of facets).
+MAX_ALPHA = 1.0
+
+
+def roughness(material) -> None:
+    """Checks a specular material's ``alpha`` (the microfacet distribution's roughness, the
+    root mean square slope for ``beckmann``; 0 a smooth surface) and ``distribution`` (one of
+    :data:`DISTRIBUTIONS`), and stores ``alpha`` as a float."""
+    if material.distribution not in DISTRIBUTIONS:
+        raise _FieldError("distribution", f"expected one of {', '.join(map(repr, DISTRIBUTIONS))}; "
+                          f"got {material.distribution!r}")
+    object.__setattr__(material, "alpha", _number(
+        material.alpha, "alpha", lo=0.0, hi=MAX_ALPHA,
+        hint="the microfacet roughness: 0 smooth, 0.01-0.3 polished to rough"))
+
+
+def _rough(material) -> str:
+    return (f", alpha={material.alpha:g}, distribution={material.distribution!r}"
+            if material.alpha > 0.0 else "")
 
 
 #: Largest real or imaginary part of a conductor's index of refraction a scene may give
@@ -137,9 +167,14 @@ class DielectricMaterial:
 
     ior: float
     tint: np.ndarray = field(default_factory=lambda: np.ones(3))
+    #: Microfacet roughness (:func:`roughness`): 0, the default, smooth glass; above 0
+    #: frosted, as Mitsuba's ``roughdielectric``.
+    alpha: float = 0.0
+    distribution: str = "beckmann"
 
     def __post_init__(self):
         with _owned("DielectricMaterial"):
+            roughness(self)
             object.__setattr__(self, "ior", _number(
                 self.ior, "ior", lo=1.0, hi=MAX_IOR, lo_open=True,
                 hint="give the index of refraction, e.g. 1.5 for glass or 1.33 for water"))
@@ -147,7 +182,7 @@ class DielectricMaterial:
                                                   what="transmittance per crossing"))
 
     def __repr__(self) -> str:
-        return f"DielectricMaterial(ior={self.ior:g}, tint={_fmt(self.tint)})"
+        return f"DielectricMaterial(ior={self.ior:g}, tint={_fmt(self.tint)}{_rough(self)})"
 
 
 #: Materials that scatter light specularly: they cast caustics and are followed, not shaded.

@@ -93,10 +93,21 @@ class EmbreeGeometry:
         self.face_uv = np.concatenate(face_uv)
         allv = np.concatenate(all_vertices)
         self.scale = float(np.linalg.norm(allv.max(axis=0) - allv.min(axis=0))) or 1.0
-        #: per object, the mirrors' table the compiled specular event reads
-        #: (:func:`blockhash.photons.bounce._event`): reflectance, eta, k, conductor (0 or 1)
+        #: per object, the microfacet roughness of a rough mirror or glass (0: smooth) and its
+        #: distribution (0 Beckmann, 1 GGX: :mod:`blockhash.scene.microfacet`)
+        self.alpha = np.array([float(getattr(o.material, "alpha", 0.0)) for o in objects])
+        self.ggx = np.array([getattr(o.material, "distribution", "") == "ggx" for o in objects])
+        #: per object, the specular objects' table the compiled specular event reads
+        #: (:func:`blockhash.photons.bounce._event`): reflectance, eta, k, conductor (0 or 1),
+        #: roughness and distribution
         self.mirror = np.ascontiguousarray(np.column_stack(
-            [self.reflectance, self.eta, self.k, self.conductor.astype(np.float64)]))
+            [self.reflectance, self.eta, self.k, self.conductor.astype(np.float64), self.alpha,
+             self.ggx.astype(np.float64)]))
+
+    @property
+    def draws(self) -> bool:
+        """Its specular events draw uniforms (it holds glass, or a rough mirror)."""
+        return bool(self.is_dielectric.any() or (self.alpha > 0.0).any())
 
     def intersect(self, origins: np.ndarray, dirs: np.ndarray):
         """First hits: (hit mask (n,), global face (m,), u (m,), v (m,)) for the hit rays."""

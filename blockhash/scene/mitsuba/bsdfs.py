@@ -1,7 +1,8 @@
 """Mitsuba 3's BSDFs as blockhash's materials (for :mod:`.importer`): ``diffuse`` (one-sided,
 as Mitsuba's; both faces inside ``twosided``), ``conductor`` (a perfect mirror, or a smooth
 metal of ``eta`` and ``k`` or a named preset), ``dielectric`` (``int_ior`` a number or one of
-Mitsuba's named indices) and ``twosided`` around one of them, or around two diffuse ones
+Mitsuba's named indices), ``roughconductor`` and ``roughdielectric`` (the same with isotropic
+microfacets: :mod:`blockhash.scene.microfacet`) and ``twosided`` around one of them, or around two diffuse ones
 (:class:`TwoFaced`)."""
 
 from __future__ import annotations
@@ -14,7 +15,10 @@ from blockhash.scene.mitsuba.spectra import conductor_preset, conductor_presets
 from blockhash.scene.mitsuba.textures import Checkerboard, TexturedDiffuse, texture
 from blockhash.scene.model import DielectricMaterial, MirrorMaterial, PhongMaterial
 
-BSDFS = ("diffuse", "conductor", "dielectric", "twosided")
+BSDFS = ("diffuse", "conductor", "roughconductor", "dielectric", "roughdielectric", "twosided")
+#: What a rough BSDF reads of its microfacets (:func:`roughness`).
+ROUGHNESS = {"distribution": ("string",), "alpha": ("float",), "alpha_u": ("float",),
+             "alpha_v": ("float",), "sample_visible": ("boolean",)}
 #: The indices of refraction Mitsuba 3 names (its documentation's table of the dielectric
 #: BSDF, at 589 nm), for int_ior and ext_ior.
 IORS = {"vacuum": 1.0, "helium": 1.000036, "hydrogen": 1.000132, "air": 1.000277,
@@ -56,23 +60,30 @@ def bsdf(r, el, key: str, *, twosided: bool = False):
         # Mitsuba's diffuse reflects on the front face only; twosided on both
         return r.build(el, PhongMaterial, kd=np.broadcast_to(kd, (3,)), ks=0.0, n=0.0,
                           sided="two" if twosided else "one")
-    if kind == "conductor":
+    if kind in ("conductor", "roughconductor"):
         return conductor(r, el)
-    if kind == "dielectric":
-        p = r.props(el, {"int_ior": ("float", "string"), "ext_ior": ("float", "string"),
-                         "specular_transmittance": ("rgb", "spectrum", "float"),
-                         "specular_reflectance": ("rgb", "spectrum", "float")})
-        inside = ior(r, el, "int_ior", p.get("int_ior", "bk7"))  # Mitsuba's default
-        ext = ior(r, el, "ext_ior", p.get("ext_ior", "air"))
-        if not abs(ext - 1.0) < 1e-3:
-            r.fail(el, f"ext_ior {ext!r}: blockhash's dielectrics sit in air (index 1); "
-                   "give ext_ior 1")
-        if "specular_reflectance" in p and not np.allclose(p["specular_reflectance"], 1.0):
-            r.fail(el, "specular_reflectance other than 1 is not supported")
-        tint = p.get("specular_transmittance", 1.0)
-        return r.build(el, DielectricMaterial, ior=float(inside),
-                       tint=np.broadcast_to(tint, (3,)))
+    if kind in ("dielectric", "roughdielectric"):
+        return dielectric(r, el)
     r.fail(el, f"unsupported BSDF; supported: {', '.join(BSDFS)}")
+
+
+def dielectric(r, el) -> DielectricMaterial:
+    """A ``dielectric`` or ``roughdielectric`` as Mitsuba reads it (in air: ``ext_ior`` 1)."""
+    rough = el.get("type") == "roughdielectric"
+    p = r.props(el, {"int_ior": ("float", "string"), "ext_ior": ("float", "string"),
+                     "specular_transmittance": ("rgb", "spectrum", "float"),
+                     "specular_reflectance": ("rgb", "spectrum", "float"),
+                     **(ROUGHNESS if rough else {})})
+    inside = ior(r, el, "int_ior", p.get("int_ior", "bk7"))  # Mitsuba's default
+    ext = ior(r, el, "ext_ior", p.get("ext_ior", "air"))
+    if not abs(ext - 1.0) < 1e-3:
+        r.fail(el, f"ext_ior {ext!r}: blockhash's dielectrics sit in air (index 1); "
+               "give ext_ior 1")
+    if "specular_reflectance" in p and not np.allclose(p["specular_reflectance"], 1.0):
+        r.fail(el, "specular_reflectance other than 1 is not supported")
+    tint = p.get("specular_transmittance", 1.0)
+    return r.build(el, DielectricMaterial, ior=float(inside),
+                   tint=np.broadcast_to(tint, (3,)), **roughness(r, el, p, rough))
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,13 +122,16 @@ def conductor(r, el) -> MirrorMaterial:
     another ``material`` is one of Mitsuba's presets (:func:`.spectra.conductor_preset`);
     ``specular_reflectance`` scales either."""
     spectra = ("rgb", "spectrum", "float")
+    rough = el.get("type") == "roughconductor"
     p = r.props(el, {"material": ("string",), "specular_reflectance": spectra,
-                        "eta": spectra, "k": spectra}, unbounded=("eta", "k"))
+                     "eta": spectra, "k": spectra, **(ROUGHNESS if rough else {})},
+                unbounded=("eta", "k"))
+    micro = roughness(r, el, p, rough)
     scale = np.broadcast_to(p.get("specular_reflectance", 1.0), (3,))
     material = p.get("material", "none")
     if material == "none":
         if "eta" not in p and "k" not in p:
-            return r.build(el, MirrorMaterial, reflectance=scale)
+            return r.build(el, MirrorMaterial, reflectance=scale, **micro)
         eta, k = p.get("eta", 0.0), p.get("k", 1.0)
     else:
         if "eta" in p or "k" in p:
@@ -129,7 +143,28 @@ def conductor(r, el) -> MirrorMaterial:
                    f"({', '.join(conductor_presets())}, or none); give eta and k")
         eta, k = preset
     return r.build(el, MirrorMaterial, reflectance=scale, eta=np.broadcast_to(eta, (3,)),
-                      k=np.broadcast_to(k, (3,)))
+                   k=np.broadcast_to(k, (3,)), **micro)
+
+
+def roughness(r, el, p: dict, rough: bool) -> dict:
+    """The microfacets of a ``roughconductor`` or ``roughdielectric`` (none for a smooth
+    BSDF) as Mitsuba reads them: ``distribution`` (``beckmann``, its default, or ``ggx``) and
+    ``alpha`` (default 0.1), or ``alpha_u`` and ``alpha_v`` where they are equal (blockhash's
+    rough surfaces are isotropic).  ``sample_visible`` only chooses how Mitsuba samples the
+    same BSDF, and changes nothing."""
+    if not rough:
+        return {}
+    alpha = p.get("alpha", 0.1)
+    if "alpha_u" in p or "alpha_v" in p:
+        if "alpha" in p:
+            r.fail(el, "alpha and alpha_u / alpha_v: give one roughness (as Mitsuba asks)")
+        u, v = p.get("alpha_u", 0.1), p.get("alpha_v", 0.1)
+        if not np.isclose(u, v):
+            r.fail(el, f"alpha_u {u:g} and alpha_v {v:g}: anisotropic roughness is not "
+                   "supported (blockhash's rough surfaces are isotropic); give one alpha, "
+                   f"e.g. {float(np.sqrt(u * v)):g}")
+        alpha = u
+    return {"alpha": float(alpha), "distribution": p.get("distribution", "beckmann")}
 
 
 def ior(r, el, name: str, value) -> float:
