@@ -59,7 +59,8 @@ def _shade(scene, rays, gbuf, both_branches: bool, pass_index: int = 0):
     return shading_points(scene.camera, gbuf, scene.objects, rays, (MirrorMaterial,),
                           both_branches=both_branches, events=scene.photons.camera_bounces,
                           environment=any(isinstance(li, EnvironmentLight)
-                                          for li in scene.lights), pass_index=pass_index)
+                                          for li in scene.lights), pass_index=pass_index,
+                          lights=scene.lights)
 
 
 def only(points, keep):

@@ -64,6 +64,11 @@ class ShadingPoints:
     escaped : (h, w) bool or None    the ray left the scene (material -1, ``view`` the
                                      opposite of its direction): it sees an environment
                                      light; None: none did
+    rough_direct : (H, W, 3) float64 or None   per camera sample, the point, spot and
+                                     directional lights' direct light met at the rough
+                                     mirrors and glass along its ray
+                                     (:mod:`blockhash.frame.rough_direct`), added to the
+                                     direct layer by :meth:`gather_direct`; None: no ray met one
     """
 
     position: np.ndarray
@@ -74,10 +79,19 @@ class ShadingPoints:
     owner: np.ndarray | None = None
     samples: tuple | None = None
     escaped: np.ndarray | None = None
+    rough_direct: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int]:
         return self.material.shape
+
+    def gather_direct(self, image: np.ndarray) -> np.ndarray:
+        """The direct layer's samples: :meth:`gather` of the per-point direct light
+        ``image``, plus the light met at rough vertices (:attr:`rough_direct`)."""
+        out = self.gather(image)
+        if self.rough_direct is None:
+            return out
+        return (out + self.rough_direct.reshape(out.shape)).astype(np.asarray(out).dtype)
 
     def gather(self, image: np.ndarray) -> np.ndarray:
         """Per-point values (rows, cols, C) summed into the camera samples they belong to,

@@ -17,6 +17,7 @@ import numba
 import numpy as np
 
 from blockhash.frame.caustic import ShadingPoints
+from blockhash.frame.rough_direct import delta_lights
 from blockhash.scene.materials import one_sided
 from blockhash.scene.optics import choice_uniforms, scatter
 from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, surface_hits
@@ -79,7 +80,8 @@ class SceneRays:
 
 def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
                    both_branches: bool = False, events: int | None = None,
-                   environment: bool = False, pass_index: int = 0) -> ShadingPoints:
+                   environment: bool = False, pass_index: int = 0,
+                   lights=()) -> ShadingPoints:
     """Per-pixel shading points; a pixel that sees a mirror or glass follows the ray.
 
     At a mirror the ray reflects and its path weight takes the reflectance.  At glass
@@ -97,7 +99,9 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     left the scene are marked (:attr:`ShadingPoints.escaped`), for the light they see.
 
     A rough mirror or glass (``alpha > 0``) sends the ray about a sampled microfacet
-    (:mod:`blockhash.scene.microfacet`), drawn for pass ``pass_index`` (each pass its own).
+    (:mod:`blockhash.scene.microfacet`), drawn for pass ``pass_index`` (each pass its own),
+    and meets the point, spot and directional ones of ``lights`` there by shadow rays
+    (:attr:`ShadingPoints.rough_direct`, :mod:`.rough_direct`).
 
     With ``both_branches`` (the renderer's choice) a ray at glass follows both branches
     instead, the reflection weighted by the Fresnel reflectance F and the refraction by
@@ -109,7 +113,7 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
 
     if both_branches and any(isinstance(o.material, DielectricMaterial) for o in objects):
         return branch_points(camera, gbuffer, objects, rays, mirror_types, events,
-                             environment=environment, pass_index=pass_index)
+                             environment=environment, pass_index=pass_index, lights=lights)
 
     h, w = gbuffer.object.shape
     glass, mirror, specular, reflectance, ior, tint = _surface_tables(objects, mirror_types, rays.geometry)
@@ -121,6 +125,7 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     choices = choice_uniforms(CAMERA_CHOICE_SEED, 0, h * w) if glass.any() else None
     if events is None:
         events = MAX_DIELECTRIC_EVENTS if glass.any() else MAX_MIRROR_BOUNCES
+    met = None  # the light met at rough vertices, per sample
     for event in range(events):
         on = specular[obj]
         if not on.any():
@@ -134,6 +139,10 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
         rough = rays.geometry.alpha[obj[idx]] > 0.0
         if rough.any():
             ri = idx[rough]
+            if met is None:
+                met = np.zeros((h * w, 3))
+            met[ri] += weight[ri] * delta_lights(rays, lights, pos[ri], n[rough], wi[rough],
+                                                 obj[ri], outer[ri])
             r[rough], side[rough] = _rough(rays, ri, obj[ri], d[rough], n[rough], outer[ri],
                                            weight, pass_index, event)
         m = mirror[obj[idx]] & ~rough
@@ -158,7 +167,8 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
                          material=obj.reshape(h, w).astype(np.int32),
                          weight=weight.reshape(h, w, 3).astype(np.float32),
                          escaped=escaped.reshape(h, w) if environment and escaped.any()
-                         else None)
+                         else None,
+                         rough_direct=None if met is None else met.reshape(h, w, 3))
 
 
 def _camera_start(camera, gbuffer, sided, rays: SceneRays):
@@ -284,7 +294,7 @@ def _rough(rays: SceneRays, idx, obj, d, n, outer, weight, pass_index: int, even
 
 def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
                   events: int | None = None, *, environment: bool = False,
-                  pass_index: int = 0) -> ShadingPoints:
+                  pass_index: int = 0, lights=()) -> ShadingPoints:
     """Shading points of camera rays that follow both branches at glass
     (:func:`shading_points` with ``both_branches``): at each dielectric event a ray becomes
     a reflected ray of weight F and a refracted one of weight (1 - F) tint (one reflected
@@ -308,6 +318,7 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     owner = np.arange(h * w)
     weight = np.ones((h * w, 3))
     done = []  # (owner, pos, nrm, view, obj, weight, escaped) of points off the specular chain
+    met = np.zeros((h * w, 3))  # the light met at rough vertices, per sample
     if events == 0:  # no event followed: the points the camera sees directly
         on = specular[obj]
         done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, weight, esc)))
@@ -330,6 +341,8 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
         rough_side = np.ones(len(obj))
         if rough.any():
             ri = np.flatnonzero(rough)
+            np.add.at(met, owner[ri], weight[ri] * delta_lights(
+                rays, lights, pos[ri], nrm[ri], view[ri], obj[ri], outer[ri]))
             w_refl[ri] = weight[ri]  # one sampled branch, scaled by _rough
             refl[ri], rough_side[ri] = _rough(rays, ri, obj[ri], d[ri], nrm[ri], outer[ri],
                                               w_refl, pass_index, event)
@@ -367,7 +380,8 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
                          material=o.reshape(rows, w).astype(np.int32),
                          weight=wt.reshape(rows, w, 3).astype(np.float32),
                          owner=own.astype(np.int64), samples=(h, w),
-                         escaped=es.reshape(rows, w) if environment and es.any() else None)
+                         escaped=es.reshape(rows, w) if environment and es.any() else None,
+                         rough_direct=met.reshape(h, w, 3) if met.any() else None)
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)

@@ -194,6 +194,6 @@ def direct_layer(scene, spp=None, *, size=None, backend=None, both_branches: boo
     rays = SceneRays(scene.objects)
     points, (x, y) = camera_points(scene, rays, grid, size=size, backend=backend,
                                    both_branches=both_branches, seed=seed)
-    values = points.gather(direct_light(points, scene.objects, scene.lights, rays))
+    values = points.gather_direct(direct_light(points, scene.objects, scene.lights, rays))
     pin = Pinhole.of(scene.camera, size)
     return filtered(values, x, y, scene.camera.filter, pin.width, pin.height, grid)

@@ -264,7 +264,7 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
     caustic = _layer(setup, built, points, seen, p, timings)
     timings["caustic"] = time.perf_counter() - t - timings.get("mirror cover gather", 0.0)
     indirect, indirect_emitted = _indirect_layer(setup, p, scale, points, seen, timings, info)
-    direct = setup.pixel_filter.develop(points.gather(direct), p)
+    direct = setup.pixel_filter.develop(points.gather_direct(direct), p)
     timings["total"] = time.perf_counter() - t0
     index, radii = built[0], built[1]
     return PassContribution(p, direct, caustic, shot, stored, scale, timings, info, index, radii,

@@ -44,7 +44,7 @@ def direct_passes(scene, rays, passes: int, keep=()) -> dict:
     out, acc = {}, None
     for p in range(passes):
         points, _ = camera_samples(scene, rays, 1, p)
-        img = box_filter(points.gather(direct_light(points, scene.objects, scene.lights, rays, p)), 1)
+        img = box_filter(points.gather_direct(direct_light(points, scene.objects, scene.lights, rays, p)), 1)
         acc = img.astype(np.float64) if acc is None else acc + img
         if p + 1 in keep or p + 1 == passes:
             out[p + 1] = acc / (p + 1)

@@ -109,6 +109,14 @@ def textured_lamp(scene):
     return replace(scene, lights=tuple(lights))
 
 
+def roughened(scene, alpha: float, distribution: str):
+    """``scene`` with its mirrors and glass rough (:mod:`blockhash.scene.microfacet`)."""
+    objects = tuple(replace(o, material=replace(o.material, alpha=alpha,
+                                                distribution=distribution))
+                    if o.is_specular else o for o in scene.objects)
+    return replace(scene, objects=objects)
+
+
 CASES = {
     "ring (point light, mirror)": lambda: small("ring"),
     "glass (point light, Fresnel choices)": lambda: small("glass"),
@@ -119,7 +127,29 @@ CASES = {
     "sun under an environment map (glass)": lambda: under_sky(small("sun")),
     "ring under a spot with a projected texture": lambda: textured_spot(small("ring")),
     "cbox under a lamp of textured radiance": lambda: textured_lamp(small("cbox")),
+    "ring of rough gold (Beckmann)": lambda: roughened(small("ring"), 0.2, "beckmann"),
+    "frosted glass (GGX)": lambda: roughened(small("glass"), 0.15, "ggx"),
 }
+
+
+@pytest.mark.parametrize("case", ["ring of rough gold (Beckmann)", "frosted glass (GGX)"])
+def test_the_kernels_spread_a_rough_surfaces_caustic_as_the_host_does(case):
+    scene = CASES[case]()
+    host = PhotonSource(scene, device="host").emit(200_000, seed=7)
+    kern = PhotonSource(scene, device="cpu").emit(200_000, seed=7)
+    for photons in (host, kern):
+        assert np.isfinite(photons.powers).all()
+
+    def moments(photons):
+        w = photons.powers.astype(np.float64).sum(axis=1)
+        p = photons.positions.astype(np.float64)
+        mean = (p * w[:, None]).sum(axis=0) / w.sum()
+        return mean, np.sqrt((((p - mean) ** 2) * w[:, None]).sum(axis=0) / w.sum())
+
+    (ma, sa), (mb, sb) = moments(host), moments(kern)
+    size = float(np.ptp(np.concatenate([o.mesh.vertices for o in scene.objects]), axis=0).max())
+    assert np.all(np.abs(ma - mb) < 0.01 * size), (ma, mb)
+    assert np.all(np.abs(sa - sb) < 0.02 * sa + 0.002 * size), (sa, sb)
 
 
 @pytest.mark.parametrize("case", list(CASES))

@@ -17,8 +17,9 @@ from blockhash.scene.model import DielectricMaterial, MirrorMaterial, PhongMater
 
 BSDFS = ("diffuse", "conductor", "roughconductor", "dielectric", "roughdielectric", "twosided")
 #: What a rough BSDF reads of its microfacets (:func:`roughness`).
-ROUGHNESS = {"distribution": ("string",), "alpha": ("float",), "alpha_u": ("float",),
-             "alpha_v": ("float",), "sample_visible": ("boolean",)}
+ROUGHNESS = {"distribution": ("string",), "alpha": ("float", "texture"),
+             "alpha_u": ("float", "texture"), "alpha_v": ("float", "texture"),
+             "sample_visible": ("boolean",)}
 #: The indices of refraction Mitsuba 3 names (its documentation's table of the dielectric
 #: BSDF, at 589 nm), for int_ior and ext_ior.
 IORS = {"vacuum": 1.0, "helium": 1.000036, "hydrogen": 1.000132, "air": 1.000277,
@@ -154,6 +155,11 @@ def roughness(r, el, p: dict, rough: bool) -> dict:
     same BSDF, and changes nothing."""
     if not rough:
         return {}
+    for name in ("alpha", "alpha_u", "alpha_v"):
+        if name in p and not isinstance(p[name], (int, float)):  # a texture's element
+            r.fail(p[name], f"{name} given by a texture: a rough surface has one roughness "
+                   f"in blockhash; give {name} as <float value=\"...\"/>, e.g. the texture's "
+                   "mean")
     alpha = p.get("alpha", 0.1)
     if "alpha_u" in p or "alpha_v" in p:
         if "alpha" in p:

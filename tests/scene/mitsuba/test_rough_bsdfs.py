@@ -1,0 +1,101 @@
+"""Mitsuba's ``roughconductor`` and ``roughdielectric`` read as rough mirrors and glass
+(:mod:`blockhash.scene.mitsuba.bsdfs`), TOML's ``alpha`` and ``distribution`` on mirror and
+dielectric materials, and the errors of what blockhash does not model (anisotropic or
+textured roughness) or cannot take (a roughness out of range, an unknown distribution)."""
+
+import pytest
+from test_mitsuba_mapping import load
+
+from blockhash.errors import InputError
+from blockhash.scene.loader import parse_scene
+from blockhash.scene.materials import DielectricMaterial, MirrorMaterial
+
+
+def _shape(bsdf: str) -> str:
+    return f'<shape type="sphere">{bsdf}</shape>'
+
+
+def test_a_roughconductor_is_a_rough_mirror_with_mitsubas_defaults(tmp_path):
+    m = load(tmp_path, body=_shape('<bsdf type="roughconductor"/>')).objects[-1].material
+    assert isinstance(m, MirrorMaterial) and not m.is_conductor  # material none: F = 1
+    assert (m.alpha, m.distribution) == (0.1, "beckmann")
+    m = load(tmp_path, body=_shape(
+        '<bsdf type="roughconductor"><string name="material" value="Cu"/>'
+        '<string name="distribution" value="ggx"/><float name="alpha_u" value="0.25"/>'
+        '<float name="alpha_v" value="0.25"/><boolean name="sample_visible" value="false"/>'
+        '</bsdf>')).objects[-1].material
+    assert m.is_conductor and (m.alpha, m.distribution) == (0.25, "ggx")
+
+
+def test_a_roughdielectric_is_frosted_glass(tmp_path):
+    m = load(tmp_path, body=_shape(
+        '<bsdf type="roughdielectric"><float name="alpha" value="0.3"/>'
+        '<string name="int_ior" value="water"/><rgb name="specular_transmittance" '
+        'value="0.9, 0.8, 0.7"/></bsdf>')).objects[-1].material
+    assert isinstance(m, DielectricMaterial)
+    assert (m.alpha, m.distribution, m.ior) == (0.3, "beckmann", 1.333)
+    assert list(m.tint) == [0.9, 0.8, 0.7]
+
+
+@pytest.mark.parametrize("bsdf, match", [
+    ('<bsdf type="roughconductor"><float name="alpha_u" value="0.05"/><float name="alpha_v" '
+     'value="0.3"/></bsdf>', r"s.xml:\d+: <bsdf type=\"roughconductor\">: alpha_u 0.05 and alpha_v "
+     r"0.3: anisotropic roughness is not supported .*give one alpha, e.g. 0.122"),
+    ('<bsdf type="roughdielectric"><texture type="checkerboard" name="alpha"/></bsdf>',
+     r"s.xml:\d+: <texture type=\"checkerboard\" name=\"alpha\">: alpha given by a texture: .*"
+     r"give alpha as <float"),
+    ('<bsdf type="roughconductor"><float name="alpha" value="0.1"/><float name="alpha_u" '
+     'value="0.1"/></bsdf>', r"alpha and alpha_u / alpha_v: give one roughness"),
+    ('<bsdf type="roughconductor"><string name="distribution" value="phong"/></bsdf>',
+     r"distribution: expected one of 'beckmann', 'ggx'; got 'phong'"),
+    ('<bsdf type="roughdielectric"><float name="alpha" value="2"/></bsdf>',
+     r"alpha: .*2.*the microfacet roughness"),
+])
+def test_what_blockhash_does_not_model_of_a_rough_bsdf_is_refused_by_name(tmp_path, bsdf, match):
+    with pytest.raises(InputError, match=match):
+        load(tmp_path, body=_shape(bsdf))
+
+
+SCENE = """
+[camera]
+eye = [0.0, 1.0, 3.0]
+target = [0.0, 0.0, 0.0]
+fov_y_deg = 40.0
+width = 16
+height = 16
+[materials.floor]
+kind = "phong"
+kd = 0.5
+[materials.rough]
+{material}
+[[lights]]
+kind = "point"
+position = [0.0, 2.0, 0.0]
+power = 10.0
+[[objects]]
+name = "floor"
+material = "floor"
+[objects.shape]
+kind = "rectangle"
+x = [-1.0, 1.0]
+z = [-1.0, 1.0]
+[[objects]]
+name = "ball"
+material = "rough"
+[objects.shape]
+kind = "sphere"
+radius = 0.3
+center = [0.0, 0.5, 0.0]
+"""
+
+
+def test_a_scene_files_mirror_and_glass_take_a_roughness():
+    mirror = parse_scene(SCENE.format(material='kind = "mirror"\nreflectance = 0.9\n'
+                                      'alpha = 0.2\ndistribution = "ggx"'))
+    assert (mirror.objects[1].material.alpha, mirror.objects[1].material.distribution) == (0.2, "ggx")
+    glass = parse_scene(SCENE.format(material='kind = "dielectric"\nior = 1.5\nalpha = 0.05'))
+    assert (glass.objects[1].material.alpha, glass.objects[1].material.distribution) == (0.05, "beckmann")
+    with pytest.raises(InputError, match=r"materials.rough.alpha: .*-0.1"):
+        parse_scene(SCENE.format(material='kind = "mirror"\nreflectance = 0.9\nalpha = -0.1'))
+    with pytest.raises(InputError, match=r"materials.rough.distribution: expected one of"):
+        parse_scene(SCENE.format(material='kind = "dielectric"\nior = 1.5\ndistribution = "gxx"'))
