@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from blockhash.frame.surface_lights import escapes
 from blockhash.scene.optics import conductor_fresnel, fresnel
 from blockhash.scene.raycast import RAY_OFFSET
 
@@ -81,8 +82,6 @@ def delta_lights(rays, lights, pos, nrm, view, obj, outer) -> np.ndarray:
     ``pos`` (normals ``nrm`` facing ``view``, the unit directions toward the camera; on
     objects ``obj``, ``view`` on the ``outer`` side), before the camera ray's weight (module
     docstring); each light a shadow ray per vertex."""
-    from blockhash.frame.surface_lights import _open
-
     geom = rays.geometry
     m = len(pos)
     out = np.zeros((m, 3))
@@ -96,7 +95,7 @@ def delta_lights(rays, lights, pos, nrm, view, obj, outer) -> np.ndarray:
         if hasattr(light, "irradiance"):  # directional
             toward = np.broadcast_to(-np.asarray(light.direction, np.float64), (m, 3)).copy()
             side = np.where(np.sum(toward * nrm, axis=1) > 0.0, 1.0, -1.0)[:, None]
-            seen = _open(rays, pos, nrm * side, toward)
+            seen = escapes(rays, pos, nrm * side, toward)
             li = np.broadcast_to(np.asarray(light.irradiance, np.float64), (m, 3))
         elif hasattr(light, "position"):  # point or spot
             to = np.asarray(light.position, np.float64) - pos

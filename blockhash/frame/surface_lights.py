@@ -104,7 +104,7 @@ def directional_light(out, light, live, p, n, wo, mat, kd, ks, e, rays) -> None:
     if not len(ok):
         return
     dirs = np.broadcast_to(toward, (len(ok), 3)).copy()
-    lit = _open(rays, p[live[ok]], nx[ok], dirs)
+    lit = escapes(rays, p[live[ok]], nx[ok], dirs)
     ok = ok[lit]
     li = np.broadcast_to(light.irradiance, (len(ok), 3))
     _shade(out, live[ok], dirs[lit], n, wo, mat, kd, ks, e, np.ascontiguousarray(li))
@@ -122,7 +122,7 @@ def environment_light(out, light, live, p, n, wo, mat, kd, ks, e, rays, pass_ind
     ok = np.flatnonzero((np.einsum("ij,ij->i", toward, nx) > 0.0) & (pdf > 0.0))
     if not len(ok):
         return
-    lit = _open(rays, p[live[ok]], nx[ok], toward[ok])
+    lit = escapes(rays, p[live[ok]], nx[ok], toward[ok])
     ok = ok[lit]
     li = light.emitted(toward[ok]) / pdf[ok, None]
     _shade(out, live[ok], toward[ok], n, wo, mat, kd, ks, e, li)
@@ -141,7 +141,7 @@ def environment_seen(out, lights, points) -> None:
             out[gone] += light.emitted(toward)
 
 
-def _open(rays, points, normals, dirs) -> np.ndarray:
+def escapes(rays, points, normals, dirs) -> np.ndarray:
     """(m,) bool: nothing of the scene lies along ``dirs`` from ``points`` (lifted off their
     surface along ``normals``): the ray leaves the scene."""
     offset = RAY_OFFSET * rays.scale
