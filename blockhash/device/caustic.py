@@ -67,8 +67,8 @@ def photon_streams(mi, dr, seed: int, start: int, count: int):
     return rng
 
 
-def _fresnel(dr, cos_i, eta):
-    """The host's unpolarised Fresnel reflectance (:func:`blockhash.photons.bounce._fresnel`):
+def fresnel(dr, cos_i, eta):
+    """The host's unpolarised Fresnel reflectance (:func:`blockhash.scene.microfacet.fresnel`):
     ``eta`` the incident over the transmitted index."""
     cos_i = dr.clip(cos_i, 0.0, 1.0)
     sin2_t = eta * eta * (1.0 - cos_i * cos_i)
@@ -129,16 +129,16 @@ def specular_event(geo, d, ns, ng, outer, obj, kind, rng, active):
     factor = dr.select(mirror, dr.gather(mi.Color3f, geo.reflectance, obj, mirror), 1.0)
     if geo.any_conductor:
         metal = mirror & (dr.gather(mi.UInt32, geo.conductor, obj, mirror) != 0)
-        fresnel = _conductor(dr, -dr.dot(d, ns), dr.gather(mi.Color3f, geo.eta, obj, metal),
+        f_metal = _conductor(dr, -dr.dot(d, ns), dr.gather(mi.Color3f, geo.eta, obj, metal),
                              dr.gather(mi.Color3f, geo.k, obj, metal))
-        factor = dr.select(metal, factor * fresnel, factor)
+        factor = dr.select(metal, factor * f_metal, factor)
     side = dr.ones(mi.Float, dr.width(active))
     if geo.any_glass:
         glass = active & (kind == GLASS)
         ior = dr.gather(mi.Float, geo.ior, obj, glass)
         eta = dr.select(outer, 1.0 / ior, ior)
         uc = rng.next_float32(glass)
-        through = glass & (uc >= _fresnel(dr, -dr.dot(d, ns), eta))
+        through = glass & (uc >= fresnel(dr, -dr.dot(d, ns), eta))
         t, tir = _refract(dr, d, ns, eta)
         t_g, tir_g = _refract(dr, d, ng, eta)
         off = dr.dot(t, ng) >= 0.0  # leaves on the wrong side: about the geometric normal
@@ -154,7 +154,7 @@ def specular_event(geo, d, ns, ng, outer, obj, kind, rng, active):
 
         rough = active & (dr.gather(mi.Float, geo.alpha, obj, active) > 0.0)
         r_r, f_r, t_r, i_m = rough_event(geo, d, ns, ng, outer, obj, rough & (kind == GLASS),
-                                         rng, rough, _fresnel)
+                                         rng, rough, fresnel)
         on_mirror = rough & (kind == MIRROR)
         f_m = dr.gather(mi.Color3f, geo.reflectance, obj, on_mirror)
         if geo.any_conductor:
@@ -168,6 +168,19 @@ def specular_event(geo, d, ns, ng, outer, obj, kind, rng, active):
         side = dr.select(rough, dr.select(t_r, -1.0, 1.0), side)
         wrong &= ~rough
     return r, factor, side, mirror & wrong
+
+
+def coat_glint(geo, d, ns, outer, obj, diffuse, rng):
+    """The photons on ``diffuse`` hits that a coated receiver's coat reflects
+    (:mod:`blockhash.scene.coat`, the host's rule): each on a coat met from a side it covers
+    draws a choice, and reflects with Fresnel's probability; :func:`specular_event` reflects
+    them as a mirror of reflectance 1 would, and the caller puts the coat's reflectance on."""
+    mi, dr = geo.mi, geo.dr
+    coat = dr.gather(mi.Float, geo.coat, obj, diffuse)
+    sided = dr.gather(mi.UInt32, geo.one_sided, obj, diffuse) != 0
+    coated = diffuse & (coat > 0.0) & (outer | ~sided)
+    uc = rng.next_float32(coated)
+    return coated & (uc < fresnel(dr, -dr.dot(d, ns), 1.0 / dr.select(coated, coat, 1.0)))
 
 
 def _trace(geo, max_bounces, o, d, w, rng):
@@ -191,8 +204,11 @@ def _trace(geo, max_bounces, o, d, w, rng):
         obj = dr.gather(mi.UInt32, geo.face_object, face, hit)
         kind = dr.gather(mi.UInt32, geo.kind, obj, hit)
         diffuse = hit & (kind == DIFFUSE)
-        fate = dr.select(diffuse & (depth == 0), DIRECT, fate)
         p, ns, ng, outer = geo.hit_frame(face, u, v, d, hit)
+        glint = coat_glint(geo, d, ns, outer, obj, diffuse, rng) if geo.any_coat else None
+        if glint is not None:
+            diffuse &= ~glint
+        fate = dr.select(diffuse & (depth == 0), DIRECT, fate)
         back = diffuse & (depth > 0) & ~outer & (dr.gather(mi.UInt32, geo.one_sided, obj, diffuse) != 0)
         fate = dr.select(back, ABSORBED, fate)
         store = diffuse & (depth > 0) & ~back
@@ -200,9 +216,14 @@ def _trace(geo, max_bounces, o, d, w, rng):
         p_out, n_out = dr.select(store, p, p_out), dr.select(store, ns, n_out)
         obj_out = dr.select(store, obj, obj_out)
         spec = hit & (kind != DIFFUSE)
+        if glint is not None:
+            spec |= glint
         fate = dr.select(spec & (depth >= max_bounces), MAX_BOUNCES, fate)
         event = spec & (depth < max_bounces)
         r, factor, side, fell_back = specular_event(geo, d, ns, ng, outer, obj, kind, rng, event)
+        if glint is not None:
+            factor = dr.select(glint, dr.gather(mi.Color3f, geo.coat_reflectance, obj, glint),
+                               factor)
         fallbacks += dr.select(fell_back, 1, 0)
         w = dr.select(event, w * factor, w)
         dead = event & ~dr.any(w > 0.0)

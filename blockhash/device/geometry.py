@@ -111,6 +111,9 @@ class DeviceGeometry:
         self.alpha = f32(geometry.alpha)
         self.ggx = mi.UInt32(np.asarray(geometry.ggx, dtype=np.uint32))
         self.any_rough = bool(np.any(geometry.alpha > 0.0))
+        self.coat = f32(geometry.coat)
+        self.coat_reflectance = f32(geometry.coat_reflectance)
+        self.any_coat = bool(np.any(geometry.coat > 0.0))
 
     def intersect(self, o, d, active):
         """(hit, global face) of the rays ``o + t d`` (Mitsuba's preliminary intersection:

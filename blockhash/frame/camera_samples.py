@@ -52,6 +52,8 @@ def camera_samples(scene, rays: SceneRays, samples, pass_index: int, *, backend=
     seen = ~specular[gbuf.object.reshape(-1)]  # object -1 (nothing hit): the last entry
     if points.owner is not None:
         seen = seen[points.owner]
+    if points.first_hit is not None:  # a coat's reflection is not seen directly
+        seen = seen & points.first_hit.reshape(-1)
     return points, seen.reshape(points.shape)
 
 

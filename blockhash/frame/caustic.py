@@ -69,6 +69,9 @@ class ShadingPoints:
                                      mirrors and glass along its ray
                                      (:mod:`blockhash.frame.rough_direct`), added to the
                                      direct layer by :meth:`gather_direct`; None: no ray met one
+    first_hit : (h, w) bool or None  the point is its camera ray's first hit (the others: the
+                                     reflections of a coated receiver's coat); None: every
+                                     point whose ray's first hit is not specular is
     """
 
     position: np.ndarray
@@ -80,6 +83,7 @@ class ShadingPoints:
     samples: tuple | None = None
     escaped: np.ndarray | None = None
     rough_direct: np.ndarray | None = None
+    first_hit: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int]:

@@ -10,6 +10,7 @@ import numpy as np
 
 from blockhash.frame.caustic import ShadingPoints
 from blockhash.frame.shading import SceneRays, shadow_segments
+from blockhash.scene.microfacet import fresnel
 from blockhash.scene.raycast import RAY_OFFSET
 
 
@@ -53,20 +54,21 @@ def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
                         dtype=np.float64).reshape(len(objects), -1)
 
     kd, ks, e = per_object("kd", np.zeros(3)), per_object("ks", np.zeros(3)), per_object("n", 1.0)[:, 0]
+    coat = per_object("coat", 0.0)[:, 0]
     surface_lights.emission_seen(out, lights, objects, p, wo, mat, rays)
     surface_lights.environment_seen(out, lights, points)
     owner = np.arange(h * w) if points.owner is None else points.owner
     samples = h * w if points.samples is None else int(np.prod(points.samples))
     for li, light in enumerate(lights):
         if hasattr(light, "radiance"):
-            surface_lights.area_light(out, light, live, p, n, wo, mat, kd, ks, e, rays,
+            surface_lights.area_light(out, light, live, p, n, wo, mat, kd, ks, e, coat, rays,
                                       pass_index, li, owner, samples)
             continue
         if hasattr(light, "irradiance"):
-            surface_lights.directional_light(out, light, live, p, n, wo, mat, kd, ks, e, rays)
+            surface_lights.directional_light(out, light, live, p, n, wo, mat, kd, ks, e, coat, rays)
             continue
         if hasattr(light, "image"):
-            surface_lights.environment_light(out, light, live, p, n, wo, mat, kd, ks, e, rays,
+            surface_lights.environment_light(out, light, live, p, n, wo, mat, kd, ks, e, coat, rays,
                                              pass_index, li, owner, samples)
             continue
         lp = np.asarray(light.position, dtype=np.float64).reshape(1, 3)
@@ -76,7 +78,7 @@ def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
         # a spot's projected texture toward each point (ones where it has none)
         tint = (light.texture_factor(-wi[lit]) if getattr(light, "texture", None) is not None
                 else np.ones((int(lit.sum()), 3)))
-        _lit(out, front[lit], wi[lit], dist[lit], n, wo, mat, kd, ks, e, *_cone(light), tint)
+        _lit(out, front[lit], wi[lit], dist[lit], n, wo, mat, kd, ks, e, coat, *_cone(light), tint)
     out *= points.weight.reshape(-1, 3)
     return out.reshape(h, w, 3)
 
@@ -95,14 +97,15 @@ def _facing(p, n, live, lp):
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _lit(out, idx, wi, dist, n, wo, mat, kd, ks, e, axis, cos_c, intensity, cos_b, cone, beam,
-         tint):
+def _lit(out, idx, wi, dist, n, wo, mat, kd, ks, e, coat, axis, cos_c, intensity, cos_b, cone,
+         beam, tint):
     """Adds to ``out[idx]`` the radiance from one light reaching each point unshadowed along
     ``wi`` from ``dist`` away: f_r(wi, wo) I cos / d^2, the modified Phong f_r of
     :func:`blockhash.scene.materials.phong_brdf` and I the light's intensity toward the point
     (:func:`_cone`: the peak inside the beam, falling linearly in the angle to 0 at the
     cone's edge, :meth:`blockhash.scene.lights.SpotLight.falloff`), times ``tint[j]`` (a
-    spot's projected texture toward the point)."""
+    spot's projected texture toward the point) and a coated receiver's transmittance toward
+    the light (``coat``: :mod:`blockhash.scene.coat`)."""
     for j in numba.prange(len(idx)):
         i = idx[j]
         w0, w1, w2 = wi[j, 0], wi[j, 1], wi[j, 2]
@@ -118,6 +121,8 @@ def _lit(out, idx, wi, dist, n, wo, mat, kd, ks, e, axis, cos_c, intensity, cos_
             + (2.0 * cos * n[i, 2] - w2) * wo[i, 2]
         lobe = (e[m] + 2.0) / (2.0 * np.pi) * max(c_alpha, 0.0) ** e[m]
         scale = cos / (dist[j] * dist[j])
+        if coat[m] > 0.0:
+            scale *= 1.0 - fresnel(cos, 1.0 / coat[m])
         for c in range(3):
             out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * intensity[c] * tint[j, c] \
                 * fall * scale

@@ -111,7 +111,9 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     """
     from blockhash.scene.model import DielectricMaterial
 
-    if both_branches and any(isinstance(o.material, DielectricMaterial) for o in objects):
+    coated = any(getattr(o.material, "coat", 0.0) for o in objects)  # always both branches
+    if coated or (both_branches and any(isinstance(o.material, DielectricMaterial)
+                                        for o in objects)):
         return branch_points(camera, gbuffer, objects, rays, mirror_types, events,
                              environment=environment, pass_index=pass_index, lights=lights)
 
@@ -306,7 +308,12 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     adds nothing), laid out in rows of the G-buffer's width in the order they left the
     specular chain, padded with points that shade nothing; a one-sided receiver's back face
     shades nothing, as in :func:`shading_points`.  A rough mirror or glass does not branch:
-    its ray takes one sampled microfacet, as in :func:`shading_points`."""
+    its ray takes one sampled microfacet, as in :func:`shading_points`.  A coated receiver
+    (Mitsuba's ``plastic``, :mod:`blockhash.scene.coat`) is shaded through its coat (its
+    weight times 1 - F toward the camera) and reflects a branch of weight F times the coat's
+    reflectance, as glass does; those points are marked not the camera's first hit
+    (:attr:`ShadingPoints.first_hit`)."""
+    from blockhash.scene.coat import transmittance
     from blockhash.scene.optics import fresnel
 
     h, w = gbuffer.object.shape
@@ -319,12 +326,19 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     weight = np.ones((h * w, 3))
     done = []  # (owner, pos, nrm, view, obj, weight, escaped) of points off the specular chain
     met = np.zeros((h * w, 3))  # the light met at rough vertices, per sample
+    coat = np.append(rays.geometry.coat, 0.0)  # index -1: nothing hit
     if events == 0:  # no event followed: the points the camera sees directly
         on = specular[obj]
-        done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, weight, esc)))
+        shaded = _through_coat(weight, nrm, view, coat[obj])
+        done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, shaded, esc))
+                    + (np.ones(int((~on).sum()), dtype=bool),))
     for event in range(MAX_DIELECTRIC_EVENTS if events is None else events):
         on = specular[obj]
-        done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, weight, esc)))
+        glint = coat[obj] > 0.0  # a coated receiver: shaded through its coat, and reflects
+        shaded = _through_coat(weight, nrm, view, coat[obj])
+        done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, shaded, esc))
+                    + (np.full(int((~on).sum()), event == 0),))
+        on |= glint
         if not on.any():
             owner = owner[:0]
             break
@@ -337,6 +351,11 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
         f[g] = fresnel(-np.sum(d[g] * nrm[g], axis=1), np.where(outer[g], 1.0 / ior[obj[g]], ior[obj[g]]))
         w_refl = weight * np.where(g, f, 1.0)[:, None] * np.where(
             g[:, None], 1.0, reflectance(obj, -np.sum(d * nrm, axis=1)))
+        glint = coat[obj] > 0.0
+        if glint.any():  # the coat's reflection: Fresnel's reflectance times the coat's
+            cos = -np.sum(d[glint] * nrm[glint], axis=1)
+            w_refl[glint] = weight[glint] * (1.0 - transmittance(cos, coat[obj[glint]]))[:, None] \
+                * rays.geometry.coat_reflectance[obj[glint]]
         rough = rays.geometry.alpha[obj] > 0.0
         rough_side = np.ones(len(obj))
         if rough.any():
@@ -371,8 +390,8 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     m = len(parts[0])
     rows = max(-(-m // w), 1)  # one row at least: a pass needs a texture
     pad = rows * w - m
-    own, p, n, v, o, wt, es = (np.concatenate([a, np.zeros((pad,) + a.shape[1:], a.dtype)])
-                               for a in parts)
+    own, p, n, v, o, wt, es, first = (
+        np.concatenate([a, np.zeros((pad,) + a.shape[1:], a.dtype)]) for a in parts)
     o[m:] = -1
     return ShadingPoints(position=p.reshape(rows, w, 3).astype(np.float32),
                          normal=n.reshape(rows, w, 3).astype(np.float32),
@@ -381,7 +400,21 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
                          weight=wt.reshape(rows, w, 3).astype(np.float32),
                          owner=own.astype(np.int64), samples=(h, w),
                          escaped=es.reshape(rows, w) if environment and es.any() else None,
-                         rough_direct=met.reshape(h, w, 3) if met.any() else None)
+                         rough_direct=met.reshape(h, w, 3) if met.any() else None,
+                         first_hit=first.reshape(rows, w) if coat.any() else None)
+
+
+def _through_coat(weight, nrm, view, coat):
+    """``weight`` with the points on coated receivers (``coat`` > 0, their coats' indices)
+    seen through the coat: times 1 - F toward the viewer (:mod:`blockhash.scene.coat`)."""
+    from blockhash.scene.coat import transmittance
+
+    on = coat > 0.0
+    if not on.any():
+        return weight
+    out = weight.copy()
+    out[on] *= transmittance(np.sum(nrm[on] * view[on], axis=1), coat[on])[:, None]
+    return out
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)

@@ -27,6 +27,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from blockhash.scene.microfacet import fresnel
 from blockhash.scene.raycast import RAY_OFFSET
 
 #: Seed of the per-point shifts of the light samples (one fixed stream: an image is the same
@@ -64,7 +65,7 @@ def points_on_light(light, u: np.ndarray):
     return (*light.points(*args), light.emitted_at(*args))
 
 
-def area_light(out, light, live, p, n, wo, mat, kd, ks, e, rays, pass_index: int,
+def area_light(out, light, live, p, n, wo, mat, kd, ks, e, coat, rays, pass_index: int,
                light_index: int, owner: np.ndarray, samples: int) -> None:
     """Adds to ``out`` (flat (m, 3)) the direct light of ``light`` (an AreaLight) at the
     points ``live`` (module docstring), ``owner`` (m,) their camera samples, of ``samples``."""
@@ -91,10 +92,10 @@ def area_light(out, light, live, p, n, wo, mat, kd, ks, e, rays, pass_index: int
     lit = ~rays.geometry.occluded(origins, seg / length[:, None], length * (1 - 1e-6))
     ok = ok[lit]
     li = radiance[ok] * (cos_y[ok] * light.area / d2[ok])[:, None]
-    _shade(out, live[ok], wi[ok], n, wo, mat, kd, ks, e, li)
+    _shade(out, live[ok], wi[ok], n, wo, mat, kd, ks, e, coat, li)
 
 
-def directional_light(out, light, live, p, n, wo, mat, kd, ks, e, rays) -> None:
+def directional_light(out, light, live, p, n, wo, mat, kd, ks, e, coat, rays) -> None:
     """Adds to ``out`` the direct light of ``light`` (a DirectionalLight) at ``live``."""
     if not len(live):
         return
@@ -107,10 +108,10 @@ def directional_light(out, light, live, p, n, wo, mat, kd, ks, e, rays) -> None:
     lit = escapes(rays, p[live[ok]], nx[ok], dirs)
     ok = ok[lit]
     li = np.broadcast_to(light.irradiance, (len(ok), 3))
-    _shade(out, live[ok], dirs[lit], n, wo, mat, kd, ks, e, np.ascontiguousarray(li))
+    _shade(out, live[ok], dirs[lit], n, wo, mat, kd, ks, e, coat, np.ascontiguousarray(li))
 
 
-def environment_light(out, light, live, p, n, wo, mat, kd, ks, e, rays, pass_index: int,
+def environment_light(out, light, live, p, n, wo, mat, kd, ks, e, coat, rays, pass_index: int,
                       light_index: int, owner: np.ndarray, samples: int) -> None:
     """Adds to ``out`` the direct light of ``light`` (an EnvironmentLight) at ``live``: one
     direction per point by the map's sampling (module docstring)."""
@@ -125,7 +126,7 @@ def environment_light(out, light, live, p, n, wo, mat, kd, ks, e, rays, pass_ind
     lit = escapes(rays, p[live[ok]], nx[ok], toward[ok])
     ok = ok[lit]
     li = light.emitted(toward[ok]) / pdf[ok, None]
-    _shade(out, live[ok], toward[ok], n, wo, mat, kd, ks, e, li)
+    _shade(out, live[ok], toward[ok], n, wo, mat, kd, ks, e, coat, li)
 
 
 def environment_seen(out, lights, points) -> None:
@@ -172,10 +173,11 @@ def emission_seen(out, lights, objects, p, wo, mat, rays) -> None:
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
-def _shade(out, idx, wi, n, wo, mat, kd, ks, e, li):
+def _shade(out, idx, wi, n, wo, mat, kd, ks, e, coat, li):
     """Adds to ``out[idx]`` f_r(wi, wo) cos(theta) li: the modified Phong f_r of
-    :func:`blockhash.scene.materials.phong_brdf` and ``li`` (m, 3) the light arriving along
-    ``wi`` (radiance times its solid angle, or irradiance)."""
+    :func:`blockhash.scene.materials.phong_brdf` (times the coat's transmittance 1 - F
+    toward ``wi`` where ``coat[m]`` > 0: :mod:`blockhash.scene.coat`) and ``li`` (m, 3) the
+    light arriving along ``wi`` (radiance times its solid angle, or irradiance)."""
     for j in numba.prange(len(idx)):
         i = idx[j]
         w0, w1, w2 = wi[j, 0], wi[j, 1], wi[j, 2]
@@ -186,5 +188,6 @@ def _shade(out, idx, wi, n, wo, mat, kd, ks, e, li):
         c_alpha = ((2.0 * cos * n[i, 0] - w0) * wo[i, 0] + (2.0 * cos * n[i, 1] - w1) * wo[i, 1]) \
             + (2.0 * cos * n[i, 2] - w2) * wo[i, 2]
         lobe = (e[m] + 2.0) / (2.0 * np.pi) * max(c_alpha, 0.0) ** e[m]
+        through = 1.0 if coat[m] == 0.0 else 1.0 - fresnel(cos, 1.0 / coat[m])
         for c in range(3):
-            out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * li[j, c] * cos
+            out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * li[j, c] * cos * through

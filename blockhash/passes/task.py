@@ -39,6 +39,12 @@ from blockhash.passes.stages import caustic_stage  # noqa: F401 (importable from
 from blockhash.scene.camera import Pinhole, spp_grid
 from blockhash.validate import INDIRECT, as_flag, as_int
 
+#: The most indirect photons a pass stores, in caustic counts.  A lamp over a diffuse floor
+#: and wall stores 5 times the count; a floor of plastic under the same lamp, whose coat
+#: reflects a few percent of the caustic photons aimed at it, would store 150 times
+#: (``tests/reference/mitsuba_xml/plastic.xml``, 354 million photons shot a pass).
+INDIRECT_STORED = 8
+
 
 @dataclass(frozen=True)
 class PassSettings:
@@ -138,7 +144,8 @@ class RenderSetup:
         :data:`~blockhash.photons.indirect.PILOT` caustic photons) times the ratio of the
         indirect flux to the caustic flux (from pilots of as many photons of each), within
         [1/4, 4]; the caustic's count where the scene has no caustic.  So a watt of either
-        layer costs about the same tracing, however rarely a map's photons are stored."""
+        layer costs about the same tracing, however rarely a map's photons are stored; but
+        no more are shot than store :data:`INDIRECT_STORED` times the caustic's count."""
         from blockhash.photons.indirect import PILOT, IndirectSource, needs_indirect
 
         if not settings.indirect or self.traced is not None:
@@ -160,6 +167,9 @@ class RenderSetup:
             emitted *= PILOT / stored  # the caustic's photons shot a pass
             if c_flux > 0:
                 emitted *= min(max(i_flux / c_flux, 0.25), 4.0)
+        # at most INDIRECT_STORED times the caustic's count stored: a scene whose caustic
+        # photons are rarely stored (a coat reflects a few percent) would shoot far more
+        emitted = min(emitted, INDIRECT_STORED * settings.count * PILOT / len(sample.positions))
         emitted = max(int(np.ceil(emitted)), 1)
         target = emitted * len(sample.positions) / PILOT
         return source, emitted, (f"{emitted:,} photons shot a pass over the whole scene, about "

@@ -18,6 +18,7 @@ import numba
 import numpy as np
 
 from blockhash.scene import microfacet
+from blockhash.scene.coat import COAT, COAT_REFLECTANCE
 from blockhash.scene.microfacet import ALPHA, DISTRIBUTION, UNIFORMS
 from blockhash.scene.microfacet import conductor as _conductor
 from blockhash.scene.microfacet import fresnel as _fresnel
@@ -108,6 +109,18 @@ def _event(pid, obj, outer, d0, d1, d2, n0, n1, n2, g0, g1, g2, w0, w1, w2, diel
     return r0 / length, r1 / length, r2 / length, w0, w1, w2, side
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _coat(obj, d0, d1, d2, n0, n1, n2, g0, g1, g2, w0, w1, w2, table):
+    """A coated receiver's coat reflecting a photon (:mod:`blockhash.scene.coat`): about the
+    shading normal (the geometric one where that sends it in), times the coat's
+    reflectance; (new direction, weight, side +1)."""
+    r0, r1, r2 = _reflect(d0, d1, d2, n0, n1, n2)
+    if (r0 * g0 + r1 * g1) + r2 * g2 <= 0.0:
+        r0, r1, r2 = _reflect(d0, d1, d2, g0, g1, g2)
+    return (r0, r1, r2, w0 * table[obj, COAT_REFLECTANCE], w1 * table[obj, COAT_REFLECTANCE + 1],
+            w2 * table[obj, COAT_REFLECTANCE + 2], 1.0)
+
+
 @numba.njit(cache=True, nogil=True)
 def specular_events(idx, d, w, face, u, v, tri, vn, fn, face_object, dielectric, reflectance,
                     ior, tint, choices, events, fallbacks, p, ng, side, absorbed):
@@ -163,32 +176,48 @@ def bounce(first, last, idx, d, w, hit, face, u, v, tri, vn, fn, face_object, sp
         f = face[j]
         obj = face_object[f]
         d0, d1, d2 = d[i, 0], d[i, 1], d[i, 2]
-        if not specular[obj] and first:
-            fate[pid] = DIRECT  # direct light: the renderer's shadow rays do it
-            continue
         outer = (d0 * fn[f, 0] + d1 * fn[f, 1]) + d2 * fn[f, 2] < 0.0  # met from outside
-        p0, p1, p2, n0, n1, n2, g0, g1, g2 = hit_frame(tri, vn, fn, f, u[j], v[j], d0, d1, d2)
+        coated = False
         if not specular[obj]:
-            if one_sided[obj] and not outer:
-                fate[pid] = ABSORBED  # a one-sided receiver met from behind reflects nothing
+            coat = reflectance[obj, COAT]
+            if coat > 0.0 and (outer or not one_sided[obj]):  # the coat reflects by Fresnel
+                p0, p1, p2, n0, n1, n2, g0, g1, g2 = hit_frame(tri, vn, fn, f, u[j], v[j], d0,
+                                                               d1, d2)
+                uc = choices[pid, events[pid] % choices.shape[1]]
+                events[pid] += 1
+                coated = uc < _fresnel(-((d0 * n0 + d1 * n1) + d2 * n2), 1.0 / coat)
+            if not coated:
+                if first:
+                    fate[pid] = DIRECT  # direct light: the renderer's shadow rays do it
+                    continue
+                if one_sided[obj] and not outer:
+                    fate[pid] = ABSORBED  # a one-sided receiver met from behind reflects nothing
+                    continue
+                p0, p1, p2, n0, n1, n2, g0, g1, g2 = hit_frame(tri, vn, fn, f, u[j], v[j], d0,
+                                                               d1, d2)
+                fate[pid] = STORED
+                s_idx[n_stored] = pid
+                s_p[n_stored, 0], s_p[n_stored, 1], s_p[n_stored, 2] = p0, p1, p2
+                s_d[n_stored, 0], s_d[n_stored, 1], s_d[n_stored, 2] = d0, d1, d2
+                s_n[n_stored, 0], s_n[n_stored, 1], s_n[n_stored, 2] = n0, n1, n2
+                s_ng[n_stored, 0], s_ng[n_stored, 1], s_ng[n_stored, 2] = g0, g1, g2
+                for c in range(3):
+                    s_w[n_stored, c] = w[i, c]
+                s_obj[n_stored] = obj
+                n_stored += 1
                 continue
-            fate[pid] = STORED
-            s_idx[n_stored] = pid
-            s_p[n_stored, 0], s_p[n_stored, 1], s_p[n_stored, 2] = p0, p1, p2
-            s_d[n_stored, 0], s_d[n_stored, 1], s_d[n_stored, 2] = d0, d1, d2
-            s_n[n_stored, 0], s_n[n_stored, 1], s_n[n_stored, 2] = n0, n1, n2
-            s_ng[n_stored, 0], s_ng[n_stored, 1], s_ng[n_stored, 2] = g0, g1, g2
-            for c in range(3):
-                s_w[n_stored, c] = w[i, c]
-            s_obj[n_stored] = obj
-            n_stored += 1
-            continue
+        else:
+            p0, p1, p2, n0, n1, n2, g0, g1, g2 = hit_frame(tri, vn, fn, f, u[j], v[j], d0, d1, d2)
         if last:
             fate[pid] = MAX_BOUNCES
             continue
-        r0, r1, r2, w0, w1, w2, side = _event(
-            pid, obj, outer, d0, d1, d2, n0, n1, n2, g0, g1, g2, w[i, 0], w[i, 1], w[i, 2],
-            dielectric, reflectance, ior, tint, choices, events, fallbacks)
+        if coated:
+            r0, r1, r2, w0, w1, w2, side = _coat(obj, d0, d1, d2, n0, n1, n2, g0, g1, g2,
+                                                 w[i, 0], w[i, 1], w[i, 2], reflectance)
+        else:
+            r0, r1, r2, w0, w1, w2, side = _event(
+                pid, obj, outer, d0, d1, d2, n0, n1, n2, g0, g1, g2, w[i, 0], w[i, 1], w[i, 2],
+                dielectric, reflectance, ior, tint, choices, events, fallbacks)
         if not (w0 > 0.0 or w1 > 0.0 or w2 > 0.0):
             fate[pid] = ABSORBED
             continue

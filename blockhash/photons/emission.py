@@ -134,7 +134,7 @@ def projection_map(cone: Cone, origin: np.ndarray, geometry) -> np.ndarray:
     o = origin + d * (RAY_OFFSET * geometry.scale)
     hit, face, _, _ = geometry.intersect(o, d)
     first = np.zeros(n, dtype=bool)
-    first[np.flatnonzero(hit)] = geometry.is_specular[geometry.face_object[face]]
+    first[np.flatnonzero(hit)] = geometry.casts[geometry.face_object[face]]
     live = first.reshape(g, s, g, s).any(axis=(1, 3))
     grown = live.copy()  # one cell around: theta clamped at the cone's axis and rim, phi wraps
     for di in (-1, 0, 1):

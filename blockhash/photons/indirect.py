@@ -41,7 +41,7 @@ from blockhash.photons.directions import frames, sample_cones
 from blockhash.photons.emission import orthonormal_basis
 from blockhash.photons.paths import CausticPhotons, compact, joined, specular_step
 from blockhash.scene.optics import choice_uniforms
-from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, surface_hits
+from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, reflect, surface_hits
 
 #: The indirect photons' counters start here (past any pass's caustic photons, below the area
 #: lights' extra uniforms at 2^120).
@@ -262,13 +262,23 @@ class IndirectSource:
             counts["absorbed"] += int(back.sum())
             diff = diff[~back]
             p, ns, ng = surface_hits(geom, face[diff], u[diff], v[diff], d[diff])
+            new = []
+            if geom.coat.any():  # a coat reflects by Fresnel: a specular event, not a vertex
+                glint = self._coats(idx[diff], d[diff], w[diff], obj[diff], p, ns, ng, choices,
+                                    events)
+                if glint is not None:
+                    keep, part = glint
+                    diff, p, ns, ng = diff[keep], p[keep], ns[keep], ng[keep]
+                    if event < self.max_events - 1:
+                        new.append(part)
+                    else:
+                        counts["max_events"] += len(part[0])
             store = diffuse_seen[idx[diff]] >= 1
             if store.any():
                 parts.append((p[store], d[diff][store], ns[store], w[diff][store],
                               obj[diff][store], ng[store]))
             diffuse_seen[idx[diff]] += 1
             last = event == self.max_events - 1
-            new = []
             if len(diff) and not last:
                 new.append(self._bounce(idx[diff], d[diff], w[diff], obj[diff], p, ns, ng,
                                         seed, start, event, counts,
@@ -286,6 +296,33 @@ class IndirectSource:
                 break
             idx, d, w, o = (np.concatenate(a) for a in zip(*new))
         return parts, counts
+
+    def _coats(self, idx, d, w, obj, p, ns, ng, choices, events):
+        """The coat's reflections (:mod:`blockhash.scene.coat`) among diffuse hits: each on a
+        coated receiver reflects with Fresnel's probability (a choice from ``choices``).
+        None where none does, else (the hits that stay diffuse, (idx, reflected directions,
+        weights times the coat's reflectance, new origins) of those that reflect)."""
+        from blockhash.scene.coat import transmittance
+
+        geom = self.geometry
+        coat = geom.coat[obj]
+        on = np.flatnonzero(coat > 0.0)
+        if not len(on):
+            return None
+        uc = choices[idx[on], events[idx[on]] % choices.shape[1]]
+        events[idx[on]] += 1
+        cos = -np.einsum("ij,ij->i", d[on], ns[on])
+        glint = on[uc >= transmittance(cos, coat[on])]
+        if not len(glint):
+            return None
+        r = reflect(d[glint], ns[glint])
+        wrong = np.einsum("ij,ij->i", r, ng[glint]) <= 0.0
+        r[wrong] = reflect(d[glint][wrong], ng[glint][wrong])
+        keep = np.ones(len(idx), dtype=bool)
+        keep[glint] = False
+        offset = RAY_OFFSET * geom.scale
+        return keep, (idx[glint], r, w[glint] * geom.coat_reflectance[obj[glint]],
+                      p[glint] + ng[glint] * offset)
 
     def _bounce(self, idx, d, w, obj, p, ns, ng, seed, start, event, counts, hits=None):
         """A diffuse bounce: cosine-distributed about the shading normal on the incoming side
@@ -308,6 +345,12 @@ class IndirectSource:
             textured, albedo = self.geometry.albedo(*hits)
             kd[textured] = albedo[textured]
         factor = kd + self.ks[obj] * lobe[:, None]
+        coat = self.geometry.coat[obj]
+        if coat.any():  # what leaves a coated base passes its coat: (1 - F) on the way out
+            from blockhash.scene.coat import transmittance
+
+            on = coat > 0.0
+            factor[on] *= transmittance(cos_n[on], coat[on])[:, None]
         factor[under | (cos_n <= 0.0)] = 0.0
         q = np.minimum(factor.max(axis=1), 1.0)
         live = u[:, 2] < q

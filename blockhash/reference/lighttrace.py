@@ -191,6 +191,11 @@ def light_trace(scene, photons: int, *, size=None, seed: int | None = None,
         raise InputError(f"objects {textured} have textured reflectances, which the light tracer "
                          "does not model (its camera connections read one kd an object); take "
                          "the reference with Mitsuba (engine 'mitsuba')")
+    coated = [o.name for o in scene.objects if getattr(o.material, "coat", 0.0)]
+    if coated:
+        raise InputError(f"objects {coated} are coated (plastic), whose coats the light "
+                         "tracer's camera connections do not model; take the reference with "
+                         "Mitsuba (engine 'mitsuba')")
     m_total = as_int(photons, "photons", minimum=1, hint="shoot at least one photon")
     seed = as_int(scene.photons.seed + REFERENCE_SEED_OFFSET if seed is None else seed, "seed",
                   minimum=0, maximum=2**128 - 1, hint="use a non-negative integer seed")

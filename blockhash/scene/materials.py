@@ -32,7 +32,13 @@ class PhongMaterial:
     ``sided``: ``"two"`` (the default) reflects on both faces of a surface; ``"one"`` only on
     its front face, the side its face normal points to (counter-clockwise winding), as
     Mitsuba's ``diffuse`` BSDF: seen or lit from the back it reflects nothing (no direct
-    light, no stored photon, no caustic; black to the camera, and it still casts its shadow)."""
+    light, no stored photon, no caustic; black to the camera, and it still casts its shadow).
+
+    ``coat`` > 1: the diffuse base lies under a smooth dielectric coat of that index of
+    refraction (Mitsuba's ``plastic``, :mod:`blockhash.scene.coat`): the coat reflects
+    specularly with Fresnel's reflectance times ``coat_reflectance``, and ``kd`` is the base's
+    Lambertian factor seen through it (up to :func:`blockhash.scene.coat.largest_albedo`,
+    above 1 for a white base under a dense coat; ``ks`` 0)."""
 
     kd: np.ndarray
     ks: np.ndarray
@@ -42,6 +48,9 @@ class PhongMaterial:
     #: Texture`, looked up at the object's texture coordinates); ``kd`` is then its mean and
     #: ``ks`` must be 0.
     texture: object = None
+    #: The index of refraction of a smooth dielectric coat over the base (0: none).
+    coat: float = 0.0
+    coat_reflectance: np.ndarray = field(default_factory=lambda: np.ones(3))
 
     def __post_init__(self):
         with _owned("PhongMaterial"):
@@ -61,7 +70,9 @@ class PhongMaterial:
             kd = _rgb(self.kd, "kd", what="kd")
             ks = _rgb(self.ks, "ks", what="ks")
             n = _number(self.n, "n", lo=0.0, hint="the Phong exponent is >= 0")
-            if np.any(kd + ks > 1.0):
+            if self.coat:
+                self._check_coat(kd, ks)
+            elif np.any(kd + ks > 1.0):
                 c = int(np.argmax(kd + ks))
                 raise _FieldError("ks", f"kd + ks = {_fmt(kd + ks)} exceeds 1 in channel {'rgb'[c]}; "
                                   "expected kd + ks <= 1 per channel (energy conservation); "
@@ -69,6 +80,21 @@ class PhongMaterial:
             object.__setattr__(self, "kd", kd)
             object.__setattr__(self, "ks", ks)
             object.__setattr__(self, "n", n)
+
+    def _check_coat(self, kd, ks) -> None:
+        from blockhash.scene.coat import largest_albedo
+
+        coat = _number(self.coat, "coat", lo=1.0, hi=MAX_IOR, lo_open=True,
+                       hint="the coat's index of refraction, e.g. 1.49 for polypropylene")
+        object.__setattr__(self, "coat", coat)
+        object.__setattr__(self, "coat_reflectance", _rgb(
+            self.coat_reflectance, "coat_reflectance", hi=1.0, what="coat_reflectance"))
+        if ks.any():
+            raise _FieldError("ks", "a coated receiver is diffuse under its coat: ks must be 0")
+        top = largest_albedo(coat)
+        if np.any(kd > top + 1e-9):
+            raise _FieldError("kd", f"kd = {_fmt(kd)} exceeds {top:.4g}, what a white base "
+                              f"gives under a coat of index {coat:g}; lower kd")
 
     @property
     def one_sided(self) -> bool:
@@ -78,6 +104,7 @@ class PhongMaterial:
     def __repr__(self) -> str:
         return (f"PhongMaterial(kd={_fmt(self.kd)}, ks={_fmt(self.ks)}, n={self.n:g}"
                 + (", sided='one'" if self.one_sided else "")
+                + (f", coat={self.coat:g}" if self.coat else "")
                 + (f", texture={self.texture!r})" if self.texture is not None else ")"))
 
 

@@ -328,9 +328,11 @@ class Scene:
 
     @property
     def specular_objects(self) -> tuple[SceneObject, ...]:
-        """Objects with a :class:`MirrorMaterial` or :class:`DielectricMaterial` (they cast
-        the caustics)."""
-        return tuple(o for o in self.objects if o.is_specular)
+        """The objects that cast caustics: those with a :class:`MirrorMaterial` or
+        :class:`DielectricMaterial`, and coated receivers (:attr:`PhongMaterial.coat`), whose
+        coats reflect."""
+        return tuple(o for o in self.objects
+                     if o.is_specular or getattr(o.material, "coat", 0.0) > 0.0)
 
     @property
     def diffuse_objects(self) -> tuple[SceneObject, ...]:

@@ -97,17 +97,29 @@ class EmbreeGeometry:
         #: distribution (0 Beckmann, 1 GGX: :mod:`blockhash.scene.microfacet`)
         self.alpha = np.array([float(getattr(o.material, "alpha", 0.0)) for o in objects])
         self.ggx = np.array([getattr(o.material, "distribution", "") == "ggx" for o in objects])
-        #: per object, the specular objects' table the compiled specular event reads
-        #: (:func:`blockhash.photons.bounce._event`): reflectance, eta, k, conductor (0 or 1),
-        #: roughness and distribution
+        #: per object, a coated receiver's coat: its index (0: none) and reflectance
+        #: (PhongMaterial.coat, :mod:`blockhash.scene.coat`)
+        self.coat = np.array([float(getattr(o.material, "coat", 0.0)) for o in objects])
+        self.coat_reflectance = np.array(
+            [getattr(o.material, "coat_reflectance", np.ones(3)) for o in objects],
+            dtype=np.float64).reshape(len(objects), 3)
+        #: per object, the table the compiled events read (:func:`blockhash.photons.bounce.
+        #: _event`): reflectance, eta, k, conductor (0 or 1), roughness and distribution of
+        #: the specular ones, and the coat (index, reflectance) of a coated receiver
         self.mirror = np.ascontiguousarray(np.column_stack(
             [self.reflectance, self.eta, self.k, self.conductor.astype(np.float64), self.alpha,
-             self.ggx.astype(np.float64)]))
+             self.ggx.astype(np.float64), self.coat, self.coat_reflectance]))
+
+    @property
+    def casts(self) -> np.ndarray:
+        """(objects,) bool: the object casts caustics (a mirror, glass or a coated receiver)."""
+        return self.is_specular | (self.coat > 0.0)
 
     @property
     def draws(self) -> bool:
-        """Its specular events draw uniforms (it holds glass, or a rough mirror)."""
-        return bool(self.is_dielectric.any() or (self.alpha > 0.0).any())
+        """Its specular events draw uniforms (it holds glass, a rough mirror or a coat)."""
+        return bool(self.is_dielectric.any() or (self.alpha > 0.0).any()
+                    or (self.coat > 0.0).any())
 
     def intersect(self, origins: np.ndarray, dirs: np.ndarray):
         """First hits: (hit mask (n,), global face (m,), u (m,), v (m,)) for the hit rays."""

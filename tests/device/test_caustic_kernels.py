@@ -117,6 +117,24 @@ def roughened(scene, alpha: float, distribution: str):
     return replace(scene, objects=objects)
 
 
+def coated(scene, names=None, coat: float = 1.6):
+    """``scene`` with its diffuse receivers (or those ``names``) under a smooth coat
+    (:mod:`blockhash.scene.coat`): plastic, whose coats reflect a share of the light."""
+    from blockhash.scene.coat import largest_albedo
+    from blockhash.scene.materials import PhongMaterial
+
+    top = largest_albedo(coat)
+
+    def plastic(m):
+        return PhongMaterial(kd=np.minimum(m.kd, top), ks=0.0, n=0.0, sided=m.sided, coat=coat,
+                             coat_reflectance=np.array([1.0, 0.8, 0.6]))
+
+    objects = tuple(replace(o, material=plastic(o.material))
+                    if isinstance(o.material, PhongMaterial) and (names is None or o.name in names)
+                    else o for o in scene.objects)
+    return replace(scene, objects=objects)
+
+
 CASES = {
     "ring (point light, mirror)": lambda: small("ring"),
     "glass (point light, Fresnel choices)": lambda: small("glass"),
@@ -129,6 +147,8 @@ CASES = {
     "cbox under a lamp of textured radiance": lambda: textured_lamp(small("cbox")),
     "ring of rough gold (Beckmann)": lambda: roughened(small("ring"), 0.2, "beckmann"),
     "frosted glass (GGX)": lambda: roughened(small("glass"), 0.15, "ggx"),
+    "ring on a plastic floor": lambda: coated(small("ring")),
+    "cbox of plastic (area light)": lambda: coated(small("cbox")),
 }
 
 

@@ -39,12 +39,16 @@ def per_object(scene, photons):
 
 
 @pytest.mark.parametrize("name", ["cbox", "corner", "venus", "corner under a sky",
-                                  "cbox under a textured lamp"])
+                                  "cbox under a textured lamp", "cbox of plastic"])
 def test_the_kernels_indirect_photons_carry_the_hosts_power_to_every_receiver(name):
     if name.endswith("under a sky"):  # the synthetic environment map alone
         from environment_maps import sky
 
         scene = replace(load_scene(SCENES / f"{name.split()[0]}.toml"), lights=(sky(),))
+    elif name.endswith("of plastic"):  # coats that reflect a share of each bounce
+        from test_caustic_kernels import coated
+
+        scene = coated(load_scene(SCENES / "cbox.toml"))
     elif name.endswith("textured lamp"):
         from test_caustic_kernels import textured_lamp
 

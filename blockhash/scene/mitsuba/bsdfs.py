@@ -15,7 +15,8 @@ from blockhash.scene.mitsuba.spectra import conductor_preset, conductor_presets
 from blockhash.scene.mitsuba.textures import Checkerboard, TexturedDiffuse, texture
 from blockhash.scene.model import DielectricMaterial, MirrorMaterial, PhongMaterial
 
-BSDFS = ("diffuse", "conductor", "roughconductor", "dielectric", "roughdielectric", "twosided")
+BSDFS = ("diffuse", "plastic", "conductor", "roughconductor", "dielectric", "roughdielectric",
+         "twosided")
 #: What a rough BSDF reads of its microfacets (:func:`roughness`).
 ROUGHNESS = {"distribution": ("string",), "alpha": ("float", "texture"),
              "alpha_u": ("float", "texture"), "alpha_v": ("float", "texture"),
@@ -61,11 +62,46 @@ def bsdf(r, el, key: str, *, twosided: bool = False):
         # Mitsuba's diffuse reflects on the front face only; twosided on both
         return r.build(el, PhongMaterial, kd=np.broadcast_to(kd, (3,)), ks=0.0, n=0.0,
                           sided="two" if twosided else "one")
+    if kind == "plastic":
+        return plastic(r, el, twosided)
     if kind in ("conductor", "roughconductor"):
         return conductor(r, el)
     if kind in ("dielectric", "roughdielectric"):
         return dielectric(r, el)
     r.fail(el, f"unsupported BSDF; supported: {', '.join(BSDFS)}")
+
+
+def plastic(r, el, twosided: bool) -> PhongMaterial:
+    """A ``plastic`` as Mitsuba reads it: a diffuse base (``diffuse_reflectance``, a colour or
+    a bitmap) under a smooth coat of index ``int_ior`` (in air), which reflects with
+    ``specular_reflectance``; ``nonlinear`` as Mitsuba's (:mod:`blockhash.scene.coat`).
+    One-sided, as Mitsuba's; both faces inside ``twosided``."""
+    from dataclasses import replace
+
+    from blockhash.scene.coat import coated_albedo
+
+    spectra = ("rgb", "spectrum", "float")
+    p = r.props(el, {"diffuse_reflectance": (*spectra, "texture"),
+                     "specular_reflectance": spectra, "int_ior": ("float", "string"),
+                     "ext_ior": ("float", "string"), "nonlinear": ("boolean",)})
+    eta = ior(r, el, "int_ior", p.get("int_ior", "polypropylene"))
+    ext = ior(r, el, "ext_ior", p.get("ext_ior", "air"))
+    if not abs(ext - 1.0) < 1e-3:
+        r.fail(el, f"ext_ior {ext!r}: blockhash's plastics sit in air (index 1); give ext_ior 1")
+    eta /= ext
+    nonlinear = bool(p.get("nonlinear", False))
+    base = p.get("diffuse_reflectance", 0.5)
+    common = {"ks": 0.0, "n": 0.0, "sided": "two" if twosided else "one", "coat": eta,
+              "coat_reflectance": np.broadcast_to(p.get("specular_reflectance", 1.0), (3,))}
+    if not isinstance(base, (float, np.ndarray)):  # a texture's element
+        tex = texture(r, base)
+        if isinstance(tex, Checkerboard):
+            r.fail(base, "a checkerboard under a plastic's coat is not supported; give the "
+                   "diffuse_reflectance as a colour or a bitmap")
+        tex = replace(tex, image=coated_albedo(tex.image, eta, nonlinear), bounded=False)
+        return r.build(el, PhongMaterial, kd=tex.mean, texture=tex, **common)
+    return r.build(el, PhongMaterial, kd=coated_albedo(np.broadcast_to(base, (3,)), eta, nonlinear),
+                   **common)
 
 
 def dielectric(r, el) -> DielectricMaterial:

@@ -108,20 +108,32 @@ def _bitmap_lines(t, filename: str, name: str) -> list[str]:
             "        </transform>", "    </texture>"]
 
 
+def _rough(material) -> tuple[str, list[str]]:
+    """(``"rough"`` or ``""``, the lines of a rough mirror's or glass's microfacets)."""
+    if not material.alpha:
+        return "", []
+    return "rough", [f'    <string name="distribution" value="{material.distribution}"/>',
+                     f'    <float name="alpha" value="{_num(material.alpha)}"/>']
+
+
 def _bsdf(material, bsdf_id: str, drop_specular: bool, owner: str) -> list[str]:
     if isinstance(material, MirrorMaterial):
         metal = ([f"    {_rgb('eta', material.eta)}", f"    {_rgb('k', material.k)}"]
                  if material.is_conductor else [])
-        return [f'<bsdf type="conductor" id={quoteattr(bsdf_id)}>',
-                '    <string name="material" value="none"/>', *metal,
+        rough, micro = _rough(material)
+        return [f'<bsdf type="{rough}conductor" id={quoteattr(bsdf_id)}>',
+                '    <string name="material" value="none"/>', *metal, *micro,
                 "    " + _rgb("specular_reflectance", material.reflectance), "</bsdf>"]
     if isinstance(material, DielectricMaterial):
-        return [f'<bsdf type="dielectric" id={quoteattr(bsdf_id)}>',
+        rough, micro = _rough(material)
+        return [f'<bsdf type="{rough}dielectric" id={quoteattr(bsdf_id)}>',
                 f'    <float name="int_ior" value="{_num(material.ior)}"/>',
-                '    <float name="ext_ior" value="1.0"/>',
+                '    <float name="ext_ior" value="1.0"/>', *micro,
                 "    " + _rgb("specular_transmittance", material.tint), "</bsdf>"]
     if not isinstance(material, PhongMaterial):
         raise InputError(f"object {owner!r}: material {material!r} has no Mitsuba equivalent")
+    if material.coat:
+        return _plastic(material, bsdf_id, owner)
     lines = []
     if np.any(material.ks > 0):
         if not drop_specular:
@@ -141,6 +153,26 @@ def _bsdf(material, bsdf_id: str, drop_specular: bool, owner: str) -> list[str]:
         return lines + [diffuse[0][:-1] + f" id={quoteattr(bsdf_id)}>", *diffuse[1:]]
     return lines + [f'<bsdf type="twosided" id={quoteattr(bsdf_id)}>',
                     *("    " + line for line in diffuse), "</bsdf>"]
+
+
+def _plastic(material, bsdf_id: str, owner: str) -> list[str]:
+    """A coated receiver as Mitsuba's ``plastic`` (its base reflectance from ``kd``:
+    :func:`blockhash.scene.coat.base_reflectance`), one-sided or inside ``twosided``."""
+    from blockhash.scene.coat import base_reflectance
+
+    if material.texture is not None:
+        raise InputError(f"object {owner!r}: a textured base under a coat is not exported (its "
+                         "texture holds what the coat lets through, not Mitsuba's "
+                         "diffuse_reflectance); export the scene's Mitsuba file as it was read")
+    lines = ['<bsdf type="plastic">',
+             "    " + _rgb("diffuse_reflectance", base_reflectance(material.kd, material.coat)),
+             f'    <float name="int_ior" value="{_num(material.coat)}"/>',
+             '    <float name="ext_ior" value="1.0"/>',
+             "    " + _rgb("specular_reflectance", material.coat_reflectance), "</bsdf>"]
+    if material.one_sided:
+        return [lines[0][:-1] + f" id={quoteattr(bsdf_id)}>", *lines[1:]]
+    return [f'<bsdf type="twosided" id={quoteattr(bsdf_id)}>', *("    " + x for x in lines),
+            "</bsdf>"]
 
 
 #: The file an environment light's map is written to, beside ``scene.xml``.
