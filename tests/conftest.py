@@ -87,7 +87,7 @@ DOWN = (0.0, -0.6, -0.8)  # photons travel down and toward -z: they face a floor
 
 
 def floor_points(h=24, w=24, *, z=(0.2, 0.8), y=0.0, view=(0, 1, 0)):
-    from blockhash.frame.caustic import ShadingPoints
+    from blockhash.frame.shading_points import ShadingPoints
 
     gx, gz = np.meshgrid(np.linspace(0.05 if w > 32 else 0.2, 0.95 if w > 32 else 0.8, w),
                          np.linspace(*z, h))

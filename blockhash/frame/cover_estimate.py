@@ -66,7 +66,7 @@ def require_conserving(options: EstimateOptions) -> None:
 
 def estimate_cover_cpu(gather: CoverGather, points, materials,
                        options: EstimateOptions | None = None) -> np.ndarray:
-    """(h, w, 3) float64 radiance of ``points`` (:class:`~.caustic.ShadingPoints`)."""
+    """(h, w, 3) float64 radiance of ``points`` (:class:`~.shading_points.ShadingPoints`)."""
     options = EstimateOptions() if options is None else options
     require_conserving(options)
     h, w = points.shape

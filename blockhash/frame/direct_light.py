@@ -8,8 +8,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from blockhash.frame.caustic import ShadingPoints
 from blockhash.frame.shading import SceneRays, shadow_segments
+from blockhash.frame.shading_points import ShadingPoints
 from blockhash.scene.microfacet import fresnel
 from blockhash.scene.raycast import RAY_OFFSET
 

@@ -16,8 +16,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from blockhash.frame.caustic import ShadingPoints
+from blockhash.frame.glossy_rays import rough_events, through_coat
 from blockhash.frame.rough_direct import delta_lights
+from blockhash.frame.shading_points import ShadingPoints
 from blockhash.scene.materials import one_sided
 from blockhash.scene.optics import choice_uniforms, scatter
 from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, surface_hits
@@ -34,9 +35,6 @@ BRANCH_CUTOFF = 1e-3
 #: Seed of the camera rays' reflect-or-refract choices at glass (one stream, fixed, so an
 #: image is the same in every run).
 CAMERA_CHOICE_SEED = 0x9A55
-#: Seed of the camera rays' microfacets on rough mirrors and glass (with the pass and the
-#: event: each pass draws its own, so that passes average them).
-ROUGH_SEED = 0x60F5
 
 
 class SceneRays:
@@ -145,7 +143,7 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
                 met = np.zeros((h * w, 3))
             met[ri] += weight[ri] * delta_lights(rays, lights, pos[ri], n[rough], wi[rough],
                                                  obj[ri], outer[ri])
-            r[rough], side[rough] = _rough(rays, ri, obj[ri], d[rough], n[rough], outer[ri],
+            r[rough], side[rough] = rough_events(rays, ri, obj[ri], d[rough], n[rough], outer[ri],
                                            weight, pass_index, event)
         m = mirror[obj[idx]] & ~rough
         weight[idx[m]] *= reflectance(obj[idx[m]], np.sum(n[m] * wi[m], axis=1))
@@ -277,23 +275,6 @@ def _surface_tables(objects, mirror_types, geometry):
     return glass, mirror, mirror | glass, reflectance, ior, tint
 
 
-def _rough(rays: SceneRays, idx, obj, d, n, outer, weight, pass_index: int, event: int):
-    """The rough events (:func:`blockhash.scene.microfacet.rough_scatter`) of camera rays
-    ``idx`` (the rays ``d`` on objects ``obj`` with normals ``n`` facing them, met from the
-    ``outer`` side): their weights (rows ``idx`` of ``weight``) scaled in place; returns
-    (new directions, sides: +1 reflected, -1 passed through).  The uniforms are pass
-    ``pass_index``'s and event ``event``'s own, so that passes average the microfacets."""
-    from blockhash.scene.microfacet import UNIFORMS, rough_scatter
-
-    geom = rays.geometry
-    u = np.random.default_rng([ROUGH_SEED, int(pass_index), int(event)]).random(
-        (len(idx), UNIFORMS))
-    dirs, factor, through = rough_scatter(d, n, n, outer, obj, geom.mirror, geom.is_dielectric,
-                                          geom.ior, u)
-    weight[idx] *= np.where(through[:, None], geom.tint[obj], 1.0) * factor
-    return dirs, np.where(through, -1.0, 1.0)
-
-
 def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
                   events: int | None = None, *, environment: bool = False,
                   pass_index: int = 0, lights=()) -> ShadingPoints:
@@ -329,13 +310,13 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     coat = np.append(rays.geometry.coat, 0.0)  # index -1: nothing hit
     if events == 0:  # no event followed: the points the camera sees directly
         on = specular[obj]
-        shaded = _through_coat(weight, nrm, view, coat[obj])
+        shaded = through_coat(weight, nrm, view, coat[obj])
         done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, shaded, esc))
                     + (np.ones(int((~on).sum()), dtype=bool),))
     for event in range(MAX_DIELECTRIC_EVENTS if events is None else events):
         on = specular[obj]
         glint = coat[obj] > 0.0  # a coated receiver: shaded through its coat, and reflects
-        shaded = _through_coat(weight, nrm, view, coat[obj])
+        shaded = through_coat(weight, nrm, view, coat[obj])
         done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, shaded, esc))
                     + (np.full(int((~on).sum()), event == 0),))
         on |= glint
@@ -362,8 +343,8 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
             ri = np.flatnonzero(rough)
             np.add.at(met, owner[ri], weight[ri] * delta_lights(
                 rays, lights, pos[ri], nrm[ri], view[ri], obj[ri], outer[ri]))
-            w_refl[ri] = weight[ri]  # one sampled branch, scaled by _rough
-            refl[ri], rough_side[ri] = _rough(rays, ri, obj[ri], d[ri], nrm[ri], outer[ri],
+            w_refl[ri] = weight[ri]  # one sampled branch, scaled by rough_events
+            refl[ri], rough_side[ri] = rough_events(rays, ri, obj[ri], d[ri], nrm[ri], outer[ri],
                                               w_refl, pass_index, event)
         through = np.flatnonzero(g & ~rough & (f < 1.0))
         t_dir, t_through, t_factor = scatter(d[through], nrm[through], nrm[through], outer[through],
@@ -402,19 +383,6 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
                          escaped=es.reshape(rows, w) if environment and es.any() else None,
                          rough_direct=met.reshape(h, w, 3) if met.any() else None,
                          first_hit=first.reshape(rows, w) if coat.any() else None)
-
-
-def _through_coat(weight, nrm, view, coat):
-    """``weight`` with the points on coated receivers (``coat`` > 0, their coats' indices)
-    seen through the coat: times 1 - F toward the viewer (:mod:`blockhash.scene.coat`)."""
-    from blockhash.scene.coat import transmittance
-
-    on = coat > 0.0
-    if not on.any():
-        return weight
-    out = weight.copy()
-    out[on] *= transmittance(np.sum(nrm[on] * view[on], axis=1), coat[on])[:, None]
-    return out
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)

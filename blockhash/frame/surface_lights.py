@@ -18,7 +18,7 @@
 * **Emission seen**: a shading point on an area light's object whose viewer is on the front
   of the face it lies on adds the light's radiance ``L`` (times the path weight, as every
   term of the direct layer), so the light is seen directly and in mirrors and glass; a camera
-  ray that left the scene (:attr:`blockhash.frame.caustic.ShadingPoints.escaped`) sees the
+  ray that left the scene (:attr:`blockhash.frame.shading_points.ShadingPoints.escaped`) sees the
   environment's radiance along it.
 """
 
@@ -131,7 +131,7 @@ def environment_light(out, light, live, p, n, wo, mat, kd, ks, e, coat, rays, pa
 
 def environment_seen(out, lights, points) -> None:
     """Adds to ``out`` (flat (m, 3)) an environment light's radiance along each camera ray
-    that left the scene (:attr:`blockhash.frame.caustic.ShadingPoints.escaped`)."""
+    that left the scene (:attr:`blockhash.frame.shading_points.ShadingPoints.escaped`)."""
     if points.escaped is None:
         return
     gone = np.flatnonzero(points.escaped.reshape(-1))

@@ -39,10 +39,8 @@ from blockhash.passes.stages import caustic_stage  # noqa: F401 (importable from
 from blockhash.scene.camera import Pinhole, spp_grid
 from blockhash.validate import INDIRECT, as_flag, as_int
 
-#: The most indirect photons a pass stores, in caustic counts.  A lamp over a diffuse floor
-#: and wall stores 5 times the count; a floor of plastic under the same lamp, whose coat
-#: reflects a few percent of the caustic photons aimed at it, would store 150 times
-#: (``tests/reference/mitsuba_xml/plastic.xml``, 354 million photons shot a pass).
+#: The most indirect photons a pass stores, in caustic counts (a lamp over a plastic floor,
+#: whose coat reflects few of the caustic's photons, shot 354 million a pass without it).
 INDIRECT_STORED = 8
 
 
@@ -167,8 +165,6 @@ class RenderSetup:
             emitted *= PILOT / stored  # the caustic's photons shot a pass
             if c_flux > 0:
                 emitted *= min(max(i_flux / c_flux, 0.25), 4.0)
-        # at most INDIRECT_STORED times the caustic's count stored: a scene whose caustic
-        # photons are rarely stored (a coat reflects a few percent) would shoot far more
         emitted = min(emitted, INDIRECT_STORED * settings.count * PILOT / len(sample.positions))
         emitted = max(int(np.ceil(emitted)), 1)
         target = emitted * len(sample.positions) / PILOT

@@ -5,7 +5,8 @@ import pytest
 
 from blockhash import BlockHashIndex
 from blockhash.evaluate.testing import assert_images_close
-from blockhash.frame.caustic import CausticPass, ShadingPoints, estimate_cpu
+from blockhash.frame.caustic import CausticPass, estimate_cpu
+from blockhash.frame.shading_points import ShadingPoints
 from blockhash.scene.materials import phong_brdf
 
 pytestmark = pytest.mark.gl  # tests here open GL contexts (EGL or OSMesa)

@@ -91,7 +91,7 @@ def test_the_shader_reads_the_windows_of_every_fine_axis(plane_index, axes):
     """The plane turned so that the fine axis (cover.py fine_axis) is each of x, y and z:
     the shader's axis order and window keys give the CPU reference's sum per point."""
     context_or_skip("egl")
-    from blockhash.frame.caustic import ShadingPoints
+    from blockhash.frame.shading_points import ShadingPoints
 
     axes = list(axes)
     rec, slot = plane_index.records, plane_index.slot_of
@@ -169,7 +169,7 @@ def test_hostile_photons_and_points_stay_finite_and_equal_the_cpu(gl_mode):
     photons (zero own radii), shading points far from every photon (empty windows) and on the
     photons' cell borders (the windows' edges)."""
     context_or_skip("egl")
-    from blockhash.frame.caustic import ShadingPoints
+    from blockhash.frame.shading_points import ShadingPoints
 
     rng = np.random.default_rng(4)
     n = 4_000

@@ -7,9 +7,10 @@ from scipy.spatial import cKDTree
 
 from blockhash import BlockHashIndex
 from blockhash.errors import InputError
-from blockhash.frame.caustic import ShadingPoints, estimate_cpu
+from blockhash.frame.caustic import estimate_cpu
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.photon_radius import exact_radii2, neighbours_for, own_radii2, slot_radii2
+from blockhash.frame.shading_points import ShadingPoints
 from blockhash.index.records.fixedpoint import min_r2
 
 KD = 0.5

@@ -8,8 +8,9 @@ from conftest import context_or_skip
 
 from blockhash import BlockHashIndex, CapacityError, InputError
 from blockhash.errors import ShaderCompileError
-from blockhash.frame.caustic import CausticPass, ShadingPoints, estimate_cpu
+from blockhash.frame.caustic import CausticPass, estimate_cpu
 from blockhash.frame.estimate import EstimateOptions
+from blockhash.frame.shading_points import ShadingPoints
 from blockhash.gl import limits
 from blockhash.gl.context import check_gl
 from blockhash.gl.limits import LOOP_LIMIT, MAX_K, check_lookup, largest_A, loop_iterations

@@ -24,10 +24,11 @@ from pathlib import Path
 import numpy as np
 
 from blockhash.evaluate.metrics import exact_knn
-from blockhash.frame.caustic import Neighbours, ShadingPoints
+from blockhash.frame.caustic import Neighbours
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.gbuffer import rasterize
 from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.shading_points import ShadingPoints
 from blockhash.frame.subpixel import raycast_gbuffer
 from blockhash.gl.lookup import query_slot_bits
 from blockhash.index.block_hash_index import BlockHashIndex

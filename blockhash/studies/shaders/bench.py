@@ -177,8 +177,9 @@ def _cover_row(index, q, k, repeat, warmup, backend, clock, device) -> dict:
     """The cover gather alone (the caustic pass's lookup stage: every photon whose own disc
     covers each point, counted, no estimate) on the same queries, as one image of shading
     points facing +y; its radii (for k) are computed outside the timing."""
-    from blockhash.frame.caustic import STAGES, CausticPass, ShadingPoints
+    from blockhash.frame.caustic import STAGES, CausticPass
     from blockhash.frame.cover_estimate import cover_gather
+    from blockhash.frame.shading_points import ShadingPoints
 
     m = len(q)
     side = int(np.ceil(np.sqrt(m)))

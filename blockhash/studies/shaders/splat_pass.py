@@ -18,9 +18,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from blockhash.frame.caustic import MAX_MATERIALS, ShadingPoints, material_table, point_textures
+from blockhash.frame.caustic import MAX_MATERIALS, material_table, point_textures
 from blockhash.frame.cover_estimate import require_conserving
 from blockhash.frame.estimate import EstimateOptions
+from blockhash.frame.shading_points import ShadingPoints
 from blockhash.gl.context import check_gl, get_context, home_framebuffer
 from blockhash.gl.shaderlib import compile_program, preprocess
 

@@ -1,0 +1,41 @@
+"""What the camera's rays do at glossy surfaces, for :mod:`.shading`: a rough mirror's or
+glass's sampled microfacet (:func:`rough_events`, :mod:`blockhash.scene.microfacet`) and the
+view through a coated receiver's coat (:func:`through_coat`, :mod:`blockhash.scene.coat`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Seed of the camera rays' microfacets on rough mirrors and glass (with the pass and the
+#: event: each pass draws its own, so that passes average them).
+ROUGH_SEED = 0x60F5
+
+
+def rough_events(rays, idx, obj, d, n, outer, weight, pass_index: int, event: int):
+    """The rough events (:func:`blockhash.scene.microfacet.rough_scatter`) of camera rays
+    ``idx`` (the rays ``d`` on objects ``obj`` with normals ``n`` facing them, met from the
+    ``outer`` side): their weights (rows ``idx`` of ``weight``) scaled in place; returns
+    (new directions, sides: +1 reflected, -1 passed through).  The uniforms are pass
+    ``pass_index``'s and event ``event``'s own, so that passes average the microfacets."""
+    from blockhash.scene.microfacet import UNIFORMS, rough_scatter
+
+    geom = rays.geometry
+    u = np.random.default_rng([ROUGH_SEED, int(pass_index), int(event)]).random(
+        (len(idx), UNIFORMS))
+    dirs, factor, through = rough_scatter(d, n, n, outer, obj, geom.mirror, geom.is_dielectric,
+                                          geom.ior, u)
+    weight[idx] *= np.where(through[:, None], geom.tint[obj], 1.0) * factor
+    return dirs, np.where(through, -1.0, 1.0)
+
+
+def through_coat(weight, nrm, view, coat):
+    """``weight`` with the points on coated receivers (``coat`` > 0, their coats' indices)
+    seen through the coat: times 1 - F toward the viewer (:mod:`blockhash.scene.coat`)."""
+    from blockhash.scene.coat import transmittance
+
+    on = coat > 0.0
+    if not on.any():
+        return weight
+    out = weight.copy()
+    out[on] *= transmittance(np.sum(nrm[on] * view[on], axis=1), coat[on])[:, None]
+    return out
