@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from blockhash.frame.surface_lights import escapes
+from blockhash.scene.microfacet import smith_g1_rays
 from blockhash.scene.optics import conductor_fresnel, fresnel
 from blockhash.scene.raycast import RAY_OFFSET
 
@@ -32,17 +33,6 @@ def distribution(cos_h, alpha, ggx):
     beckmann = np.exp(-tan2 / a2) / (np.pi * a2 * c2 * c2)
     trowbridge = 1.0 / (np.pi * a2 * c2 * c2 * (1.0 + tan2 / a2) ** 2)
     return np.where(cos_h > 0.0, np.where(ggx, trowbridge, beckmann), 0.0)
-
-
-def smith_g1(cos_v, v_h, alpha, ggx):
-    """Smith's G1 (:func:`blockhash.scene.microfacet.smith_g1`), vectorised."""
-    c2 = np.clip(cos_v * cos_v, 1e-30, 1.0)
-    tan2 = alpha * alpha * (1.0 - c2) / c2
-    a = 1.0 / np.sqrt(np.maximum(tan2, 1e-30))
-    beckmann = np.where(a >= 1.6, 1.0, (3.535 * a + 2.181 * a * a)
-                        / (1.0 + 2.276 * a + 2.577 * a * a))
-    g = np.where(ggx, 2.0 / (1.0 + np.sqrt(1.0 + tan2)), beckmann)
-    return np.where(v_h * cos_v <= 0.0, 0.0, np.where(c2 >= 1.0, 1.0, g))
 
 
 def microfacet_bsdf(v, light, n, outer, alpha, ggx, dielectric, ior, tint, reflectance, eta, k,
@@ -61,8 +51,9 @@ def microfacet_bsdf(v, light, n, outer, alpha, ggx, dielectric, ior, tint, refle
     h *= np.where(np.sum(h * n, axis=1) < 0.0, -1.0, 1.0)[:, None]
     cos_h = np.sum(h * n, axis=1)
     v_h, l_h = np.sum(v * h, axis=1), np.sum(light * h, axis=1)
-    dg = distribution(cos_h, alpha, ggx) * smith_g1(cos_v, v_h, alpha, ggx) \
-        * smith_g1(cos_l, l_h, alpha, ggx)
+    alpha, ggx = np.asarray(alpha, np.float64), np.asarray(ggx, np.bool_)
+    dg = distribution(cos_h, alpha, ggx) * smith_g1_rays(cos_v, v_h, alpha, ggx) \
+        * smith_g1_rays(cos_l, l_h, alpha, ggx)
     f_glass = fresnel(np.clip(v_h, 0.0, 1.0), 1.0 / eta_t)
     f_metal = np.where(conductor[:, None],
                        conductor_fresnel(np.clip(v_h, 0.0, 1.0)[:, None], eta, k), 1.0) \

@@ -78,6 +78,15 @@ def smith_g1(cos_v, v_dot_m, alpha, ggx):
     return (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a)
 
 
+@numba.njit(cache=True, nogil=True)
+def smith_g1_rays(cos_v, v_dot_m, alpha, ggx):
+    """:func:`smith_g1` of each ray (all (m,) arrays), for the host's vectorised callers."""
+    out = np.empty(cos_v.shape[0])
+    for i in range(cos_v.shape[0]):
+        out[i] = smith_g1(cos_v[i], v_dot_m[i], alpha[i], ggx[i])
+    return out
+
+
 @numba.njit(cache=True, nogil=True, inline="always")
 def weight(cos_i, i_m, cos_o, o_m, cos_m, alpha, ggx):
     """The factor on the weight of a ray sent about a microfacet (module docstring; the
