@@ -143,8 +143,8 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
                 met = np.zeros((h * w, 3))
             met[ri] += weight[ri] * delta_lights(rays, lights, pos[ri], n[rough], wi[rough],
                                                  obj[ri], outer[ri])
-            r[rough], side[rough] = rough_events(rays, ri, obj[ri], d[rough], n[rough], outer[ri],
-                                           weight, pass_index, event)
+            r[rough], side[rough] = rough_events(rays, ri, obj[ri], d[rough], n[rough],
+                                                 outer[ri], weight, pass_index, event)
         m = mirror[obj[idx]] & ~rough
         weight[idx[m]] *= reflectance(obj[idx[m]], np.sum(n[m] * wi[m], axis=1))
         g = ~m & ~rough
@@ -345,7 +345,7 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
                 rays, lights, pos[ri], nrm[ri], view[ri], obj[ri], outer[ri]))
             w_refl[ri] = weight[ri]  # one sampled branch, scaled by rough_events
             refl[ri], rough_side[ri] = rough_events(rays, ri, obj[ri], d[ri], nrm[ri], outer[ri],
-                                              w_refl, pass_index, event)
+                                                    w_refl, pass_index, event)
         through = np.flatnonzero(g & ~rough & (f < 1.0))
         t_dir, t_through, t_factor = scatter(d[through], nrm[through], nrm[through], outer[through],
                                              ior[obj[through]], tint[obj[through]],
