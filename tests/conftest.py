@@ -211,3 +211,13 @@ def gl_mode(request):
 
     with strict(request.param == "strict"):
         yield request.param
+
+
+def roughened(scene, alpha: float, distribution: str):
+    """``scene`` with its mirrors and glass rough (:mod:`blockhash.scene.microfacet`)."""
+    from dataclasses import replace
+
+    objects = tuple(replace(o, material=replace(o.material, alpha=alpha,
+                                                distribution=distribution))
+                    if o.is_specular else o for o in scene.objects)
+    return replace(scene, objects=objects)

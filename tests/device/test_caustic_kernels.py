@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import roughened
 
 from blockhash.device.choice import resolve
 from blockhash.errors import InputError
@@ -107,14 +108,6 @@ def textured_lamp(scene):
             light = replace(light, radiance=texture.mean, texture=texture, uv=uv)
         lights.append(light)
     return replace(scene, lights=tuple(lights))
-
-
-def roughened(scene, alpha: float, distribution: str):
-    """``scene`` with its mirrors and glass rough (:mod:`blockhash.scene.microfacet`)."""
-    objects = tuple(replace(o, material=replace(o.material, alpha=alpha,
-                                                distribution=distribution))
-                    if o.is_specular else o for o in scene.objects)
-    return replace(scene, objects=objects)
 
 
 def coated(scene, names=None, coat: float = 1.6):

@@ -5,23 +5,15 @@ roughened to brushed gold, and the glass scene's ball frosted.  What this holds 
 render's caustic layer (its photon map, estimate and passes) on the light a rough surface
 throws, over the pixels that see a diffuse receiver directly."""
 
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import context_or_skip
+from conftest import context_or_skip, roughened
 
 from blockhash.scene.loader import load_scene
 
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
-
-
-def roughened(scene, alpha: float, distribution: str):
-    objects = tuple(replace(o, material=replace(o.material, alpha=alpha,
-                                                distribution=distribution))
-                    if o.is_specular else o for o in scene.objects)
-    return replace(scene, objects=objects)
 
 
 @pytest.mark.slow
