@@ -6,7 +6,9 @@ one-sided receiver's back face, else stored; a mirror reflects (its reflectance 
 weight, times a conductor's Fresnel reflectance; about the geometric normal where the
 shading normal sends the ray into the surface); glass reflects or refracts with the Fresnel
 probability (:mod:`blockhash.scene.optics`, the same formulas, scalar); a rough mirror or glass
-does the same about a sampled microfacet (:mod:`blockhash.scene.microfacet`); a ray whose weight falls to 0 is absorbed.  The rays that go on
+does the same about a sampled microfacet (:mod:`blockhash.scene.microfacet`); a coated
+receiver's coat reflects with Fresnel's probability, as a mirror (:mod:`blockhash.scene.coat`),
+and otherwise the hit is diffuse; a ray whose weight falls to 0 is absorbed.  The rays that go on
 are written, in order, to the front of the next bounce's arrays: no boolean mask, fancy
 index or temporary array per step, which the numpy version spent as much time on as embree
 on its rays (BENCHMARKS.md, "What a photon costs").
