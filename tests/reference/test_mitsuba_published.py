@@ -37,6 +37,10 @@ DEFINES = {"sensor_thinlens": {"spp": "16"}}
 #: Tighter on the box at Mitsuba's unbounded depth: its indirect photons stopped after 5
 #: surface events made it 1.6% dim; they go on to Russian roulette's end now (measured 0.998).
 FLUX_UNBOUNDED = 0.008
+#: Fewer photons a pass where the default costs the suite more than it tells: the water at
+#: 128 specular events (measured at 50,000: flux within 0.03%, blurred 0.019, as at the
+#: default; 17 s against 23 s).
+PHOTONS = {"bsdf_dielectric_glass": 50_000}
 
 pytestmark = pytest.mark.gl
 
@@ -50,7 +54,7 @@ def needs_mitsuba():
 @pytest.mark.parametrize("name", COMPARED)
 def test_a_published_scene_renders_as_mitsuba_renders_it(name):
     row = compare(HERE / f"{name}.xml", size=48, spp=4096, passes=4, samples=64,
-                  defines=DEFINES.get(name))
+                  defines=DEFINES.get(name), photons=PHOTONS.get(name))
     assert row.refused is None
     limit = FLUX_UNBOUNDED if name == "integrator_depth_inf" else FLUX
     assert np.all(np.abs(row.flux - 1) < limit), f"{name}: flux ratio {row.flux}"
