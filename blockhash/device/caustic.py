@@ -120,21 +120,16 @@ def specular_event(geo, d, ns, ng, outer, obj, kind, rng, active):
     :func:`blockhash.photons.bounce._event`.  Glass draws its choice from ``rng``, and a
     rough mirror or glass its microfacet (:mod:`.microfacet`)."""
     mi, dr = geo.mi, geo.dr
-    mirror = active & (kind == MIRROR)
-    if geo.any_rough:
-        mirror &= dr.gather(mi.Float, geo.alpha, obj, active) <= 0.0
+    rough = (active & (dr.gather(mi.Float, geo.alpha, obj, active) > 0.0) if geo.any_rough
+             else dr.zeros(mi.Bool, dr.width(active)))
+    mirror = active & (kind == MIRROR) & ~rough
     r = _reflect(dr, d, ns)
     wrong = dr.dot(r, ng) <= 0.0
     r = dr.select(wrong, _reflect(dr, d, ng), r)
-    factor = dr.select(mirror, dr.gather(mi.Color3f, geo.reflectance, obj, mirror), 1.0)
-    if geo.any_conductor:
-        metal = mirror & (dr.gather(mi.UInt32, geo.conductor, obj, mirror) != 0)
-        f_metal = _conductor(dr, -dr.dot(d, ns), dr.gather(mi.Color3f, geo.eta, obj, metal),
-                             dr.gather(mi.Color3f, geo.k, obj, metal))
-        factor = dr.select(metal, factor * f_metal, factor)
+    factor = dr.select(mirror, _mirror_factor(geo, obj, -dr.dot(d, ns), mirror), 1.0)
     side = dr.ones(mi.Float, dr.width(active))
     if geo.any_glass:
-        glass = active & (kind == GLASS)
+        glass = active & (kind == GLASS) & ~rough
         ior = dr.gather(mi.Float, geo.ior, obj, glass)
         eta = dr.select(outer, 1.0 / ior, ior)
         uc = rng.next_float32(glass)
@@ -152,22 +147,28 @@ def specular_event(geo, d, ns, ng, outer, obj, kind, rng, active):
     if geo.any_rough:  # rough mirrors and glass: about a sampled microfacet, as the host's
         from blockhash.device.microfacet import rough_event
 
-        rough = active & (dr.gather(mi.Float, geo.alpha, obj, active) > 0.0)
         r_r, f_r, t_r, i_m = rough_event(geo, d, ns, ng, outer, obj, rough & (kind == GLASS),
                                          rng, rough, fresnel)
         on_mirror = rough & (kind == MIRROR)
-        f_m = dr.gather(mi.Color3f, geo.reflectance, obj, on_mirror)
-        if geo.any_conductor:
-            metal = on_mirror & (dr.gather(mi.UInt32, geo.conductor, obj, on_mirror) != 0)
-            f_m = dr.select(metal, f_m * _conductor(dr, i_m, dr.gather(mi.Color3f, geo.eta, obj, metal),
-                                                    dr.gather(mi.Color3f, geo.k, obj, metal)), f_m)
-        f_m = dr.select(on_mirror, f_m, dr.select(t_r, dr.gather(mi.Color3f, geo.tint, obj, t_r),
-                                                  1.0))
+        f_m = dr.select(on_mirror, _mirror_factor(geo, obj, i_m, on_mirror),
+                        dr.select(t_r, dr.gather(mi.Color3f, geo.tint, obj, t_r), 1.0))
         r = dr.select(rough, r_r, r)
         factor = dr.select(rough, f_m * f_r, factor)
         side = dr.select(rough, dr.select(t_r, -1.0, 1.0), side)
-        wrong &= ~rough
     return r, factor, side, mirror & wrong
+
+
+def _mirror_factor(geo, obj, cos_i, on):
+    """A mirror's factor at ``cos_i`` to its (micro)facet, for the photons ``on``
+    (:func:`blockhash.scene.microfacet.mirror_factor`): its reflectance, times a conductor's
+    Fresnel reflectance."""
+    mi, dr = geo.mi, geo.dr
+    factor = dr.gather(mi.Color3f, geo.reflectance, obj, on)
+    if not geo.any_conductor:
+        return factor
+    metal = on & (dr.gather(mi.UInt32, geo.conductor, obj, on) != 0)
+    return dr.select(metal, factor * _conductor(dr, cos_i, dr.gather(mi.Color3f, geo.eta, obj, metal),
+                                                dr.gather(mi.Color3f, geo.k, obj, metal)), factor)
 
 
 def coat_glint(geo, d, ns, outer, obj, diffuse, rng):

@@ -21,8 +21,7 @@ import numpy as np
 
 from blockhash.scene import microfacet
 from blockhash.scene.coat import COAT, COAT_REFLECTANCE
-from blockhash.scene.microfacet import ALPHA, DISTRIBUTION, UNIFORMS
-from blockhash.scene.microfacet import conductor as _conductor
+from blockhash.scene.microfacet import ALPHA, DISTRIBUTION, UNIFORMS, mirror_factor
 from blockhash.scene.microfacet import fresnel as _fresnel
 from blockhash.scene.raycast import hit_frame
 
@@ -69,21 +68,15 @@ def _event(pid, obj, outer, d0, d1, d2, n0, n1, n2, g0, g1, g2, w0, w1, w2, diel
             return r0, r1, r2, w0 * f * tint[obj, 0], w1 * f * tint[obj, 1], \
                 w2 * f * tint[obj, 2], -1.0
         if not dielectric[obj]:
-            w0, w1, w2 = (w0 * reflectance[obj, 0], w1 * reflectance[obj, 1],
-                          w2 * reflectance[obj, 2])
-            if reflectance[obj, 9] != 0.0:
-                w0 *= _conductor(c, reflectance[obj, 3], reflectance[obj, 6])
-                w1 *= _conductor(c, reflectance[obj, 4], reflectance[obj, 7])
-                w2 *= _conductor(c, reflectance[obj, 5], reflectance[obj, 8])
+            w0, w1, w2 = (w0 * mirror_factor(reflectance, obj, 0, c),
+                          w1 * mirror_factor(reflectance, obj, 1, c),
+                          w2 * mirror_factor(reflectance, obj, 2, c))
         return r0, r1, r2, w0 * f, w1 * f, w2 * f, 1.0
     if not dielectric[obj]:
-        w0, w1, w2 = (w0 * reflectance[obj, 0], w1 * reflectance[obj, 1],
-                      w2 * reflectance[obj, 2])
-        if reflectance[obj, 9] != 0.0:  # a conductor: Fresnel's reflectance of eta + i k
-            c = -((d0 * n0 + d1 * n1) + d2 * n2)
-            w0 *= _conductor(c, reflectance[obj, 3], reflectance[obj, 6])
-            w1 *= _conductor(c, reflectance[obj, 4], reflectance[obj, 7])
-            w2 *= _conductor(c, reflectance[obj, 5], reflectance[obj, 8])
+        c = -((d0 * n0 + d1 * n1) + d2 * n2)
+        w0, w1, w2 = (w0 * mirror_factor(reflectance, obj, 0, c),
+                      w1 * mirror_factor(reflectance, obj, 1, c),
+                      w2 * mirror_factor(reflectance, obj, 2, c))
         r0, r1, r2 = _reflect(d0, d1, d2, n0, n1, n2)
         if (r0 * g0 + r1 * g1) + r2 * g2 <= 0.0:  # the shading normal sent it in
             r0, r1, r2 = _reflect(d0, d1, d2, g0, g1, g2)

@@ -121,12 +121,7 @@ def rough_scatter(d, n, g, outer, obj, table, dielectric, ior, u):
         out[i, 0], out[i, 1], out[i, 2] = r0, r1, r2
         through[i] = t
         for ch in range(3):
-            f = w
-            if not dielectric[o]:  # a mirror's reflectance, and a conductor's Fresnel term
-                f *= table[o, ch]
-                if table[o, 9] != 0.0:
-                    f *= conductor(c, table[o, 3 + ch], table[o, 6 + ch])
-            factor[i, ch] = f
+            factor[i, ch] = w if dielectric[o] else w * mirror_factor(table, o, ch, c)
     return out, factor, through
 
 
@@ -159,6 +154,17 @@ def event(d0, d1, d2, n0, n1, n2, g0, g1, g2, outer, dielectric, ior, alpha, ggx
     cos_i = -((d0 * n0 + d1 * n1) + d2 * n2)
     o_m = (r0 * m0 + r1 * m1) + r2 * m2
     return r0, r1, r2, weight(cos_i, i_m, cos_o, o_m, cos_m, alpha, ggx), through, i_m
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def mirror_factor(table, obj, ch, cos_i):
+    """A mirror's factor on channel ``ch`` of a ray at ``cos_i`` to its (micro)facet: its
+    reflectance, times a conductor's Fresnel reflectance of eta + i k (``table`` the ray
+    caster's per-object table, :attr:`blockhash.scene.raycast.EmbreeGeometry.mirror`)."""
+    f = table[obj, ch]
+    if table[obj, 9] != 0.0:
+        f *= conductor(cos_i, table[obj, 3 + ch], table[obj, 6 + ch])
+    return f
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
