@@ -22,7 +22,6 @@ import numpy as np
 from blockhash.frame.surface_lights import escapes
 from blockhash.scene.microfacet import smith_g1_rays
 from blockhash.scene.optics import conductor_fresnel, fresnel
-from blockhash.scene.raycast import RAY_OFFSET
 
 
 def distribution(cos_h, alpha, ggx):
@@ -81,7 +80,6 @@ def delta_lights(rays, lights, pos, nrm, view, obj, outer) -> np.ndarray:
     table = (geom.alpha[obj], geom.ggx[obj], geom.is_dielectric[obj], geom.ior[obj],
              geom.tint[obj], geom.reflectance[obj], geom.eta[obj], geom.k[obj],
              geom.conductor[obj])
-    offset = RAY_OFFSET * rays.scale
     for light in lights:
         if hasattr(light, "irradiance"):  # directional
             toward = np.broadcast_to(-np.asarray(light.direction, np.float64), (m, 3)).copy()
@@ -93,11 +91,7 @@ def delta_lights(rays, lights, pos, nrm, view, obj, outer) -> np.ndarray:
             dist = np.maximum(np.linalg.norm(to, axis=1), 1e-30)
             toward = to / dist[:, None]
             side = np.where(np.sum(toward * nrm, axis=1) > 0.0, 1.0, -1.0)[:, None]
-            origins = pos + nrm * side * offset
-            seg = np.asarray(light.position, np.float64) - origins
-            length = np.linalg.norm(seg, axis=1)
-            seen = ~geom.occluded(origins, seg / np.maximum(length, 1e-30)[:, None],
-                                  length * (1 - 1e-6))
+            seen = rays.visible(pos, nrm * side, np.asarray(light.position, np.float64)[None])
             li = _intensity(light, -toward) / (dist * dist)[:, None]
         else:  # area and environment lights: the sampled rays reach them
             continue

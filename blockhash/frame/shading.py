@@ -107,11 +107,8 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     without speckle.  The points are then more than the samples, and
     :meth:`ShadingPoints.gather` sums each sample's.
     """
-    from blockhash.scene.model import DielectricMaterial
-
-    coated = any(getattr(o.material, "coat", 0.0) for o in objects)  # always both branches
-    if coated or (both_branches and any(isinstance(o.material, DielectricMaterial)
-                                        for o in objects)):
+    geom = rays.geometry
+    if geom.coat.any() or (both_branches and geom.is_dielectric.any()):  # a coat: always both
         return branch_points(camera, gbuffer, objects, rays, mirror_types, events,
                              environment=environment, pass_index=pass_index, lights=lights)
 
@@ -323,8 +320,8 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
         if not on.any():
             owner = owner[:0]
             break
-        owner, pos, nrm, view, obj, weight, outer = (a[on] for a in (owner, pos, nrm, view, obj,
-                                                                     weight, outer))
+        owner, pos, nrm, view, obj, weight, outer, glint = (
+            a[on] for a in (owner, pos, nrm, view, obj, weight, outer, glint))
         d = -view
         refl = d - 2.0 * np.sum(d * nrm, axis=1, keepdims=True) * nrm
         g = glass[obj]
@@ -332,7 +329,6 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
         f[g] = fresnel(-np.sum(d[g] * nrm[g], axis=1), np.where(outer[g], 1.0 / ior[obj[g]], ior[obj[g]]))
         w_refl = weight * np.where(g, f, 1.0)[:, None] * np.where(
             g[:, None], 1.0, reflectance(obj, -np.sum(d * nrm, axis=1)))
-        glint = coat[obj] > 0.0
         if glint.any():  # the coat's reflection: Fresnel's reflectance times the coat's
             cos = -np.sum(d[glint] * nrm[glint], axis=1)
             w_refl[glint] = weight[glint] * (1.0 - transmittance(cos, coat[obj[glint]]))[:, None] \
