@@ -10,7 +10,7 @@ import numpy as np
 
 from blockhash.frame.shading import SceneRays, shadow_segments
 from blockhash.frame.shading_points import ShadingPoints
-from blockhash.scene.microfacet import fresnel
+from blockhash.scene.coat import through
 from blockhash.scene.raycast import RAY_OFFSET
 
 
@@ -120,9 +120,7 @@ def _lit(out, idx, wi, dist, n, wo, mat, kd, ks, e, coat, axis, cos_c, intensity
         c_alpha = ((2.0 * cos * n[i, 0] - w0) * wo[i, 0] + (2.0 * cos * n[i, 1] - w1) * wo[i, 1]) \
             + (2.0 * cos * n[i, 2] - w2) * wo[i, 2]
         lobe = (e[m] + 2.0) / (2.0 * np.pi) * max(c_alpha, 0.0) ** e[m]
-        scale = cos / (dist[j] * dist[j])
-        if coat[m] > 0.0:
-            scale *= 1.0 - fresnel(cos, 1.0 / coat[m])
+        scale = cos / (dist[j] * dist[j]) * through(cos, coat[m])
         for c in range(3):
             out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * intensity[c] * tint[j, c] \
                 * fall * scale

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from blockhash.scene.microfacet import fresnel
+from blockhash.scene.coat import through
 from blockhash.scene.raycast import RAY_OFFSET
 
 #: Seed of the per-point shifts of the light samples (one fixed stream: an image is the same
@@ -188,6 +188,6 @@ def _shade(out, idx, wi, n, wo, mat, kd, ks, e, coat, li):
         c_alpha = ((2.0 * cos * n[i, 0] - w0) * wo[i, 0] + (2.0 * cos * n[i, 1] - w1) * wo[i, 1]) \
             + (2.0 * cos * n[i, 2] - w2) * wo[i, 2]
         lobe = (e[m] + 2.0) / (2.0 * np.pi) * max(c_alpha, 0.0) ** e[m]
-        through = 1.0 if coat[m] == 0.0 else 1.0 - fresnel(cos, 1.0 / coat[m])
+        t = through(cos, coat[m])
         for c in range(3):
-            out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * li[j, c] * cos * through
+            out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * li[j, c] * cos * t

@@ -18,8 +18,10 @@ expectation.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
+from blockhash.scene.microfacet import fresnel as _fresnel
 from blockhash.scene.optics import fresnel
 
 #: Columns of an object's row in the ray caster's table
@@ -67,3 +69,10 @@ def transmittance(cos, eta) -> np.ndarray:
     normal from outside (0 where ``cos`` <= 0)."""
     cos = np.asarray(cos, dtype=np.float64)
     return np.where(cos > 0.0, 1.0 - fresnel(np.clip(cos, 0.0, 1.0), 1.0 / np.asarray(eta)), 0.0)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def through(cos, eta):
+    """:func:`transmittance` of one ray, for the compiled callers: 1 where ``eta`` is 0 (no
+    coat)."""
+    return 1.0 if eta == 0.0 else 1.0 - _fresnel(cos, 1.0 / eta)
