@@ -149,7 +149,7 @@ def specular_event(geo, d, ns, ng, outer, obj, kind, rng, active):
 
         r_r, f_r, t_r, i_m = rough_event(geo, d, ns, ng, outer, obj, rough & (kind == GLASS),
                                          rng, rough, fresnel)
-        on_mirror = rough & (kind == MIRROR)
+        on_mirror = rough & (kind != GLASS)  # a rough coat's reflection is a rough mirror's
         f_m = dr.select(on_mirror, _mirror_factor(geo, obj, i_m, on_mirror),
                         dr.select(t_r, dr.gather(mi.Color3f, geo.tint, obj, t_r), 1.0))
         r = dr.select(rough, r_r, r)
@@ -174,14 +174,49 @@ def _mirror_factor(geo, obj, cos_i, on):
 def coat_glint(geo, d, ns, outer, obj, diffuse, rng):
     """The photons on ``diffuse`` hits that a coated receiver's coat reflects
     (:mod:`blockhash.scene.coat`, the host's rule): each on a coat met from a side it covers
-    draws a choice, and reflects with Fresnel's probability; :func:`specular_event` reflects
-    them as a mirror of reflectance 1 would, and the caller puts the coat's reflectance on."""
+    draws a choice, and reflects with probability 1 - T (Fresnel's F for a smooth coat).
+    :func:`specular_event` reflects them as a mirror of reflectance 1 would (a rough coat as
+    a rough conductor of the coat's index), and :func:`coat_factor` gives their weight's
+    factor.  Returns (those reflected, their 1 - T)."""
     mi, dr = geo.mi, geo.dr
     coat = dr.gather(mi.Float, geo.coat, obj, diffuse)
     sided = dr.gather(mi.UInt32, geo.one_sided, obj, diffuse) != 0
     coated = diffuse & (coat > 0.0) & (outer | ~sided)
     uc = rng.next_float32(coated)
-    return coated & (uc < fresnel(dr, -dr.dot(d, ns), 1.0 / dr.select(coated, coat, 1.0)))
+    odds = 1.0 - coat_transmittance(geo, -dr.dot(d, ns), obj, coated)
+    return coated & (uc < odds), odds
+
+
+def coat_transmittance(geo, cos, obj, on):
+    """T: what the coats of objects ``obj`` let through of light arriving at ``cos`` from
+    outside (:func:`blockhash.scene.coat.through`; ``on`` the coated ones)."""
+    from blockhash.scene.coat_tables import NODES
+
+    mi, dr = geo.mi, geo.dr
+    coat = dr.gather(mi.Float, geo.coat, obj, on)
+    smooth = 1.0 - fresnel(dr, cos, 1.0 / dr.select(on, coat, 1.0))
+    if not geo.any_rough_coat:
+        return smooth
+    rough = on & (dr.gather(mi.Float, geo.alpha, obj, on) > 0.0)
+    x = dr.clip(cos, 0.0, 1.0) * (NODES - 1)
+    i = dr.minimum(mi.UInt32(x), NODES - 2)
+    f = x - mi.Float(i)
+    at = obj * NODES + i
+    table = ((1.0 - f) * dr.gather(mi.Float, geo.coat_table, at, rough)
+             + f * dr.gather(mi.Float, geo.coat_table, at + 1, rough))
+    return dr.select(rough, table, smooth)
+
+
+def coat_factor(geo, obj, glint, odds, factor):
+    """The weight's factor of the photons that a coat reflected (``glint``, with the
+    probability ``odds``; ``factor`` :func:`specular_event`'s): the coat's reflectance on a
+    smooth coat, the rough conductor's factor over the odds on a rough one."""
+    mi, dr = geo.mi, geo.dr
+    smooth = dr.gather(mi.Color3f, geo.coat_reflectance, obj, glint)
+    if not geo.any_rough_coat:
+        return dr.select(glint, smooth, factor)
+    rough = glint & (dr.gather(mi.Float, geo.alpha, obj, glint) > 0.0)
+    return dr.select(glint, dr.select(rough, factor / dr.select(rough, odds, 1.0), smooth), factor)
 
 
 def _trace(geo, max_bounces, o, d, w, rng):
@@ -206,7 +241,7 @@ def _trace(geo, max_bounces, o, d, w, rng):
         kind = dr.gather(mi.UInt32, geo.kind, obj, hit)
         diffuse = hit & (kind == DIFFUSE)
         p, ns, ng, outer = geo.hit_frame(face, u, v, d, hit)
-        glint = coat_glint(geo, d, ns, outer, obj, diffuse, rng) if geo.any_coat else None
+        glint, odds = coat_glint(geo, d, ns, outer, obj, diffuse, rng) if geo.any_coat else (None, None)
         if glint is not None:
             diffuse &= ~glint
         fate = dr.select(diffuse & (depth == 0), DIRECT, fate)
@@ -223,8 +258,7 @@ def _trace(geo, max_bounces, o, d, w, rng):
         event = spec & (depth < max_bounces)
         r, factor, side, fell_back = specular_event(geo, d, ns, ng, outer, obj, kind, rng, event)
         if glint is not None:
-            factor = dr.select(glint, dr.gather(mi.Color3f, geo.coat_reflectance, obj, glint),
-                               factor)
+            factor = coat_factor(geo, obj, glint, odds, factor)
         fallbacks += dr.select(fell_back, 1, 0)
         w = dr.select(event, w * factor, w)
         dead = event & ~dr.any(w > 0.0)

@@ -114,6 +114,8 @@ class DeviceGeometry:
         self.coat = f32(geometry.coat)
         self.coat_reflectance = f32(geometry.coat_reflectance)
         self.any_coat = bool(np.any(geometry.coat > 0.0))
+        self.coat_table = f32(geometry.coat_table)  # a rough coat's (blockhash.scene.coat)
+        self.any_rough_coat = bool(np.any((geometry.coat > 0.0) & (geometry.alpha > 0.0)))
 
     def intersect(self, o, d, active):
         """(hit, global face) of the rays ``o + t d`` (Mitsuba's preliminary intersection:

@@ -19,7 +19,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from blockhash.device.caustic import coat_glint, fresnel, photon_streams, specular_event
+from blockhash.device.caustic import (
+    coat_factor,
+    coat_glint,
+    coat_transmittance,
+    photon_streams,
+    specular_event,
+)
 from blockhash.device.emission import cone_frame, in_cone
 from blockhash.device.geometry import DIFFUSE, DeviceGeometry
 from blockhash.device.light_tables import LightTables
@@ -221,7 +227,7 @@ def _paths(tr, o, d, w, rng, capacity, out):
         back = diffuse & ~outer & (dr.gather(mi.UInt32, geo.one_sided, obj, diffuse) != 0)
         end = dr.select(back, ABSORBED_, end)
         diffuse &= ~back
-        glint = coat_glint(geo, d, ns, outer, obj, diffuse, rng) if geo.any_coat else None
+        glint, odds = coat_glint(geo, d, ns, outer, obj, diffuse, rng) if geo.any_coat else (None, None)
         if glint is not None:  # the coat's reflection: a specular event, not a vertex
             diffuse &= ~glint
         store = diffuse & (seen >= 1)
@@ -253,10 +259,9 @@ def _paths(tr, o, d, w, rng, capacity, out):
             textured, albedo = tr.textures.albedo(obj, face, u, v, bounce)
             kd = dr.select(textured, albedo, kd)
         factor = kd + dr.gather(mi.Color3f, tr.ks, obj, bounce) * lobe
-        if geo.any_coat:  # what leaves a coated base passes its coat: 1 - F on the way out
-            coat = dr.gather(mi.Float, geo.coat, obj, bounce)
-            through = 1.0 - fresnel(dr, cos_n, 1.0 / dr.select(coat > 0.0, coat, 1.0))
-            factor = dr.select(coat > 0.0, factor * through, factor)
+        if geo.any_coat:  # what leaves a coated base passes its coat: T on the way out
+            coated = bounce & (dr.gather(mi.Float, geo.coat, obj, bounce) > 0.0)
+            factor = dr.select(coated, factor * coat_transmittance(geo, cos_n, obj, coated), factor)
         factor = dr.select((dr.dot(wo, ng) <= 0.0) | (cos_n <= 0.0), 0.0, factor)
         q = dr.minimum(dr.max(factor), 1.0)
         survive = bounce & (ur < q)
@@ -264,8 +269,7 @@ def _paths(tr, o, d, w, rng, capacity, out):
         turn = spec & ~last
         r, s_factor, side, _ = specular_event(geo, d, ns, ng, outer, obj, kind, rng, turn)
         if glint is not None:
-            s_factor = dr.select(glint, dr.gather(mi.Color3f, geo.coat_reflectance, obj, glint),
-                                 s_factor)
+            s_factor = coat_factor(geo, obj, glint, odds, s_factor)
         w_spec = w * s_factor
         spec_go = turn & dr.any(w_spec > 0.0)
         end = dr.select(turn & ~spec_go, ABSORBED_, end)

@@ -54,7 +54,7 @@ def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
                         dtype=np.float64).reshape(len(objects), -1)
 
     kd, ks, e = per_object("kd", np.zeros(3)), per_object("ks", np.zeros(3)), per_object("n", 1.0)[:, 0]
-    coat = per_object("coat", 0.0)[:, 0]
+    coat = rays.geometry.mirror  # a coated receiver's row: blockhash.scene.coat.through
     surface_lights.emission_seen(out, lights, objects, p, wo, mat, rays)
     surface_lights.environment_seen(out, lights, points)
     owner = np.arange(h * w) if points.owner is None else points.owner
@@ -105,7 +105,7 @@ def _lit(out, idx, wi, dist, n, wo, mat, kd, ks, e, coat, axis, cos_c, intensity
     (:func:`_cone`: the peak inside the beam, falling linearly in the angle to 0 at the
     cone's edge, :meth:`blockhash.scene.lights.SpotLight.falloff`), times ``tint[j]`` (a
     spot's projected texture toward the point) and a coated receiver's transmittance toward
-    the light (``coat``: :mod:`blockhash.scene.coat`)."""
+    the light (``coat`` the ray caster's per-object table: :func:`blockhash.scene.coat.through`)."""
     for j in numba.prange(len(idx)):
         i = idx[j]
         w0, w1, w2 = wi[j, 0], wi[j, 1], wi[j, 2]
@@ -120,7 +120,7 @@ def _lit(out, idx, wi, dist, n, wo, mat, kd, ks, e, coat, axis, cos_c, intensity
         c_alpha = ((2.0 * cos * n[i, 0] - w0) * wo[i, 0] + (2.0 * cos * n[i, 1] - w1) * wo[i, 1]) \
             + (2.0 * cos * n[i, 2] - w2) * wo[i, 2]
         lobe = (e[m] + 2.0) / (2.0 * np.pi) * max(c_alpha, 0.0) ** e[m]
-        scale = cos / (dist[j] * dist[j]) * through(cos, coat[m])
+        scale = cos / (dist[j] * dist[j]) * through(cos, coat, m)
         for c in range(3):
             out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * intensity[c] * tint[j, c] \
                 * fall * scale

@@ -28,14 +28,17 @@ def rough_events(rays, idx, obj, d, n, outer, weight, pass_index: int, event: in
     return dirs, np.where(through, -1.0, 1.0)
 
 
-def through_coat(weight, nrm, view, coat):
-    """``weight`` with the points on coated receivers (``coat`` > 0, their coats' indices)
-    seen through the coat: times 1 - F toward the viewer (:mod:`blockhash.scene.coat`)."""
+def through_coat(weight, nrm, view, obj, geometry):
+    """``weight`` with the points on coated receivers (objects ``obj``, -1: none; ``geometry``
+    the ray caster's) seen through the coat: times its transmittance toward the viewer
+    (:func:`blockhash.scene.coat.transmittance`)."""
     from blockhash.scene.coat import transmittance
 
-    on = coat > 0.0
-    if not on.any():
+    on = np.flatnonzero(obj >= 0)
+    on = on[geometry.coat[obj[on]] > 0.0]
+    if not len(on):
         return weight
     out = weight.copy()
-    out[on] *= transmittance(np.sum(nrm[on] * view[on], axis=1), coat[on])[:, None]
+    out[on] *= transmittance(np.sum(nrm[on] * view[on], axis=1), geometry.mirror,
+                             obj[on])[:, None]
     return out

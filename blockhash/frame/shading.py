@@ -123,6 +123,9 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     if events is None:
         events = MAX_DIELECTRIC_EVENTS if glass.any() else MAX_MIRROR_BOUNCES
     met = None  # the light met at rough vertices, per sample
+    if events == 0:
+        met = np.zeros((h * w, 3))
+        _first_rough(met, rays, lights, pos, nrm, view, obj, outer)
     for event in range(events):
         on = specular[obj]
         if not on.any():
@@ -165,7 +168,17 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
                          weight=weight.reshape(h, w, 3).astype(np.float32),
                          escaped=escaped.reshape(h, w) if environment and escaped.any()
                          else None,
-                         rough_direct=None if met is None else met.reshape(h, w, 3))
+                         rough_direct=None if met is None or not met.any() else met.reshape(h, w, 3))
+
+
+def _first_rough(met, rays, lights, pos, nrm, view, obj, outer) -> None:
+    """Adds to ``met`` the point, spot and directional lights met at the rough surfaces the
+    camera sees first (:func:`delta_lights`), where no specular event is followed: a path of
+    two segments, as Mitsuba's ``max_depth`` 2 takes them."""
+    ri = np.flatnonzero(obj >= 0)
+    ri = ri[rays.geometry.alpha[obj[ri]] > 0.0]
+    if len(ri):
+        met[ri] += delta_lights(rays, lights, pos[ri], nrm[ri], view[ri], obj[ri], outer[ri])
 
 
 def _camera_start(camera, gbuffer, sided, rays: SceneRays):
@@ -307,13 +320,14 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     coat = np.append(rays.geometry.coat, 0.0)  # index -1: nothing hit
     if events == 0:  # no event followed: the points the camera sees directly
         on = specular[obj]
-        shaded = through_coat(weight, nrm, view, coat[obj])
+        shaded = through_coat(weight, nrm, view, obj, rays.geometry)
         done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, shaded, esc))
                     + (np.ones(int((~on).sum()), dtype=bool),))
+        _first_rough(met, rays, lights, pos, nrm, view, obj, outer)
     for event in range(MAX_DIELECTRIC_EVENTS if events is None else events):
         on = specular[obj]
         glint = coat[obj] > 0.0  # a coated receiver: shaded through its coat, and reflects
-        shaded = through_coat(weight, nrm, view, coat[obj])
+        shaded = through_coat(weight, nrm, view, obj, rays.geometry)
         done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, shaded, esc))
                     + (np.full(int((~on).sum()), event == 0),))
         on |= glint
@@ -331,7 +345,8 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
             g[:, None], 1.0, reflectance(obj, -np.sum(d * nrm, axis=1)))
         if glint.any():  # the coat's reflection: Fresnel's reflectance times the coat's
             cos = -np.sum(d[glint] * nrm[glint], axis=1)
-            w_refl[glint] = weight[glint] * (1.0 - transmittance(cos, coat[obj[glint]]))[:, None] \
+            w_refl[glint] = weight[glint] * (1.0 - transmittance(cos, rays.geometry.mirror,
+                                                                 obj[glint]))[:, None] \
                 * rays.geometry.coat_reflectance[obj[glint]]
         rough = rays.geometry.alpha[obj] > 0.0
         rough_side = np.ones(len(obj))

@@ -175,8 +175,9 @@ def emission_seen(out, lights, objects, p, wo, mat, rays) -> None:
 @numba.njit(cache=True, nogil=True, parallel=True)
 def _shade(out, idx, wi, n, wo, mat, kd, ks, e, coat, li):
     """Adds to ``out[idx]`` f_r(wi, wo) cos(theta) li: the modified Phong f_r of
-    :func:`blockhash.scene.materials.phong_brdf` (times the coat's transmittance 1 - F
-    toward ``wi`` where ``coat[m]`` > 0: :mod:`blockhash.scene.coat`) and ``li`` (m, 3) the
+    :func:`blockhash.scene.materials.phong_brdf` (times the coat's transmittance toward
+    ``wi``, ``coat`` the ray caster's per-object table: :func:`blockhash.scene.coat.through`)
+    and ``li`` (m, 3) the
     light arriving along ``wi`` (radiance times its solid angle, or irradiance)."""
     for j in numba.prange(len(idx)):
         i = idx[j]
@@ -188,6 +189,6 @@ def _shade(out, idx, wi, n, wo, mat, kd, ks, e, coat, li):
         c_alpha = ((2.0 * cos * n[i, 0] - w0) * wo[i, 0] + (2.0 * cos * n[i, 1] - w1) * wo[i, 1]) \
             + (2.0 * cos * n[i, 2] - w2) * wo[i, 2]
         lobe = (e[m] + 2.0) / (2.0 * np.pi) * max(c_alpha, 0.0) ** e[m]
-        t = through(cos, coat[m])
+        t = through(cos, coat, m)
         for c in range(3):
             out[i, c] += (kd[m, c] / np.pi + ks[m, c] * lobe) * li[j, c] * cos * t

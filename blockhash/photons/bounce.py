@@ -7,8 +7,9 @@ weight, times a conductor's Fresnel reflectance; about the geometric normal wher
 shading normal sends the ray into the surface); glass reflects or refracts with the Fresnel
 probability (:mod:`blockhash.scene.optics`, the same formulas, scalar); a rough mirror or glass
 does the same about a sampled microfacet (:mod:`blockhash.scene.microfacet`); a coated
-receiver's coat reflects with Fresnel's probability, as a mirror (:mod:`blockhash.scene.coat`),
-and otherwise the hit is diffuse; a ray whose weight falls to 0 is absorbed.  The rays that go on
+receiver's coat reflects with Fresnel's probability, as a mirror (a rough coat with its
+table's, about a sampled microfacet: :mod:`blockhash.scene.coat`), and otherwise the hit is
+diffuse; a ray whose weight falls to 0 is absorbed.  The rays that go on
 are written, in order, to the front of the next bounce's arrays: no boolean mask, fancy
 index or temporary array per step, which the numpy version spent as much time on as embree
 on its rays (BENCHMARKS.md, "What a photon costs").
@@ -20,7 +21,7 @@ import numba
 import numpy as np
 
 from blockhash.scene import microfacet
-from blockhash.scene.coat import COAT, COAT_REFLECTANCE
+from blockhash.scene.coat import COAT, COAT_REFLECTANCE, through
 from blockhash.scene.microfacet import ALPHA, DISTRIBUTION, UNIFORMS, mirror_factor
 from blockhash.scene.microfacet import fresnel as _fresnel
 from blockhash.scene.raycast import hit_frame
@@ -173,6 +174,7 @@ def bounce(first, last, idx, d, w, hit, face, u, v, tri, vn, fn, face_object, sp
         d0, d1, d2 = d[i, 0], d[i, 1], d[i, 2]
         outer = (d0 * fn[f, 0] + d1 * fn[f, 1]) + d2 * fn[f, 2] < 0.0  # met from outside
         coated = False
+        glint = 1.0
         if not specular[obj]:
             coat = reflectance[obj, COAT]
             if coat > 0.0 and (outer or not one_sided[obj]):  # the coat reflects by Fresnel
@@ -180,7 +182,8 @@ def bounce(first, last, idx, d, w, hit, face, u, v, tri, vn, fn, face_object, sp
                                                                d1, d2)
                 uc = choices[pid, events[pid] % choices.shape[1]]
                 events[pid] += 1
-                coated = uc < _fresnel(-((d0 * n0 + d1 * n1) + d2 * n2), 1.0 / coat)
+                glint = 1.0 - through(-((d0 * n0 + d1 * n1) + d2 * n2), reflectance, obj)
+                coated = uc < glint
             if not coated:
                 if first:
                     fate[pid] = DIRECT  # direct light: the renderer's shadow rays do it
@@ -206,7 +209,13 @@ def bounce(first, last, idx, d, w, hit, face, u, v, tri, vn, fn, face_object, sp
         if last:
             fate[pid] = MAX_BOUNCES
             continue
-        if coated:
+        if coated and reflectance[obj, ALPHA] > 0.0:  # a rough coat: a rough conductor of
+            # its index, over the probability of its choice
+            r0, r1, r2, w0, w1, w2, side = _event(
+                pid, obj, outer, d0, d1, d2, n0, n1, n2, g0, g1, g2, w[i, 0] / glint,
+                w[i, 1] / glint, w[i, 2] / glint, dielectric, reflectance, ior, tint, choices,
+                events, fallbacks)
+        elif coated:
             r0, r1, r2, w0, w1, w2, side = _coat(obj, d0, d1, d2, n0, n1, n2, g0, g1, g2,
                                                  w[i, 0], w[i, 1], w[i, 2], reflectance)
         else:

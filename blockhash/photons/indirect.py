@@ -265,7 +265,7 @@ class IndirectSource:
             new = []
             if geom.coat.any():  # a coat reflects by Fresnel: a specular event, not a vertex
                 glint = self._coats(idx[diff], d[diff], w[diff], obj[diff], p, ns, ng, choices,
-                                    events)
+                                    events, counts)
                 if glint is not None:
                     keep, part = glint
                     diff, p, ns, ng = diff[keep], p[keep], ns[keep], ng[keep]
@@ -297,32 +297,49 @@ class IndirectSource:
             idx, d, w, o = (np.concatenate(a) for a in zip(*new))
         return parts, counts
 
-    def _coats(self, idx, d, w, obj, p, ns, ng, choices, events):
+    def _coats(self, idx, d, w, obj, p, ns, ng, choices, events, counts):
         """The coat's reflections (:mod:`blockhash.scene.coat`) among diffuse hits: each on a
-        coated receiver reflects with Fresnel's probability (a choice from ``choices``).
+        coated receiver reflects with Fresnel's probability (a rough coat with its table's,
+        about a sampled microfacet; the choices from ``choices``).
         None where none does, else (the hits that stay diffuse, (idx, reflected directions,
         weights times the coat's reflectance, new origins) of those that reflect)."""
         from blockhash.scene.coat import transmittance
+        from blockhash.scene.microfacet import UNIFORMS, rough_scatter
 
         geom = self.geometry
         coat = geom.coat[obj]
         on = np.flatnonzero(coat > 0.0)
         if not len(on):
             return None
-        uc = choices[idx[on], events[idx[on]] % choices.shape[1]]
+        width = choices.shape[1]
+        uc = choices[idx[on], events[idx[on]] % width]
         events[idx[on]] += 1
         cos = -np.einsum("ij,ij->i", d[on], ns[on])
-        glint = on[uc >= transmittance(cos, coat[on])]
+        t = transmittance(cos, geom.mirror, obj[on])
+        hit = uc >= t
+        glint, p_glint = on[hit], 1.0 - t[hit]
         if not len(glint):
             return None
         r = reflect(d[glint], ns[glint])
         wrong = np.einsum("ij,ij->i", r, ng[glint]) <= 0.0
         r[wrong] = reflect(d[glint][wrong], ng[glint][wrong])
+        wg = w[glint] * geom.coat_reflectance[obj[glint]]
+        rough = np.flatnonzero(geom.alpha[obj[glint]] > 0.0)
+        if len(rough):  # a rough coat: a rough conductor of its index, over the choice's odds
+            ids = idx[glint[rough]]
+            u = choices[ids[:, None], (events[ids][:, None] + np.arange(UNIFORMS)) % width]
+            events[ids] += UNIFORMS
+            g = glint[rough]
+            r[rough], factor, _ = rough_scatter(d[g], ns[g], ng[g], np.ones(len(g), dtype=bool),
+                                                obj[g], geom.mirror, geom.is_dielectric,
+                                                geom.ior, u)
+            wg[rough] = w[g] * factor / p_glint[rough, None]
         keep = np.ones(len(idx), dtype=bool)
         keep[glint] = False
         offset = RAY_OFFSET * geom.scale
-        return keep, (idx[glint], r, w[glint] * geom.coat_reflectance[obj[glint]],
-                      p[glint] + ng[glint] * offset)
+        live = wg.max(axis=1) > 0.0  # a rough coat's microfacet may send it in: absorbed
+        counts["absorbed"] += int((~live).sum())
+        return keep, (idx[glint][live], r[live], wg[live], p[glint][live] + ng[glint][live] * offset)
 
     def _bounce(self, idx, d, w, obj, p, ns, ng, seed, start, event, counts, hits=None):
         """A diffuse bounce: cosine-distributed about the shading normal on the incoming side
@@ -350,7 +367,7 @@ class IndirectSource:
             from blockhash.scene.coat import transmittance
 
             on = coat > 0.0
-            factor[on] *= transmittance(cos_n[on], coat[on])[:, None]
+            factor[on] *= transmittance(cos_n[on], self.geometry.mirror, obj[on])[:, None]
         factor[under | (cos_n <= 0.0)] = 0.0
         q = np.minimum(factor.max(axis=1), 1.0)
         live = u[:, 2] < q

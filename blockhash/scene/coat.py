@@ -1,5 +1,5 @@
-"""A diffuse surface under a smooth dielectric coat: Mitsuba 3's ``plastic`` BSDF
-(:attr:`blockhash.scene.materials.PhongMaterial.coat`).
+"""A diffuse surface under a dielectric coat: Mitsuba 3's ``plastic`` BSDF (a smooth coat) and
+``roughplastic`` (a rough one) (:attr:`blockhash.scene.materials.PhongMaterial.coat`).
 
 The coat of relative index ``eta`` reflects a ray arriving at ``cos`` to the normal with the
 Fresnel reflectance F(cos) (a delta lobe, times the coat's ``coat_reflectance``), and the
@@ -14,6 +14,18 @@ transmittances ``1 - F`` (:func:`transmittance`) are the coat's: the camera's ra
 own on its weight, the direct light's shadow rays theirs, and a photon meets the coat's
 reflection with probability F and the base otherwise, which carries its ``1 - F`` in
 expectation.
+
+A rough coat (``alpha`` > 0, Mitsuba's ``roughplastic``) reflects as a rough mirror of the
+coat's index (:mod:`blockhash.scene.microfacet`: a conductor of ``eta`` and k = 0, times
+``coat_reflectance``), and its two transmittances and F_dr are Mitsuba's tables of the rough
+interface (:func:`blockhash.scene.coat_tables.rough_tables`): T(cos), the albedo of the
+microfacet refraction into the coat at ``cos`` (Smith's shadowing on both directions),
+tabulated at :data:`~blockhash.scene.coat_tables.NODES` cosines and interpolated linearly, in
+place of 1 - F, and F_dr from the albedo of the microfacet reflection inside it.  A photon
+meets the rough coat's reflection with probability 1 - T(cos): it reflects about a sampled
+microfacet, its weight divided by 1 - T(cos); the base otherwise, which carries its T in
+expectation.  (What the shadowing takes, 1 - R - T, the reflection's weight loses in
+expectation, as Mitsuba's BSDF does.)
 """
 
 from __future__ import annotations
@@ -21,13 +33,16 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from blockhash.scene.coat_tables import NODES, rough_tables
+from blockhash.scene.microfacet import ALPHA
 from blockhash.scene.microfacet import fresnel as _fresnel
 from blockhash.scene.optics import fresnel
 
 #: Columns of an object's row in the ray caster's table
 #: (:attr:`blockhash.scene.raycast.EmbreeGeometry.mirror`) that hold its coat's index (0:
-#: none) and, from the second, its coat's reflectance (three).
-COAT, COAT_REFLECTANCE = 12, 13
+#: none), from the second its coat's reflectance (three), and from the third a rough coat's
+#: transmittance at the :data:`~blockhash.scene.coat_tables.NODES` cosines (module docstring).
+COAT, COAT_REFLECTANCE, COAT_TABLE = 12, 13, 16
 
 
 def fresnel_diffuse_reflectance(eta):
@@ -43,36 +58,62 @@ def fresnel_diffuse_reflectance(eta):
     return np.where(eta < 1.0, denser, lighter)
 
 
-def coated_albedo(base, eta: float, nonlinear: bool = False) -> np.ndarray:
+def internal_reflectance(eta: float, alpha: float = 0.0, distribution: str = "beckmann") -> float:
+    """F_dr: the coat's diffuse reflectance from inside (module docstring), smooth or rough."""
+    if alpha > 0.0:
+        return rough_tables(float(eta), float(alpha), distribution == "ggx")[1]
+    return float(fresnel_diffuse_reflectance(1.0 / eta))
+
+
+def coated_albedo(base, eta: float, nonlinear: bool = False, alpha: float = 0.0,
+                  distribution: str = "beckmann") -> np.ndarray:
     """The Lambertian factor kd (module docstring) of a base reflectance ``base`` (any
-    shape) under a coat of index ``eta``."""
+    shape) under a coat of index ``eta`` (rough: ``alpha`` > 0 of ``distribution``)."""
     base = np.asarray(base, dtype=np.float64)
-    fdr = float(fresnel_diffuse_reflectance(1.0 / eta))
+    fdr = internal_reflectance(eta, alpha, distribution)
     return base / (1.0 - (base * fdr if nonlinear else fdr)) / (eta * eta)
 
 
-def base_reflectance(kd, eta: float, nonlinear: bool = False) -> np.ndarray:
+def base_reflectance(kd, eta: float, nonlinear: bool = False, alpha: float = 0.0,
+                     distribution: str = "beckmann") -> np.ndarray:
     """The inverse of :func:`coated_albedo`: the base reflectance under the coat whose
     Lambertian factor is ``kd``."""
     x = np.asarray(kd, dtype=np.float64) * eta * eta
-    fdr = float(fresnel_diffuse_reflectance(1.0 / eta))
+    fdr = internal_reflectance(eta, alpha, distribution)
     return x / (1.0 + x * fdr) if nonlinear else x * (1.0 - fdr)
 
 
-def largest_albedo(eta: float) -> float:
+def largest_albedo(eta: float, alpha: float = 0.0, distribution: str = "beckmann") -> float:
     """The largest Lambertian factor a coat of index ``eta`` gives (a white base)."""
-    return float(coated_albedo(1.0, eta))
+    return float(coated_albedo(1.0, eta, alpha=alpha, distribution=distribution))
 
 
-def transmittance(cos, eta) -> np.ndarray:
-    """1 - F: what a coat of index ``eta`` lets through of light arriving at ``cos`` to its
-    normal from outside (0 where ``cos`` <= 0)."""
-    cos = np.asarray(cos, dtype=np.float64)
-    return np.where(cos > 0.0, 1.0 - fresnel(np.clip(cos, 0.0, 1.0), 1.0 / np.asarray(eta)), 0.0)
+def transmittance(cos, table, obj) -> np.ndarray:
+    """1 - F, or a rough coat's T (module docstring): what the coats of objects ``obj``
+    let through of light arriving at ``cos`` to their normals from outside (0 where ``cos``
+    <= 0, 1 without a coat); ``table`` the ray caster's per-object table."""
+    cos = np.clip(np.asarray(cos, dtype=np.float64), 0.0, 1.0)
+    rows = table[np.asarray(obj)]
+    eta = np.where(rows[:, COAT] > 0.0, rows[:, COAT], 1.0)
+    smooth = 1.0 - fresnel(cos, 1.0 / eta)
+    x = cos * (NODES - 1)
+    i = np.minimum(x.astype(np.int64), NODES - 2)
+    f = x - i
+    at = np.arange(len(rows))
+    rough = (1.0 - f) * rows[at, COAT_TABLE + i] + f * rows[at, COAT_TABLE + i + 1]
+    out = np.where(rows[:, ALPHA] > 0.0, rough, smooth)
+    return np.where(rows[:, COAT] > 0.0, np.where(cos > 0.0, out, 0.0), 1.0)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
-def through(cos, eta):
-    """:func:`transmittance` of one ray, for the compiled callers: 1 where ``eta`` is 0 (no
-    coat)."""
-    return 1.0 if eta == 0.0 else 1.0 - _fresnel(cos, 1.0 / eta)
+def through(cos, table, obj):
+    """:func:`transmittance` of one ray, for the compiled callers (``cos`` > 0)."""
+    eta = table[obj, COAT]
+    if eta == 0.0:
+        return 1.0
+    if table[obj, ALPHA] == 0.0:
+        return 1.0 - _fresnel(cos, 1.0 / eta)
+    x = min(max(cos, 0.0), 1.0) * (NODES - 1)
+    i = min(int(x), NODES - 2)
+    f = x - i
+    return (1.0 - f) * table[obj, COAT_TABLE + i] + f * table[obj, COAT_TABLE + i + 1]

@@ -38,7 +38,9 @@ class PhongMaterial:
     refraction (Mitsuba's ``plastic``, :mod:`blockhash.scene.coat`): the coat reflects
     specularly with Fresnel's reflectance times ``coat_reflectance``, and ``kd`` is the base's
     Lambertian factor seen through it (up to :func:`blockhash.scene.coat.largest_albedo`,
-    above 1 for a white base under a dense coat; ``ks`` 0)."""
+    above 1 for a white base under a dense coat; ``ks`` 0).  With ``alpha`` > 0 the coat is
+    rough (Mitsuba's ``roughplastic``): its reflection a microfacet lobe of ``alpha`` and
+    ``distribution`` (:func:`roughness`), and ``kd`` up to that coat's largest albedo."""
 
     kd: np.ndarray
     ks: np.ndarray
@@ -51,9 +53,16 @@ class PhongMaterial:
     #: The index of refraction of a smooth dielectric coat over the base (0: none).
     coat: float = 0.0
     coat_reflectance: np.ndarray = field(default_factory=lambda: np.ones(3))
+    #: The coat's microfacet roughness (0: a smooth coat) and distribution (:func:`roughness`).
+    alpha: float = 0.0
+    distribution: str = "beckmann"
 
     def __post_init__(self):
         with _owned("PhongMaterial"):
+            roughness(self)
+            if self.alpha > 0.0 and not self.coat:
+                raise _FieldError("alpha", "a roughness is the coat's: give coat (its index of "
+                                  "refraction) with alpha, or alpha 0")
             if self.texture is not None:
                 from blockhash.scene.texture import Texture
 
@@ -91,10 +100,10 @@ class PhongMaterial:
             self.coat_reflectance, "coat_reflectance", hi=1.0, what="coat_reflectance"))
         if ks.any():
             raise _FieldError("ks", "a coated receiver is diffuse under its coat: ks must be 0")
-        top = largest_albedo(coat)
+        top = largest_albedo(coat, self.alpha, self.distribution)
         if np.any(kd > top + 1e-9):
             raise _FieldError("kd", f"kd = {_fmt(kd)} exceeds {top:.4g}, what a white base "
-                              f"gives under a coat of index {coat:g}; lower kd")
+                              f"gives under this coat (index {coat:g}{_rough(self)}); lower kd")
 
     @property
     def one_sided(self) -> bool:
@@ -104,7 +113,7 @@ class PhongMaterial:
     def __repr__(self) -> str:
         return (f"PhongMaterial(kd={_fmt(self.kd)}, ks={_fmt(self.ks)}, n={self.n:g}"
                 + (", sided='one'" if self.one_sided else "")
-                + (f", coat={self.coat:g}" if self.coat else "")
+                + (f", coat={self.coat:g}" if self.coat else "") + _rough(self)
                 + (f", texture={self.texture!r})" if self.texture is not None else ")"))
 
 

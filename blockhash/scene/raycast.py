@@ -11,6 +11,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from blockhash.scene import coat_tables
+
 #: Ray origins leaving a mirror move this far along its geometric normal, relative
 #: to the scene's bounding-box diagonal.  embree works in float32 (ulp 2.4e-7 at 2 m);
 #: 1e-5 of a 4 m scene is 4e-5 m, ~170 ulps, still 750x thinner than the ring wall.
@@ -103,12 +105,19 @@ class EmbreeGeometry:
         self.coat_reflectance = np.array(
             [getattr(o.material, "coat_reflectance", np.ones(3)) for o in objects],
             dtype=np.float64).reshape(len(objects), 3)
+        self.coat_table = np.zeros((len(objects), coat_tables.NODES))
+        for i in np.flatnonzero((self.coat > 0.0) & (self.alpha > 0.0)):
+            # a rough coat reflects as a rough conductor of its index and k = 0
+            self.reflectance[i], self.eta[i], self.k[i] = self.coat_reflectance[i], self.coat[i], 0.0
+            self.conductor[i] = True
+            self.coat_table[i] = coat_tables.rough_tables(self.coat[i], self.alpha[i], bool(self.ggx[i]))[0]
         #: per object, the table the compiled events read (:func:`blockhash.photons.bounce.
         #: _event`): reflectance, eta, k, conductor (0 or 1), roughness and distribution of
-        #: the specular ones, and the coat (index, reflectance) of a coated receiver
+        #: the specular ones and of a rough coat, the coat (index, reflectance) of a coated
+        #: receiver, and a rough coat's transmittance (:data:`blockhash.scene.coat.COAT_TABLE`)
         self.mirror = np.ascontiguousarray(np.column_stack(
             [self.reflectance, self.eta, self.k, self.conductor.astype(np.float64), self.alpha,
-             self.ggx.astype(np.float64), self.coat, self.coat_reflectance]))
+             self.ggx.astype(np.float64), self.coat, self.coat_reflectance, self.coat_table]))
 
     @property
     def casts(self) -> np.ndarray:

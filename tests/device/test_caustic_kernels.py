@@ -110,17 +110,19 @@ def textured_lamp(scene):
     return replace(scene, lights=tuple(lights))
 
 
-def coated(scene, names=None, coat: float = 1.6):
-    """``scene`` with its diffuse receivers (or those ``names``) under a smooth coat
-    (:mod:`blockhash.scene.coat`): plastic, whose coats reflect a share of the light."""
+def coated(scene, names=None, coat: float = 1.6, alpha: float = 0.0, distribution="beckmann"):
+    """``scene`` with its diffuse receivers (or those ``names``) under a coat
+    (:mod:`blockhash.scene.coat`), smooth or of roughness ``alpha``: plastic, whose coats
+    reflect a share of the light."""
     from blockhash.scene.coat import largest_albedo
     from blockhash.scene.materials import PhongMaterial
 
-    top = largest_albedo(coat)
+    top = largest_albedo(coat, alpha, distribution)
 
     def plastic(m):
         return PhongMaterial(kd=np.minimum(m.kd, top), ks=0.0, n=0.0, sided=m.sided, coat=coat,
-                             coat_reflectance=np.array([1.0, 0.8, 0.6]))
+                             coat_reflectance=np.array([1.0, 0.8, 0.6]), alpha=alpha,
+                             distribution=distribution)
 
     objects = tuple(replace(o, material=plastic(o.material))
                     if isinstance(o.material, PhongMaterial) and (names is None or o.name in names)
@@ -142,10 +144,13 @@ CASES = {
     "frosted glass (GGX)": lambda: roughened(small("glass"), 0.15, "ggx"),
     "ring on a plastic floor": lambda: coated(small("ring")),
     "cbox of plastic (area light)": lambda: coated(small("cbox")),
+    "ring on a rough plastic floor (GGX)": lambda: coated(small("ring"), alpha=0.15,
+                                                          distribution="ggx"),
 }
 
 
-@pytest.mark.parametrize("case", ["ring of rough gold (Beckmann)", "frosted glass (GGX)"])
+@pytest.mark.parametrize("case", ["ring of rough gold (Beckmann)", "frosted glass (GGX)",
+                                  "ring on a rough plastic floor (GGX)"])
 def test_the_kernels_spread_a_rough_surfaces_caustic_as_the_host_does(case):
     scene = CASES[case]()
     host = PhotonSource(scene, device="host").emit(200_000, seed=7)

@@ -45,10 +45,10 @@ def test_the_kernels_indirect_photons_carry_the_hosts_power_to_every_receiver(na
         from environment_maps import sky
 
         scene = replace(load_scene(SCENES / f"{name.split()[0]}.toml"), lights=(sky(),))
-    elif name.endswith("of plastic"):  # coats that reflect a share of each bounce
-        from test_caustic_kernels import coated
+    elif name.endswith("of plastic"):  # coats that reflect a share of each bounce, smooth
+        from test_caustic_kernels import coated  # and (floor, back) rough
 
-        scene = coated(load_scene(SCENES / "cbox.toml"))
+        scene = coated(coated(load_scene(SCENES / "cbox.toml")), ("floor", "back"), alpha=0.2)
     elif name.endswith("textured lamp"):
         from test_caustic_kernels import textured_lamp
 

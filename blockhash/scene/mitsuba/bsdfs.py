@@ -1,5 +1,6 @@
 """Mitsuba 3's BSDFs as blockhash's materials (for :mod:`.importer`): ``diffuse`` (one-sided,
-as Mitsuba's; both faces inside ``twosided``), ``conductor`` (a perfect mirror, or a smooth
+as Mitsuba's; both faces inside ``twosided``), ``plastic`` and ``roughplastic`` (a diffuse
+base under a smooth or rough coat: :mod:`blockhash.scene.coat`), ``conductor`` (a perfect mirror, or a smooth
 metal of ``eta`` and ``k`` or a named preset), ``dielectric`` (``int_ior`` a number or one of
 Mitsuba's named indices), ``roughconductor`` and ``roughdielectric`` (the same with isotropic
 microfacets: :mod:`blockhash.scene.microfacet`) and ``twosided`` around one of them, or around two diffuse ones
@@ -15,8 +16,8 @@ from blockhash.scene.mitsuba.spectra import conductor_preset, conductor_presets
 from blockhash.scene.mitsuba.textures import Checkerboard, TexturedDiffuse, texture
 from blockhash.scene.model import DielectricMaterial, MirrorMaterial, PhongMaterial
 
-BSDFS = ("diffuse", "plastic", "conductor", "roughconductor", "dielectric", "roughdielectric",
-         "twosided")
+BSDFS = ("diffuse", "plastic", "roughplastic", "conductor", "roughconductor", "dielectric",
+         "roughdielectric", "twosided")
 #: What a rough BSDF reads of its microfacets (:func:`roughness`).
 ROUGHNESS = {"distribution": ("string",), "alpha": ("float", "texture"),
              "alpha_u": ("float", "texture"), "alpha_v": ("float", "texture"),
@@ -62,7 +63,7 @@ def bsdf(r, el, key: str, *, twosided: bool = False):
         # Mitsuba's diffuse reflects on the front face only; twosided on both
         return r.build(el, PhongMaterial, kd=np.broadcast_to(kd, (3,)), ks=0.0, n=0.0,
                           sided="two" if twosided else "one")
-    if kind == "plastic":
+    if kind in ("plastic", "roughplastic"):
         return plastic(r, el, twosided)
     if kind in ("conductor", "roughconductor"):
         return conductor(r, el)
@@ -72,18 +73,22 @@ def bsdf(r, el, key: str, *, twosided: bool = False):
 
 
 def plastic(r, el, twosided: bool) -> PhongMaterial:
-    """A ``plastic`` as Mitsuba reads it: a diffuse base (``diffuse_reflectance``, a colour or
-    a bitmap) under a smooth coat of index ``int_ior`` (in air), which reflects with
-    ``specular_reflectance``; ``nonlinear`` as Mitsuba's (:mod:`blockhash.scene.coat`).
-    One-sided, as Mitsuba's; both faces inside ``twosided``."""
+    """A ``plastic`` or ``roughplastic`` as Mitsuba reads it: a diffuse base
+    (``diffuse_reflectance``, a colour or a bitmap) under a smooth or rough (:func:`roughness`)
+    coat of index ``int_ior`` (in air), which reflects with ``specular_reflectance``;
+    ``nonlinear`` as Mitsuba's (:mod:`blockhash.scene.coat`).  One-sided, as Mitsuba's; both
+    faces inside ``twosided``."""
     from dataclasses import replace
 
     from blockhash.scene.coat import coated_albedo
 
+    rough = el.get("type") == "roughplastic"
     spectra = ("rgb", "spectrum", "float")
     p = r.props(el, {"diffuse_reflectance": (*spectra, "texture"),
                      "specular_reflectance": spectra, "int_ior": ("float", "string"),
-                     "ext_ior": ("float", "string"), "nonlinear": ("boolean",)})
+                     "ext_ior": ("float", "string"), "nonlinear": ("boolean",),
+                     **(ROUGHNESS if rough else {})})
+    micro = roughness(r, el, p, rough)
     eta = ior(r, el, "int_ior", p.get("int_ior", "polypropylene"))
     ext = ior(r, el, "ext_ior", p.get("ext_ior", "air"))
     if not abs(ext - 1.0) < 1e-3:
@@ -92,16 +97,17 @@ def plastic(r, el, twosided: bool) -> PhongMaterial:
     nonlinear = bool(p.get("nonlinear", False))
     base = p.get("diffuse_reflectance", 0.5)
     common = {"ks": 0.0, "n": 0.0, "sided": "two" if twosided else "one", "coat": eta,
-              "coat_reflectance": np.broadcast_to(p.get("specular_reflectance", 1.0), (3,))}
+              "coat_reflectance": np.broadcast_to(p.get("specular_reflectance", 1.0), (3,)),
+              **micro}
     if not isinstance(base, (float, np.ndarray)):  # a texture's element
         tex = texture(r, base)
         if isinstance(tex, Checkerboard):
             r.fail(base, "a checkerboard under a plastic's coat is not supported; give the "
                    "diffuse_reflectance as a colour or a bitmap")
-        tex = replace(tex, image=coated_albedo(tex.image, eta, nonlinear), bounded=False)
+        tex = replace(tex, image=coated_albedo(tex.image, eta, nonlinear, **micro), bounded=False)
         return r.build(el, PhongMaterial, kd=tex.mean, texture=tex, **common)
-    return r.build(el, PhongMaterial, kd=coated_albedo(np.broadcast_to(base, (3,)), eta, nonlinear),
-                   **common)
+    return r.build(el, PhongMaterial, kd=coated_albedo(np.broadcast_to(base, (3,)), eta, nonlinear,
+                                                       **micro), **common)
 
 
 def dielectric(r, el) -> DielectricMaterial:
@@ -184,8 +190,8 @@ def conductor(r, el) -> MirrorMaterial:
 
 
 def roughness(r, el, p: dict, rough: bool) -> dict:
-    """The microfacets of a ``roughconductor`` or ``roughdielectric`` (none for a smooth
-    BSDF) as Mitsuba reads them: ``distribution`` (``beckmann``, its default, or ``ggx``) and
+    """The microfacets of a ``roughconductor``, ``roughdielectric`` or ``roughplastic`` (none
+    for a smooth BSDF) as Mitsuba reads them: ``distribution`` (``beckmann``, its default, or ``ggx``) and
     ``alpha`` (default 0.1), or ``alpha_u`` and ``alpha_v`` where they are equal (blockhash's
     rough surfaces are isotropic).  ``sample_visible`` only chooses how Mitsuba samples the
     same BSDF, and changes nothing."""

@@ -109,7 +109,7 @@ def _bitmap_lines(t, filename: str, name: str) -> list[str]:
 
 
 def _rough(material) -> tuple[str, list[str]]:
-    """(``"rough"`` or ``""``, the lines of a rough mirror's or glass's microfacets)."""
+    """(``"rough"`` or ``""``, the lines of a rough mirror's, glass's or coat's microfacets)."""
     if not material.alpha:
         return "", []
     return "rough", [f'    <string name="distribution" value="{material.distribution}"/>',
@@ -156,7 +156,7 @@ def _bsdf(material, bsdf_id: str, drop_specular: bool, owner: str) -> list[str]:
 
 
 def _plastic(material, bsdf_id: str, owner: str) -> list[str]:
-    """A coated receiver as Mitsuba's ``plastic`` (its base reflectance from ``kd``:
+    """A coated receiver as Mitsuba's ``plastic`` or ``roughplastic`` (its base reflectance from ``kd``:
     :func:`blockhash.scene.coat.base_reflectance`), one-sided or inside ``twosided``."""
     from blockhash.scene.coat import base_reflectance
 
@@ -164,10 +164,12 @@ def _plastic(material, bsdf_id: str, owner: str) -> list[str]:
         raise InputError(f"object {owner!r}: a textured base under a coat is not exported (its "
                          "texture holds what the coat lets through, not Mitsuba's "
                          "diffuse_reflectance); export the scene's Mitsuba file as it was read")
-    lines = ['<bsdf type="plastic">',
-             "    " + _rgb("diffuse_reflectance", base_reflectance(material.kd, material.coat)),
+    rough, micro = _rough(material)
+    base = base_reflectance(material.kd, material.coat, alpha=material.alpha,
+                            distribution=material.distribution)
+    lines = [f'<bsdf type="{rough}plastic">', "    " + _rgb("diffuse_reflectance", base),
              f'    <float name="int_ior" value="{_num(material.coat)}"/>',
-             '    <float name="ext_ior" value="1.0"/>',
+             '    <float name="ext_ior" value="1.0"/>', *micro,
              "    " + _rgb("specular_reflectance", material.coat_reflectance), "</bsdf>"]
     if material.one_sided:
         return [lines[0][:-1] + f" id={quoteattr(bsdf_id)}>", *lines[1:]]

@@ -130,7 +130,7 @@ def test_hand_written_shapes_transforms_and_fov_axis(tmp_path):
     ('<emitter type="area"/>\n', r"s.xml:7: <emitter type=\"area\">: an area emitter belongs inside a <shape>"),
     ('<emitter type="arae"/>\n', r"s.xml:7: <emitter type=\"arae\">: unsupported emitter; supported: point, spot, directional"),
     ('<shape type="sdfgrid"/>\n', r"s.xml:7: <shape type=\"sdfgrid\">: unsupported shape; supported: ply"),
-    ('<bsdf type="roughplastic" id="x"/>\n', r"s.xml:7: .*unsupported BSDF; supported: diffuse"),
+    ('<bsdf type="pplastic" id="x"/>\n', r"s.xml:7: .*unsupported BSDF; supported: diffuse"),
     ('<bsdf type="conductor" id="cu"><string name="material" value="Cuu"/></bsdf>\n', r"s.xml:7: .*material 'Cuu' is not one of Mitsuba's conductor presets \(a-C, Ag, .*give eta and k"),
     ('<bsdf type="conductor" id="cu"><string name="material" value="Cu"/><float name="eta" value="1"/></bsdf>\n', r"s.xml:7: .*either a material preset or eta and k, not both"),
     (LIGHT + '<shape type="ply"><string name="filename" value="gone.ply"/><bsdf type="diffuse"/></shape>\n',

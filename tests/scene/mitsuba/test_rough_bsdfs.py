@@ -121,7 +121,34 @@ def test_a_plastic_is_a_coated_receiver_with_mitsubas_defaults(tmp_path):
     np.testing.assert_allclose(m.kd, coated_albedo([0.9, 0.5, 0.1], 1.575, nonlinear=True))
 
 
+def test_a_roughplastic_is_a_rough_coat_with_mitsubas_defaults(tmp_path):
+    from blockhash.scene.coat import coated_albedo
+
+    m = load(tmp_path, body=_shape('<bsdf type="roughplastic"/>')).objects[-1].material
+    eta = 1.49 / 1.000277
+    assert (m.coat, m.alpha, m.distribution) == (pytest.approx(eta), 0.1, "beckmann")
+    np.testing.assert_allclose(m.kd, coated_albedo(0.5, eta, alpha=0.1))
+    # a rough coat lets less through than a smooth one, and reflects less back inside
+    assert np.all(m.kd < coated_albedo(0.5, eta))
+    m = load(tmp_path, body=_shape(
+        '<bsdf type="roughplastic"><string name="distribution" value="ggx"/><float '
+        'name="alpha_u" value="0.3"/><float name="alpha_v" value="0.3"/><boolean '
+        'name="nonlinear" value="true"/><float name="int_ior" value="1.9"/><boolean '
+        'name="sample_visible" value="false"/></bsdf>')).objects[-1].material
+    assert (m.coat, m.alpha, m.distribution) == (pytest.approx(1.9 / 1.000277), 0.3, "ggx")
+    np.testing.assert_allclose(m.kd, coated_albedo(0.5, m.coat, True, 0.3, "ggx"))
+
+
+def test_a_coats_roughness_needs_a_coat():
+    from blockhash.scene.materials import PhongMaterial
+
+    with pytest.raises(InputError, match=r"alpha: a roughness is the coat's"):
+        PhongMaterial(kd=0.5, ks=0.0, n=0.0, alpha=0.1)
+
+
 @pytest.mark.parametrize("bsdf, match", [
+    ('<bsdf type="roughplastic"><float name="alpha_u" value="0.1"/><float name="alpha_v" '
+     'value="0.3"/></bsdf>', r"anisotropic roughness is not supported"),
     ('<bsdf type="plastic"><texture type="checkerboard" name="diffuse_reflectance"/></bsdf>',
      r"a checkerboard under a plastic's coat is not supported"),
     ('<bsdf type="plastic"><float name="ext_ior" value="1.33"/></bsdf>',
@@ -138,7 +165,7 @@ def test_a_coat_checks_its_albedo():
 
     top = largest_albedo(1.5)
     assert PhongMaterial(kd=top, ks=0.0, n=0.0, coat=1.5).coat == 1.5  # above 1: allowed
-    with pytest.raises(InputError, match=r"kd = .* exceeds .* under a coat of index 1.5"):
+    with pytest.raises(InputError, match=r"kd = .* exceeds .* under this coat \(index 1.5\)"):
         PhongMaterial(kd=top * 1.01, ks=0.0, n=0.0, coat=1.5)
     with pytest.raises(InputError, match=r"coat: .*index of refraction"):
         PhongMaterial(kd=0.5, ks=0.0, n=0.0, coat=0.9)
@@ -147,7 +174,8 @@ def test_a_coat_checks_its_albedo():
 
 
 def test_rough_and_coated_materials_export_as_mitsubas_plugins(tmp_path):
-    """Exported and read back, rough mirrors and glass and plastic are what they were."""
+    """Exported and read back, rough mirrors and glass and plastic, smooth and rough, are what
+    they were."""
     import warnings
     from pathlib import Path
 
@@ -155,7 +183,7 @@ def test_rough_and_coated_materials_export_as_mitsubas_plugins(tmp_path):
     from blockhash.scene.mitsuba.exporter import export_mitsuba
 
     here = Path(__file__).resolve().parents[2] / "reference" / "mitsuba_xml"
-    for name in ("rough.xml", "plastic.xml"):
+    for name in ("rough.xml", "plastic.xml", "roughplastic.xml"):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # rough.xml's max_depth, said on each load
             scene = load_scene(here / name)
