@@ -16,6 +16,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from blockhash.frame.chain_end import emission_met
 from blockhash.frame.glossy_rays import rough_events, through_coat
 from blockhash.frame.rough_direct import delta_lights
 from blockhash.frame.shading_points import ShadingPoints
@@ -93,7 +94,8 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     (:attr:`blockhash.scene.materials.PhongMaterial.sided`): black, as Mitsuba's ``diffuse``.
     ``events``: the most specular events a ray follows (None: :data:`MAX_MIRROR_BOUNCES`, or
     :data:`MAX_DIELECTRIC_EVENTS` in a scene with glass; 0: a ray that meets a mirror or glass
-    shades nothing).  With ``environment`` (the scene has an environment light) the rays that
+    shades nothing); a ray still on a mirror, glass or glossy surface after them scatters once
+    more and meets only lights (:mod:`.chain_end`, into :attr:`ShadingPoints.rough_direct`).  With ``environment`` (the scene has an environment light) the rays that
     left the scene are marked (:attr:`ShadingPoints.escaped`), for the light they see.
 
     A rough mirror or glass (``alpha > 0``) sends the ray about a sampled microfacet
@@ -122,11 +124,8 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     choices = choice_uniforms(CAMERA_CHOICE_SEED, 0, h * w) if glass.any() else None
     if events is None:
         events = MAX_DIELECTRIC_EVENTS if glass.any() else MAX_MIRROR_BOUNCES
-    met = None  # the light met at rough vertices, per sample
-    if events == 0:
-        met = np.zeros((h * w, 3))
-        _first_rough(met, rays, lights, pos, nrm, view, obj, outer)
-    for event in range(events):
+    met = None  # the light met at rough vertices and past the last event, per sample
+    for event in range(events + 1):  # the last: a segment that ends on a light (.chain_end)
         on = specular[obj]
         if not on.any():
             break
@@ -155,6 +154,12 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
             r[g], through, factor = scatter(d[g], n[g], n[g], outer[gi], ior[og], tint[og], u)
             weight[gi] *= factor
             side[np.flatnonzero(g)[through]] = -1.0
+        if event == events:
+            if met is None:
+                met = np.zeros((h * w, 3))
+            p_end, _, o_end, _ = _follow(rays, pos[idx], n, r, side)
+            emission_met(met, idx, weight[idx], p_end, -r, o_end, r, rays, lights, objects)
+            break
         pos[idx], nrm[idx], obj[idx], outer[idx] = _follow(rays, pos[idx], n, r, side)
         escaped[idx] = obj[idx] < 0
         obj[idx] = _no_back(obj[idx], outer[idx], backs)
@@ -169,16 +174,6 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
                          escaped=escaped.reshape(h, w) if environment and escaped.any()
                          else None,
                          rough_direct=None if met is None or not met.any() else met.reshape(h, w, 3))
-
-
-def _first_rough(met, rays, lights, pos, nrm, view, obj, outer) -> None:
-    """Adds to ``met`` the point, spot and directional lights met at the rough surfaces the
-    camera sees first (:func:`delta_lights`), where no specular event is followed: a path of
-    two segments, as Mitsuba's ``max_depth`` 2 takes them."""
-    ri = np.flatnonzero(obj >= 0)
-    ri = ri[rays.geometry.alpha[obj[ri]] > 0.0]
-    if len(ri):
-        met[ri] += delta_lights(rays, lights, pos[ri], nrm[ri], view[ri], obj[ri], outer[ri])
 
 
 def _camera_start(camera, gbuffer, sided, rays: SceneRays):
@@ -318,13 +313,8 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     done = []  # (owner, pos, nrm, view, obj, weight, escaped) of points off the specular chain
     met = np.zeros((h * w, 3))  # the light met at rough vertices, per sample
     coat = np.append(rays.geometry.coat, 0.0)  # index -1: nothing hit
-    if events == 0:  # no event followed: the points the camera sees directly
-        on = specular[obj]
-        shaded = through_coat(weight, nrm, view, obj, rays.geometry)
-        done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, shaded, esc))
-                    + (np.ones(int((~on).sum()), dtype=bool),))
-        _first_rough(met, rays, lights, pos, nrm, view, obj, outer)
-    for event in range(MAX_DIELECTRIC_EVENTS if events is None else events):
+    last = MAX_DIELECTRIC_EVENTS - 1 if events is None else events
+    for event in range(last + 1):  # the last: a segment that ends on a light (.chain_end)
         on = specular[obj]
         glint = coat[obj] > 0.0  # a coated receiver: shaded through its coat, and reflects
         shaded = through_coat(weight, nrm, view, obj, rays.geometry)
@@ -370,6 +360,10 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
         live = wts.max(axis=1) >= BRANCH_CUTOFF
         parent, dirs, wts, side = parent[live], dirs[live], wts[live], side[live]
         pos, nrm, obj, outer = _follow(rays, pos[parent], nrm[parent], dirs, side)
+        if event == last:
+            emission_met(met, owner[parent], wts, pos, -dirs, obj, dirs, rays, lights, objects)
+            owner = owner[:0]
+            break
         esc = obj < 0
         _no_back(obj, outer, backs)
         owner, view, weight = owner[parent], -dirs, wts

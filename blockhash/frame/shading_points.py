@@ -27,8 +27,10 @@ class ShadingPoints:
                                      light; None: none did
     rough_direct : (H, W, 3) float64 or None   per camera sample, the point, spot and
                                      directional lights' direct light met at the rough
-                                     mirrors and glass along its ray
-                                     (:mod:`blockhash.frame.rough_direct`), added to the
+                                     mirrors, glass and coats along its ray
+                                     (:mod:`blockhash.frame.rough_direct`) and the lights
+                                     met past its last specular event
+                                     (:mod:`blockhash.frame.chain_end`), added to the
                                      direct layer by :meth:`gather_direct`; None: no ray met one
     first_hit : (h, w) bool or None  the point is its camera ray's first hit (the others: the
                                      reflections of a coated receiver's coat); None: every

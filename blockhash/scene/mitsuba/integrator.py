@@ -78,9 +78,9 @@ def integrator(r: XmlReader, el) -> tuple[int | None, object]:
 
 #: What blockhash renders otherwise than Mitsuba at a small max_depth or with its direct
 #: integrator (the warnings' text).
-DIRECT_DIFFERS = ("blockhash renders the direct light alone, as Mitsuba (no caustic, no light "
-                  "between diffuse surfaces, nothing seen in mirrors and glass), except the area "
-                  "lights seen in mirrors and glass, which Mitsuba shows and blockhash does not")
+DIRECT_DIFFERS = ("blockhash renders the direct light alone, as Mitsuba: no photons, so no caustic "
+                  "and no light between diffuse surfaces, and nothing seen in mirrors and glass "
+                  "but the lights")
 DEPTH_DIFFERS = ("blockhash follows at most {events} specular event(s) on the photons' paths and "
                  "as many on the camera's, each on its own, where Mitsuba's max_depth {depth} "
                  "bounds the whole path: a caustic seen in a mirror or through glass is in "
