@@ -26,13 +26,13 @@ def test_the_folder_tool_tabulates_renders_and_refusals(tmp_path):
     mitsuba_or_skip()
     out = tmp_path / "rows.json"
     text = run_tool("mitsuba_folder.py", [PUBLISHED / "integrator_depth_2.xml",
-                                          PUBLISHED / "integrator_direct_both.xml",
+                                          PUBLISHED / "bsdf_pplastic.xml",
                                           "--size", "16", "--spp", "16", "--passes", "1",
                                           "--json", out], tmp_path)
     assert "| integrator_depth_2.xml | yes | 1 |" in text
-    assert "| integrator_direct_both.xml | no: <bsdf type=\"roughplastic\">" in text
+    assert "| bsdf_pplastic.xml | no: <bsdf type=\"pplastic\">" in text
     assert "1 of 2 render." in text
     rendered, refused = json.loads(out.read_text())
     assert rendered["refused"] is None and len(rendered["flux"]) == 3
     assert abs(rendered["flux"][1] - 1) < 0.2  # 16 pixels, 16 samples: loose, but the same light
-    assert "veach_mis.xml:75" in refused["refused"]
+    assert "bsdf_pplastic.xml:4" in refused["refused"]

@@ -2,7 +2,7 @@
 its SOURCES.md) rendered by blockhash and by Mitsuba from the same unchanged files
 (:mod:`blockhash.studies.published`): each that blockhash reads renders within 2% of Mitsuba's
 flux per channel and a blurred relative RMS of at most 0.05 over the whole image; the one it
-refuses names the element, its file and line.
+refuses (polarised plastic) names the element, its file and line.
 
 Needs the extra blockhash[mitsuba]; skipped without it, unless BLOCKHASH_REQUIRE_MITSUBA is
 set (CI sets it), where it fails instead."""
@@ -74,6 +74,12 @@ def test_what_the_importer_says_of_each_published_file():
     env = [li for li in scene.lights if type(li).__name__ == "EnvironmentLight"]
     assert len(env) == 1 and env[0].image.shape == (256, 512, 3)  # museum.exr, times 3
     assert scene.photons.camera_bounces == scene.photons.max_bounces == 128
-    scene, refused, _ = load(HERE / "integrator_direct_both.xml")
+    scene, refused, warned = load(HERE / "integrator_direct_both.xml")  # Veach's scene
+    assert refused is None and scene.photons.direct_only
+    assert len(warned) == 1 and "<integrator type=\"direct\">" in warned[0]
+    plates = [o.material for o in scene.objects if getattr(o.material, "coat", 0.0)]
+    assert [m.alpha for m in plates] == [0.005, 0.02, 0.05, 0.1]  # roughplastic, rough coats
+    assert all(m.coat == pytest.approx(2.0 / 1.000277) for m in plates)
+    scene, refused, _ = load(HERE / "bsdf_pplastic.xml")
     assert scene is None
-    assert "veach_mis.xml:75: <bsdf type=\"roughplastic\">: unsupported BSDF" in refused
+    assert "bsdf_pplastic.xml:4: <bsdf type=\"pplastic\">: unsupported BSDF" in refused
