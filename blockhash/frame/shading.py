@@ -95,8 +95,9 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     ``events``: the most specular events a ray follows (None: :data:`MAX_MIRROR_BOUNCES`, or
     :data:`MAX_DIELECTRIC_EVENTS` in a scene with glass; 0: a ray that meets a mirror or glass
     shades nothing); a ray still on a mirror, glass or glossy surface after them scatters once
-    more and meets only lights (:mod:`.chain_end`, into :attr:`ShadingPoints.rough_direct`).  With ``environment`` (the scene has an environment light) the rays that
-    left the scene are marked (:attr:`ShadingPoints.escaped`), for the light they see.
+    more and meets only lights (:mod:`.chain_end`, into :attr:`ShadingPoints.rough_direct`).
+    With ``environment`` (the scene has an environment light) the rays that left the scene
+    are marked (:attr:`ShadingPoints.escaped`), for the light they see.
 
     A rough mirror or glass (``alpha > 0``) sends the ray about a sampled microfacet
     (:mod:`blockhash.scene.microfacet`), drawn for pass ``pass_index`` (each pass its own),
@@ -173,7 +174,8 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
                          weight=weight.reshape(h, w, 3).astype(np.float32),
                          escaped=escaped.reshape(h, w) if environment and escaped.any()
                          else None,
-                         rough_direct=None if met is None or not met.any() else met.reshape(h, w, 3))
+                         rough_direct=met.reshape(h, w, 3) if met is not None and met.any()
+                         else None)
 
 
 def _camera_start(camera, gbuffer, sided, rays: SceneRays):
