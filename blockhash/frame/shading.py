@@ -301,7 +301,6 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     weight times 1 - F toward the camera) and reflects a branch of weight F times the coat's
     reflectance, as glass does; those points are marked not the camera's first hit
     (:attr:`ShadingPoints.first_hit`)."""
-    from blockhash.scene.coat import transmittance
     from blockhash.scene.optics import fresnel
 
     h, w = gbuffer.object.shape
@@ -318,28 +317,23 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     last = MAX_DIELECTRIC_EVENTS - 1 if events is None else events
     for event in range(last + 1):  # the last: a segment that ends on a light (.chain_end)
         on = specular[obj]
-        glint = coat[obj] > 0.0  # a coated receiver: shaded through its coat, and reflects
         shaded = through_coat(weight, nrm, view, obj, rays.geometry)
         done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, shaded, esc))
                     + (np.full(int((~on).sum()), event == 0),))
-        on |= glint
+        on |= coat[obj] > 0.0  # a coated receiver: shaded through its coat, and reflects
         if not on.any():
             owner = owner[:0]
             break
-        owner, pos, nrm, view, obj, weight, outer, glint = (
-            a[on] for a in (owner, pos, nrm, view, obj, weight, outer, glint))
+        owner, pos, nrm, view, obj, weight, outer = (
+            a[on] for a in (owner, pos, nrm, view, obj, weight, outer))
         d = -view
         refl = d - 2.0 * np.sum(d * nrm, axis=1, keepdims=True) * nrm
         g = glass[obj]
         f = np.ones(len(obj))
         f[g] = fresnel(-np.sum(d[g] * nrm[g], axis=1), np.where(outer[g], 1.0 / ior[obj[g]], ior[obj[g]]))
+        # a mirror's reflectance; a coat's, its conductor of k = 0 (Fresnel's F) in the table
         w_refl = weight * np.where(g, f, 1.0)[:, None] * np.where(
             g[:, None], 1.0, reflectance(obj, -np.sum(d * nrm, axis=1)))
-        if glint.any():  # the coat's reflection: Fresnel's reflectance times the coat's
-            cos = -np.sum(d[glint] * nrm[glint], axis=1)
-            w_refl[glint] = weight[glint] * (1.0 - transmittance(cos, rays.geometry.mirror,
-                                                                 obj[glint]))[:, None] \
-                * rays.geometry.coat_reflectance[obj[glint]]
         rough = rays.geometry.alpha[obj] > 0.0
         rough_side = np.ones(len(obj))
         if rough.any():

@@ -36,7 +36,6 @@ import numpy as np
 from blockhash.scene.coat_tables import NODES, rough_tables
 from blockhash.scene.microfacet import ALPHA
 from blockhash.scene.microfacet import fresnel as _fresnel
-from blockhash.scene.optics import fresnel
 
 #: Columns of an object's row in the ray caster's table
 #: (:attr:`blockhash.scene.raycast.EmbreeGeometry.mirror`) that hold its coat's index (0:
@@ -92,28 +91,30 @@ def transmittance(cos, table, obj) -> np.ndarray:
     """1 - F, or a rough coat's T (module docstring): what the coats of objects ``obj``
     let through of light arriving at ``cos`` to their normals from outside (0 where ``cos``
     <= 0, 1 without a coat); ``table`` the ray caster's per-object table."""
-    cos = np.clip(np.asarray(cos, dtype=np.float64), 0.0, 1.0)
-    rows = table[np.asarray(obj)]
-    eta = np.where(rows[:, COAT] > 0.0, rows[:, COAT], 1.0)
-    smooth = 1.0 - fresnel(cos, 1.0 / eta)
-    x = cos * (NODES - 1)
-    i = np.minimum(x.astype(np.int64), NODES - 2)
-    f = x - i
-    at = np.arange(len(rows))
-    rough = (1.0 - f) * rows[at, COAT_TABLE + i] + f * rows[at, COAT_TABLE + i + 1]
-    out = np.where(rows[:, ALPHA] > 0.0, rough, smooth)
-    return np.where(rows[:, COAT] > 0.0, np.where(cos > 0.0, out, 0.0), 1.0)
+    cos = np.asarray(cos, dtype=np.float64)
+    return _transmittances(np.ascontiguousarray(cos.reshape(-1)), table,
+                           np.asarray(obj, dtype=np.int64).reshape(-1)).reshape(cos.shape)
+
+
+@numba.njit(cache=True, nogil=True)
+def _transmittances(cos, table, obj):
+    out = np.empty(cos.shape[0])
+    for j in range(cos.shape[0]):
+        out[j] = through(cos[j], table, obj[j])
+    return out
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def through(cos, table, obj):
-    """:func:`transmittance` of one ray, for the compiled callers (``cos`` > 0)."""
+    """:func:`transmittance` of one ray, for the compiled callers."""
     eta = table[obj, COAT]
     if eta == 0.0:
         return 1.0
+    if cos <= 0.0:
+        return 0.0
     if table[obj, ALPHA] == 0.0:
         return 1.0 - _fresnel(cos, 1.0 / eta)
-    x = min(max(cos, 0.0), 1.0) * (NODES - 1)
+    x = min(cos, 1.0) * (NODES - 1)
     i = min(int(x), NODES - 2)
     f = x - i
     return (1.0 - f) * table[obj, COAT_TABLE + i] + f * table[obj, COAT_TABLE + i + 1]

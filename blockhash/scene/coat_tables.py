@@ -1,8 +1,7 @@
 """A rough coat's tables, as Mitsuba 3's ``roughplastic`` computes them (:mod:`.coat`): the
 albedos of an interface's microfacet reflection and refraction by quadrature, tabulated over
-the cosine of incidence.  Apart from :mod:`.coat` so that the ray caster
-(:class:`blockhash.scene.raycast.EmbreeGeometry`, which holds each rough coat's table) reads
-them without the vectorised optics, which read the ray caster."""
+the cosine of incidence, for the ray caster's per-object table
+(:class:`blockhash.scene.raycast.EmbreeGeometry`, which holds each rough coat's)."""
 
 from __future__ import annotations
 

@@ -106,14 +106,16 @@ class EmbreeGeometry:
             [getattr(o.material, "coat_reflectance", np.ones(3)) for o in objects],
             dtype=np.float64).reshape(len(objects), 3)
         self.coat_table = np.zeros((len(objects), coat_tables.NODES))
-        for i in np.flatnonzero((self.coat > 0.0) & (self.alpha > 0.0)):
-            # a rough coat reflects as a rough conductor of its index and k = 0
+        for i in np.flatnonzero(self.coat > 0.0):
+            # a coat reflects as a conductor of its index and k = 0 (smooth or rough)
             self.reflectance[i], self.eta[i], self.k[i] = self.coat_reflectance[i], self.coat[i], 0.0
             self.conductor[i] = True
-            self.coat_table[i] = coat_tables.rough_tables(self.coat[i], self.alpha[i], bool(self.ggx[i]))[0]
+            if self.alpha[i] > 0.0:
+                self.coat_table[i] = coat_tables.rough_tables(self.coat[i], self.alpha[i],
+                                                              bool(self.ggx[i]))[0]
         #: per object, the table the compiled events read (:func:`blockhash.photons.bounce.
         #: _event`): reflectance, eta, k, conductor (0 or 1), roughness and distribution of
-        #: the specular ones and of a rough coat, the coat (index, reflectance) of a coated
+        #: the specular ones and of a coat's reflection, the coat (index, reflectance) of a coated
         #: receiver, and a rough coat's transmittance (:data:`blockhash.scene.coat.COAT_TABLE`)
         self.mirror = np.ascontiguousarray(np.column_stack(
             [self.reflectance, self.eta, self.k, self.conductor.astype(np.float64), self.alpha,
