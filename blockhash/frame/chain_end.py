@@ -16,15 +16,18 @@ import numpy as np
 from blockhash.frame.surface_lights import emission_seen
 
 
-def emission_met(met, owner, weight, pos, view, obj, dirs, rays, lights, objects) -> None:
+def emission_met(met, owner, weight, pos, view, obj, dirs, rays, lights, objects,
+                 rough_pdf=None) -> None:
     """Adds to ``met[owner]`` the light that the last segments of camera rays meet, times
     their ``weight`` (m, 3): ``pos``, ``view`` (toward where each came from) and ``obj`` (-1:
     nothing hit) their ends, ``dirs`` (m, 3) their unit directions; an area light's
-    radiance on its front face, an environment light's along the rays that hit nothing."""
+    radiance on its front face (weighted against its own points where a rough vertex sent
+    the ray: ``rough_pdf``, :func:`.surface_lights.emission_seen`), an environment light's
+    along the rays that hit nothing."""
     if not len(owner):
         return
     seen = np.zeros((len(owner), 3))
-    emission_seen(seen, lights, objects, pos, view, obj, rays)
+    emission_seen(seen, lights, objects, pos, view, obj, rays, rough_pdf)
     gone = np.flatnonzero(obj < 0)
     if len(gone):
         for light in lights:

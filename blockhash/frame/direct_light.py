@@ -55,7 +55,8 @@ def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
 
     kd, ks, e = per_object("kd", np.zeros(3)), per_object("ks", np.zeros(3)), per_object("n", 1.0)[:, 0]
     coat = rays.geometry.mirror  # a coated receiver's row: blockhash.scene.coat.through
-    surface_lights.emission_seen(out, lights, objects, p, wo, mat, rays)
+    surface_lights.emission_seen(out, lights, objects, p, wo, mat, rays,
+                                 None if points.rough_pdf is None else points.rough_pdf.reshape(-1))
     surface_lights.environment_seen(out, lights, points)
     owner = np.arange(h * w) if points.owner is None else points.owner
     samples = h * w if points.samples is None else int(np.prod(points.samples))

@@ -15,8 +15,10 @@ def rough_events(rays, idx, obj, d, n, outer, weight, pass_index: int, event: in
     """The rough events (:func:`blockhash.scene.microfacet.rough_scatter`) of camera rays
     ``idx`` (the rays ``d`` on objects ``obj`` with normals ``n`` facing them, met from the
     ``outer`` side): their weights (rows ``idx`` of ``weight``) scaled in place; returns
-    (new directions, sides: +1 reflected, -1 passed through).  The uniforms are pass
+    (new directions, sides: +1 reflected, -1 passed through, the density of each direction,
+    :func:`blockhash.frame.rough_direct.sampling_pdf`).  The uniforms are pass
     ``pass_index``'s and event ``event``'s own, so that passes average the microfacets."""
+    from blockhash.frame.rough_direct import sampled_pdf
     from blockhash.scene.microfacet import UNIFORMS, rough_scatter
 
     geom = rays.geometry
@@ -25,7 +27,13 @@ def rough_events(rays, idx, obj, d, n, outer, weight, pass_index: int, event: in
     dirs, factor, through = rough_scatter(d, n, n, outer, obj, geom.mirror, geom.is_dielectric,
                                           geom.ior, u)
     weight[idx] *= np.where(through[:, None], geom.tint[obj], 1.0) * factor
-    return dirs, np.where(through, -1.0, 1.0)
+    return dirs, np.where(through, -1.0, 1.0), sampled_pdf(geom, -d, dirs, n, outer, obj)
+
+
+def ray_pdf(pdf, start, end) -> np.ndarray:
+    """(m,) the density ``pdf`` of rays from ``start`` to ``end`` over their length squared
+    (:attr:`blockhash.frame.shading_points.ShadingPoints.rough_pdf`)."""
+    return pdf / np.maximum(np.sum((end - start) ** 2, axis=1), 1e-300)
 
 
 def through_coat(weight, nrm, view, obj, geometry):

@@ -8,7 +8,15 @@ estimate: ``weight f(w_v, w_l) |cos theta_l| L`` with ``w_v`` toward the camera,
 toward the light and L its intensity over the distance squared (a spot's falloff and texture
 on it) or a directional light's irradiance.  Area and environment lights are reached by the
 sampled rays themselves (:func:`blockhash.frame.surface_lights.emission_seen`, the escaped
-rays), so each light is counted once.
+rays); an area light is also sampled at the vertex (:func:`area_lights`: one point on it by
+area and a shadow ray), and the two ways of reaching it are weighted by Veach's power
+heuristic (1997), as Mitsuba's ``path`` and ``direct`` integrators weigh them: the point on
+the light by ``p_l^2 / (p_l^2 + p_b^2)``, the light that the vertex's sampled ray meets by
+``p_b^2 / (p_l^2 + p_b^2)`` (:func:`light_weight`), ``p_l = d^2 / (cos_y A)`` the light
+point's density over directions and ``p_b`` the microfacet event's
+(:func:`sampling_pdf`).  A sharp highlight of a large light is then the sampled rays', a
+blurred one of a small light the light points' (Veach's four plates).  Environment lights
+are reached by the sampled rays alone.
 
 :func:`microfacet_bsdf` is Mitsuba 3's ``roughconductor`` and ``roughdielectric`` evaluation
 (Walter et al. 2007) with the cosine, written for the directions the camera's rays sample
@@ -19,9 +27,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from blockhash.frame.surface_lights import escapes
+from blockhash.frame.surface_lights import escapes, light_uniforms, points_on_light
 from blockhash.scene.microfacet import smith_g1_rays
 from blockhash.scene.optics import conductor_fresnel, fresnel
+from blockhash.scene.raycast import RAY_OFFSET
+
+#: The light samples of rough vertices take the streams ``light + VERTEX_STREAMS (event + 1)``
+#: of :func:`blockhash.frame.surface_lights.light_uniforms` (a shading point's area light
+#: takes stream ``light``), so that no two vertices of a camera ray share their points.
+VERTEX_STREAMS = 4096
 
 
 def distribution(cos_h, alpha, ggx):
@@ -34,6 +48,46 @@ def distribution(cos_h, alpha, ggx):
     return np.where(cos_h > 0.0, np.where(ggx, trowbridge, beckmann), 0.0)
 
 
+def _half(v, light, n, outer, ior):
+    """The half vector of ``v`` and ``light`` (normals ``n`` on ``v``'s side): (cos_v, cos_l,
+    light reflected (cos_l > 0), eta_t the far side's index over ``v``'s, cos_h, v . h,
+    l . h), h the reflection's or the refraction's, on the normal's side."""
+    cos_v = np.sum(v * n, axis=1)
+    cos_l = np.sum(light * n, axis=1)
+    reflect = cos_l > 0.0
+    eta_t = np.where(outer, ior, 1.0 / ior)
+    h = v + light * np.where(reflect, 1.0, eta_t)[:, None]
+    h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-30)
+    h *= np.where(np.sum(h * n, axis=1) < 0.0, -1.0, 1.0)[:, None]
+    return (cos_v, cos_l, reflect, eta_t, np.sum(h * n, axis=1), np.sum(v * h, axis=1),
+            np.sum(light * h, axis=1))
+
+
+def sampling_pdf(v, light, n, outer, alpha, ggx, dielectric, ior):
+    """(m,) the density over directions with which a rough event
+    (:func:`blockhash.scene.microfacet.event`: m from D(m) cos(theta_m), a dielectric's
+    choice by F) sends a ray arriving from ``v`` along ``light`` (arguments as
+    :func:`microfacet_bsdf`'s): ``D cos_h / (4 |l . h|)`` for a reflection, a dielectric's
+    times F, and ``(1 - F) D cos_h eta_t^2 |l . h| / (v . h + eta_t l . h)^2`` for a
+    refraction."""
+    cos_v, _, reflect, eta_t, cos_h, v_h, l_h = _half(v, light, n, outer, ior)
+    d = distribution(cos_h, np.asarray(alpha, np.float64), np.asarray(ggx, np.bool_)) * cos_h
+    f = np.where(dielectric, fresnel(np.clip(v_h, 0.0, 1.0), 1.0 / eta_t), 1.0)
+    refl = f * d / np.maximum(4.0 * np.abs(l_h), 1e-30)
+    refr = (1.0 - f) * d * eta_t ** 2 * np.abs(l_h) / np.maximum((v_h + eta_t * l_h) ** 2, 1e-30)
+    out = np.where(reflect, refl, np.where(dielectric, refr, 0.0))
+    return np.where((cos_v > 0.0) & (v_h > 0.0) & np.isfinite(out), out, 0.0)
+
+
+def light_weight(q, cos_y, area):
+    """The power heuristic's weight (module docstring) of an area light of ``area`` met by a
+    rough vertex's sampled ray: ``q`` the ray's :func:`sampling_pdf` over its length squared
+    (inf: the ray left no rough vertex, weight 1), ``cos_y`` the light's face to the ray."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = 1.0 / (np.asarray(q, np.float64) * np.abs(cos_y) * area)  # p_l / p_b
+    return np.where(np.isfinite(ratio), 1.0 / (1.0 + ratio * ratio), 0.0)
+
+
 def microfacet_bsdf(v, light, n, outer, alpha, ggx, dielectric, ior, tint, reflectance, eta, k,
                     conductor):
     """(m, 3) f(v, l) |cos theta_l| of rough surfaces: ``v`` (m, 3) unit directions toward
@@ -41,15 +95,7 @@ def microfacet_bsdf(v, light, n, outer, alpha, ggx, dielectric, ior, tint, refle
     ``outer`` (m,) ``v`` on the surface's outer side; per ray the material's ``alpha``,
     ``ggx``, ``dielectric``, ``ior``, ``tint`` (3), ``reflectance`` (3), ``eta``, ``k`` (3)
     and ``conductor``."""
-    cos_v = np.sum(v * n, axis=1)
-    cos_l = np.sum(light * n, axis=1)
-    reflect = cos_l > 0.0
-    eta_t = np.where(outer, ior, 1.0 / ior)  # the far side's index over the camera side's
-    h = v + light * np.where(reflect, 1.0, eta_t)[:, None]
-    h /= np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-30)
-    h *= np.where(np.sum(h * n, axis=1) < 0.0, -1.0, 1.0)[:, None]
-    cos_h = np.sum(h * n, axis=1)
-    v_h, l_h = np.sum(v * h, axis=1), np.sum(light * h, axis=1)
+    cos_v, cos_l, reflect, eta_t, cos_h, v_h, l_h = _half(v, light, n, outer, ior)
     alpha, ggx = np.asarray(alpha, np.float64), np.asarray(ggx, np.bool_)
     dg = distribution(cos_h, alpha, ggx) * smith_g1_rays(cos_v, v_h, alpha, ggx) \
         * smith_g1_rays(cos_l, l_h, alpha, ggx)
@@ -67,19 +113,73 @@ def microfacet_bsdf(v, light, n, outer, alpha, ggx, dielectric, ior, tint, refle
     return np.where(np.isfinite(out), out, 0.0)
 
 
+def vertex_lights(rays, lights, pos, nrm, view, obj, outer, owner, samples: int,
+                  pass_index: int, event: int) -> np.ndarray:
+    """(m, 3) the light that rough vertices take by shadow rays, before the camera ray's weight:
+    :func:`delta_lights` and :func:`area_lights` (their arguments)."""
+    return delta_lights(rays, lights, pos, nrm, view, obj, outer) + area_lights(
+        rays, lights, pos, nrm, view, obj, outer, owner, samples, pass_index, event)
+
+
+def area_lights(rays, lights, pos, nrm, view, obj, outer, owner, samples: int,
+                pass_index: int, event: int) -> np.ndarray:
+    """(m, 3) the area lights' direct light at rough vertices (as :func:`delta_lights`'
+    arguments), by one point on each light per vertex, uniform by area, weighted by the power
+    heuristic against the vertex's sampled ray (module docstring).  The points come from
+    :func:`blockhash.frame.surface_lights.light_uniforms` of the vertices' camera samples
+    ``owner`` (of ``samples``) in pass ``pass_index``, a stream of their own per light and
+    specular ``event``."""
+    m = len(pos)
+    out = np.zeros((m, 3))
+    if not m:
+        return out
+    geom = rays.geometry
+    table = _table(geom, obj)
+    offset = RAY_OFFSET * rays.scale
+    for li, light in enumerate(lights):
+        if not hasattr(light, "radiance"):
+            continue
+        u = light_uniforms(samples, owner, pass_index, li + VERTEX_STREAMS * (event + 1))
+        y, ny, radiance = points_on_light(light, u)
+        to = y - pos
+        d2 = np.sum(to * to, axis=1)
+        toward = to / np.maximum(np.sqrt(d2), 1e-300)[:, None]
+        cos_y = -np.sum(toward * ny, axis=1)
+        ok = np.flatnonzero((cos_y > 0.0) & (d2 > 0.0))
+        if not len(ok):
+            continue
+        side = np.where(np.sum(toward[ok] * nrm[ok], axis=1) > 0.0, 1.0, -1.0)[:, None]
+        ok = ok[rays.visible(pos[ok], nrm[ok] * side, y[ok] + ny[ok] * offset)]
+        p_light = d2[ok] / (cos_y[ok] * light.area)
+        p_bsdf = sampling_pdf(view[ok], toward[ok], nrm[ok], outer[ok], *(t[ok] for t in table[:4]))
+        f = microfacet_bsdf(view[ok], toward[ok], nrm[ok], outer[ok], *(t[ok] for t in table))
+        out[ok] += f * radiance[ok] * (p_light / (p_light ** 2 + p_bsdf ** 2))[:, None]
+    return out
+
+
+def sampled_pdf(geometry, view, dirs, nrm, outer, obj) -> np.ndarray:
+    """(m,) :func:`sampling_pdf` of the rays that rough events of objects ``obj`` sent along
+    ``dirs`` (``view`` toward where they came from; ``geometry`` the ray caster's tables)."""
+    return sampling_pdf(view, dirs, nrm, outer, *_table(geometry, obj)[:4])
+
+
+def _table(geom, obj):
+    """The rough surfaces' parameters per vertex, in :func:`microfacet_bsdf`'s order."""
+    return (geom.alpha[obj], geom.ggx[obj], geom.is_dielectric[obj], geom.ior[obj],
+            geom.tint[obj], geom.reflectance[obj], geom.eta[obj], geom.k[obj],
+            geom.conductor[obj])
+
+
 def delta_lights(rays, lights, pos, nrm, view, obj, outer) -> np.ndarray:
     """(m, 3) the point, spot and directional lights' direct light at rough vertices
     ``pos`` (normals ``nrm`` facing ``view``, the unit directions toward the camera; on
     objects ``obj``, ``view`` on the ``outer`` side), before the camera ray's weight (module
     docstring); each light a shadow ray per vertex."""
-    geom = rays.geometry
     m = len(pos)
     out = np.zeros((m, 3))
     if not m:
         return out
-    table = (geom.alpha[obj], geom.ggx[obj], geom.is_dielectric[obj], geom.ior[obj],
-             geom.tint[obj], geom.reflectance[obj], geom.eta[obj], geom.k[obj],
-             geom.conductor[obj])
+    table = _table(rays.geometry, obj)
     for light in lights:
         if hasattr(light, "irradiance"):  # directional
             toward = np.broadcast_to(-np.asarray(light.direction, np.float64), (m, 3)).copy()

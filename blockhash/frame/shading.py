@@ -17,8 +17,8 @@ import numba
 import numpy as np
 
 from blockhash.frame.chain_end import emission_met
-from blockhash.frame.glossy_rays import rough_events, through_coat
-from blockhash.frame.rough_direct import delta_lights
+from blockhash.frame.glossy_rays import ray_pdf, rough_events, through_coat
+from blockhash.frame.rough_direct import vertex_lights
 from blockhash.frame.shading_points import ShadingPoints
 from blockhash.scene.materials import one_sided
 from blockhash.scene.optics import choice_uniforms, scatter
@@ -126,6 +126,7 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
     if events is None:
         events = MAX_DIELECTRIC_EVENTS if glass.any() else MAX_MIRROR_BOUNCES
     met = None  # the light met at rough vertices and past the last event, per sample
+    q = np.full(h * w, np.inf)  # the rays' rough_pdf (ShadingPoints)
     for event in range(events + 1):  # the last: a segment that ends on a light (.chain_end)
         on = specular[obj]
         if not on.any():
@@ -136,15 +137,16 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
         d = -wi
         r = 2.0 * np.sum(n * wi, axis=1, keepdims=True) * n - wi
         side = np.ones(len(idx))
+        pdf = np.full(len(idx), np.inf)
         rough = rays.geometry.alpha[obj[idx]] > 0.0
         if rough.any():
             ri = idx[rough]
             if met is None:
                 met = np.zeros((h * w, 3))
-            met[ri] += weight[ri] * delta_lights(rays, lights, pos[ri], n[rough], wi[rough],
-                                                 obj[ri], outer[ri])
-            r[rough], side[rough] = rough_events(rays, ri, obj[ri], d[rough], n[rough],
-                                                 outer[ri], weight, pass_index, event)
+            met[ri] += weight[ri] * vertex_lights(rays, lights, pos[ri], n[rough], wi[rough],
+                                                  obj[ri], outer[ri], ri, h * w, pass_index, event)
+            r[rough], side[rough], pdf[rough] = rough_events(
+                rays, ri, obj[ri], d[rough], n[rough], outer[ri], weight, pass_index, event)
         m = mirror[obj[idx]] & ~rough
         weight[idx[m]] *= reflectance(obj[idx[m]], np.sum(n[m] * wi[m], axis=1))
         g = ~m & ~rough
@@ -159,9 +161,12 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
             if met is None:
                 met = np.zeros((h * w, 3))
             p_end, _, o_end, _ = _follow(rays, pos[idx], n, r, side)
-            emission_met(met, idx, weight[idx], p_end, -r, o_end, r, rays, lights, objects)
+            emission_met(met, idx, weight[idx], p_end, -r, o_end, r, rays, lights, objects,
+                         ray_pdf(pdf, pos[idx], p_end))
             break
-        pos[idx], nrm[idx], obj[idx], outer[idx] = _follow(rays, pos[idx], n, r, side)
+        start = pos[idx]
+        pos[idx], nrm[idx], obj[idx], outer[idx] = _follow(rays, start, n, r, side)
+        q[idx] = ray_pdf(pdf, start, pos[idx])
         escaped[idx] = obj[idx] < 0
         obj[idx] = _no_back(obj[idx], outer[idx], backs)
         view[idx] = -r
@@ -175,7 +180,8 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
                          escaped=escaped.reshape(h, w) if environment and escaped.any()
                          else None,
                          rough_direct=met.reshape(h, w, 3) if met is not None and met.any()
-                         else None)
+                         else None,
+                         rough_pdf=q.reshape(h, w) if np.isfinite(q).any() else None)
 
 
 def _camera_start(camera, gbuffer, sided, rays: SceneRays):
@@ -311,7 +317,8 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     _no_back(obj, outer, backs)
     owner = np.arange(h * w)
     weight = np.ones((h * w, 3))
-    done = []  # (owner, pos, nrm, view, obj, weight, escaped) of points off the specular chain
+    q = np.full(h * w, np.inf)  # the rays' rough_pdf (ShadingPoints)
+    done = []  # (owner, pos, nrm, view, obj, weight, escaped, first, q) of points off the chain
     met = np.zeros((h * w, 3))  # the light met at rough vertices, per sample
     coat = np.append(rays.geometry.coat, 0.0)  # index -1: nothing hit
     last = MAX_DIELECTRIC_EVENTS - 1 if events is None else events
@@ -319,7 +326,7 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
         on = specular[obj]
         shaded = through_coat(weight, nrm, view, obj, rays.geometry)
         done.append(tuple(a[~on] for a in (owner, pos, nrm, view, obj, shaded, esc))
-                    + (np.full(int((~on).sum()), event == 0),))
+                    + (np.full(int((~on).sum()), event == 0), q[~on]))
         on |= coat[obj] > 0.0  # a coated receiver: shaded through its coat, and reflects
         if not on.any():
             owner = owner[:0]
@@ -336,13 +343,15 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
             g[:, None], 1.0, reflectance(obj, -np.sum(d * nrm, axis=1)))
         rough = rays.geometry.alpha[obj] > 0.0
         rough_side = np.ones(len(obj))
+        pdf = np.full(len(obj), np.inf)
         if rough.any():
             ri = np.flatnonzero(rough)
-            np.add.at(met, owner[ri], weight[ri] * delta_lights(
-                rays, lights, pos[ri], nrm[ri], view[ri], obj[ri], outer[ri]))
+            np.add.at(met, owner[ri], weight[ri] * vertex_lights(
+                rays, lights, pos[ri], nrm[ri], view[ri], obj[ri], outer[ri], owner[ri], h * w,
+                pass_index, event))
             w_refl[ri] = weight[ri]  # one sampled branch, scaled by rough_events
-            refl[ri], rough_side[ri] = rough_events(rays, ri, obj[ri], d[ri], nrm[ri], outer[ri],
-                                                    w_refl, pass_index, event)
+            refl[ri], rough_side[ri], pdf[ri] = rough_events(
+                rays, ri, obj[ri], d[ri], nrm[ri], outer[ri], w_refl, pass_index, event)
         through = np.flatnonzero(g & ~rough & (f < 1.0))
         t_dir, t_through, t_factor = scatter(d[through], nrm[through], nrm[through], outer[through],
                                              ior[obj[through]], tint[obj[through]],
@@ -353,11 +362,14 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
         dirs = np.concatenate([refl, t_dir[t_through]])
         wts = np.concatenate([w_refl, w_refr])
         side = np.concatenate([rough_side, -np.ones(len(keep_t))])
+        pdf = np.concatenate([pdf, np.full(len(keep_t), np.inf)])
         live = wts.max(axis=1) >= BRANCH_CUTOFF
-        parent, dirs, wts, side = parent[live], dirs[live], wts[live], side[live]
-        pos, nrm, obj, outer = _follow(rays, pos[parent], nrm[parent], dirs, side)
+        parent, dirs, wts, side, pdf = parent[live], dirs[live], wts[live], side[live], pdf[live]
+        start = pos[parent]
+        pos, nrm, obj, outer = _follow(rays, start, nrm[parent], dirs, side)
+        q = ray_pdf(pdf, start, pos)
         if event == last:
-            emission_met(met, owner[parent], wts, pos, -dirs, obj, dirs, rays, lights, objects)
+            emission_met(met, owner[parent], wts, pos, -dirs, obj, dirs, rays, lights, objects, q)
             owner = owner[:0]
             break
         esc = obj < 0
@@ -372,7 +384,7 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
     m = len(parts[0])
     rows = max(-(-m // w), 1)  # one row at least: a pass needs a texture
     pad = rows * w - m
-    own, p, n, v, o, wt, es, first = (
+    own, p, n, v, o, wt, es, first, qs = (
         np.concatenate([a, np.zeros((pad,) + a.shape[1:], a.dtype)]) for a in parts)
     o[m:] = -1
     return ShadingPoints(position=p.reshape(rows, w, 3).astype(np.float32),
@@ -383,7 +395,8 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
                          owner=own.astype(np.int64), samples=(h, w),
                          escaped=es.reshape(rows, w) if environment and es.any() else None,
                          rough_direct=met.reshape(h, w, 3) if met.any() else None,
-                         first_hit=first.reshape(rows, w) if coat.any() else None)
+                         first_hit=first.reshape(rows, w) if coat.any() else None,
+                         rough_pdf=qs.reshape(rows, w) if np.isfinite(qs[:m]).any() else None)
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)

@@ -35,6 +35,12 @@ class ShadingPoints:
     first_hit : (h, w) bool or None  the point is its camera ray's first hit (the others: the
                                      reflections of a coated receiver's coat); None: every
                                      point whose ray's first hit is not specular is
+    rough_pdf : (h, w) float64 or None   the density with which a rough vertex sent the ray
+                                     that reached the point, over the ray's length squared
+                                     (inf where no rough vertex did), for the weight of an
+                                     area light seen there against the vertex's own light
+                                     points (:func:`blockhash.frame.rough_direct.light_weight`);
+                                     None: no ray left a rough vertex
     """
 
     position: np.ndarray
@@ -47,6 +53,7 @@ class ShadingPoints:
     escaped: np.ndarray | None = None
     rough_direct: np.ndarray | None = None
     first_hit: np.ndarray | None = None
+    rough_pdf: np.ndarray | None = None
 
     @property
     def shape(self) -> tuple[int, int]:

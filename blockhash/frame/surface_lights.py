@@ -151,9 +151,14 @@ def escapes(rays, points, normals, dirs) -> np.ndarray:
     return ~rays.geometry.occluded(origins, np.ascontiguousarray(dirs), far)
 
 
-def emission_seen(out, lights, objects, p, wo, mat, rays) -> None:
+def emission_seen(out, lights, objects, p, wo, mat, rays, rough_pdf=None) -> None:
     """Adds to ``out`` each area light's radiance at the points on its object whose viewer
-    (``wo``) is on the front of the face (a ray cast back at the point tells the side)."""
+    (``wo``) is on the front of the face (a ray cast back at the point tells the side); at
+    points reached by a rough vertex's sampled ray, times the ray's weight against the light's
+    own points (``rough_pdf`` (m,), :func:`blockhash.frame.rough_direct.light_weight`'s q;
+    None: none was)."""
+    from blockhash.frame.rough_direct import light_weight
+
     names = {o.name: i for i, o in enumerate(objects)}
     for light in lights:
         if not hasattr(light, "radiance"):
@@ -163,13 +168,17 @@ def emission_seen(out, lights, objects, p, wo, mat, rays) -> None:
             continue
         v = wo[on].astype(np.float64)
         lift = 8.0 * RAY_OFFSET * rays.scale
-        hit, _, _, obj, _, outer, face, bary = rays.first_hit(
+        hit, _, _, obj, geo, outer, face, bary = rays.first_hit(
             p[on].astype(np.float64) + v * lift, -v, sides=True, faces=True)
         front = hit & outer & (obj == names[light.object])
         # the light's own face: the geometry numbers the faces object by object
         first = int(np.searchsorted(rays.geometry.face_object, names[light.object]))
         f = face[front] - first
-        out[on[front]] += light.emitted_on(f, bary[front, 0], bary[front, 1])
+        seen = light.emitted_on(f, bary[front, 0], bary[front, 1])
+        if rough_pdf is not None:
+            cos_y = np.sum(geo[front] * v[front], axis=1)
+            seen = seen * light_weight(rough_pdf[on[front]], cos_y, light.area)[:, None]
+        out[on[front]] += seen
 
 
 @numba.njit(cache=True, nogil=True, parallel=True)
