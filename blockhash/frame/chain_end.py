@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from blockhash.frame.surface_lights import emission_seen
+from blockhash.frame.surface_lights import emission_seen, environments_along
 
 
 def emission_met(met, owner, weight, pos, view, obj, dirs, rays, lights, objects,
@@ -21,16 +21,15 @@ def emission_met(met, owner, weight, pos, view, obj, dirs, rays, lights, objects
     """Adds to ``met[owner]`` the light that the last segments of camera rays meet, times
     their ``weight`` (m, 3): ``pos``, ``view`` (toward where each came from) and ``obj`` (-1:
     nothing hit) their ends, ``dirs`` (m, 3) their unit directions; an area light's
-    radiance on its front face (weighted against its own points where a rough vertex sent
-    the ray: ``rough_pdf``, :func:`.surface_lights.emission_seen`), an environment light's
-    along the rays that hit nothing."""
+    radiance on its front face, an environment light's along the rays that hit nothing, each
+    weighted against the light's own samples where a rough vertex sent the ray
+    (``rough_pdf``, :attr:`.shading_points.ShadingPoints.rough_pdf`)."""
     if not len(owner):
         return
     seen = np.zeros((len(owner), 3))
     emission_seen(seen, lights, objects, pos, view, obj, rays, rough_pdf)
     gone = np.flatnonzero(obj < 0)
     if len(gone):
-        for light in lights:
-            if hasattr(light, "image"):
-                seen[gone] += light.emitted(np.ascontiguousarray(dirs[gone], dtype=np.float64))
+        seen[gone] += environments_along(lights, np.ascontiguousarray(dirs[gone], np.float64),
+                                         None if rough_pdf is None else rough_pdf[gone])
     np.add.at(met, owner, weight * seen)

@@ -30,10 +30,11 @@ def rough_events(rays, idx, obj, d, n, outer, weight, pass_index: int, event: in
     return dirs, np.where(through, -1.0, 1.0), sampled_pdf(geom, -d, dirs, n, outer, obj)
 
 
-def ray_pdf(pdf, start, end) -> np.ndarray:
-    """(m,) the density ``pdf`` of rays from ``start`` to ``end`` over their length squared
+def ray_pdf(pdf, start, end, obj) -> np.ndarray:
+    """(m,) the density ``pdf`` of rays from ``start`` to ``end`` over their length squared,
+    or where a ray hit nothing (``obj`` -1) the density itself
     (:attr:`blockhash.frame.shading_points.ShadingPoints.rough_pdf`)."""
-    return pdf / np.maximum(np.sum((end - start) ** 2, axis=1), 1e-300)
+    return np.where(obj < 0, pdf, pdf / np.maximum(np.sum((end - start) ** 2, axis=1), 1e-300))
 
 
 def through_coat(weight, nrm, view, obj, geometry):

@@ -8,15 +8,17 @@ estimate: ``weight f(w_v, w_l) |cos theta_l| L`` with ``w_v`` toward the camera,
 toward the light and L its intensity over the distance squared (a spot's falloff and texture
 on it) or a directional light's irradiance.  Area and environment lights are reached by the
 sampled rays themselves (:func:`blockhash.frame.surface_lights.emission_seen`, the escaped
-rays); an area light is also sampled at the vertex (:func:`area_lights`: one point on it by
-area and a shadow ray), and the two ways of reaching it are weighted by Veach's power
+rays); they are also sampled at the vertex (:func:`sampled_lights`: one point on an area
+light by area, or one direction from an environment, and a shadow ray), and the two ways of reaching it are weighted by Veach's power
 heuristic (1997), as Mitsuba's ``path`` and ``direct`` integrators weigh them: the point on
 the light by ``p_l^2 / (p_l^2 + p_b^2)``, the light that the vertex's sampled ray meets by
 ``p_b^2 / (p_l^2 + p_b^2)`` (:func:`light_weight`), ``p_l = d^2 / (cos_y A)`` the light
 point's density over directions and ``p_b`` the microfacet event's
 (:func:`sampling_pdf`).  A sharp highlight of a large light is then the sampled rays', a
-blurred one of a small light the light points' (Veach's four plates).  Environment lights
-are reached by the sampled rays alone.
+blurred one of a small light the light points' (Veach's four plates).  An environment's
+direction comes from its map's sampling, of density ``p_l``
+(:meth:`blockhash.scene.environment_light.EnvironmentLight.pdf`), weighed against the
+sampled rays that leave the scene (:func:`sampled_weight`).
 
 :func:`microfacet_bsdf` is Mitsuba 3's ``roughconductor`` and ``roughdielectric`` evaluation
 (Walter et al. 2007) with the cosine, written for the directions the camera's rays sample
@@ -79,13 +81,21 @@ def sampling_pdf(v, light, n, outer, alpha, ggx, dielectric, ior):
     return np.where((cos_v > 0.0) & (v_h > 0.0) & np.isfinite(out), out, 0.0)
 
 
-def light_weight(q, cos_y, area):
-    """The power heuristic's weight (module docstring) of an area light of ``area`` met by a
-    rough vertex's sampled ray: ``q`` the ray's :func:`sampling_pdf` over its length squared
-    (inf: the ray left no rough vertex, weight 1), ``cos_y`` the light's face to the ray."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = 1.0 / (np.asarray(q, np.float64) * np.abs(cos_y) * area)  # p_l / p_b
+def sampled_weight(p_sampled, p_light):
+    """The power heuristic's weight ``p_b^2 / (p_b^2 + p_l^2)`` of light met by a rough
+    vertex's sampled ray of density ``p_sampled`` (inf: the ray left no rough vertex, weight
+    1) where the light's own sampling has density ``p_light`` (the same measure)."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        ratio = np.asarray(p_light, np.float64) / np.asarray(p_sampled, np.float64)
     return np.where(np.isfinite(ratio), 1.0 / (1.0 + ratio * ratio), 0.0)
+
+
+def light_weight(q, cos_y, area):
+    """:func:`sampled_weight` of an area light of ``area`` met by a rough vertex's sampled
+    ray: ``q`` the ray's :func:`sampling_pdf` over its length squared (inf: the ray left no
+    rough vertex, weight 1), ``cos_y`` the light's face to the ray (per unit area, against
+    the light's 1 / area)."""
+    return sampled_weight(np.asarray(q, np.float64) * np.abs(cos_y), 1.0 / area)
 
 
 def microfacet_bsdf(v, light, n, outer, alpha, ggx, dielectric, ior, tint, reflectance, eta, k,
@@ -116,16 +126,17 @@ def microfacet_bsdf(v, light, n, outer, alpha, ggx, dielectric, ior, tint, refle
 def vertex_lights(rays, lights, pos, nrm, view, obj, outer, owner, samples: int,
                   pass_index: int, event: int) -> np.ndarray:
     """(m, 3) the light that rough vertices take by shadow rays, before the camera ray's weight:
-    :func:`delta_lights` and :func:`area_lights` (their arguments)."""
-    return delta_lights(rays, lights, pos, nrm, view, obj, outer) + area_lights(
+    :func:`delta_lights` and :func:`sampled_lights` (their arguments)."""
+    return delta_lights(rays, lights, pos, nrm, view, obj, outer) + sampled_lights(
         rays, lights, pos, nrm, view, obj, outer, owner, samples, pass_index, event)
 
 
-def area_lights(rays, lights, pos, nrm, view, obj, outer, owner, samples: int,
-                pass_index: int, event: int) -> np.ndarray:
-    """(m, 3) the area lights' direct light at rough vertices (as :func:`delta_lights`'
-    arguments), by one point on each light per vertex, uniform by area, weighted by the power
-    heuristic against the vertex's sampled ray (module docstring).  The points come from
+def sampled_lights(rays, lights, pos, nrm, view, obj, outer, owner, samples: int,
+                   pass_index: int, event: int) -> np.ndarray:
+    """(m, 3) the area and environment lights' direct light at rough vertices (as
+    :func:`delta_lights`' arguments), by one point on each area light per vertex, uniform by
+    area, and one direction from each environment by its map's sampling, each weighted by the
+    power heuristic against the vertex's sampled ray (module docstring).  The uniforms are
     :func:`blockhash.frame.surface_lights.light_uniforms` of the vertices' camera samples
     ``owner`` (of ``samples``) in pass ``pass_index``, a stream of their own per light and
     specular ``event``."""
@@ -137,9 +148,17 @@ def area_lights(rays, lights, pos, nrm, view, obj, outer, owner, samples: int,
     table = _table(geom, obj)
     offset = RAY_OFFSET * rays.scale
     for li, light in enumerate(lights):
-        if not hasattr(light, "radiance"):
+        if not hasattr(light, "radiance") and not hasattr(light, "image"):
             continue
         u = light_uniforms(samples, owner, pass_index, li + VERTEX_STREAMS * (event + 1))
+        if hasattr(light, "image"):  # an environment
+            toward, p_light = light.sample(u[:, 0], None, u[:, 1])
+            ok = np.flatnonzero(p_light > 0.0)
+            side = np.where(np.sum(toward[ok] * nrm[ok], axis=1) > 0.0, 1.0, -1.0)[:, None]
+            ok = ok[escapes(rays, pos[ok], nrm[ok] * side, toward[ok])]
+            _add_weighted(out, ok, view, toward, nrm, outer, table, light.emitted(toward[ok]),
+                          p_light[ok])
+            continue
         y, ny, radiance = points_on_light(light, u)
         to = y - pos
         d2 = np.sum(to * to, axis=1)
@@ -150,11 +169,18 @@ def area_lights(rays, lights, pos, nrm, view, obj, outer, owner, samples: int,
             continue
         side = np.where(np.sum(toward[ok] * nrm[ok], axis=1) > 0.0, 1.0, -1.0)[:, None]
         ok = ok[rays.visible(pos[ok], nrm[ok] * side, y[ok] + ny[ok] * offset)]
-        p_light = d2[ok] / (cos_y[ok] * light.area)
-        p_bsdf = sampling_pdf(view[ok], toward[ok], nrm[ok], outer[ok], *(t[ok] for t in table[:4]))
-        f = microfacet_bsdf(view[ok], toward[ok], nrm[ok], outer[ok], *(t[ok] for t in table))
-        out[ok] += f * radiance[ok] * (p_light / (p_light ** 2 + p_bsdf ** 2))[:, None]
+        _add_weighted(out, ok, view, toward, nrm, outer, table, radiance[ok],
+                      d2[ok] / (cos_y[ok] * light.area))
     return out
+
+
+def _add_weighted(out, ok, view, toward, nrm, outer, table, radiance, p_light) -> None:
+    """Adds to ``out[ok]`` the light of ``radiance`` (len(ok), 3) arriving along ``toward[ok]``,
+    drawn with density ``p_light`` per steradian: ``f |cos| L / p_l`` times the power
+    heuristic's weight against the rough event's density, ``p_l^2 / (p_l^2 + p_b^2)``."""
+    p_bsdf = sampling_pdf(view[ok], toward[ok], nrm[ok], outer[ok], *(t[ok] for t in table[:4]))
+    f = microfacet_bsdf(view[ok], toward[ok], nrm[ok], outer[ok], *(t[ok] for t in table))
+    out[ok] += f * radiance * (p_light / (p_light ** 2 + p_bsdf ** 2))[:, None]
 
 
 def sampled_pdf(geometry, view, dirs, nrm, outer, obj) -> np.ndarray:

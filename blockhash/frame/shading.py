@@ -162,11 +162,11 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
                 met = np.zeros((h * w, 3))
             p_end, _, o_end, _ = _follow(rays, pos[idx], n, r, side)
             emission_met(met, idx, weight[idx], p_end, -r, o_end, r, rays, lights, objects,
-                         ray_pdf(pdf, pos[idx], p_end))
+                         ray_pdf(pdf, pos[idx], p_end, o_end))
             break
         start = pos[idx]
         pos[idx], nrm[idx], obj[idx], outer[idx] = _follow(rays, start, n, r, side)
-        q[idx] = ray_pdf(pdf, start, pos[idx])
+        q[idx] = ray_pdf(pdf, start, pos[idx], obj[idx])
         escaped[idx] = obj[idx] < 0
         obj[idx] = _no_back(obj[idx], outer[idx], backs)
         view[idx] = -r
@@ -367,7 +367,7 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
         parent, dirs, wts, side, pdf = parent[live], dirs[live], wts[live], side[live], pdf[live]
         start = pos[parent]
         pos, nrm, obj, outer = _follow(rays, start, nrm[parent], dirs, side)
-        q = ray_pdf(pdf, start, pos)
+        q = ray_pdf(pdf, start, pos, obj)
         if event == last:
             emission_met(met, owner[parent], wts, pos, -dirs, obj, dirs, rays, lights, objects, q)
             owner = owner[:0]

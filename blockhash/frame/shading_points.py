@@ -37,9 +37,10 @@ class ShadingPoints:
                                      point whose ray's first hit is not specular is
     rough_pdf : (h, w) float64 or None   the density with which a rough vertex sent the ray
                                      that reached the point, over the ray's length squared
-                                     (inf where no rough vertex did), for the weight of an
-                                     area light seen there against the vertex's own light
-                                     points (:func:`blockhash.frame.rough_direct.light_weight`);
+                                     (where it left the scene: the density itself; inf where
+                                     no rough vertex sent it), for the weight of an area or
+                                     environment light seen there against the vertex's own
+                                     light samples (:mod:`blockhash.frame.rough_direct`);
                                      None: no ray left a rough vertex
     """
 

@@ -137,9 +137,25 @@ def environment_seen(out, lights, points) -> None:
     gone = np.flatnonzero(points.escaped.reshape(-1))
     toward = -points.view.reshape(-1, 3)[gone].astype(np.float64)
     toward /= np.maximum(np.linalg.norm(toward, axis=1, keepdims=True), 1e-30)
+    pdf = None if points.rough_pdf is None else points.rough_pdf.reshape(-1)[gone]
+    out[gone] += environments_along(lights, toward, pdf)
+
+
+def environments_along(lights, toward, rough_pdf=None) -> np.ndarray:
+    """(m, 3) the environment lights' radiance along rays leaving the scene along ``toward``
+    (m, 3), each weighted against the light's own directions where a rough vertex sent the
+    ray (``rough_pdf`` (m,) its density, inf where none did; None: none did;
+    :func:`blockhash.frame.rough_direct.sampled_weight`)."""
+    from blockhash.frame.rough_direct import sampled_weight
+
+    out = np.zeros((len(toward), 3))
     for light in lights:
         if hasattr(light, "image"):
-            out[gone] += light.emitted(toward)
+            seen = light.emitted(toward)
+            if rough_pdf is not None:
+                seen = seen * sampled_weight(rough_pdf, light.pdf(toward))[:, None]
+            out += seen
+    return out
 
 
 def escapes(rays, points, normals, dirs) -> np.ndarray:
