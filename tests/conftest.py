@@ -10,6 +10,12 @@ import pytest
 from plane_scene import plane  # noqa: F401 (the analytic plane scene, a fixture of the render's tests)
 
 from blockhash.evaluate.datasets import DISTRIBUTIONS
+from blockhash.studies.reference_cache import CACHE_ENV
+
+#: Mitsuba's renders of the files the reference tests compare against, kept with the tests
+#: (blockhash/studies/reference_cache.py): a run renders only what changed, and keeps it here
+#: (commit the new files; delete the folder to render them all again).
+os.environ.setdefault(CACHE_ENV, str(Path(__file__).resolve().parent / "data" / "mitsuba_cache"))
 
 
 @pytest.fixture

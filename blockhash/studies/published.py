@@ -73,10 +73,16 @@ def load(path, defines: dict | None = None) -> tuple:
 def mitsuba_render(path, size, spp: int, seed: int = 0,
                    defines: dict | None = None) -> tuple[np.ndarray, float]:
     """(image (h, w, 3) float64, seconds) of Mitsuba's render of the file at ``path`` as it
-    is (``defines`` its parameters), its film resized to ``size``."""
+    is (``defines`` its parameters), its film resized to ``size``; read from the folder of
+    kept renders where one holds it (:mod:`.reference_cache`), and kept there."""
     from blockhash.reference.mitsuba import load_mitsuba_module
+    from blockhash.studies import reference_cache
 
-    mi, _ = load_mitsuba_module()
+    mi, variant = load_mitsuba_module()
+    key = reference_cache.render_key(path, size, spp, seed, defines, f"{mi.__version__} {variant}")
+    found = reference_cache.kept(key)
+    if found is not None:
+        return found
     given = {k: str(v) for k, v in (defines or {}).items()}
     try:
         try:
@@ -99,8 +105,10 @@ def mitsuba_render(path, size, spp: int, seed: int = 0,
     params["film.crop_size"] = mi.ScalarVector2u(*size)
     params.update()
     t = time.perf_counter()
-    image = np.asarray(mi.render(scene, spp=int(spp), seed=int(seed)), dtype=np.float64)
-    return image[..., :3], time.perf_counter() - t
+    image = np.asarray(mi.render(scene, spp=int(spp), seed=int(seed)), dtype=np.float64)[..., :3]
+    seconds = time.perf_counter() - t
+    reference_cache.keep(key, image, seconds)
+    return image, seconds
 
 
 def compare(path, *, size: int = 64, spp: int = 1024, passes: int = 8, photons=None,
