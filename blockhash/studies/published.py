@@ -70,16 +70,21 @@ def load(path, defines: dict | None = None) -> tuple:
     return scene, None, [str(w.message) for w in caught]
 
 
-def mitsuba_render(path, size, spp: int, seed: int = 0,
-                   defines: dict | None = None) -> tuple[np.ndarray, float]:
+def mitsuba_render(path, size, spp: int, seed: int = 0, defines: dict | None = None,
+                   integrator: dict | None = None) -> tuple[np.ndarray, float]:
     """(image (h, w, 3) float64, seconds) of Mitsuba's render of the file at ``path`` as it
-    is (``defines`` its parameters), its film resized to ``size``; read from the folder of
-    kept renders where one holds it (:mod:`.reference_cache`), and kept there."""
+    is (``defines`` its parameters), its film resized to ``size`` (None: as the file has it),
+    by the file's integrator or ``integrator`` (a :func:`mitsuba.load_dict` description);
+    read from the folder of kept renders where one holds it (:mod:`.reference_cache`), and
+    kept there."""
     from blockhash.reference.mitsuba import load_mitsuba_module
     from blockhash.studies import reference_cache
 
     mi, variant = load_mitsuba_module()
-    key = reference_cache.render_key(path, size, spp, seed, defines, f"{mi.__version__} {variant}")
+    key = reference_cache.render_key(
+        path, size or (), spp, seed,
+        defines if integrator is None else {**(defines or {}), " integrator": integrator},
+        f"{mi.__version__} {variant}")
     found = reference_cache.kept(key)
     if found is not None:
         return found
@@ -96,16 +101,12 @@ def mitsuba_render(path, size, spp: int, seed: int = 0,
         if "polarized mode" not in str(exc) and "moment" not in str(exc):
             raise
         scene = _unwrapped(mi, Path(path))
-    params = mi.traverse(scene.sensors()[0])
-    full, crop = np.array(params["film.size"], float), np.array(params["film.crop_size"], float)
-    scale = np.array(size, float) / crop  # a crop window keeps its place on the film
-    params["film.size"] = mi.ScalarVector2u(*np.round(full * scale).astype(int).tolist())
-    params["film.crop_offset"] = mi.ScalarPoint2u(
-        *np.round(np.array(params["film.crop_offset"], float) * scale).astype(int).tolist())
-    params["film.crop_size"] = mi.ScalarVector2u(*size)
-    params.update()
+    if size is not None:
+        _resize_film(mi, scene, size)
+    given = {} if integrator is None else {"integrator": mi.load_dict(integrator)}
     t = time.perf_counter()
-    image = np.asarray(mi.render(scene, spp=int(spp), seed=int(seed)), dtype=np.float64)[..., :3]
+    image = np.asarray(mi.render(scene, spp=int(spp), seed=int(seed), **given),
+                       dtype=np.float64)[..., :3]
     seconds = time.perf_counter() - t
     reference_cache.keep(key, image, seconds)
     return image, seconds
@@ -143,6 +144,18 @@ def compare(path, *, size: int = 64, spp: int = 1024, passes: int = 8, photons=N
     out.flux = ours.sum(axis=(0, 1)) / np.maximum(theirs.sum(axis=(0, 1)), 1e-300)
     out.blurred = box_blur_rel_rms(ours, theirs, np.ones(ours.shape[:2], dtype=bool))
     return out
+
+
+def _resize_film(mi, scene, size) -> None:
+    """Mitsuba's ``scene`` with its film resized to ``size`` (a crop window keeps its place)."""
+    params = mi.traverse(scene.sensors()[0])
+    full, crop = np.array(params["film.size"], float), np.array(params["film.crop_size"], float)
+    scale = np.array(size, float) / crop
+    params["film.size"] = mi.ScalarVector2u(*np.round(full * scale).astype(int).tolist())
+    params["film.crop_offset"] = mi.ScalarPoint2u(
+        *np.round(np.array(params["film.crop_offset"], float) * scale).astype(int).tolist())
+    params["film.crop_size"] = mi.ScalarVector2u(*size)
+    params.update()
 
 
 def _unwrapped(mi, path: Path):

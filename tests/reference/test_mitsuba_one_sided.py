@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 import trimesh
 from conftest import mitsuba_or_skip
+from test_mitsuba_xml_scenes import mitsuba_layers
 
 from blockhash.scene.camera import Pinhole
 from blockhash.scene.loader import load_scene
@@ -93,21 +94,6 @@ def floor_file(tmp_path, floor: str) -> Path:
     path.write_text((HERE / "mirror.xml").read_text().replace(FLOOR_BSDF, floor))
     assert path.read_text() != (HERE / "mirror.xml").read_text()
     return path
-
-
-def mitsuba_layers(path, depth):
-    """Mitsuba's path tracer (64 spp) and particle tracer (512 spp) of the file at ``path``."""
-    from blockhash.reference.mitsuba import load_mitsuba_module
-
-    mi, _ = load_mitsuba_module()
-    scene = mi.load_file(str(path))
-
-    def run(kind, spp):
-        integrator = mi.load_dict({"type": kind, "max_depth": depth})
-        return np.asarray(mi.render(scene, integrator=integrator, spp=spp, seed=3),
-                          np.float64)[..., :3]
-
-    return run("path", 64), run("ptracer", 512)
 
 
 def render(scene):

@@ -32,6 +32,7 @@ from conftest import mitsuba_or_skip
 
 from blockhash.scene.camera import Pinhole
 from blockhash.scene.loader import load_scene
+from blockhash.studies.published import mitsuba_render
 
 HERE = Path(__file__).resolve().parent / "mitsuba_xml"
 #: Limits, over measured at these settings (photon seed 1, Mitsuba seed 3): the direct
@@ -50,15 +51,9 @@ def needs_mitsuba():
 
 
 def mitsuba_layers(path, depth):
-    from blockhash.reference.mitsuba import load_mitsuba_module
-
-    mi, _ = load_mitsuba_module()
-    scene = mi.load_file(str(path))
-
     def run(kind, spp):
-        integrator = mi.load_dict({"type": kind, "max_depth": depth})
-        return np.asarray(mi.render(scene, integrator=integrator, spp=spp, seed=3),
-                          np.float64)[..., :3]
+        return mitsuba_render(path, None, spp, seed=3,
+                              integrator={"type": kind, "max_depth": depth})[0]
 
     return run("path", 64), run("ptracer", 512)
 
@@ -165,12 +160,8 @@ def test_the_checkerboard_floor_is_mitsubas_pixel_by_pixel():
     scene = load_scene(path)
     assert {o.name.rsplit("/", 1)[-1] for o in scene.objects} >= {"color0", "color1"}
     image = blockhash.render(scene, photons=20_000, seed=1, lookup=LookupOptions(method="cpu"))
-    from blockhash.reference.mitsuba import load_mitsuba_module
-
-    mi, _ = load_mitsuba_module()
-    integrator = mi.load_dict({"type": "path", "max_depth": scene.photons.max_bounces + 2})
-    path_tracer = np.asarray(mi.render(mi.load_file(str(path)), integrator=integrator, spp=1024,
-                                       seed=3), np.float64)[..., :3]
+    path_tracer = mitsuba_render(path, None, 1024, seed=3, integrator={
+        "type": "path", "max_depth": scene.photons.max_bounces + 2})[0]
     seen = ~seen_specular(scene)
     rel = box_blur_rel_rms(image.direct.astype(np.float64), path_tracer, seen, size=3)
     assert rel < 0.05, f"direct layer's blurred relative RMS {rel:.3f}"
@@ -190,12 +181,8 @@ def test_a_crop_window_is_the_part_of_the_film_mitsuba_renders():
     path = HERE / "crop.xml"
     scene = load_scene(path)
     assert (scene.camera.width, scene.camera.height) == (30, 22)
-    from blockhash.reference.mitsuba import load_mitsuba_module
-
-    mi, _ = load_mitsuba_module()
-    integrator = mi.load_dict({"type": "path", "max_depth": scene.photons.max_bounces + 2})
-    theirs = np.asarray(mi.render(mi.load_file(str(path)), integrator=integrator, spp=1024,
-                                  seed=3), np.float64)[..., :3]
+    theirs = mitsuba_render(path, None, 1024, seed=3, integrator={
+        "type": "path", "max_depth": scene.photons.max_bounces + 2})[0]
     assert theirs.shape == (22, 30, 3)
     plan = RenderPlan(passes=1)
     ours = blockhash.render(scene, photons=20_000, seed=1, spp=16, plan=plan,
@@ -219,25 +206,22 @@ def test_a_thin_lens_blurs_as_mitsubas():
     import blockhash
     from blockhash import LookupOptions
     from blockhash.passes.plan import RenderPlan
-    from blockhash.reference.mitsuba import load_mitsuba_module
     from blockhash.studies.measure import box_blur_rel_rms
 
     path = HERE / "thinlens.xml"
     scene = load_scene(path)
     assert scene.camera.aperture_radius == 0.6 and scene.camera.focus_distance == 2.2
-    mi, _ = load_mitsuba_module()
-    integrator = mi.load_dict({"type": "path", "max_depth": scene.photons.max_bounces + 2})
-    theirs = np.asarray(mi.render(mi.load_file(str(path)), integrator=integrator, spp=2048,
-                                  seed=3), np.float64)[..., :3]
+    depth = scene.photons.max_bounces + 2
+    theirs = mitsuba_render(path, None, 2048, seed=3,
+                            integrator={"type": "path", "max_depth": depth})[0]
     image = blockhash.render(scene, photons=20_000, seed=1, spp=64, plan=RenderPlan(passes=2),
                              lookup=LookupOptions(method="cpu"))
     ours = image.direct.astype(np.float64)
     rel = box_blur_rel_rms(ours, theirs, np.ones(ours.shape[:2], dtype=bool), size=3)
     assert rel < 0.05, f"direct layer's blurred relative RMS {rel:.3f}"
     # the caustic blurred by the lens, as in Mitsuba's particle tracer (measured 1.2%)
-    integrator = mi.load_dict({"type": "ptracer", "max_depth": scene.photons.max_bounces + 2})
-    particles = np.asarray(mi.render(mi.load_file(str(path)), integrator=integrator, spp=2048,
-                                     seed=3), np.float64)[..., :3]
+    particles = mitsuba_render(path, None, 2048, seed=3,
+                               integrator={"type": "ptracer", "max_depth": depth})[0]
     lum = image.caustic.sum(axis=2)
     region = (lum > 0.1 * lum.max()) & ~seen_specular(scene)
     both = ours + image.caustic.astype(np.float64)
@@ -256,7 +240,6 @@ def test_a_twosided_of_two_bsdfs_shows_each_face_as_mitsuba(z):
     import blockhash
     from blockhash import LookupOptions
     from blockhash.passes.plan import RenderPlan
-    from blockhash.reference.mitsuba import load_mitsuba_module
     from blockhash.studies.measure import box_blur_rel_rms
 
     path = HERE / "twofaced.xml"
@@ -266,9 +249,7 @@ def test_a_twosided_of_two_bsdfs_shows_each_face_as_mitsuba(z):
         warnings.simplefilter("ignore")  # no caustic here
         ours = blockhash.render(scene, photons=20_000, seed=1, spp=16, plan=RenderPlan(passes=2),
                                 lookup=LookupOptions(method="cpu")).direct.astype(np.float64)
-    mi, _ = load_mitsuba_module()
-    theirs = np.asarray(mi.render(mi.load_file(str(path), z=z), spp=1024, seed=3),
-                        np.float64)[..., :3]
+    theirs = mitsuba_render(path, None, 1024, seed=3, defines={"z": z})[0]
     np.testing.assert_allclose(ours.sum(axis=(0, 1)) / theirs.sum(axis=(0, 1)), 1.0, atol=0.01)
     rel = box_blur_rel_rms(ours, theirs, np.ones(ours.shape[:2], dtype=bool), size=3)
     assert rel < 0.05, f"blurred relative RMS {rel:.3f}"
