@@ -6,7 +6,7 @@ sampled ray and by a sample of the light, weighted by the power heuristic.
   sharp and a rough plastic plate under a small bright sphere light and a large dim one, seen
   only in their highlights; with the sampled rays alone the small light's highlight on the
   rough plate is a few bright speckles.
-* A rough copper ball under a sky with a small bright sun (an environment map written here);
+* A rough copper ball under a sky with a small bright sun (``mitsuba_xml/sun_copper.xml``);
   with the sampled rays alone the sun's highlight is speckles.
 
 Needs the extra blockhash[mitsuba]; skipped without it, unless BLOCKHASH_REQUIRE_MITSUBA is
@@ -16,7 +16,6 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import OpenImageIO as oiio
 import pytest
 from conftest import mitsuba_or_skip
 
@@ -52,43 +51,19 @@ def test_the_plates_highlights_are_mitsubas():
     np.testing.assert_allclose(ours.sum((0, 1)) / theirs.sum((0, 1)), 1.0, atol=0.05)
 
 
-SUN_SCENE = """<scene version="3.0.0">
-  <integrator type="path"/>
-  <sensor type="perspective">
-    <float name="fov" value="30"/>
-    <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
-    <sampler type="independent"><integer name="sample_count" value="16"/></sampler>
-    <film type="hdrfilm"><integer name="width" value="48"/><integer name="height" value="48"/>
-      <rfilter type="box"/></film>
-  </sensor>
-  <emitter type="envmap"><string name="filename" value="sky.exr"/></emitter>
-  <shape type="sphere">
-    <bsdf type="roughconductor"><string name="material" value="Cu"/><float name="alpha" value="0.2"/></bsdf>
-  </shape>
-</scene>"""
+SUN = Path(__file__).resolve().parent / "mitsuba_xml" / "sun_copper.xml"
 
 
-def test_a_suns_highlight_on_rough_metal_is_mitsubas(tmp_path):
+def test_a_suns_highlight_on_rough_metal_is_mitsubas():
     # measured (48 x 48, 4 passes of 16 samples, Mitsuba at 4,096): blurred 0.041, flux within
     # 0.4%; 0.474 with the sampled rays alone
     mitsuba_or_skip()
-    sky = np.empty((32, 64, 3), dtype=np.float32)
-    sky[:] = (0.15, 0.2, 0.3)
-    sky[6:8, 20:22] = 3000.0  # the sun: 4 of 2,048 pixels, 95% of the light
-    spec = oiio.ImageSpec(64, 32, 3, oiio.FLOAT)
-    spec.attribute("DateTime", "2026:12:07 00:00:00")  # the same bytes every run: Mitsuba's
-    out = oiio.ImageOutput.create(str(tmp_path / "sky.exr"))  # render is kept by them
-    out.open(str(tmp_path / "sky.exr"), spec)
-    out.write_image(sky)
-    out.close()
-    path = tmp_path / "sun.xml"
-    path.write_text(SUN_SCENE)
-    scene, refused, _ = load(path)
+    scene, refused, _ = load(SUN)
     assert refused is None, refused
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # no caustic: nothing below the ball to receive one
         ours = np.asarray(blockhash.render(scene, spp=16, plan=RenderPlan(passes=4)).combined,
                           dtype=np.float64)
-    theirs, _ = mitsuba_render(path, (48, 48), 4096)
+    theirs, _ = mitsuba_render(SUN, (48, 48), 4096)
     assert box_blur_rel_rms(ours, theirs, np.ones(ours.shape[:2], dtype=bool)) < 0.08
     np.testing.assert_allclose(ours.sum((0, 1)) / theirs.sum((0, 1)), 1.0, atol=0.02)
