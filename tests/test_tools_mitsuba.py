@@ -28,11 +28,13 @@ def test_the_folder_tool_tabulates_renders_and_refusals(tmp_path):
     text = run_tool("mitsuba_folder.py", [PUBLISHED / "integrator_depth_2.xml",
                                           PUBLISHED / "bsdf_pplastic.xml",
                                           "--size", "16", "--spp", "16", "--passes", "1",
-                                          "--json", out], tmp_path)
+                                          "--peer-spp", "2", "--json", out], tmp_path)
     assert "| integrator_depth_2.xml | yes | 1 |" in text
+    assert "| Mitsuba at 2 spp, blurred |" in text
     assert "| bsdf_pplastic.xml | no: <bsdf type=\"pplastic\">" in text
     assert "1 of 2 render." in text
     rendered, refused = json.loads(out.read_text())
     assert rendered["refused"] is None and len(rendered["flux"]) == 3
     assert abs(rendered["flux"][1] - 1) < 0.2  # 16 pixels, 16 samples: loose, but the same light
+    assert 0.0 < rendered["peer_blurred_rel_rms"] < 2.0  # Mitsuba's own 2 samples: noisy
     assert "bsdf_pplastic.xml:4" in refused["refused"]

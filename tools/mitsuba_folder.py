@@ -7,7 +7,7 @@ Every ``*.xml`` directly in each FOLDER (an included part in a subfolder is read
 file that includes it), or the files given.  Needs the extra blockhash[mitsuba].
 
 usage: python tools/mitsuba_folder.py FOLDER_OR_FILE... [--size 64] [--spp 1024]
-                                      [--passes 8] [-D NAME=VALUE] [--json FILE]
+                                      [--passes 8] [-D NAME=VALUE] [--peer-spp N] [--json FILE]
 """
 
 import sys
@@ -39,15 +39,20 @@ def main(argv=None) -> int:
     p.add_argument("--size", type=count, default=64, help="longer image side in pixels")
     p.add_argument("--spp", type=count, default=1024, help="Mitsuba's samples per pixel")
     p.add_argument("--passes", type=count, default=8, help="blockhash's passes")
+    p.add_argument("--peer-spp", type=count, help="also render Mitsuba at this many samples "
+                   "a pixel (another seed) and give its blurred error against the same "
+                   "reference: what an unbiased render reaches at that count")
     p.add_argument("--json", help="write the rows to this file")
     define_option(p)
     args = p.parse_args(argv)
     rows, refusals = [], Counter()
-    print("| file | renders | warnings | blockhash s | Mitsuba s | flux (r, g, b) | blurred rel. RMS |")
-    print("| --- | --- | --- | --- | --- | --- | --- |")
+    peer = f" Mitsuba at {args.peer_spp} spp, blurred |" if args.peer_spp else ""
+    print("| file | renders | warnings | blockhash s | Mitsuba s | flux (r, g, b) | blurred rel. "
+          f"RMS |{peer}")
+    print("| --- | --- | --- | --- | --- | --- | --- |" + (" --- |" if peer else ""))
     for path in files(args.paths):
         row = compare(path, size=args.size, spp=args.spp, passes=args.passes,
-                      defines=defines(args.define))
+                      defines=defines(args.define), peer_spp=args.peer_spp)
         rows.append(row)
         if row.refused:
             refusals[reason(row.refused)] += 1
@@ -58,8 +63,9 @@ def main(argv=None) -> int:
                   f"failed: {reason(row.mitsuba_error)} | | |", flush=True)
             continue
         flux = ", ".join(f"{f:.3f}" for f in row.flux)
+        extra = f" {row.peer_blurred:.3f} |" if peer else ""
         print(f"| {path.name} | yes | {len(row.warnings)} | {row.seconds:.1f} | "
-              f"{row.mitsuba_seconds:.1f} | {flux} | {row.blurred:.3f} |", flush=True)
+              f"{row.mitsuba_seconds:.1f} | {flux} | {row.blurred:.3f} |{extra}", flush=True)
     done = sum(r.refused is None for r in rows)
     print(f"\n{done} of {len(rows)} render.  Refusals by reason:")
     for text, n in refusals.most_common():

@@ -42,12 +42,15 @@ class Comparison:
     blurred: float = float("nan")
     #: Mitsuba's own error where it did not render the file (blockhash's image stands alone).
     mitsuba_error: str | None = None
+    #: Mitsuba's render at fewer samples against its reference, where asked (``peer_spp``).
+    peer_blurred: float = float("nan")
 
     def as_dict(self) -> dict:
         return {"file": str(self.path), "refused": self.refused, "warnings": self.warnings,
                 "size": list(self.size), "seconds": self.seconds,
                 "mitsuba_seconds": self.mitsuba_seconds, "flux": np.asarray(self.flux).tolist(),
-                "blurred_rel_rms": self.blurred, "mitsuba_error": self.mitsuba_error}
+                "blurred_rel_rms": self.blurred, "mitsuba_error": self.mitsuba_error,
+                "peer_blurred_rel_rms": self.peer_blurred}
 
 
 def small_size(camera, side: int) -> tuple[int, int]:
@@ -113,11 +116,14 @@ def mitsuba_render(path, size, spp: int, seed: int = 0, defines: dict | None = N
 
 
 def compare(path, *, size: int = 64, spp: int = 1024, passes: int = 8, photons=None,
-            samples: int | None = None, seed: int = 1, defines: dict | None = None) -> Comparison:
+            samples: int | None = None, seed: int = 1, defines: dict | None = None,
+            peer_spp: int | None = None) -> Comparison:
     """The :class:`Comparison` of the file at ``path`` (module docstring): Mitsuba at ``spp``
     samples a pixel, blockhash in ``passes`` passes of ``samples`` a pixel each (None: the
     file's ``sample_count``) and ``photons`` a pass (None: blockhash's default); ``defines``
-    the file's parameters for both, as Mitsuba's ``-D``."""
+    the file's parameters for both, as Mitsuba's ``-D``.  With ``peer_spp``, Mitsuba's own
+    render at that many samples a pixel (another seed) against the same reference too
+    (:attr:`Comparison.peer_blurred`): the error an unbiased render reaches at that count."""
     import blockhash
     from blockhash.passes.plan import RenderPlan
     from blockhash.studies.measure import box_blur_rel_rms
@@ -142,7 +148,11 @@ def compare(path, *, size: int = 64, spp: int = 1024, passes: int = 8, photons=N
         out.mitsuba_error = str(exc).splitlines()[0]
         return out
     out.flux = ours.sum(axis=(0, 1)) / np.maximum(theirs.sum(axis=(0, 1)), 1e-300)
-    out.blurred = box_blur_rel_rms(ours, theirs, np.ones(ours.shape[:2], dtype=bool))
+    everywhere = np.ones(ours.shape[:2], dtype=bool)
+    out.blurred = box_blur_rel_rms(ours, theirs, everywhere)
+    if peer_spp:
+        peer, _ = mitsuba_render(path, out.size, peer_spp, seed=1, defines=defines)
+        out.peer_blurred = box_blur_rel_rms(peer, theirs, everywhere)
     return out
 
 
