@@ -180,7 +180,9 @@ def _add_weighted(out, ok, view, toward, nrm, outer, table, radiance, p_light) -
     heuristic's weight against the rough event's density, ``p_l^2 / (p_l^2 + p_b^2)``."""
     p_bsdf = sampling_pdf(view[ok], toward[ok], nrm[ok], outer[ok], *(t[ok] for t in table[:4]))
     f = microfacet_bsdf(view[ok], toward[ok], nrm[ok], outer[ok], *(t[ok] for t in table))
-    out[ok] += f * radiance * (p_light / (p_light ** 2 + p_bsdf ** 2))[:, None]
+    with np.errstate(divide="ignore", over="ignore"):  # p_l / (p_l^2 + p_b^2), 0 at p_l = inf
+        scale = 1.0 / (p_light + p_bsdf * (p_bsdf / p_light))
+    out[ok] += f * radiance * np.where(np.isfinite(scale), scale, 0.0)[:, None]
 
 
 def sampled_pdf(geometry, view, dirs, nrm, outer, obj) -> np.ndarray:
