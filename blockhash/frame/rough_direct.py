@@ -12,13 +12,13 @@ rays); they are also sampled at the vertex (:func:`sampled_lights`: one point on
 light by area, or one direction from an environment, and a shadow ray), and the two ways of reaching it are weighted by Veach's power
 heuristic (1997), as Mitsuba's ``path`` and ``direct`` integrators weigh them: the point on
 the light by ``p_l^2 / (p_l^2 + p_b^2)``, the light that the vertex's sampled ray meets by
-``p_b^2 / (p_l^2 + p_b^2)`` (:func:`light_weight`), ``p_l = d^2 / (cos_y A)`` the light
+``p_b^2 / (p_l^2 + p_b^2)`` (:func:`blockhash.frame.surface_lights.light_weight`), ``p_l = d^2 / (cos_y A)`` the light
 point's density over directions and ``p_b`` the microfacet event's
 (:func:`sampling_pdf`).  A sharp highlight of a large light is then the sampled rays', a
 blurred one of a small light the light points' (Veach's four plates).  An environment's
 direction comes from its map's sampling, of density ``p_l``
 (:meth:`blockhash.scene.environment_light.EnvironmentLight.pdf`), weighed against the
-sampled rays that leave the scene (:func:`sampled_weight`).
+sampled rays that leave the scene (:func:`blockhash.frame.surface_lights.sampled_weight`).
 
 :func:`microfacet_bsdf` is Mitsuba 3's ``roughconductor`` and ``roughdielectric`` evaluation
 (Walter et al. 2007) with the cosine, written for the directions the camera's rays sample
@@ -79,23 +79,6 @@ def sampling_pdf(v, light, n, outer, alpha, ggx, dielectric, ior):
     refr = (1.0 - f) * d * eta_t ** 2 * np.abs(l_h) / np.maximum((v_h + eta_t * l_h) ** 2, 1e-30)
     out = np.where(reflect, refl, np.where(dielectric, refr, 0.0))
     return np.where((cos_v > 0.0) & (v_h > 0.0) & np.isfinite(out), out, 0.0)
-
-
-def sampled_weight(p_sampled, p_light):
-    """The power heuristic's weight ``p_b^2 / (p_b^2 + p_l^2)`` of light met by a rough
-    vertex's sampled ray of density ``p_sampled`` (inf: the ray left no rough vertex, weight
-    1) where the light's own sampling has density ``p_light`` (the same measure)."""
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        ratio = np.asarray(p_light, np.float64) / np.asarray(p_sampled, np.float64)
-    return np.where(np.isfinite(ratio), 1.0 / (1.0 + ratio * ratio), 0.0)
-
-
-def light_weight(q, cos_y, area):
-    """:func:`sampled_weight` of an area light of ``area`` met by a rough vertex's sampled
-    ray: ``q`` the ray's :func:`sampling_pdf` over its length squared (inf: the ray left no
-    rough vertex, weight 1), ``cos_y`` the light's face to the ray (per unit area, against
-    the light's 1 / area)."""
-    return sampled_weight(np.asarray(q, np.float64) * np.abs(cos_y), 1.0 / area)
 
 
 def microfacet_bsdf(v, light, n, outer, alpha, ggx, dielectric, ior, tint, reflectance, eta, k,

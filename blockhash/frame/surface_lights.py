@@ -145,9 +145,7 @@ def environments_along(lights, toward, rough_pdf=None) -> np.ndarray:
     """(m, 3) the environment lights' radiance along rays leaving the scene along ``toward``
     (m, 3), each weighted against the light's own directions where a rough vertex sent the
     ray (``rough_pdf`` (m,) its density, inf where none did; None: none did;
-    :func:`blockhash.frame.rough_direct.sampled_weight`)."""
-    from blockhash.frame.rough_direct import sampled_weight
-
+    :func:`sampled_weight`)."""
     out = np.zeros((len(toward), 3))
     for light in lights:
         if hasattr(light, "image"):
@@ -156,6 +154,23 @@ def environments_along(lights, toward, rough_pdf=None) -> np.ndarray:
                 seen = seen * sampled_weight(rough_pdf, light.pdf(toward))[:, None]
             out += seen
     return out
+
+
+def sampled_weight(p_sampled, p_light):
+    """The power heuristic's weight ``p_b^2 / (p_b^2 + p_l^2)`` of light met by a rough
+    vertex's sampled ray of density ``p_sampled`` (inf: the ray left no rough vertex, weight
+    1) where the light's own sampling has density ``p_light`` (the same measure)."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        ratio = np.asarray(p_light, np.float64) / np.asarray(p_sampled, np.float64)
+    return np.where(np.isfinite(ratio), 1.0 / (1.0 + ratio * ratio), 0.0)
+
+
+def light_weight(q, cos_y, area):
+    """:func:`sampled_weight` of an area light of ``area`` met by a rough vertex's sampled
+    ray: ``q`` the ray's :func:`blockhash.frame.rough_direct.sampling_pdf` over its length squared (inf: the ray left no
+    rough vertex, weight 1), ``cos_y`` the light's face to the ray (per unit area, against
+    the light's 1 / area)."""
+    return sampled_weight(np.asarray(q, np.float64) * np.abs(cos_y), 1.0 / area)
 
 
 def escapes(rays, points, normals, dirs) -> np.ndarray:
@@ -171,10 +186,8 @@ def emission_seen(out, lights, objects, p, wo, mat, rays, rough_pdf=None) -> Non
     """Adds to ``out`` each area light's radiance at the points on its object whose viewer
     (``wo``) is on the front of the face (a ray cast back at the point tells the side); at
     points reached by a rough vertex's sampled ray, times the ray's weight against the light's
-    own points (``rough_pdf`` (m,), :func:`blockhash.frame.rough_direct.light_weight`'s q;
+    own points (``rough_pdf`` (m,), :func:`light_weight`'s q;
     None: none was)."""
-    from blockhash.frame.rough_direct import light_weight
-
     names = {o.name: i for i, o in enumerate(objects)}
     for light in lights:
         if not hasattr(light, "radiance"):

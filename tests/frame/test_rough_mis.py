@@ -8,7 +8,8 @@ nothing is counted twice or lost).  The images against Mitsuba are
 import numpy as np
 import pytest
 
-from blockhash.frame.rough_direct import light_weight, sampling_pdf
+from blockhash.frame.rough_direct import sampling_pdf
+from blockhash.frame.surface_lights import light_weight
 from blockhash.scene.microfacet import rough_scatter
 
 N = 400_000
