@@ -9,16 +9,17 @@ toward the light and L its intensity over the distance squared (a spot's falloff
 on it) or a directional light's irradiance.  Area and environment lights are reached by the
 sampled rays themselves (:func:`blockhash.frame.surface_lights.emission_seen`, the escaped
 rays); they are also sampled at the vertex (:func:`sampled_lights`: one point on an area
-light by area, or one direction from an environment, and a shadow ray), and the two ways of reaching it are weighted by Veach's power
-heuristic (1997), as Mitsuba's ``path`` and ``direct`` integrators weigh them: the point on
-the light by ``p_l^2 / (p_l^2 + p_b^2)``, the light that the vertex's sampled ray meets by
-``p_b^2 / (p_l^2 + p_b^2)`` (:func:`blockhash.frame.surface_lights.light_weight`), ``p_l = d^2 / (cos_y A)`` the light
-point's density over directions and ``p_b`` the microfacet event's
-(:func:`sampling_pdf`).  A sharp highlight of a large light is then the sampled rays', a
-blurred one of a small light the light points' (Veach's four plates).  An environment's
-direction comes from its map's sampling, of density ``p_l``
-(:meth:`blockhash.scene.environment_light.EnvironmentLight.pdf`), weighed against the
-sampled rays that leave the scene (:func:`blockhash.frame.surface_lights.sampled_weight`).
+light by area, or one direction from an environment, and a shadow ray), and the two ways of
+reaching a light are weighted by Veach's power heuristic (1997), as Mitsuba's ``path`` and
+``direct`` integrators weigh them: the point on the light by ``p_l^2 / (p_l^2 + p_b^2)``,
+the light that the vertex's sampled ray meets by ``p_b^2 / (p_l^2 + p_b^2)``
+(:func:`blockhash.frame.surface_lights.light_weight`), ``p_l = d^2 / (cos_y A)`` the light
+point's density over directions and ``p_b`` the microfacet event's (:func:`sampling_pdf`).
+A sharp highlight of a large light is then the sampled rays', a blurred one of a small light
+the light points' (Veach's four plates).  An environment's direction comes from its map's
+sampling, of density ``p_l`` (:meth:`blockhash.scene.environment_light.EnvironmentLight.pdf`),
+weighed against the sampled rays that leave the scene
+(:func:`blockhash.frame.surface_lights.sampled_weight`).
 
 :func:`microfacet_bsdf` is Mitsuba 3's ``roughconductor`` and ``roughdielectric`` evaluation
 (Walter et al. 2007) with the cosine, written for the directions the camera's rays sample

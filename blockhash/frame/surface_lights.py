@@ -167,9 +167,9 @@ def sampled_weight(p_sampled, p_light):
 
 def light_weight(q, cos_y, area):
     """:func:`sampled_weight` of an area light of ``area`` met by a rough vertex's sampled
-    ray: ``q`` the ray's :func:`blockhash.frame.rough_direct.sampling_pdf` over its length squared (inf: the ray left no
-    rough vertex, weight 1), ``cos_y`` the light's face to the ray (per unit area, against
-    the light's 1 / area)."""
+    ray: ``q`` the ray's :func:`blockhash.frame.rough_direct.sampling_pdf` over its length
+    squared (inf: the ray left no rough vertex, weight 1), ``cos_y`` the light's face to the
+    ray (per unit area, against the light's 1 / area)."""
     return sampled_weight(np.asarray(q, np.float64) * np.abs(cos_y), 1.0 / area)
 
 
@@ -186,8 +186,7 @@ def emission_seen(out, lights, objects, p, wo, mat, rays, rough_pdf=None) -> Non
     """Adds to ``out`` each area light's radiance at the points on its object whose viewer
     (``wo``) is on the front of the face (a ray cast back at the point tells the side); at
     points reached by a rough vertex's sampled ray, times the ray's weight against the light's
-    own points (``rough_pdf`` (m,), :func:`light_weight`'s q;
-    None: none was)."""
+    own points (``rough_pdf`` (m,), :func:`light_weight`'s q; None: none was)."""
     names = {o.name: i for i, o in enumerate(objects)}
     for light in lights:
         if not hasattr(light, "radiance"):
