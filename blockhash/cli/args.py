@@ -1,4 +1,5 @@
-"""What several commands share: the argument type of ``--size WIDTHxHEIGHT``, and
+"""What several commands share: the argument type of ``--size`` (``WIDTHxHEIGHT``, or one
+number for a square), and
 :data:`FLAGS`, the command line's names for the library's parameters, with which
 :func:`blockhash.cli.main` spells a library error's message (:meth:`blockhash.errors.BlockHashError.spelled`)."""
 
@@ -18,13 +19,13 @@ FLAGS = {"passes": "--passes ", "seconds": "--time ", "target_error": "--target-
 
 
 def size(text: str) -> tuple[int, int]:
+    """``--size``: (width, height) from ``WIDTHxHEIGHT`` or one number for a square."""
+    from blockhash.studies.command import size as image_size
+
     try:
-        w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--size {text!r}: expected WIDTHxHEIGHT such as 512x512") from None
-    if w < 1 or h < 1:
-        raise argparse.ArgumentTypeError(f"--size {text!r}: width and height must be positive")
-    return w, h
+        return image_size(text)
+    except argparse.ArgumentTypeError as e:
+        raise argparse.ArgumentTypeError(f"--size {e}") from None
 
 
 #: The exit status of a render stopped by Ctrl-C (as a shell reports SIGINT).

@@ -224,5 +224,5 @@ def add_preview(sub) -> None:
                                    "the camera, objects and lights before a real render.")
     p.add_argument("scene")
     p.add_argument("-o", "--output", help="PNG path (default: SCENE-NAME.preview.png here)")
-    p.add_argument("--size", type=size, help="image size WIDTHxHEIGHT (default: the camera's)")
+    p.add_argument("--size", type=size, help="image size WIDTHxHEIGHT or one number for a square (default: the camera's)")
     p.set_defaults(func=cmd_preview)

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from blockhash.frame.surface_lights import escapes, light_uniforms, points_on_light
+from blockhash.frame.surface_lights import escapes, light_points_from, light_uniforms
 from blockhash.scene.microfacet import smith_g1_rays
 from blockhash.scene.optics import conductor_fresnel, fresnel
 from blockhash.scene.raycast import RAY_OFFSET
@@ -143,11 +143,7 @@ def sampled_lights(rays, lights, pos, nrm, view, obj, outer, owner, samples: int
             _add_weighted(out, ok, view, toward, nrm, outer, table, light.emitted(toward[ok]),
                           p_light[ok])
             continue
-        y, ny, radiance = points_on_light(light, u)
-        to = y - pos
-        d2 = np.sum(to * to, axis=1)
-        toward = to / np.maximum(np.sqrt(d2), 1e-300)[:, None]
-        cos_y = -np.sum(toward * ny, axis=1)
+        y, ny, radiance, toward, d2, cos_y = light_points_from(light, u, pos)
         ok = np.flatnonzero((cos_y > 0.0) & (d2 > 0.0))
         if not len(ok):
             continue

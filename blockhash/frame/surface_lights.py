@@ -65,6 +65,17 @@ def points_on_light(light, u: np.ndarray):
     return (*light.points(*args), light.emitted_at(*args))
 
 
+def light_points_from(light, u: np.ndarray, x: np.ndarray):
+    """:func:`points_on_light` seen from points ``x`` (n, 3): (points, front normals, radiance,
+    unit directions from ``x`` toward the points, their squared distances, the cosines at the
+    light, positive where the light faces ``x``)."""
+    y, ny, radiance = points_on_light(light, u)
+    to = y - x
+    d2 = np.einsum("ij,ij->i", to, to)
+    toward = to / np.maximum(np.sqrt(d2), 1e-300)[:, None]
+    return y, ny, radiance, toward, d2, -np.einsum("ij,ij->i", toward, ny)
+
+
 def area_light(out, light, live, p, n, wo, mat, kd, ks, e, coat, rays, pass_index: int,
                light_index: int, owner: np.ndarray, samples: int) -> None:
     """Adds to ``out`` (flat (m, 3)) the direct light of ``light`` (an AreaLight) at the
@@ -72,16 +83,11 @@ def area_light(out, light, live, p, n, wo, mat, kd, ks, e, coat, rays, pass_inde
     if not len(live):
         return
     u = light_uniforms(samples, owner[live], pass_index, light_index)
-    y, ny, radiance = points_on_light(light, u)
     x = p[live].astype(np.float64)
     nx = n[live].astype(np.float64)
-    to = y - x
-    d2 = np.einsum("ij,ij->i", to, to)
-    dist = np.sqrt(d2)
-    wi = to / np.maximum(dist, 1e-300)[:, None]
-    cos_y = -np.einsum("ij,ij->i", wi, ny)
+    y, ny, radiance, wi, d2, cos_y = light_points_from(light, u, x)
     cos_x = np.einsum("ij,ij->i", wi, nx)
-    ok = np.flatnonzero((cos_y > 0.0) & (cos_x > 0.0) & (dist > 0.0))
+    ok = np.flatnonzero((cos_y > 0.0) & (cos_x > 0.0) & (d2 > 0.0))
     if not len(ok):
         return
     offset = RAY_OFFSET * rays.scale

@@ -184,10 +184,17 @@ def test_image_beyond_the_gl_limits_is_refused(ring, capsys):
     assert caught.value.spelled(FLAGS).endswith("render a smaller image (--size)")
     with pytest.raises(SystemExit):
         main(["render", str(RING), "--size", "0x8"])
-    assert "width and height must be positive" in capsys.readouterr().err
+    assert "--size '0x8': width and height must be >= 1" in capsys.readouterr().err
 
 
 def test_bad_size_argument_is_named(capsys):
     with pytest.raises(SystemExit):
         main(["render", str(RING), "--size", "big"])
-    assert "--size 'big': expected WIDTHxHEIGHT" in capsys.readouterr().err
+    assert "--size 'big': expected a size such as 256" in capsys.readouterr().err
+
+
+def test_one_number_is_a_square_size():
+    from blockhash.cli.args import size
+
+    assert size("96") == (96, 96)
+    assert size("96x64") == (96, 64)

@@ -53,6 +53,8 @@ import numpy as np
 
 from blockhash.errors import InputError
 from blockhash.index.lookups.cells import cuckoo_get, cuckoo_slots
+from blockhash.index.lookups.cover_build import gather_records, record_keys, window_entries
+from blockhash.index.lookups.cover_keys import window_key
 from blockhash.index.records.codec import POLAR_UNIT_VECTORS
 from blockhash.index.records.octahedral import octahedral_tables
 from blockhash.index.records.radixsort import stable_argsort
@@ -121,39 +123,12 @@ def axis_order(fine: int) -> tuple[int, int, int]:
     return tuple([a for a in range(3) if a != fine] + [fine])
 
 
-#: Bits of a window's key below the octave's 6: two coarse cells of 18, the fine cell's 21.
-COARSE_BITS = 18
-FINE_BITS = 21
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def window_key64(level, cx, cy, f):
-    """The 63-bit key of window (cx, cy, f) of ``level`` (coarse cells below 2^18, the fine cell
-    below 2^21), ``f`` lowest, so a column's fine cells are consecutive keys.  Scalars in the
-    CPU reference, arrays through ``.py_func`` in the build."""
-    return ((np.uint64(level) << np.uint64(2 * COARSE_BITS + FINE_BITS))
-            | (np.uint64(cx) << np.uint64(COARSE_BITS + FINE_BITS))
-            | (np.uint64(cy) << np.uint64(FINE_BITS)) | np.uint64(f))
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def window_key(level, cx, cy, f):
-    """The key's two words (hi, lo), as the cuckoo table stores them (glsl/bh_cover.glsl
-    bh_cover_key computes the same words)."""
-    key = window_key64(level, cx, cy, f)
-    return np.uint32(key >> np.uint64(32)), np.uint32(key & np.uint64(0xFFFFFFFF))
-
-
 def cover_margin(quantizer) -> float:
     """Codes added to every radius so that the integer cells hold each photon whose float32
     distance test passes: twice the decode error bound (the photon's decoded position and the
     query's truncated code), plus 2^12 codes for the query's float32 scaling."""
     step = float(np.asarray(quantizer.step, dtype=np.float64).max())
     return 2.0 * float(np.asarray(quantizer.decode_error).max()) / step + 4096.0
-
-
-#: Records :meth:`CoverGather.build` works on at a time (a few tens of MiB of working arrays).
-BUILD_ROWS = 1 << 17
 
 
 @dataclass(frozen=True)
@@ -223,41 +198,26 @@ class CoverGather:
             axis = fine_axis(POLAR_UNIT_VECTORS, np.bincount(codes, minlength=len(POLAR_UNIT_VECTORS)))
         elif axis not in (0, 1, 2):
             raise InputError(f"axis={axis!r} must be 0, 1 or 2 (x, y or z), or None to choose")
-        # Each record's octave and its cell's 63-bit key, BUILD_ROWS records at a time; the
-        # keys sorted stably: the Hilbert order stays within each cell (a radix sort, 6x
-        # faster than np.lexsort), and the fine cells of a column follow one another.
+        # Each record's octave and its cell's 63-bit key; the keys sorted stably: the Hilbert
+        # order stays within each cell (a radix sort, 6x faster than np.lexsort), and the fine
+        # cells of a column follow one another.
+        codes = index.records.records
+        octave, key = record_keys(codes, kept, slot_r2, sides, fines,
+                                  np.array(axis_order(axis), dtype=np.int64),
+                                  float(np.asarray(q.step, np.float64).max()), cover_margin(q))
         m = len(kept)
-        octave = np.empty(m, dtype=np.int64)
-        key = np.empty(m, dtype=np.uint64)
-        step, margin = float(np.asarray(q.step, np.float64).max()), cover_margin(q)
-        for a in range(0, m, BUILD_ROWS):
-            rows = slice(a, min(m, a + BUILD_ROWS))
-            rec = index.records.records[kept[rows]]
-            h_codes = np.sqrt(slot_r2[kept[rows]]) / step
-            need = 2.0 * (h_codes * (1.0 + 2.0**-20) + margin)
-            o = np.minimum(np.searchsorted(sides, need, side="left"), len(sides) - 1)
-            codes = rec[:, list(axis_order(axis))].astype(np.int64)
-            octave[rows] = o
-            key[rows] = window_key64.py_func(o, codes[:, 0] // sides[o], codes[:, 1] // sides[o],
-                                             codes[:, 2] // fines[o])
         order = stable_argsort(key)
         key, octave, kept, order = key[order], octave[order], kept[order], None
         photon = index.order[kept]
-        records = np.zeros((m, RECORD_WORDS), dtype=np.uint32)
-        toward, normal = octahedral_tables()
-        for a in range(0, m, BUILD_ROWS):
-            rows = slice(a, min(m, a + BUILD_ROWS))
-            rec = index.records.records[kept[rows]]
-            records[rows, :3] = q.decode(rec[:, :3]).view(np.uint32)
-            records[rows, 3] = slot_r2[kept[rows]].astype(np.float32).view(np.uint32)
-            records[rows, 4] = toward[rec[:, 3] & 0xFFFF]
-            records[rows, 5] = normal[rec[:, 3] >> 16]
-            records[rows, 6:8] = rec[:, 4:6]
-        entries, max_count = _windows(key, len(sides), int(fine))
+        records = np.empty((m, RECORD_WORDS), dtype=np.uint32)
+        gather_records(codes, kept, slot_r2, np.asarray(q.lo, np.float32),
+                       np.asarray(q.step, np.float32), *octahedral_tables(), records,
+                       records.view(np.float32))
+        entries, max_count = window_entries(key, int(fine), len(sides))
         slots, buckets = cuckoo_slots(entries, "cover gather's window table")
         return cls(records=records, photon=photon.astype(np.int64), octave=octave, slots=slots,
                    buckets=buckets, sides=sides, halves=halves, fines=fines, axis=int(axis),
-                   fine_cells=int(fine), octaves=np.unique(octave), max_count=max_count,
+                   fine_cells=int(fine), octaves=np.flatnonzero(np.bincount(octave, minlength=len(sides))), max_count=max_count,
                    windows=len(entries),
                    left_out=int(n - m), quantizer=q, power_scale=index.records.power_scale,
                    steps=int(steps))
@@ -304,33 +264,6 @@ class CoverGather:
         _cover_fill(qpos, qcodes, self.slots, np.uint32(self.buckets - 1), oct_, recf,
                     offsets, hits, d2)
         return Covering(offsets=offsets, records=hits, d2=d2, candidates=cand, probes=probes)
-
-
-def _windows(key, octaves, fine) -> tuple[np.ndarray, np.ndarray]:
-    """The window table's entries ((w, 4) uint32: key hi, key lo, first record, count) from
-    the records' sorted keys, and the most records a window of each octave holds."""
-    change = np.ones(len(key), dtype=bool)
-    change[1:] = key[1:] != key[:-1]
-    first = np.flatnonzero(change)
-    cells = key[first]
-    ends = np.append(first[1:], len(key))
-    # A window starts at any fine cell that has a photon within ``fine`` cells after it (in the
-    # same column: the fine cell never goes below 0).
-    f = (cells & np.uint64((1 << FINE_BITS) - 1)).astype(np.int64)
-    back = np.arange(fine + 1, dtype=np.uint64)
-    starts = (cells[:, None] - back[None, :])[(f[:, None] >= back[None, :].astype(np.int64))]
-    starts = np.unique(starts)
-    lo = np.searchsorted(cells, starts, side="left")
-    hi = np.searchsorted(cells, starts + np.uint64(fine), side="right")
-    begin = first[lo]
-    count = ends[hi - 1] - begin
-    level = (starts >> np.uint64(2 * COARSE_BITS + FINE_BITS)).astype(np.int64)
-    entries = np.stack([(starts >> np.uint64(32)).astype(np.uint32),
-                        (starts & np.uint64(0xFFFFFFFF)).astype(np.uint32),
-                        begin.astype(np.uint32), count.astype(np.uint32)], axis=1)
-    max_count = np.zeros(octaves, dtype=np.int64)
-    np.maximum.at(max_count, level, count)
-    return entries, max_count
 
 
 @dataclass(frozen=True)

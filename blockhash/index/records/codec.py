@@ -34,12 +34,12 @@ import numpy as np
 
 from blockhash.errors import InputError, InputTypeError
 from blockhash.index.records.fixedpoint import Quantizer
+from blockhash.index.records.polar_rows import direction_words, kernel_vectors
 from blockhash.validate import as_points
 
 #: 32-bit words per photon record (Figure 4): x, y, z, d|n, c1|c2, c3|c4.
 WORDS_PER_PHOTON = 6
-#: Photons :meth:`PhotonRecords.encode` encodes at a time (its float64 working arrays, some
-#: 150 bytes a photon, stay a few tens of MiB whatever the map's size).
+#: Photons whose powers are encoded at a time (float64 working arrays of a few tens of MiB).
 ENCODE_ROWS = 1 << 17
 #: theta in [0, pi] and phi in [0, 2 pi) get one byte each (Jensen's polar code).
 THETA_STEP = np.pi / 256
@@ -132,6 +132,9 @@ def decode_directions(codes) -> np.ndarray:
     return np.stack([s * _COS_P[p], _COS_T[t], s * _SIN_P[p]], axis=1).astype(np.float32)
 
 
+#: The codes of a photon map given no directions (falling straight down) and no normals (+y).
+DEFAULT_DIRECTION_CODE = np.uint32(_polar_codes(np.array([[0.0, -1.0, 0.0]]))[0])
+DEFAULT_NORMAL_CODE = np.uint32(_polar_codes(np.array([[0.0, 1.0, 0.0]]))[0])
 #: (65536, 3) float32: the unit vector each 16-bit polar code stands for.
 POLAR_UNIT_VECTORS = decode_directions(np.arange(1 << 16, dtype=np.uint16))
 
@@ -306,8 +309,8 @@ class PhotonRecords:
         powers : (n, 3) or (n, 4) float, optional
             Watts per channel; default 1 W in each of R, G, B and 0 in c4.
         """
-        if getattr(positions, "__len__", None) and len(positions) > ENCODE_ROWS:
-            try:  # float64 working arrays of ENCODE_ROWS photons at a time
+        if getattr(positions, "__len__", None) and len(positions):
+            try:
                 return cls._encode_rows(positions, directions, normals, powers)
             except InputError:
                 pass  # the whole arrays' checks below name the offending row
@@ -318,14 +321,13 @@ class PhotonRecords:
         given = {"positions": p}
 
         def vector_codes(value, name, default):
-            # A missing payload is one constant code: encode it once, not n times.
-            if value is None:
-                return np.full(n, _polar_codes(np.array([default], dtype=np.float64))[0])
+            if value is None:  # a missing payload is one constant code
+                return np.full(n, default, dtype=np.uint16)
             given[name] = _unit_vectors(value, name)
             return None
 
-        d_codes = vector_codes(directions, "directions", [0.0, -1.0, 0.0])
-        n_codes = vector_codes(normals, "normals", [0.0, 1.0, 0.0])
+        d_codes = vector_codes(directions, "directions", DEFAULT_DIRECTION_CODE)
+        n_codes = vector_codes(normals, "normals", DEFAULT_NORMAL_CODE)
         if powers is not None:
             given["powers"] = _as_powers(powers)
         _same_rows(given)
@@ -344,10 +346,9 @@ class PhotonRecords:
 
     @classmethod
     def _encode_rows(cls, positions, directions, normals, powers) -> "PhotonRecords":
-        """:meth:`encode`, :data:`ENCODE_ROWS` photons at a time, into one array of records:
-        the same records (every field is encoded photon by photon, with the quantizer and
-        power scale of all photons).  Raises InputError on any bad input, which
-        :meth:`encode` then reports as its whole-array checks do."""
+        """:meth:`encode`'s records (the quantizer and power scale of all photons): the
+        direction words by :func:`.polar_rows.direction_words`, the rest :data:`ENCODE_ROWS`
+        photons at a time.  Raises InputError on any bad input, named by :meth:`encode`."""
         p = as_points(positions, "positions", dtype=_float_dtype(positions))
         n = len(p)
         for name, value in (("directions", directions), ("normals", normals), ("powers", powers)):
@@ -361,21 +362,20 @@ class PhotonRecords:
                 raise InputError("powers: (n, 3) or (n, 4) reals")
             scale = _derived_scale(float(np.abs(raw).max()))
         rec = np.empty((n, WORDS_PER_PHOTON), dtype=np.uint32)
-
-        def codes(value, name, default, rows):
-            if value is None:
-                return np.full(rows.stop - rows.start,
-                               _polar_codes(np.array([default], dtype=np.float64))[0])
-            return _polar_codes(_unit_vectors(value[rows], name))
-
+        bad = direction_words(kernel_vectors(directions, n, "directions"),
+                              kernel_vectors(normals, n, "normals"),
+                              DEFAULT_DIRECTION_CODE, DEFAULT_NORMAL_CODE, UNIT_LENGTH_TOLERANCE,
+                              THETA_STEP, PHI_STEP, rec[:, 3])
+        if max(bad) >= 0:
+            raise InputError("directions and normals: unit vectors")
         one = encode_powers(np.ones((1, 3)))[0]
         for a in range(0, n, ENCODE_ROWS):
             rows = slice(a, min(n, a + ENCODE_ROWS))
             bits = (np.broadcast_to(one, (rows.stop - a, 4)) if powers is None
-                    else encode_powers(powers[rows], scale=scale)[0])
-            rec[rows] = pack_records(quantizer.encode(p[rows]),
-                                     codes(directions, "directions", [0.0, -1.0, 0.0], rows),
-                                     codes(normals, "normals", [0.0, 1.0, 0.0], rows), bits)
+                    else encode_powers(powers[rows], scale=scale)[0]).astype(np.uint32)
+            rec[rows, :3] = quantizer.encode(p[rows])
+            rec[rows, 4] = bits[:, 0] | (bits[:, 1] << 16)
+            rec[rows, 5] = bits[:, 2] | (bits[:, 3] << 16)
         return cls._own(rec, quantizer, scale)
 
     @classmethod
