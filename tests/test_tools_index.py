@@ -5,9 +5,12 @@ checked."""
 import json
 import math
 import re
+from pathlib import Path
 
 import pytest
 from conftest import run_tool
+
+ROOT = Path(__file__).resolve().parents[1]
 
 TINY = ["--photons", "3000", "--queries", "200"]
 
@@ -141,3 +144,16 @@ def test_bench_variants_times_two_specs(tmp_path):
     assert first[0] == "binary-branch-on-packed" and first[3] == "1.00"
     assert floor[0] == "floor:binary-set-on-packed@8"
     assert all(float(v) > 0 for v in first[1:3] + floor[1:4])
+
+
+def test_photon_kernels_times_each_stage_beside_a_baseline_on_the_same_photons(tmp_path):
+    out = tmp_path / "kernels.json"
+    text = run_tool("photon_kernels.py", ["--baseline", ROOT, "--scenes", "ring",
+                                          "--photons", "3000", "--repeat", "1", "--json", out],
+                    tmp_path)
+    [row] = json.loads(out.read_text())["rows"]
+    for side in ("baseline", "this"):
+        assert all(row[side]["seconds"][s] > 0 for s in ("encode", "index", "radii", "cover build"))
+    # the same checkout on both sides builds the same records, radii and gather
+    assert row["same"] == ["records", "radii", "gather"]
+    assert "| ring | 3,000 |" in text and text.rstrip().endswith("| records, radii, gather |")
