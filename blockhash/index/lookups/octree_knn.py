@@ -18,6 +18,9 @@ and its 27 runs are copied once into contiguous coordinate arrays: each photon's
 distances to all of them are one loop the compiler vectorises, and the j-th comes from the
 candidates within the guess when j + 1 lie there (about 1.44 j of them on a surface), else
 from all of them (:func:`_kth`: ranks counted in branch-free loops, or Hoare's selection).
+Among the candidates within the guess, only those on the j-th's side of 1 / GUESS times the
+photon before's radius are ranked (:func:`_kth_in_band`, about half of them: ``python
+tools/photon_kernels.py`` times the radii beside a commit without it).
 
 Distances are float64 from the float32 decoded positions, as ``scipy.spatial.cKDTree`` computes
 them from the same positions: the result equals its j-th neighbour distance (the tests hold it
@@ -158,6 +161,25 @@ def _kth(a, m, kth, order):
     return a[order[kth]]
 
 
+@numba.njit(cache=True, nogil=True)
+def _kth_in_band(a, m, kth, low, order):
+    """:func:`_kth` of a[:m], selecting among the values of one side of ``low`` only: those
+    at or above it, offset by the count below, when the kth lies there, else those below.
+    ``low``, 1 / GUESS times the photon before's radius, squared, leaves about half of the
+    candidates within the guess above it; the selection's cost goes as their square.
+    Reorders a[:m]."""
+    below = 0
+    for c in range(m):
+        below += a[c] < low
+    keep_low = below > kth
+    n = 0
+    for c in range(m):
+        v = a[c]
+        a[n] = v  # kept only on the chosen side: no branch
+        n += (v < low) == keep_low
+    return _kth(a, np.int64(n), kth if keep_low else kth - below, order)
+
+
 @numba.njit(cache=True, nogil=True, parallel=True)
 def _jth(codes, pos, keys, j, cmin, step, margin, single, pair, start):
     n = codes.shape[0]
@@ -233,7 +255,8 @@ def _jth(codes, pos, keys, j, cmin, step, margin, single, pair, start):
                 # np.int64(): one compiled _kth, not a second for the literal 0 that m and
                 # inside start from
                 if inside > j:
-                    best = _kth(near, np.int64(inside), j, order)
+                    best = _kth_in_band(near, np.int64(inside), j, prev * prev / (GUESS * GUESS)
+                                        if prev >= 0 else 0.0, order)
                 elif m > j:
                     best = _kth(d2, np.int64(m), j, order)
                 else:

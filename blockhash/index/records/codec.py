@@ -35,12 +35,11 @@ import numpy as np
 from blockhash.errors import InputError, InputTypeError
 from blockhash.index.records.fixedpoint import Quantizer
 from blockhash.index.records.polar_rows import direction_words, kernel_vectors
+from blockhash.index.records.power_words import power_words
 from blockhash.validate import as_points
 
 #: 32-bit words per photon record (Figure 4): x, y, z, d|n, c1|c2, c3|c4.
 WORDS_PER_PHOTON = 6
-#: Photons whose powers are encoded at a time (float64 working arrays of a few tens of MiB).
-ENCODE_ROWS = 1 << 17
 #: theta in [0, pi] and phi in [0, 2 pi) get one byte each (Jensen's polar code).
 THETA_STEP = np.pi / 256
 PHI_STEP = 2 * np.pi / 256
@@ -311,7 +310,7 @@ class PhotonRecords:
         """
         if getattr(positions, "__len__", None) and len(positions):
             try:
-                return cls._encode_rows(positions, directions, normals, powers)
+                return cls._encode_compiled(positions, directions, normals, powers)
             except InputError:
                 pass  # the whole arrays' checks below name the offending row
         p = as_points(positions, "positions", dtype=np.float64)
@@ -345,10 +344,11 @@ class PhotonRecords:
         return cls._own(rec, quantizer, scale)
 
     @classmethod
-    def _encode_rows(cls, positions, directions, normals, powers) -> "PhotonRecords":
-        """:meth:`encode`'s records (the quantizer and power scale of all photons): the
-        direction words by :func:`.polar_rows.direction_words`, the rest :data:`ENCODE_ROWS`
-        photons at a time.  Raises InputError on any bad input, named by :meth:`encode`."""
+    def _encode_compiled(cls, positions, directions, normals, powers) -> "PhotonRecords":
+        """:meth:`encode`'s records by compiled passes over the whole map (the direction words
+        by :func:`.polar_rows.direction_words`, the power words by
+        :func:`.power_words.power_words`).  Raises InputError on any bad input, which
+        :meth:`encode`'s whole-array checks then name."""
         p = as_points(positions, "positions", dtype=_float_dtype(positions))
         n = len(p)
         for name, value in (("directions", directions), ("normals", normals), ("powers", powers)):
@@ -368,14 +368,13 @@ class PhotonRecords:
                               THETA_STEP, PHI_STEP, rec[:, 3])
         if max(bad) >= 0:
             raise InputError("directions and normals: unit vectors")
-        one = encode_powers(np.ones((1, 3)))[0]
-        for a in range(0, n, ENCODE_ROWS):
-            rows = slice(a, min(n, a + ENCODE_ROWS))
-            bits = (np.broadcast_to(one, (rows.stop - a, 4)) if powers is None
-                    else encode_powers(powers[rows], scale=scale)[0]).astype(np.uint32)
-            rec[rows, :3] = quantizer.encode(p[rows])
-            rec[rows, 4] = bits[:, 0] | (bits[:, 1] << 16)
-            rec[rows, 5] = bits[:, 2] | (bits[:, 3] << 16)
+        if powers is None:
+            w = encode_powers(np.ones((1, 3)))[0][0].astype(np.uint32)
+            rec[:, 4], rec[:, 5] = w[0] | (w[1] << 16), w[2] | (w[3] << 16)
+        elif power_words(raw if raw.dtype in (np.float32, np.float64) else raw.astype(np.float64),
+                         scale, rec[:, 4], rec[:, 5]) >= 0:
+            raise InputError("powers: finite, and within half floats over the scale")
+        rec[:, :3] = quantizer.encode(p)
         return cls._own(rec, quantizer, scale)
 
     @classmethod

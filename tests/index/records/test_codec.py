@@ -393,10 +393,10 @@ def test_bad_input_raises_an_error_naming_parameter_value_and_way_out(case):
         call()
 
 
-def test_encoding_a_chunk_at_a_time_gives_the_whole_arrays_records(monkeypatch):
-    """A large map is encoded ENCODE_ROWS photons at a time: the same records and scale as the
-    whole arrays at once, float32 or float64 input; a bad row past the first chunk is named
-    by its index in the whole map."""
+def test_the_compiled_encode_gives_the_public_encoders_records():
+    """A map is encoded by compiled passes (polar_rows, power_words): the records and scale of
+    the public encoders, float32 or float64 input; a bad row is named by its index in the whole
+    map (the whole-array checks name it)."""
     import blockhash.index.records.codec as codec
 
     rng = np.random.default_rng(5)
@@ -406,13 +406,13 @@ def test_encoding_a_chunk_at_a_time_gives_the_whole_arrays_records(monkeypatch):
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     w = rng.random((n, 3)) * 3e-3
     for p in (pos, pos.astype(np.float32)):
-        whole = codec.PhotonRecords.encode(p, directions=d, normals=d[::-1], powers=w)
-        monkeypatch.setattr(codec, "ENCODE_ROWS", 1024)
-        rows = codec.PhotonRecords.encode(p, directions=d, normals=d[::-1], powers=w)
-        monkeypatch.setattr(codec, "ENCODE_ROWS", 1 << 17)
-        np.testing.assert_array_equal(rows.records, whole.records)
-        assert rows.power_scale == whole.power_scale
-    monkeypatch.setattr(codec, "ENCODE_ROWS", 1024)
+        for powers in (w, w.astype(np.float32), (w * 1e6).astype(np.int64)):
+            got = codec.PhotonRecords.encode(p, directions=d, normals=d[::-1], powers=powers)
+            bits, scale = codec.encode_powers(powers)
+            want = codec.pack_records(got.quantizer.encode(p), codec.encode_directions(d),
+                                      codec.encode_directions(d[::-1]), bits)
+            np.testing.assert_array_equal(got.records, want)
+            assert got.power_scale == scale
     bad = d.copy()
     bad[3000] = 0.0
     with pytest.raises(InputError, match=r"directions\[3000\]"):
