@@ -34,7 +34,7 @@ def run_cli(capsys, argv):
 @pytest.mark.parametrize("argv, match", [
     (["render", "--bogus", str(RING)], r"unrecognized arguments: --bogus"),
     (["render", str(RING), "--k", "many"], r"argument --k: invalid int value: 'many'"),
-    (["render", str(RING), "--size", "0x8"], r"--size '0x8': width and height must be positive"),
+    (["render", str(RING), "--size", "0x8"], r"--size '0x8': width and height must be >= 1"),
     (["render", "no/such.toml"], r"no/such\.toml: scene file not found"),
     (["render", str(RING), "-o", "/no/such/folder/out.exr"],
      r"--output /no/such/folder/out\.exr: the folder /no/such/folder does not exist"),

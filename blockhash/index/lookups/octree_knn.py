@@ -184,89 +184,97 @@ def _kth_in_band(a, m, kth, low, order):
 def _jth(codes, pos, keys, j, cmin, step, margin, single, pair, start):
     n = codes.shape[0]
     out = np.empty(n)
-    tasks = (n + CHUNK - 1) // CHUNK
-    for t in numba.prange(tasks):
-        runs = np.empty((27, 5), dtype=np.int64)
-        buf = np.empty((5, 1024))  # per candidate: x, y, z, squared distance; the near ones
-        xs, ys, zs, d2, near = buf[0], buf[1], buf[2], buf[3], buf[4]
-        order = np.empty(1024, dtype=np.int64)
-        m = 0
-        cached_level = -1
-        cached_prefix = np.uint64(0)
-        prev = -1.0
-        for i in range(t * CHUNK, min(n, (t + 1) * CHUNK)):
-            if prev >= 0:
-                # The finest level whose cubes' side holds the guess (GUESS times the photon
-                # before's radius): its 27 cubes then hold the j-th nearest, whatever the
-                # density beside the photon (a sparse own cube beside a dense caustic line).
-                g = GUESS * prev + margin
-                level = 0
-                side0 = step * (2.0 ** CODE_SHIFT)
-                while level < KEY_BITS_PER_AXIS and side0 < g:
-                    side0 *= 2.0  # exact: a power of two times the step
-                    level += 1
-            else:
-                level = _own_level(keys, keys[i], cmin)
-            crowded = prev < 0
-            x, y, z = pos[i, 0], pos[i, 1], pos[i, 2]
-            while True:
-                prefix = keys[i] >> np.uint64(3 * level) if level < KEY_BITS_PER_AXIS else np.uint64(0)
-                if level != cached_level or prefix != cached_prefix:
-                    filled = _neighbour_runs(codes[i], level, keys, single, pair, start, runs)
-                    total = 0
-                    for r in range(filled):
-                        total += runs[r, 1] - runs[r, 0]
-                    if not crowded and total > CROWD * (j + 1):
-                        # A guess far too wide for this photon's neighbourhood (the photon
-                        # before lay far from the others): the own-cube rule, if finer.
-                        crowded = True
-                        own = _own_level(keys, keys[i], cmin)
-                        if own < level:
-                            level = own
-                            continue
-                    if total > buf.shape[1]:
-                        buf = np.empty((5, 2 * total))
-                        xs, ys, zs, d2, near = buf[0], buf[1], buf[2], buf[3], buf[4]
-                        order = np.empty(2 * total, dtype=np.int64)
-                    m = 0
-                    for r in range(filled):
-                        for c in range(runs[r, 0], runs[r, 1]):
-                            xs[m] = pos[c, 0]
-                            ys[m] = pos[c, 1]
-                            zs[m] = pos[c, 2]
-                            m += 1
-                    cached_level = level
-                    cached_prefix = prefix
-                # Every candidate's squared distance, the photon itself at 0 among them: the
-                # (j + 1)-th smallest is the j-th nearest other photon's.
-                for c in range(m):
-                    dx = xs[c] - x
-                    dy = ys[c] - y
-                    dz = zs[c] - z
-                    d2[c] = dx * dx + dy * dy + dz * dz
-                # A guess, 1.2 times the photon before's radius (neighbours in Hilbert order
-                # have alike radii): the selection reads only the candidates within it when
-                # at least j + 1 are.
-                guess = GUESS * GUESS * prev * prev if prev >= 0 else np.inf
-                inside = 0
-                for c in range(m):
-                    near[inside] = d2[c]  # kept only if it lies within the guess: no branch
-                    inside += d2[c] < guess
-                # np.int64(): one compiled _kth, not a second for the literal 0 that m and
-                # inside start from
-                if inside > j:
-                    best = _kth_in_band(near, np.int64(inside), j, prev * prev / (GUESS * GUESS)
-                                        if prev >= 0 else 0.0, order)
-                elif m > j:
-                    best = _kth(d2, np.int64(m), j, order)
-                else:
-                    best = np.inf  # fewer than j others in the 27 cubes: the next level up
-                cube = step * (2.0 ** (CODE_SHIFT + level))
-                side = cube - margin
-                if level >= KEY_BITS_PER_AXIS or (side > 0 and best <= side * side):
-                    break
-                level += 1
-            out[i] = np.sqrt(best)
-            prev = out[i]
+    # The parallel loop only calls the task's function, compiled on its own: numba's
+    # parallel pass then reads one call, not the whole search (a cold start's compilation).
+    for t in numba.prange((n + CHUNK - 1) // CHUNK):
+        _jth_task(codes, pos, keys, j, cmin, step, margin, single, pair, start,
+                  t * CHUNK, min(n, (t + 1) * CHUNK), out)
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _jth_task(codes, pos, keys, j, cmin, step, margin, single, pair, start, first, end, out):
+    """:func:`_jth` for photons ``first .. end - 1``, into ``out``."""
+    runs = np.empty((27, 5), dtype=np.int64)
+    buf = np.empty((5, 1024))  # per candidate: x, y, z, squared distance; the near ones
+    xs, ys, zs, d2, near = buf[0], buf[1], buf[2], buf[3], buf[4]
+    order = np.empty(1024, dtype=np.int64)
+    m = 0
+    cached_level = -1
+    cached_prefix = np.uint64(0)
+    prev = -1.0
+    for i in range(first, end):
+        if prev >= 0:
+            # The finest level whose cubes' side holds the guess (GUESS times the photon
+            # before's radius): its 27 cubes then hold the j-th nearest, whatever the
+            # density beside the photon (a sparse own cube beside a dense caustic line).
+            g = GUESS * prev + margin
+            level = 0
+            side0 = step * (2.0 ** CODE_SHIFT)
+            while level < KEY_BITS_PER_AXIS and side0 < g:
+                side0 *= 2.0  # exact: a power of two times the step
+                level += 1
+        else:
+            level = _own_level(keys, keys[i], cmin)
+        crowded = prev < 0
+        x, y, z = pos[i, 0], pos[i, 1], pos[i, 2]
+        while True:
+            prefix = keys[i] >> np.uint64(3 * level) if level < KEY_BITS_PER_AXIS else np.uint64(0)
+            if level != cached_level or prefix != cached_prefix:
+                filled = _neighbour_runs(codes[i], level, keys, single, pair, start, runs)
+                total = 0
+                for r in range(filled):
+                    total += runs[r, 1] - runs[r, 0]
+                if not crowded and total > CROWD * (j + 1):
+                    # A guess far too wide for this photon's neighbourhood (the photon
+                    # before lay far from the others): the own-cube rule, if finer.
+                    crowded = True
+                    own = _own_level(keys, keys[i], cmin)
+                    if own < level:
+                        level = own
+                        continue
+                if total > buf.shape[1]:
+                    buf = np.empty((5, 2 * total))
+                    xs, ys, zs, d2, near = buf[0], buf[1], buf[2], buf[3], buf[4]
+                    order = np.empty(2 * total, dtype=np.int64)
+                m = 0
+                for r in range(filled):
+                    for c in range(runs[r, 0], runs[r, 1]):
+                        xs[m] = pos[c, 0]
+                        ys[m] = pos[c, 1]
+                        zs[m] = pos[c, 2]
+                        m += 1
+                cached_level = level
+                cached_prefix = prefix
+            # Every candidate's squared distance, the photon itself at 0 among them: the
+            # (j + 1)-th smallest is the j-th nearest other photon's.
+            for c in range(m):
+                dx = xs[c] - x
+                dy = ys[c] - y
+                dz = zs[c] - z
+                d2[c] = dx * dx + dy * dy + dz * dz
+            # A guess, 1.2 times the photon before's radius (neighbours in Hilbert order
+            # have alike radii): the selection reads only the candidates within it when
+            # at least j + 1 are.
+            guess = GUESS * GUESS * prev * prev if prev >= 0 else np.inf
+            inside = 0
+            for c in range(m):
+                near[inside] = d2[c]  # kept only if it lies within the guess: no branch
+                inside += d2[c] < guess
+            # np.int64(): one compiled _kth, not a second for the literal 0 that m and
+            # inside start from
+            if inside > j:
+                best = _kth_in_band(near, np.int64(inside), j, prev * prev / (GUESS * GUESS)
+                                    if prev >= 0 else 0.0, order)
+            elif m > j:
+                best = _kth(d2, np.int64(m), j, order)
+            else:
+                best = np.inf  # fewer than j others in the 27 cubes: the next level up
+            cube = step * (2.0 ** (CODE_SHIFT + level))
+            side = cube - margin
+            if level >= KEY_BITS_PER_AXIS or (side > 0 and best <= side * side):
+                break
+            level += 1
+        out[i] = np.sqrt(best)
+        prev = out[i]
 

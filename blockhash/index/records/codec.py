@@ -346,7 +346,7 @@ class PhotonRecords:
     @classmethod
     def _encode_compiled(cls, positions, directions, normals, powers) -> "PhotonRecords":
         """:meth:`encode`'s records by compiled passes over the whole map (the direction words
-        by :func:`.polar_rows.direction_words`, the power words by
+        by :func:`.polar_rows.direction_words`, float32 power words by
         :func:`.power_words.power_words`).  Raises InputError on any bad input, which
         :meth:`encode`'s whole-array checks then name."""
         p = as_points(positions, "positions", dtype=_float_dtype(positions))
@@ -368,12 +368,13 @@ class PhotonRecords:
                               THETA_STEP, PHI_STEP, rec[:, 3])
         if max(bad) >= 0:
             raise InputError("directions and normals: unit vectors")
-        if powers is None:
-            w = encode_powers(np.ones((1, 3)))[0][0].astype(np.uint32)
-            rec[:, 4], rec[:, 5] = w[0] | (w[1] << 16), w[2] | (w[3] << 16)
-        elif power_words(raw if raw.dtype in (np.float32, np.float64) else raw.astype(np.float64),
-                         scale, rec[:, 4], rec[:, 5]) >= 0:
-            raise InputError("powers: finite, and within half floats over the scale")
+        if powers is not None and raw.dtype == np.float32:
+            if power_words(raw, scale, rec[:, 4], rec[:, 5]) >= 0:
+                raise InputError("powers: finite, and within half floats over the scale")
+        else:
+            b = (encode_powers(np.ones((1, 3)))[0] if powers is None
+                 else encode_powers(raw, scale=scale)[0]).astype(np.uint32)
+            rec[:, 4], rec[:, 5] = b[:, 0] | (b[:, 1] << 16), b[:, 2] | (b[:, 3] << 16)
         rec[:, :3] = quantizer.encode(p)
         return cls._own(rec, quantizer, scale)
 

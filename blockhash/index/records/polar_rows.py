@@ -51,7 +51,7 @@ def _code(x, y, z, tol, theta_step, phi_step):
     return np.uint32(t) | (np.uint32(p) << np.uint32(8)), ok
 
 
-@numba.njit(cache=True, nogil=True, parallel=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True, parallel=True)
 def direction_words(d, nrm, d_default, n_default, tol, theta_step, phi_step, out):
     """Writes ``d | n << 16`` into ``out`` ((n,) uint32) for directions ``d`` and normals
     ``nrm`` ((n, 3), float32 or float64; an array of shape (0, 3) for the default code
@@ -59,28 +59,36 @@ def direction_words(d, nrm, d_default, n_default, tol, theta_step, phi_step, out
     whose normal is not of unit length (-1 when none)."""
     n = out.shape[0]
     tasks = (n + CHUNK - 1) // CHUNK
-    bad_d = np.full(tasks, -1, dtype=np.int64)
-    bad_n = np.full(tasks, -1, dtype=np.int64)
+    bad = np.full((tasks, 2), -1, dtype=np.int64)
+    # The parallel loop only calls the task's function, compiled on its own: numba's parallel
+    # pass then reads one call (a cold start's compilation), not the whole loop.
     for t in numba.prange(tasks):
-        for i in range(t * CHUNK, min(n, (t + 1) * CHUNK)):
-            cd = np.uint32(d_default)
-            if d.shape[0]:
-                cd, ok = _code(np.float64(d[i, 0]), np.float64(d[i, 1]), np.float64(d[i, 2]),
-                               tol, theta_step, phi_step)
-                if not ok and bad_d[t] < 0:
-                    bad_d[t] = i
-            cn = np.uint32(n_default)
-            if nrm.shape[0]:
-                cn, ok = _code(np.float64(nrm[i, 0]), np.float64(nrm[i, 1]),
-                               np.float64(nrm[i, 2]), tol, theta_step, phi_step)
-                if not ok and bad_n[t] < 0:
-                    bad_n[t] = i
-            out[i] = cd | (cn << np.uint32(16))
+        _words(d, nrm, d_default, n_default, tol, theta_step, phi_step, out, t * CHUNK,
+               min(n, (t + 1) * CHUNK), bad[t])
     first_d = -1
     first_n = -1
     for t in range(tasks):
         if first_d < 0:
-            first_d = bad_d[t]
+            first_d = bad[t, 0]
         if first_n < 0:
-            first_n = bad_n[t]
+            first_n = bad[t, 1]
     return first_d, first_n
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _words(d, nrm, d_default, n_default, tol, theta_step, phi_step, out, first, end, bad):
+    """:func:`direction_words` for rows ``first .. end - 1``; ``bad`` its first bad rows."""
+    for i in range(first, end):
+        cd = np.uint32(d_default)
+        if d.shape[0]:
+            cd, ok = _code(np.float64(d[i, 0]), np.float64(d[i, 1]), np.float64(d[i, 2]), tol,
+                           theta_step, phi_step)
+            if not ok and bad[0] < 0:
+                bad[0] = i
+        cn = np.uint32(n_default)
+        if nrm.shape[0]:
+            cn, ok = _code(np.float64(nrm[i, 0]), np.float64(nrm[i, 1]), np.float64(nrm[i, 2]),
+                           tol, theta_step, phi_step)
+            if not ok and bad[1] < 0:
+                bad[1] = i
+        out[i] = cd | (cn << np.uint32(16))

@@ -1,6 +1,6 @@
 """The cover gather's compiled build (blockhash/index/lookups/cover_build.py) gives, bit for bit,
-what a plain numpy statement of each step gives: the records' octaves and window keys, the
-gather's records, and the window table's entries and fullest windows."""
+what a plain numpy statement of each step gives: the records' octaves and window keys, and
+the gather's records, whose windows hold the records in key order."""
 
 import numpy as np
 import pytest
@@ -17,7 +17,7 @@ from blockhash.index.lookups.cover import (
     octave_sides,
 )
 from blockhash.index.lookups.cover_build import record_keys, window_entries
-from blockhash.index.lookups.cover_keys import COARSE_BITS, FINE_BITS, window_key64
+from blockhash.index.lookups.cover_keys import window_key64
 from blockhash.index.records.octahedral import octahedral_tables
 
 
@@ -32,27 +32,6 @@ def numpy_keys(index, slot_r2, kept, sides, fines, axis):
     codes = index.records.records[kept][:, list(axis_order(axis))].astype(np.int64)
     return o, window_key64.py_func(o, codes[:, 0] // sides[o], codes[:, 1] // sides[o],
                                    codes[:, 2] // fines[o])
-
-
-def numpy_windows(key, octaves, fine):
-    change = np.ones(len(key), dtype=bool)
-    change[1:] = key[1:] != key[:-1]
-    first = np.flatnonzero(change)
-    cells = key[first]
-    ends = np.append(first[1:], len(key))
-    f = (cells & np.uint64((1 << FINE_BITS) - 1)).astype(np.int64)
-    back = np.arange(fine + 1, dtype=np.uint64)
-    starts = np.unique((cells[:, None] - back[None, :])[f[:, None] >= back[None, :].astype(np.int64)])
-    lo = np.searchsorted(cells, starts, side="left")
-    hi = np.searchsorted(cells, starts + np.uint64(fine), side="right")
-    begin, count = first[lo], ends[hi - 1] - first[lo]
-    level = (starts >> np.uint64(2 * COARSE_BITS + FINE_BITS)).astype(np.int64)
-    entries = np.stack([(starts >> np.uint64(32)).astype(np.uint32),
-                        (starts & np.uint64(0xFFFFFFFF)).astype(np.uint32),
-                        begin.astype(np.uint32), count.astype(np.uint32)], axis=1)
-    max_count = np.zeros(octaves, dtype=np.int64)
-    np.maximum.at(max_count, level, count)
-    return entries, max_count
 
 
 @pytest.mark.parametrize("fine", [1, 4])
@@ -83,10 +62,7 @@ def test_each_step_equals_its_numpy_statement(distribution, fine):
                                                        gather.sides[gather.octave],
                                                        gather.fines[gather.octave]))))
     assert np.all(key[1:] >= key[:-1])  # records in key order
-    entries, max_count = numpy_windows(key, len(sides), fine)
-    got_entries, got_max = window_entries(key, fine, len(sides))
-    np.testing.assert_array_equal(got_entries, entries)
-    np.testing.assert_array_equal(got_max, max_count)
+    entries, max_count = window_entries(key, fine, len(sides))
     np.testing.assert_array_equal(gather.max_count, max_count)
     assert gather.windows == len(entries)
 
