@@ -32,12 +32,9 @@ usage: python tools/frames_bench.py [--baseline /tmp/blockhash-d0deb7b] [--scene
                                     [--steps latency,flicker,memory] [--json FILE]
 """
 
-import json
 import math
-import os
 import subprocess
 import sys
-import tempfile
 from dataclasses import replace
 from pathlib import Path
 
@@ -48,7 +45,7 @@ from blockhash.passes.plan import RenderPlan
 from blockhash.reference.lighttrace import light_trace
 from blockhash.scene.animation import Animation, Key
 from blockhash.scene.loader import load_scene
-from blockhash.studies.command import ToolParser, count, listing, write_json
+from blockhash.studies.command import ToolParser, count, in_checkout, listing, write_json
 
 ROOT = Path(__file__).resolve().parents[1]
 #: The tool's steps (``--steps``).
@@ -110,13 +107,8 @@ print(json.dumps(rows))
 
 def frames_of(checkout, path, size, spp, photons, frames, motion) -> dict:
     """One latency row of ``checkout``'s frames (a fresh process on its own code)."""
-    env = {**os.environ, "PYTHONPATH": str(Path(checkout).resolve())}
-    proc = subprocess.run([sys.executable, "-c", CHILD, str(Path(__file__).parent), str(path),
-                           str(size), str(spp), str(photons), str(frames), motion], env=env,
-                          capture_output=True, text=True, cwd=tempfile.gettempdir())
-    if proc.returncode:
-        raise SystemExit(f"frames of {checkout} failed:\n{proc.stderr[-3000:]}")
-    rows = np.array(json.loads(proc.stdout.strip().splitlines()[-1]))
+    rows = np.array(in_checkout(checkout, CHILD, [Path(__file__).parent, path, size, spp, photons,
+                                                  frames, motion], "frames"))
     later = rows[1:] if len(rows) > 1 else rows
     frame, gather = float(np.median(later[:, 0])), float(np.median(later[:, 1]))
     return {"scene": Path(path).stem, "size": size, "spp": spp, "photons": photons,

@@ -23,14 +23,10 @@ usage: python tools/pass_stages.py --baseline /tmp/blockhash-6c34444
            [--json docs/pass-stages.json]
 """
 
-import json
-import os
-import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
-from blockhash.studies.command import ToolParser, count, write_json
+from blockhash.studies.command import ToolParser, count, in_checkout, write_json
 
 ROOT = Path(__file__).resolve().parents[1]
 STAGES = ("trace", "index", "photon radii", "pixel splat", "cover gather", "gbuffer", "direct",
@@ -65,13 +61,8 @@ print(json.dumps(rows))
 
 def run(checkout: Path, scene: str, size: int, photons: int, warm: int, passes: int,
         indirect: str = "on", device: str = "auto") -> dict:
-    env = {**os.environ, "PYTHONPATH": str(Path(checkout).resolve()), "BLOCKHASH_DEVICE": device}
-    proc = subprocess.run([sys.executable, "-c", CHILD, scene, str(size), str(photons), str(warm),
-                           str(passes), indirect], capture_output=True, text=True, env=env,
-                          cwd=tempfile.gettempdir())
-    if proc.returncode:
-        raise SystemExit(f"{checkout} on {scene} failed:\n{proc.stderr[-3000:]}")
-    rows = json.loads(proc.stdout.strip().splitlines()[-1])
+    rows = in_checkout(checkout, CHILD, [scene, size, photons, warm, passes, indirect], scene,
+                       {"BLOCKHASH_DEVICE": device})
     n = len(rows)
     sec = {k: sum(r["timings"].get(k, 0.0) for r in rows) / n for k in STAGES}
     # the gather of every photon for the points seen in mirrors (a baseline from before its

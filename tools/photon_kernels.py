@@ -12,16 +12,13 @@ usage: python tools/photon_kernels.py --baseline /tmp/blockhash-437ace4
            [--scenes ring,glass] [--photons 200000] [--repeat 7] [--json docs/photon-kernels.json]
 """
 
-import json
-import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from blockhash.studies.command import ToolParser, count, write_json
+from blockhash.studies.command import ToolParser, count, in_checkout, write_json
 
 ROOT = Path(__file__).resolve().parents[1]
 STAGES = ("encode", "blocks", "index", "radii", "cover build")
@@ -64,15 +61,6 @@ def photons_file(scene: Path, photons: int, folder: Path) -> Path:
     return path
 
 
-def run(checkout: Path, path: Path, repeat: int) -> dict:
-    env = {**os.environ, "PYTHONPATH": str(Path(checkout).resolve())}
-    proc = subprocess.run([sys.executable, "-c", CHILD, str(path), str(repeat)],
-                          capture_output=True, text=True, env=env, cwd=tempfile.gettempdir())
-    if proc.returncode:
-        raise SystemExit(f"{checkout} on {path.stem} failed:\n{proc.stderr[-3000:]}")
-    return json.loads(proc.stdout.strip().splitlines()[-1])
-
-
 def main(argv=None):
     p = ToolParser(__doc__, __file__)
     p.add_argument("--baseline", type=Path, required=True, help="a checkout of the commit to "
@@ -90,7 +78,8 @@ def main(argv=None):
         for scene in args.scenes:
             for photons in args.photons:
                 path = photons_file(scene, photons, Path(folder))
-                base, this = run(args.baseline, path, args.repeat), run(ROOT, path, args.repeat)
+                base, this = (in_checkout(c, CHILD, [path, args.repeat], path.stem)
+                              for c in (args.baseline, ROOT))
                 same = [k for k in ("records", "radii", "gather") if base[k] == this[k]]
                 cells = [f"{base['seconds'][s]:.4f} -> {this['seconds'][s]:.4f} "
                          f"({base['seconds'][s] / this['seconds'][s]:.2f}x)" for s in STAGES]

@@ -14,14 +14,10 @@ usage: python tools/stage_memory.py --baseline /tmp/blockhash-df31412
            [--scenes ring,glass] [--size 128] [--photons 1000000] [--json FILE]
 """
 
-import json
-import os
-import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
-from blockhash.studies.command import ToolParser, write_json
+from blockhash.studies.command import ToolParser, in_checkout, write_json
 
 ROOT = Path(__file__).resolve().parents[1]
 STAGES = ("trace", "index", "photon radii", "pixel splat", "cover gather", "estimate")
@@ -75,12 +71,7 @@ print(json.dumps({"stored": c.stored, "start": start[0], "stages": rows}))
 
 
 def run(checkout: Path, scene: str, size: int, photons: int) -> dict:
-    env = {**os.environ, "PYTHONPATH": str(Path(checkout).resolve())}
-    proc = subprocess.run([sys.executable, "-c", CHILD, scene, str(size), str(photons)],
-                          capture_output=True, text=True, env=env, cwd=tempfile.gettempdir())
-    if proc.returncode:
-        raise SystemExit(f"{checkout} on {scene} failed:\n{proc.stderr[-3000:]}")
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    return in_checkout(checkout, CHILD, [scene, size, photons], scene)
 
 
 def main(argv=None):

@@ -1,7 +1,8 @@
 """What the commands in ``tools/`` share, so that each is a thin main over the package (as
 pbrt-v4's ``cmd/`` tools are): :class:`ToolParser`, an ``argparse`` parser with the options
 that recur (photon counts, image sizes, scenes, a JSON output) typed one way everywhere, the
-scenes of the checkout a tool runs from, and :func:`timed`.
+scenes of the checkout a tool runs from, :func:`timed`, and :func:`in_checkout`, a child
+process on another checkout's code (a ``git worktree`` of the commit a tool compares with).
 
 The argument types accept what the docs quote: a count as ``200000``, ``200_000`` or ``2e5``;
 a size as ``128`` (square) or ``128x96``; lists comma-separated.  A scene is a path (relative
@@ -15,6 +16,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import subprocess
+import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -138,6 +143,18 @@ def timed(fn, *args, **kwargs):
     t = time.perf_counter()
     out = fn(*args, **kwargs)
     return out, time.perf_counter() - t
+
+
+def in_checkout(checkout, code: str, args, what: str, env=None):
+    """The JSON value a fresh Python process prints last running ``code`` with ``args`` on
+    ``checkout``'s package (its ``PYTHONPATH``; ``env`` added to the environment), from the
+    temporary folder; a failure ends the tool naming ``what`` and the child's error."""
+    env = {**os.environ, "PYTHONPATH": str(Path(checkout).resolve()), **(env or {})}
+    proc = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True,
+                          text=True, env=env, cwd=tempfile.gettempdir())
+    if proc.returncode:
+        raise SystemExit(f"{what} on {checkout} failed:\n{proc.stderr[-3000:]}")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
 
 
 def write_json(path, data) -> None:
