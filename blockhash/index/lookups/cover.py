@@ -215,9 +215,10 @@ class CoverGather:
                        records.view(np.float32))
         entries, max_count = window_entries(key, int(fine), len(sides))
         slots, buckets = cuckoo_slots(entries, "cover gather's window table")
+        octaves = np.flatnonzero(np.bincount(octave, minlength=len(sides)))
         return cls(records=records, photon=photon.astype(np.int64), octave=octave, slots=slots,
                    buckets=buckets, sides=sides, halves=halves, fines=fines, axis=int(axis),
-                   fine_cells=int(fine), octaves=np.flatnonzero(np.bincount(octave, minlength=len(sides))), max_count=max_count,
+                   fine_cells=int(fine), octaves=octaves, max_count=max_count,
                    windows=len(entries),
                    left_out=int(n - m), quantizer=q, power_scale=index.records.power_scale,
                    steps=int(steps))
