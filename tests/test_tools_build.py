@@ -222,3 +222,32 @@ def _gpu_bench(tmp_path, expect: int = 0, **env):
                          capture_output=True, text=True, timeout=600)
     assert run.returncode == expect, run.stderr[-3000:]
     return run, tmp_path / "out"
+
+
+def test_gpu_carry_packs_the_wheels_stored_and_unpacks_them_to_whl(tmp_path):
+    """The carry's archive holds every file of .whl/, each wheel the same members stored
+    uncompressed (still a zip pip installs), and unpacks to .whl/; the sizes are printed
+    against the 64 MiB limit."""
+    import tarfile
+    import zipfile
+
+    root = tmp_path / "checkout"
+    (root / ".whl").mkdir(parents=True)
+    subprocess.run(["git", "init", "-q", str(root)], check=True)
+    (root / "tracked.txt").write_text("x" * 1000)
+    subprocess.run(["git", "-C", str(root), "add", "tracked.txt"], check=True)
+    members = {"pkg/__init__.py": b"print('hi')\n" * 200, "pkg-1.0.dist-info/RECORD": b""}
+    with zipfile.ZipFile(root / ".whl" / "pkg-1.0-py3-none-any.whl", "w",
+                         zipfile.ZIP_DEFLATED) as z:
+        for name, data in members.items():
+            z.writestr(name, data)
+    (root / ".whl" / "run.sh").write_text("#!/usr/bin/env bash\n")
+    text = run_tool("gpu_carry.py", ["--pack-only", "--root", root], tmp_path)
+    assert "carried in all" in text and "of 64" in text
+    out = tmp_path / "unpacked"
+    with tarfile.open(root / ".carry" / "whl.tar.xz") as tar:
+        assert sorted(tar.getnames()) == [".whl/pkg-1.0-py3-none-any.whl", ".whl/run.sh"]
+        tar.extractall(out, filter="data")
+    with zipfile.ZipFile(out / ".whl" / "pkg-1.0-py3-none-any.whl") as z:
+        assert {i.filename: z.read(i) for i in z.infolist()} == members
+        assert all(i.compress_type == zipfile.ZIP_STORED for i in z.infolist())
