@@ -242,7 +242,7 @@ def test_gpu_carry_packs_the_wheels_stored_and_unpacks_them_to_whl(tmp_path):
         for name, data in members.items():
             z.writestr(name, data)
     (root / ".whl" / "run.sh").write_text("#!/usr/bin/env bash\n")
-    text = run_tool("gpu_carry.py", ["--pack-only", "--root", root], tmp_path)
+    text = run_tool("gpu_carry.py", ["--root", root], tmp_path)
     assert "carried in all" in text and "of 64" in text
     out = tmp_path / "unpacked"
     with tarfile.open(root / ".carry" / "whl.tar.xz") as tar:

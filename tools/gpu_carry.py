@@ -1,24 +1,23 @@
 """What a GPU machine's run carries beside the checkout, packed under the 64 MiB carry limit.
 
-The checkout travels to a lent GPU machine with at most 64 MiB in all (``../shared/gpu/``):
-its tracked files, and the ignored folders a run names.  ``../shared/gpu/prepare.sh`` fills
-``.gl/`` (the GL dispatch libraries) and ``.whl/`` (the project's wheel and the wheels the
-GPU image lacks), and ``../shared/gpu/slim_mitsuba.py`` adds Mitsuba's RGB variants and
-drjit's wheel: with the tracked files about 74 MB, over the limit.  Wheels are deflated zips;
-stored uncompressed and packed together with xz they take about half (the shared libraries
-compress far better in one xz stream), so this tool writes ``.carry/whl.tar.xz`` from
-``.whl/`` and says what the run carries:
+The checkout travels to a lent GPU machine with at most 64 MiB in all: its tracked files, and
+the ignored folders a run names.  The run needs ``.gl/`` (the GL dispatch libraries the GPU
+image lacks) and ``.whl/`` (the project's wheel, the wheels the image lacks, Mitsuba's RGB
+variants and drjit's wheel, and ``run.sh``, which installs them there), prepared on a machine
+with the package registries: with the tracked files about 74 MB as zips, over the limit.
+Wheels are deflated zips; stored uncompressed and packed together with xz they take about
+half (the shared libraries compress far better in one xz stream), so this tool writes
+``.carry/whl.tar.xz`` from ``.whl/`` and says what the run carries:
 
-    python tools/gpu_carry.py            # prepare.sh, slim_mitsuba.py, then pack and check
-    python tools/gpu_carry.py --pack-only  # pack the .whl/ already there
+    python tools/gpu_carry.py [--preset 6]
 
 and on the GPU machine (the device tool's ``carry`` naming ``.gl`` and ``.carry``):
 
     python3 -c "import tarfile; tarfile.open('.carry/whl.tar.xz').extractall('.')" \\
         && OUT=$OUT STEPS=photons,frames bash tools/gpu_bench.sh
 
-The archive unpacks to ``.whl/`` (run.sh installs its wheels; stored zips are valid wheels).
-The tool fails, naming the sizes, when the tracked files and the carry pass the limit.
+The archive unpacks to ``.whl/`` (stored zips are valid wheels, pip installs them).  The tool
+fails, naming the sizes, when the tracked files and the carry pass the limit.
 """
 
 import io
@@ -31,7 +30,6 @@ from pathlib import Path
 from blockhash.studies.command import ToolParser
 
 ROOT = Path(__file__).resolve().parents[1]
-SHARED_GPU = ROOT.parent / "shared" / "gpu"
 #: The device tool's limit on the working tree and its carried folders together.
 LIMIT = 64 * 2**20
 
@@ -71,22 +69,15 @@ def folder_bytes(folder: Path) -> int:
 
 def main(argv=None):
     p = ToolParser(__doc__, __file__)
-    p.add_argument("--pack-only", action="store_true", help="pack the .whl/ already there "
-                   "(skip prepare.sh and slim_mitsuba.py)")
     p.add_argument("--root", type=Path, default=ROOT, help="the checkout (default this one)")
     p.add_argument("--preset", type=int, default=6, choices=range(10), metavar="0-9",
                    help="xz preset (default 6)")
     args = p.parse_args(argv)
     root = args.root.resolve()
-    if not args.pack_only:
-        for command in (["bash", str(SHARED_GPU / "prepare.sh")],
-                        [sys.executable, str(SHARED_GPU / "slim_mitsuba.py"), ".whl"]):
-            if subprocess.run(command, cwd=root).returncode:
-                raise SystemExit(f"{' '.join(command)} failed (it needs the package registries)")
     whl = root / ".whl"
     if not (whl / "run.sh").is_file():
-        raise SystemExit(f"{whl} has no run.sh: run ../shared/gpu/prepare.sh first (or this tool "
-                         "without --pack-only)")
+        raise SystemExit(f"{whl} has no run.sh: prepare the GPU run's wheels and run.sh in .whl/ "
+                         "first, on a machine with the package registries")
     archive = root / ".carry" / "whl.tar.xz"
     size = pack(whl, archive, args.preset)
     gl = folder_bytes(root / ".gl") if (root / ".gl").is_dir() else 0
