@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import argparse
 
+from blockhash.studies.command import size as image_size
+
 #: The flag that sets each library parameter an error may name (the one place the command line
 #: maps its flags onto the library's keywords).
 FLAGS = {"passes": "--passes ", "seconds": "--time ", "target_error": "--target-error ",
@@ -20,12 +22,15 @@ FLAGS = {"passes": "--passes ", "seconds": "--time ", "target_error": "--target-
 
 def size(text: str) -> tuple[int, int]:
     """``--size``: (width, height) from ``WIDTHxHEIGHT`` or one number for a square."""
-    from blockhash.studies.command import size as image_size
-
     try:
         return image_size(text)
     except argparse.ArgumentTypeError as e:
         raise argparse.ArgumentTypeError(f"--size {e}") from None
+
+
+def size_help(default: str = "the camera's") -> str:
+    """``--size``'s help, with its ``default``."""
+    return f"image size WIDTHxHEIGHT or one number for a square (default: {default})"
 
 
 #: The exit status of a render stopped by Ctrl-C (as a shell reports SIGINT).

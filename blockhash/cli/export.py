@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from blockhash.cli.args import define_option, defines, size
+from blockhash.cli.args import define_option, defines, size, size_help
 from blockhash.errors import InputError
 from blockhash.validate import writable_path
 
@@ -108,6 +108,6 @@ def add_reference(sub) -> None:
     p.add_argument("--spp", type=int, default=64, help="samples per pixel (default 64)")
     p.add_argument("--photons", type=int, default=10_000_000,
                    help="photons the light tracer shoots (--engine blockhash; default 10^7)")
-    p.add_argument("--size", type=size, help="image size WIDTHxHEIGHT or one number for a square (default: the camera's)")
+    p.add_argument("--size", type=size, help=size_help())
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=cmd_reference)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from blockhash.cli.args import FLAGS, size
+from blockhash.cli.args import FLAGS, size, size_help
 from blockhash.errors import InputError
 from blockhash.frame.options import METHODS
 from blockhash.gl.context import BACKENDS
@@ -224,5 +224,5 @@ def add_preview(sub) -> None:
                                    "the camera, objects and lights before a real render.")
     p.add_argument("scene")
     p.add_argument("-o", "--output", help="PNG path (default: SCENE-NAME.preview.png here)")
-    p.add_argument("--size", type=size, help="image size WIDTHxHEIGHT or one number for a square (default: the camera's)")
+    p.add_argument("--size", type=size, help=size_help())
     p.set_defaults(func=cmd_preview)

@@ -12,7 +12,7 @@ import time
 import warnings
 from pathlib import Path
 
-from blockhash.cli.args import FLAGS, INTERRUPTED, define_option, defines
+from blockhash.cli.args import FLAGS, INTERRUPTED, define_option, defines, size_help
 from blockhash.cli.args import size as _size
 from blockhash.cli.estimate import add_arguments as add_estimate_arguments
 from blockhash.cli.estimate import options_from
@@ -261,7 +261,7 @@ def add_render(sub) -> None:
                         "Block Hashing (shader); kdtree: exact kNN (kd-tree shader); cpu: the CPU "
                         "reference of what auto picks")
     p.add_argument("--variant", default="default", help="BH shader variant")
-    p.add_argument("--size", type=_size, help="image size WIDTHxHEIGHT or one number for a square (default: the camera's)")
+    p.add_argument("--size", type=_size, help=size_help())
     p.add_argument("--spp", type=int, help="samples per pixel per pass, a square number "
                    "(stratified jitter, box filter; default: the scene's [camera] spp, else "
                    f"{DEFAULT_SPP} with --passes 1 and 1 per pass in more)")

@@ -8,6 +8,7 @@ import warnings
 from pathlib import Path
 
 from blockhash.cli.args import size as _size
+from blockhash.cli.args import size_help
 from blockhash.frame.options import METHODS
 from blockhash.gl.context import BACKENDS
 
@@ -90,7 +91,7 @@ def add_tradeoff(sub) -> None:
     p.add_argument("--A", type=_int_list, help="A values of the grid, e.g. 1,2,4,8,16,32,64")
     p.add_argument("--k", "--ks", dest="ks", type=_int_list,
                    help="k values, e.g. 16,50,100 (--ks is the older name)")
-    p.add_argument("--size", type=_size, help="image size WIDTHxHEIGHT or one number for a square (default 128x128; quick 48x48)")
+    p.add_argument("--size", type=_size, help=size_help("128x128; quick 48x48"))
     p.add_argument("--method", choices=SWEPT_METHODS, default=None,
                    help="bh: the caustic pass shader (default); cpu: its CPU reference (no shader "
                    "compiles; CPU times); exact kNN is measured beside either")

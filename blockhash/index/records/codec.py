@@ -35,7 +35,7 @@ import numpy as np
 from blockhash.errors import InputError, InputTypeError
 from blockhash.index.records.fixedpoint import Quantizer
 from blockhash.index.records.polar_rows import direction_words, kernel_vectors
-from blockhash.index.records.power_words import power_words
+from blockhash.index.records.power_words import float32_power_bits, pair_words
 from blockhash.validate import as_points
 
 #: 32-bit words per photon record (Figure 4): x, y, z, d|n, c1|c2, c3|c4.
@@ -249,8 +249,7 @@ def pack_records(position_codes, direction_codes, normal_codes, power_bits) -> n
     rec = np.empty((len(pos), WORDS_PER_PHOTON), dtype=np.uint32)
     rec[:, :3] = pos
     rec[:, 3] = d | (n << 16)
-    for w, a in ((4, 0), (5, 2)):
-        rec[:, w] = c[:, a].astype(np.uint32) | (c[:, a + 1].astype(np.uint32) << 16)
+    rec[:, 4:6] = pair_words(c)
     return rec
 
 
@@ -346,8 +345,8 @@ class PhotonRecords:
     @classmethod
     def _encode_compiled(cls, positions, directions, normals, powers) -> "PhotonRecords":
         """:meth:`encode`'s records by compiled passes over the whole map (the direction words
-        by :func:`.polar_rows.direction_words`, float32 power words by
-        :func:`.power_words.power_words`).  Raises InputError on any bad input, which
+        by :func:`.polar_rows.direction_words`, float32 powers' half floats by
+        :func:`.power_words.float32_power_bits`).  Raises InputError on any bad input, which
         :meth:`encode`'s whole-array checks then name."""
         p = as_points(positions, "positions", dtype=_float_dtype(positions))
         n = len(p)
@@ -368,13 +367,13 @@ class PhotonRecords:
                               THETA_STEP, PHI_STEP, rec[:, 3])
         if max(bad) >= 0:
             raise InputError("directions and normals: unit vectors")
-        if powers is not None and raw.dtype == np.float32:
-            if power_words(raw, scale, rec[:, 4], rec[:, 5]) >= 0:
-                raise InputError("powers: finite, and within half floats over the scale")
+        if powers is None:
+            bits = encode_powers(np.ones((1, 3)))[0]
+        elif raw.dtype == np.float32:
+            bits = float32_power_bits(raw, scale)
         else:
-            b = (encode_powers(np.ones((1, 3)))[0] if powers is None
-                 else encode_powers(raw, scale=scale)[0]).astype(np.uint32)
-            rec[:, 4], rec[:, 5] = b[:, 0] | (b[:, 1] << 16), b[:, 2] | (b[:, 3] << 16)
+            bits = encode_powers(raw, scale=scale)[0]
+        rec[:, 4:6] = pair_words(bits)
         rec[:, :3] = quantizer.encode(p)
         return cls._own(rec, quantizer, scale)
 

@@ -57,3 +57,18 @@ def test_lone_photons_between_dense_clusters():
     for j in (8, 36):
         got, want = jth_both(pos, j)
         np.testing.assert_array_equal(got, want)
+
+
+def test_the_selection_in_a_band_is_the_kth_on_either_side_of_the_bound():
+    """_kth_in_band ranks only one side of its bound: the kth smallest whether it lies below
+    the bound, at it, or above it, with ties and values equal to the bound, past the rank
+    count's size too (Hoare's selection)."""
+    from blockhash.index.lookups.octree_knn import RANK_MAX, _kth_in_band
+
+    rng = np.random.default_rng(3)
+    for m in (1, 7, 53, RANK_MAX + 40):
+        a = np.round(rng.random(m) * 20) / 20  # ties
+        for low in (-1.0, 0.0, a[0], 0.5, 2.0):
+            for kth in range(m):
+                got = _kth_in_band(a.copy(), m, kth, low, np.empty(m, dtype=np.int64))
+                assert got == np.sort(a)[kth], (m, low, kth)
