@@ -100,6 +100,31 @@ def test_cell_centres_by_ray_casting_see_what_the_rasteriser_sees():
     assert np.median(np.einsum("ij,ij->i", c.normal[both], g.normal[both])) > 0.9999
 
 
+@pytest.mark.parametrize("aperture", [0.0, 0.05])
+def test_the_film_is_cast_in_chunks_the_same_as_at_once(monkeypatch, aperture):
+    """Chunks of 7 rays (a short last one, a film's misses, glass's back faces and a lens)
+    give the G-buffer one cast of every ray gives, bit for bit."""
+    from dataclasses import replace
+
+    from blockhash.frame import subpixel
+    from blockhash.frame.shading import SceneRays
+
+    scene = load_scene(SCENES / "glass.toml")
+    camera = replace(scene.camera, aperture_radius=aperture, focus_distance=2.0)
+    rays, pin = SceneRays(scene.objects), Pinhole.of(camera, (19, 13))
+    x, y = subpixel_points(pin.width, pin.height, 2, 3)
+    whole = subpixel.film_gbuffer(pin, rays, x, y)
+    monkeypatch.setattr(subpixel, "CHUNK_RAYS", 7)
+    chunks = subpixel.film_gbuffer(pin, rays, x, y)
+    assert (whole.object < 0).any() and (whole.object >= 0).any() and not whole.front.all()
+    for name in ("position", "normal", "object", "front", "origin"):
+        a, b = getattr(whole, name), getattr(chunks, name)
+        if name == "origin":
+            assert (a is None) == (b is None) == (aperture == 0)
+        if a is not None:
+            assert a.dtype == b.dtype and np.array_equal(a, b), name
+
+
 def test_estimate_images_in_chunks_equal_one_search_and_only_fill_what_was_asked():
     from conftest import FLOOR, LAMBERT, floor_points, surfaces
 
