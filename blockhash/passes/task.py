@@ -268,7 +268,8 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
     timings["direct"] = time.perf_counter() - t
     t = time.perf_counter()
     caustic = _layer(setup, built, points, seen, p, timings)
-    timings["caustic"] = time.perf_counter() - t - timings.get("mirror cover gather", 0.0)
+    timings["caustic"] = time.perf_counter() - t - sum(
+        timings.get(name, 0.0) for name in ("cover gather", "mirror cover gather"))
     indirect, indirect_emitted = _indirect_layer(setup, p, scale, points, seen, timings, info)
     direct = setup.pixel_filter.develop(points.gather_direct(direct), p)
     timings["total"] = time.perf_counter() - t0
@@ -287,6 +288,12 @@ def _layer(setup: RenderSetup, built, points, seen, p: int, timings: dict) -> np
     since it does not depend on the camera."""
     index, radii, splat, whole = built
     estimate = setup.caustic.estimate
+    if index is not None and radii is not None and setup.caustic.cover:
+        # Built here, after the camera's samples (not with the index), so that the two are
+        # never held together; timed apart from the estimate.
+        t = time.perf_counter()
+        cover_gather(index, setup.settings.k, radii)
+        timings["cover gather"] = time.perf_counter() - t
     image = np.zeros(points.shape + (3,), dtype=np.float32)
     if splat is not None and not seen.all():
         # Points seen in a mirror or through glass gather every photon: the splat reached
@@ -331,7 +338,8 @@ def _indirect_layer(setup: RenderSetup, p: int, scale: float, points, seen, timi
     built = _index(setup, photons, p, scale, stages, {}, name="indirect")
     t = time.perf_counter()
     image = _layer(setup, built, points, seen, p, stages)
-    stages["estimate"] = time.perf_counter() - t - stages.get("mirror cover gather", 0.0)
+    stages["estimate"] = time.perf_counter() - t - sum(
+        stages.get(name, 0.0) for name in ("cover gather", "mirror cover gather"))
     for name, sec in stages.items():
         timings[f"indirect {name}"] = sec
     return image, photons.emitted
@@ -394,10 +402,6 @@ def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, inf
         whole = (index, every, setup.cache is not None and (name, p) in setup.cache)
         index, radii, splat = _split(setup, photons, index, r2, scale, p)
         timings["pixel splat"] = time.perf_counter() - t
-    if index is not None:
-        t = time.perf_counter()
-        cover_gather(index, s.k, radii)  # built here, for this stage's timing; kept for the pass
-        timings["cover gather"] = time.perf_counter() - t
     return index, radii, splat, whole
 
 
