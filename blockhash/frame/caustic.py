@@ -181,13 +181,14 @@ def point_textures(ctx, points: ShadingPoints) -> list:
     """The shading points as the passes read them, three RGBA32F textures, bottom row first
     (GL's): cp_position (xyz, material id), cp_normal (xyz, 1), cp_view (xyz, 0)."""
     h, w = points.shape
-    pos = np.concatenate([points.position, points.material[..., None].astype(np.float32)], axis=2)
-    nrm = np.concatenate([points.normal, np.ones((h, w, 1), np.float32)], axis=2)
-    view = np.concatenate([points.view, np.zeros((h, w, 1), np.float32)], axis=2)
     out = []
-    for role, a in (("cp_position", pos), ("cp_normal", nrm), ("cp_view", view)):
+    for role, xyz, fourth in (("cp_position", points.position, points.material),
+                              ("cp_normal", points.normal, 1.0), ("cp_view", points.view, 0.0)):
+        rgba = np.empty((h, w, 4), np.float32)  # written once, rows flipped on the way in
+        rgba[..., :3] = xyz[::-1]
+        rgba[..., 3] = fourth[::-1] if isinstance(fourth, np.ndarray) else fourth
         tex = pooled_texture(ctx, role, w, h, 4, "f4", exact=True)
-        tex.write(np.ascontiguousarray(a[::-1], dtype=np.float32).tobytes(), viewport=(0, 0, w, h))
+        tex.write(rgba, viewport=(0, 0, w, h))
         out.append(tex)
     return out
 
