@@ -224,6 +224,29 @@ def test_time_to_error_races_the_whole_image(tmp_path, needs_mitsuba):
     assert "| corner | 24 | path | 30 (" in text
 
 
+def test_frames_bench_child_imports_only_what_a_baseline_checkout_has():
+    """The latency child runs on a baseline checkout's package: it imports neither this tool
+    nor the study helpers (a baseline from before them lacked them), only the scene, the
+    passes and the standard library's and numpy's modules."""
+    import ast
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / "tools" / "frames_bench.py"
+    spec = importlib.util.spec_from_file_location("frames_bench_under_test", path)
+    tool = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(tool)
+    names = set()
+    for node in ast.walk(ast.parse(tool.CHILD)):
+        if isinstance(node, ast.Import):
+            names |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            names.add(node.module)
+    assert {"blockhash.scene.animation", "blockhash.passes.session"} <= names
+    allowed = ("blockhash.scene.", "blockhash.passes.", "numpy", "json", "math", "sys", "time",
+               "dataclasses")
+    assert all(n.startswith(allowed) for n in names), sorted(names)
+
+
 @pytest.mark.gl
 def test_frames_bench_times_frames_flicker_and_memory(tmp_path):
     out = tmp_path / "frames.json"
@@ -245,6 +268,7 @@ def test_frames_bench_times_frames_flicker_and_memory(tmp_path):
     [f] = res["flicker"]
     assert f["common"] > 0 and f["independent"] > 0 and f["ratio"] == f["independent"] / f["common"]
     assert [m["frames"] for m in res["memory"]] == [1, 2] and res["memory"][0]["peak_bytes"] > 2**20
+    assert all(0 < m["resident_bytes"] <= m["peak_bytes"] for m in res["memory"])
     assert len(table_rows(text, "ring")) == 4
     assert text.count("| this / baseline |") == 2
 

@@ -20,7 +20,8 @@ animation.
    over the light tracer's comparison mask, of each frame-to-frame change less the
    reference's change, its median over the frames, and the ratio of the two.
 3. Memory: the peak resident memory of a process rendering 1 and ``--memory-frames`` frames
-   of the ring's camera orbit (``--memory-photons`` a pass, ``--memory-size``).
+   of the ring's camera orbit (``--memory-photons`` a pass, ``--memory-size``), and its
+   resident memory after the last frame (what it holds between frames).
 
 ``--steps`` runs some of the three (default ``latency,flicker,memory``).
 
@@ -32,6 +33,7 @@ usage: python tools/frames_bench.py [--baseline /tmp/blockhash-d0deb7b] [--scene
                                     [--steps latency,flicker,memory] [--json FILE]
 """
 
+import inspect
 import math
 import subprocess
 import sys
@@ -77,15 +79,19 @@ def orbiting(scene, frames: int):
     return replace(scene, animation=Animation(frames=frames, orbit=(1.0, None)))
 
 
-#: One checkout's frames in a fresh process (argv: the tools folder, scene, size, samples a
-#: pixel, photons, frames, motion): a JSON list of [seconds, GL gather seconds] a frame.
-CHILD = r"""
-import json, sys, time
-sys.path.insert(0, sys.argv[1])
-from frames_bench import circling, orbiting
+#: One checkout's frames in a fresh process (argv: scene, size, samples a pixel, photons,
+#: frames, motion): a JSON list of [seconds, GL gather seconds] a frame.  The motions are
+#: this tool's own functions, their source given to the child, which imports nothing of this
+#: checkout (a baseline checkout's package lacks what this tool imports).
+CHILD = """
+import json, math, sys, time
+from dataclasses import replace
+import numpy as np
 from blockhash.passes.plan import RenderPlan
+from blockhash.scene.animation import Animation, Key
 from blockhash.scene.loader import load_scene
-scene_path, size, spp, photons, frames, motion = sys.argv[2], *map(int, sys.argv[3:7]), sys.argv[7]
+""" + inspect.getsource(circling) + inspect.getsource(orbiting) + r"""
+scene_path, size, spp, photons, frames, motion = sys.argv[1], *map(int, sys.argv[2:6]), sys.argv[6]
 scene = load_scene(scene_path).with_size(size, size)
 scene = orbiting(scene, frames) if motion == "camera orbit" else circling(scene, frames)
 plan, rows = RenderPlan(passes=1), []
@@ -107,8 +113,8 @@ print(json.dumps(rows))
 
 def frames_of(checkout, path, size, spp, photons, frames, motion) -> dict:
     """One latency row of ``checkout``'s frames (a fresh process on its own code)."""
-    rows = np.array(in_checkout(checkout, CHILD, [Path(__file__).parent, path, size, spp, photons,
-                                                  frames, motion], "frames"))
+    rows = np.array(in_checkout(checkout, CHILD, [path, size, spp, photons, frames, motion],
+                                "frames"))
     later = rows[1:] if len(rows) > 1 else rows
     frame, gather = float(np.median(later[:, 0])), float(np.median(later[:, 1]))
     return {"scene": Path(path).stem, "size": size, "spp": spp, "photons": photons,
@@ -163,7 +169,9 @@ scene = load_scene(sys.argv[1]).with_size(int(sys.argv[2]), int(sys.argv[2]))
 n = int(sys.argv[3])
 scene = replace(scene, animation=Animation(frames=n, orbit=(1.0, None)))
 render_frames(scene, range(n), photons=int(sys.argv[4]), plan=RenderPlan(passes=int(sys.argv[5])))
-print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024)
+with open("/proc/self/statm") as f:
+    resident = int(f.read().split()[1]) * resource.getpagesize()
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, resident)
 """
 
 
@@ -172,8 +180,10 @@ def memory(path, frames_list, size, photons, passes) -> list[dict]:
     for n in frames_list:
         run = subprocess.run([sys.executable, "-c", MEMORY, str(path), str(size), str(n),
                               str(photons), str(passes)], check=True, capture_output=True, text=True)
-        rows.append({"frames": n, "peak_bytes": int(run.stdout.strip().splitlines()[-1])})
-        print(f"memory {n} frames: {rows[-1]['peak_bytes'] / 2**20:.0f} MiB", flush=True)
+        peak, resident = map(int, run.stdout.strip().splitlines()[-1].split())
+        rows.append({"frames": n, "peak_bytes": peak, "resident_bytes": resident})
+        print(f"memory {n} frames: peak {peak / 2**20:.0f} MiB, resident after the last "
+              f"{resident / 2**20:.0f} MiB", flush=True)
     return rows
 
 
@@ -198,11 +208,13 @@ def tables(lat, flick, mem) -> str:
         out += [f"| {f['frames']} | {f['size']} | {f['photons']:,} | {f['degrees']:g} | "
                    f"{f['common']:.4f} | {f['independent']:.4f} | {f['ratio']:.2f} |" for f in flick]
     if mem:
-        out += ["", "| frames of a camera orbit | peak resident memory MiB | over one frame's |",
-                "| --- | --- | --- |"]
+        out += ["", "| frames of a camera orbit | peak resident memory MiB | over one frame's "
+                "| resident after the last frame MiB |",
+                "| --- | --- | --- | --- |"]
         for r in mem:
             out.append(f"| {r['frames']} | {r['peak_bytes'] / 2**20:.0f} | "
-                       f"{r['peak_bytes'] / mem[0]['peak_bytes']:.3f} |")
+                       f"{r['peak_bytes'] / mem[0]['peak_bytes']:.3f} | "
+                       f"{r['resident_bytes'] / 2**20:.0f} |")
     return "\n".join(out)
 
 
