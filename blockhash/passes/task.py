@@ -7,8 +7,7 @@ returns what the pass adds to the film (:class:`PassContribution`).
    (:class:`blockhash.photons.tracing.PhotonSource`): the same (seed, p) gives the same photons
    in any process;
 2. the index of that batch and, for the conserving estimate, the photons' own radii scaled by
-   the pass's shrink (:mod:`.schedule`), and the pixel splat of the photons under the
-   footprint;
+   the pass's shrink (:mod:`.schedule`), and the pixel splat of the photons under the footprint;
 3. a fresh camera sample per pixel (:func:`blockhash.frame.camera_samples.camera_samples`);
 4. direct light and the caustic estimate of those samples, box-filtered into pixel means.
 
@@ -268,38 +267,31 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
     timings["direct"] = time.perf_counter() - t
     t = time.perf_counter()
     caustic = _layer(setup, built, points, seen, p, timings)
-    timings["caustic"] = time.perf_counter() - t - sum(
-        timings.get(name, 0.0) for name in ("cover gather", "mirror cover gather"))
+    timings["caustic"] = time.perf_counter() - t - _gathers(timings)
     indirect, indirect_emitted = _indirect_layer(setup, p, scale, points, seen, timings, info)
     direct = setup.pixel_filter.develop(points.gather_direct(direct), p)
     timings["total"] = time.perf_counter() - t0
-    index, radii = built[0], built[1]
-    return PassContribution(p, direct, caustic, shot, stored, scale, timings, info, index, radii,
+    return PassContribution(p, direct, caustic, shot, stored, scale, timings, info, *built[:2],
                             indirect, indirect_emitted)
 
 
 def _layer(setup: RenderSetup, built, points, seen, p: int, timings: dict) -> np.ndarray:
     """The pixel means of one photon map's estimate at the pass's camera points, from its
     :func:`_index` (``built``: index, radii, pixel splat, every photon's index, radii and
-    whether the frame cache keeps them).
-    The gather of every photon, built here where a point sees a mirror or glass, is a photon
-    stage: its seconds go to ``timings["mirror cover gather"]``, not to the estimate's; an
-    index kept for the next frames (:class:`~blockhash.passes.session.FrameCache`) keeps it,
-    since it does not depend on the camera."""
+    whether the frame cache keeps them).  Its gathers are photon stages, built here after the
+    camera's samples (never held with them), timed apart from the estimate: ``timings["cover
+    gather"]``, and ``["mirror cover gather"]`` for every photon's where a point sees a mirror
+    or glass, which a kept index keeps for the next frames (it does not depend on the camera)."""
     index, radii, splat, whole = built
     estimate = setup.caustic.estimate
     if index is not None and radii is not None and setup.caustic.cover:
-        # Built here, after the camera's samples (not with the index), so that the two are
-        # never held together; timed apart from the estimate.
         t = time.perf_counter()
         cover_gather(index, setup.settings.k, radii)
         timings["cover gather"] = time.perf_counter() - t
     image = np.zeros(points.shape + (3,), dtype=np.float32)
     if splat is not None and not seen.all():
-        # Points seen in a mirror or through glass gather every photon: the splat reached
-        # only the pixels that see its photons directly.
-        # Each gather is used once here and let go before the next is built, so that the
-        # two are never held together.
+        # Points seen in a mirror or through glass gather every photon (the splat reached only
+        # the pixels that see its photons directly); each gather is let go before the next.
         if index is not None:
             image = estimate(setup, index, only(points, seen), radii)
             drop_gather(index, setup.settings.k, radii)
@@ -313,6 +305,11 @@ def _layer(setup: RenderSetup, built, points, seen, p: int, timings: dict) -> np
         image = estimate(setup, index, points, radii)
     image = setup.pixel_filter.develop(points.gather(image), p)
     return image + splat if splat is not None else image
+
+
+def _gathers(timings: dict) -> float:
+    """Seconds of :func:`_layer`'s gather builds, photon stages timed apart from its estimate."""
+    return timings.get("cover gather", 0.0) + timings.get("mirror cover gather", 0.0)
 
 
 def _indirect_layer(setup: RenderSetup, p: int, scale: float, points, seen, timings: dict,
@@ -338,8 +335,7 @@ def _indirect_layer(setup: RenderSetup, p: int, scale: float, points, seen, timi
     built = _index(setup, photons, p, scale, stages, {}, name="indirect")
     t = time.perf_counter()
     image = _layer(setup, built, points, seen, p, stages)
-    stages["estimate"] = time.perf_counter() - t - sum(
-        stages.get(name, 0.0) for name in ("cover gather", "mirror cover gather"))
+    stages["estimate"] = time.perf_counter() - t - _gathers(stages)
     for name, sec in stages.items():
         timings[f"indirect {name}"] = sec
     return image, photons.emitted
@@ -347,10 +343,10 @@ def _indirect_layer(setup: RenderSetup, p: int, scale: float, points, seen, timi
 
 def _index(setup: RenderSetup, photons, p: int, scale: float, timings: dict, info: dict,
            name: str = "caustic"):
-    """The pass's index, radii, pixel splat and (index, radii, kept in the frame cache) of
-    every photon, for the points seen in mirrors; all None without photons.  The index and the photons' radii (not the
-    splat, which depends on the camera) come from the setup's frame cache where it keeps
-    them (``name``: which map)."""
+    """The pass's index, radii, pixel splat and (index, radii, kept in the frame cache) of every
+    photon, for the points seen in mirrors; all None without photons.  The index and radii of map
+    ``name`` (not the splat: it depends on the camera) come from the frame cache where it keeps
+    them."""
     s, stage = setup.settings, setup.caustic
     stored = 0 if photons is None else len(photons.positions)
     if stored == 0:
