@@ -9,7 +9,8 @@ The blocks render, so they need an OpenGL context: a machine without one skips t
 ``BLOCKHASH_REQUIRE_GL`` names a backend (as in CI).
 
 The suite runs in parallel processes (pytest-xdist, ``-n auto --dist loadfile``): each file's
-tests in one process, in order, so the blocks of a page share their namespace.
+tests in one process, in order, so the blocks of a page share their namespace.  The longest
+files are handed out first (:data:`FIRST`).
 """
 
 import os
@@ -35,6 +36,25 @@ def _setup(namespace):
     namespace["__name__"] = "__main__"  # a page's blocks run as the script a user pastes them into
     namespace["_cwd"] = os.getcwd()
     os.chdir(ROOT)
+
+
+#: The suite's longest files (``python -m pytest --durations=0``: one to two minutes of tests
+#: each on two cores), collected first so that the parallel processes take them first: a file
+#: runs whole in one process, and a long one begun last leaves the other processes idle.
+FIRST = ("tests/test_tools_build.py", "tests/test_tools_passes.py",
+         "tests/passes/test_executors.py", "tests/test_tools.py", "tests/gl/test_gl_lookup.py")
+
+
+def pytest_collection_modifyitems(items):
+    """:data:`FIRST`'s files first, in its order; every file's tests in their own order."""
+    rank = {name: i for i, name in enumerate(FIRST)}
+
+    def place(item):
+        path = Path(item.path)
+        name = path.relative_to(ROOT).as_posix() if path.is_relative_to(ROOT) else str(path)
+        return rank.get(name, len(FIRST))
+
+    items.sort(key=place)
 
 
 def _teardown(namespace):

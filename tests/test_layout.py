@@ -274,3 +274,12 @@ def test_the_shim_checks_can_fail(tree_copy):
     finally:
         shim.unlink(missing_ok=True)
         user.unlink(missing_ok=True)
+
+
+def test_the_files_the_suite_runs_first_are_its_files():
+    """conftest.FIRST names test files by path: a renamed or deleted one would silently stop
+    being run first."""
+    tree = ast.parse((ROOT / "conftest.py").read_text())
+    [first] = [ast.literal_eval(node.value) for node in tree.body if isinstance(node, ast.Assign)
+               and [getattr(t, "id", None) for t in node.targets] == ["FIRST"]]
+    assert first and all((ROOT / name).is_file() for name in first), first
