@@ -35,7 +35,6 @@ usage: python tools/frames_bench.py [--baseline /tmp/blockhash-d0deb7b] [--scene
 
 import inspect
 import math
-import subprocess
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -159,7 +158,7 @@ def flicker(path, frames, size, photons, reference_photons, degrees) -> dict:
 
 
 MEMORY = """
-import resource, sys
+import json, resource, sys
 from dataclasses import replace
 from blockhash.passes.frames import render_frames
 from blockhash.passes.plan import RenderPlan
@@ -171,16 +170,15 @@ scene = replace(scene, animation=Animation(frames=n, orbit=(1.0, None)))
 render_frames(scene, range(n), photons=int(sys.argv[4]), plan=RenderPlan(passes=int(sys.argv[5])))
 with open("/proc/self/statm") as f:
     resident = int(f.read().split()[1]) * resource.getpagesize()
-print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, resident)
+print(json.dumps([resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, resident]))
 """
 
 
 def memory(path, frames_list, size, photons, passes) -> list[dict]:
     rows = []
     for n in frames_list:
-        run = subprocess.run([sys.executable, "-c", MEMORY, str(path), str(size), str(n),
-                              str(photons), str(passes)], check=True, capture_output=True, text=True)
-        peak, resident = map(int, run.stdout.strip().splitlines()[-1].split())
+        peak, resident = in_checkout(ROOT, MEMORY, [path, size, n, photons, passes],
+                                     f"{n} frames' memory")
         rows.append({"frames": n, "peak_bytes": peak, "resident_bytes": resident})
         print(f"memory {n} frames: peak {peak / 2**20:.0f} MiB, resident after the last "
               f"{resident / 2**20:.0f} MiB", flush=True)

@@ -182,11 +182,11 @@ def point_textures(ctx, points: ShadingPoints) -> list:
     (GL's): cp_position (xyz, material id), cp_normal (xyz, 1), cp_view (xyz, 0)."""
     h, w = points.shape
     out = []
-    for role, xyz, fourth in (("cp_position", points.position, points.material),
+    for role, xyz, fourth in (("cp_position", points.position, points.material[::-1]),
                               ("cp_normal", points.normal, 1.0), ("cp_view", points.view, 0.0)):
         rgba = np.empty((h, w, 4), np.float32)  # written once, rows flipped on the way in
         rgba[..., :3] = xyz[::-1]
-        rgba[..., 3] = fourth[::-1] if isinstance(fourth, np.ndarray) else fourth
+        rgba[..., 3] = fourth
         tex = pooled_texture(ctx, role, w, h, 4, "f4", exact=True)
         tex.write(rgba, viewport=(0, 0, w, h))
         out.append(tex)

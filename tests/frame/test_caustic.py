@@ -81,3 +81,28 @@ def test_modified_phong_is_energy_conserving_and_peaks_at_the_mirror_direction()
     mirror = np.array([[-0.3, 0, np.sqrt(1 - 0.09)]])
     peak = phong_brdf(wi[:1], mirror, n[:1], kd, ks, e[:1])
     assert peak[0, 0] == pytest.approx(0.55 / np.pi + 0.25 * 22 / (2 * np.pi))
+
+
+@pytest.mark.gl
+def test_point_textures_hold_each_point_bottom_row_first():
+    """The pass reads point (row, col) at GL row h - 1 - row: position and material id,
+    normal and 1, view and 0, every value as given."""
+    from conftest import context_or_skip
+
+    from blockhash.frame.caustic import point_textures
+
+    ctx = context_or_skip(None)
+    rng = np.random.default_rng(1)
+    h, w = 7, 11
+    pts = ShadingPoints(position=rng.random((h, w, 3), dtype=np.float32),
+                        normal=rng.random((h, w, 3), dtype=np.float32),
+                        view=rng.random((h, w, 3), dtype=np.float32),
+                        material=rng.integers(-1, 5, (h, w)).astype(np.int32),
+                        weight=np.ones((h, w, 3), np.float32))
+    with ctx:
+        got = [np.frombuffer(t.read(), np.float32).reshape(h, w, 4)[::-1]
+               for t in point_textures(ctx, pts)]
+    fourths = (pts.material.astype(np.float32), np.ones((h, w)), np.zeros((h, w)))
+    for texture, xyz, fourth in zip(got, (pts.position, pts.normal, pts.view), fourths):
+        np.testing.assert_array_equal(texture[..., :3], xyz)
+        np.testing.assert_array_equal(texture[..., 3], fourth)
