@@ -22,7 +22,8 @@ import numpy as np
 from blockhash import BlockHashIndex
 from blockhash.frame.caustic import estimate_cpu, estimate_exact
 from blockhash.frame.gbuffer import rasterize
-from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.scene_rays import SceneRays
+from blockhash.frame.shading import shading_points
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.reference.lighttrace import cached_reference, lambertian
 from blockhash.scene.loader import load_scene

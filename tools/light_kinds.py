@@ -33,7 +33,7 @@ import numpy as np
 
 import blockhash
 from blockhash.evaluate.images import srgb, white_point, write_rgb8
-from blockhash.frame.shading import SceneRays
+from blockhash.frame.scene_rays import SceneRays
 from blockhash.passes.plan import RenderPlan
 from blockhash.reference.lighttrace import light_trace
 from blockhash.reference.mitsuba import mitsuba_reference, render_mitsuba, without_specular_lobes

@@ -29,7 +29,7 @@ import numpy as np
 import blockhash
 from blockhash.evaluate.images import srgb, white_point, write_rgb8
 from blockhash.evaluate.specular_identity import compare_views, specular_view_map
-from blockhash.frame.shading import SceneRays
+from blockhash.frame.scene_rays import SceneRays
 from blockhash.passes.plan import RenderPlan
 from blockhash.reference.mitsuba import mitsuba_reference, render_mitsuba
 from blockhash.scene.camera import Pinhole

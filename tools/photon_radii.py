@@ -25,7 +25,8 @@ import numpy as np
 from blockhash import BlockHashIndex
 from blockhash.frame.caustic import CausticPass
 from blockhash.frame.photon_radius import exact_radii2, own_radii2
-from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.scene_rays import SceneRays
+from blockhash.frame.shading import shading_points
 from blockhash.frame.subpixel import box_filter, raycast_gbuffer
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.scene.camera import SPP_SEED, spp_grid

@@ -15,7 +15,8 @@ import numpy as np
 
 from blockhash.frame.caustic import estimate_exact
 from blockhash.frame.gbuffer import rasterize
-from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.scene_rays import SceneRays
+from blockhash.frame.shading import shading_points
 from blockhash.passes.pipeline import render_scene
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.scene.loader import load_scene

@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 import blockhash
-from blockhash.frame.shading import SceneRays
+from blockhash.frame.scene_rays import SceneRays
 from blockhash.passes.plan import RenderPlan
 from blockhash.reference.lighttrace import light_trace
 from blockhash.reference.mitsuba import render_mitsuba, without_specular_lobes

@@ -29,7 +29,7 @@ import numpy as np
 from scipy.ndimage import binary_erosion, map_coordinates, uniform_filter
 
 from blockhash.errors import InputError
-from blockhash.frame.shading import SceneRays
+from blockhash.frame.scene_rays import SceneRays
 from blockhash.scene.camera import Pinhole
 from blockhash.scene.model import DielectricMaterial, MirrorMaterial
 from blockhash.scene.optics import fresnel, refract

@@ -9,7 +9,8 @@ from dataclasses import replace
 import numpy as np
 
 from blockhash.frame.gbuffer import rasterize
-from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.scene_rays import SceneRays
+from blockhash.frame.shading import shading_points
 from blockhash.frame.subpixel import LENS_KEY, film_gbuffer, pass_points, subpixel_points
 from blockhash.scene.camera import SPP_SEED, Pinhole, grid_of, jitter_seed
 from blockhash.scene.model import EnvironmentLight, MirrorMaterial

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from blockhash.frame.shading import SceneRays, shadow_segments
+from blockhash.frame.scene_rays import SceneRays, shadow_segments
 from blockhash.frame.shading_points import ShadingPoints
 from blockhash.scene.coat import through
 from blockhash.scene.raycast import RAY_OFFSET
@@ -75,7 +75,7 @@ def direct_light(points: ShadingPoints, objects, lights, rays: SceneRays,
         lp = np.asarray(light.position, dtype=np.float64).reshape(1, 3)
         front = _facing(p, n, live, lp[0])
         origins, wi, dist = shadow_segments(p[front], n[front], lp, RAY_OFFSET * rays.scale)
-        lit = ~rays.geometry.occluded(origins, wi, dist * (1 - 1e-6))
+        lit = ~rays.occluded(origins, wi, dist * (1 - 1e-6))
         # a spot's projected texture toward each point (ones where it has none)
         tint = (light.texture_factor(-wi[lit]) if getattr(light, "texture", None) is not None
                 else np.ones((int(lit.sum()), 3)))

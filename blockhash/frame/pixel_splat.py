@@ -34,7 +34,7 @@ def splat_subpixel(photons, r2: np.ndarray, pin, rays, materials, *, footprint: 
 
     ``photons``: a pass's ``CausticPhotons`` with their receiving ``objects``; ``r2`` their
     squared own radii (input order); ``pin``: the camera (:class:`blockhash.scene.camera.Pinhole`);
-    ``rays``: :class:`.shading.SceneRays` of the scene; ``materials``: the receiver table;
+    ``rays``: :class:`.scene_rays.SceneRays` of the scene; ``materials``: the receiver table;
     ``spread``: None (each photon in the pixel it projects to: the box filter), or
     ``spread(x, y, contrib)`` -> (h w, 3), the pixels of contributions at film points
     ``(x, y)`` under the camera's filter (:func:`.film_filter.spread`).

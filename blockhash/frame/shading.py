@@ -1,7 +1,7 @@
 """Shading points (the camera's view of the scene, through mirrors and glass).
 
-Ray queries go through the photon tracer's embree scene
-(:class:`blockhash.scene.raycast.EmbreeGeometry`, embreex called directly).  Perfect mirrors seen by the camera are resolved by
+Ray queries go through :class:`blockhash.frame.scene_rays.SceneRays`: the photon tracer's embree
+scene, or the photon kernels' device.  Perfect mirrors seen by the camera are resolved by
 reflection: the pixel's shading point moves to what the mirror reflects, with the
 mirror's reflectance as path weight (up to ``MAX_MIRROR_BOUNCES``); glass reflects or
 refracts each shading point's ray by the Fresnel probabilities (up to
@@ -13,16 +13,16 @@ is :mod:`.direct_light`'s.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
 from blockhash.frame.chain_end import emission_met
 from blockhash.frame.glossy_rays import ray_pdf, rough_events, through_coat
 from blockhash.frame.rough_direct import vertex_lights
+from blockhash.frame.scene_rays import SceneRays
 from blockhash.frame.shading_points import ShadingPoints
 from blockhash.scene.materials import one_sided
 from blockhash.scene.optics import choice_uniforms, scatter
-from blockhash.scene.raycast import RAY_OFFSET, EmbreeGeometry, entering, surface_hits
+from blockhash.scene.raycast import RAY_OFFSET
 
 #: Mirror-to-mirror reflections followed for camera rays.
 MAX_MIRROR_BOUNCES = 4
@@ -36,45 +36,6 @@ BRANCH_CUTOFF = 1e-3
 #: Seed of the camera rays' reflect-or-refract choices at glass (one stream, fixed, so an
 #: image is the same in every run).
 CAMERA_CHOICE_SEED = 0x9A55
-
-
-class SceneRays:
-    """First-hit and visibility queries over all objects of a scene (embree, as the tracer)."""
-
-    def __init__(self, objects):
-        self.geometry = EmbreeGeometry(tuple(objects))
-        self.scale = self.geometry.scale
-
-    def first_hit(self, origins, dirs, *, sides: bool = False, faces: bool = False):
-        """(hit mask, points, shading normals, object ids, geometric normals) for each ray,
-        with ``sides`` also (n,) bool: the ray met the face's outer side, and with ``faces``
-        also (global face (n,), -1 for a miss; barycentrics (n, 2)), where a texture is read.
-
-        Normals face the side the ray came from; rays that hit nothing get zeros and -1.
-        """
-        n = len(origins)
-        hit, face, u, v = self.geometry.intersect(origins, dirs)
-        d = np.asarray(dirs, dtype=np.float64)[hit]
-        p, ns, ng = surface_hits(self.geometry, face, u, v, d)
-        points, shade, geo = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
-        points[hit], shade[hit], geo[hit] = p, ns, ng
-        obj = np.full(n, -1)
-        obj[hit] = self.geometry.face_object[face]
-        out = (hit, points, shade, obj, geo)
-        if sides:
-            outer = np.zeros(n, dtype=bool)
-            outer[hit] = entering(self.geometry, face, d)
-            out += (outer,)
-        if faces:
-            f, bary = np.full(n, -1), np.zeros((n, 2))
-            f[hit], bary[hit, 0], bary[hit, 1] = face, u, v
-            out += (f, bary)
-        return out
-
-    def visible(self, points, normals, targets) -> np.ndarray:
-        """(n,) bool: nothing blocks the segment from each point (lifted off its surface) to its target."""
-        origins, d, dist = shadow_segments(points, normals, targets, RAY_OFFSET * self.scale)
-        return ~self.geometry.occluded(origins, d, dist * (1 - 1e-6))
 
 
 def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
@@ -397,24 +358,3 @@ def branch_points(camera, gbuffer, objects, rays: SceneRays, mirror_types,
                          rough_direct=met.reshape(h, w, 3) if met.any() else None,
                          first_hit=first.reshape(rows, w) if coat.any() else None,
                          rough_pdf=qs.reshape(rows, w) if np.isfinite(qs[:m]).any() else None)
-
-
-@numba.njit(cache=True, nogil=True, parallel=True)
-def shadow_segments(points, normals, targets, offset):
-    """Shadow rays from ``points`` (m, 3), lifted by ``offset`` along their ``normals``, to
-    ``targets`` ((m, 3), or (1, 3) for one target): (origins (m, 3), unit directions (m, 3)
-    from the points, distances (m,) from the points), float64."""
-    m = len(points)
-    origins, dirs, dist = np.empty((m, 3)), np.empty((m, 3)), np.empty(m)
-    step = 0 if targets.shape[0] == 1 else 1  # one target: row 0 for every point
-    for i in numba.prange(m):
-        t = i * step
-        d0 = targets[t, 0] - np.float64(points[i, 0])
-        d1 = targets[t, 1] - np.float64(points[i, 1])
-        d2 = targets[t, 2] - np.float64(points[i, 2])
-        r = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
-        dist[i] = r
-        dirs[i, 0], dirs[i, 1], dirs[i, 2] = d0 / r, d1 / r, d2 / r
-        for c in range(3):
-            origins[i, c] = np.float64(points[i, c]) + np.float64(normals[i, c]) * offset
-    return origins, dirs, dist

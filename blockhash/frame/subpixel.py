@@ -80,7 +80,7 @@ def raycast_gbuffer(camera, rays, *, size=None, samples=1, seed: int | None = No
                     pixels=None) -> GBuffer:
     """The G-buffer of :func:`.gbuffer.rasterize` at (width * cols, height * rows), by ray
     casting through :func:`subpixel_points` (``samples`` S or ``(rows, cols)``; ``rays`` a
-    :class:`.shading.SceneRays` of the scene); with ``pixels``, only theirs, (P * rows, cols)
+    :class:`.scene_rays.SceneRays` of the scene); with ``pixels``, only theirs, (P * rows, cols)
     as :func:`subpixel_points` lays them out.
 
     Normals face the camera as the rasteriser turns them; rays that miss get object -1.

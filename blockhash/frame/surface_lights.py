@@ -95,7 +95,7 @@ def area_light(out, light, live, p, n, wo, mat, kd, ks, e, coat, rays, pass_inde
     end = y[ok] + ny[ok] * offset
     seg = end - origins
     length = np.linalg.norm(seg, axis=1)
-    lit = ~rays.geometry.occluded(origins, seg / length[:, None], length * (1 - 1e-6))
+    lit = ~rays.occluded(origins, seg / length[:, None], length * (1 - 1e-6))
     ok = ok[lit]
     li = radiance[ok] * (cos_y[ok] * light.area / d2[ok])[:, None]
     _shade(out, live[ok], wi[ok], n, wo, mat, kd, ks, e, coat, li)
@@ -185,7 +185,7 @@ def escapes(rays, points, normals, dirs) -> np.ndarray:
     offset = RAY_OFFSET * rays.scale
     origins = points.astype(np.float64) + normals * offset
     far = np.full(len(origins), 4.0 * rays.scale + float(np.abs(origins).max()) * 2.0 + 1.0)
-    return ~rays.geometry.occluded(origins, np.ascontiguousarray(dirs), far)
+    return ~rays.occluded(origins, np.ascontiguousarray(dirs), far)
 
 
 def emission_seen(out, lights, objects, p, wo, mat, rays, rough_pdf=None) -> None:

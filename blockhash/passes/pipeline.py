@@ -27,7 +27,7 @@ from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.film_filter import filtered
 from blockhash.frame.options import LookupOptions
 from blockhash.frame.result import RenderResult  # noqa: F401 (importable from here)
-from blockhash.frame.shading import SceneRays
+from blockhash.frame.scene_rays import SceneRays
 from blockhash.passes.executors import PassFailed, WorkersFailed
 from blockhash.passes.plan import RenderPlan
 from blockhash.passes.renderer import NoCausticWarning, Renderer  # noqa: F401 (importable from here)

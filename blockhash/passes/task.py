@@ -8,12 +8,12 @@ returns what the pass adds to the film (:class:`PassContribution`).
    in any process;
 2. the index of that batch and, for the conserving estimate, the photons' own radii scaled by
    the pass's shrink (:mod:`.schedule`), and the pixel splat of the photons under the footprint;
-3. a fresh camera sample per pixel (:func:`blockhash.frame.camera_samples.camera_samples`);
+3. a fresh camera sample per pixel (:func:`blockhash.frame.camera_samples.camera_samples`),
+   cast on the photons' device (:meth:`blockhash.frame.scene_rays.SceneRays.on_device`);
 4. direct light and the caustic estimate of those samples, box-filtered into pixel means.
 
 Which search and estimate a pass runs is chosen once, when the setup is built
-(:func:`blockhash.passes.stages.caustic_stage`), not by names inside the pass.
-"""
+(:func:`blockhash.passes.stages.caustic_stage`), not by names inside the pass."""
 
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ from blockhash.frame.direct_light import direct_light
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.film_filter import PassFilm
 from blockhash.frame.options import LookupOptions, resolve_method
-from blockhash.frame.shading import SceneRays
+from blockhash.frame.scene_rays import SceneRays
 from blockhash.gl.limits import MAX_K
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.passes.schedule import FixedRadii, PassRadii, Schedule, shrink
@@ -121,6 +121,7 @@ class RenderSetup:
         else:
             self.rays, self.materials = kept.rays, kept.materials
         self.source = PhotonSource(scene, geometry=self.rays.geometry, device=settings.device)
+        self.rays.on_device(self.source.device)
         self.pin = Pinhole.of(scene.camera)
         self.caustic = caustic_stage(settings)
         self.indirect, self.indirect_emitted, self.indirect_note = self._indirect(scene, settings)
@@ -251,8 +252,7 @@ def run_pass(setup: RenderSetup, p: int, emitted: int | None = None, *,
     stored = len(photons.positions) if photons is not None else 0
     shot = photons.emitted if photons is not None else 0
     scale = shrink(p, s.schedule.alpha)
-    info: dict = {}
-    info["device"] = setup.source.device.name
+    info: dict = {"device": setup.source.device.name}
     if p == 0 and photons is not None:
         info["photon_stats"] = {k: v for k, v in photons.stats.items()
                                 if isinstance(v, (int, float, str))

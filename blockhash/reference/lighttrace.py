@@ -69,7 +69,7 @@ from blockhash import __version__
 from blockhash.code_version import source_digest
 from blockhash.errors import InputError
 from blockhash.frame.film_filter import continuous_share, spread
-from blockhash.frame.shading import SceneRays
+from blockhash.frame.scene_rays import SceneRays
 from blockhash.photons.emission import Emitter
 from blockhash.photons.paths import trace_batch
 from blockhash.scene.camera import Pinhole

@@ -66,7 +66,7 @@ def whole_comparison(path, size: int, spp: int, cache):
 
     import numpy as np
 
-    from blockhash.frame.shading import SceneRays
+    from blockhash.frame.scene_rays import SceneRays
     from blockhash.reference.mitsuba import render_mitsuba, without_specular_lobes
     from blockhash.scene.loader import load_scene
     from blockhash.studies.lights import receivers_seen

@@ -128,7 +128,8 @@ def test_a_pile_past_llvmpipes_loop_limit_is_refused_there():
 def ring_scene_points():
     """The ring's camera points at 40 x 40 (one per pixel) and 40,000 of its photons."""
     from blockhash.frame.gbuffer import rasterize
-    from blockhash.frame.shading import SceneRays, shading_points
+    from blockhash.frame.scene_rays import SceneRays
+    from blockhash.frame.shading import shading_points
     from blockhash.photons.tracing import trace_caustic_photons
     from blockhash.scene.loader import load_scene
     from blockhash.scene.materials import receiver_materials

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from blockhash.frame.direct_light import direct_light
-from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.scene_rays import SceneRays
+from blockhash.frame.shading import shading_points
 from blockhash.frame.subpixel import raycast_gbuffer
 from blockhash.scene.loader import load_scene
 from blockhash.scene.materials import phong_brdf

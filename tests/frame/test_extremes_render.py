@@ -157,7 +157,7 @@ def test_vertex_normals_that_cancel_give_the_face_normal_in_the_gbuffer_as_in_th
     caster does, and the render stays finite."""
     from dataclasses import replace
 
-    from blockhash.frame.shading import SceneRays
+    from blockhash.frame.scene_rays import SceneRays
     from blockhash.frame.subpixel import raycast_gbuffer
     from blockhash.scene import meshes
 

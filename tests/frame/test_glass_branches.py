@@ -6,7 +6,8 @@ import numpy as np
 from scipy.ndimage import binary_erosion
 
 from blockhash.frame.gbuffer import rasterize
-from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.scene_rays import SceneRays
+from blockhash.frame.shading import shading_points
 from blockhash.passes.pipeline import render_scene
 from blockhash.scene.loader import load_scene
 from blockhash.scene.model import MirrorMaterial

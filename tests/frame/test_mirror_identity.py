@@ -73,7 +73,7 @@ def test_a_wrong_shading_point_breaks_the_identity(mirror, monkeypatch):
 def test_the_view_map_keeps_only_pixels_that_see_the_same_point_in_both_views(mirror):
     view = specular_view_map(mirror, (64, 64))
     w, h = view.size
-    from blockhash.frame.shading import SceneRays
+    from blockhash.frame.scene_rays import SceneRays
     from blockhash.scene.camera import Pinhole
 
     pin = Pinhole.of(mirror.camera, (64, 64))

@@ -9,7 +9,8 @@ from conftest import context_or_skip
 
 from blockhash.frame.direct_light import direct_light
 from blockhash.frame.gbuffer import rasterize
-from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.scene_rays import SceneRays
+from blockhash.frame.shading import shading_points
 from blockhash.frame.subpixel import raycast_gbuffer
 from blockhash.scene.model import (
     Camera,

@@ -6,7 +6,7 @@ import pytest
 from plane_scene import KD, H
 
 from blockhash.frame.pixel_splat import splat_subpixel
-from blockhash.frame.shading import SceneRays
+from blockhash.frame.scene_rays import SceneRays
 from blockhash.photons.paths import CausticPhotons
 from blockhash.scene.camera import Pinhole
 from blockhash.scene.materials import receiver_materials

@@ -13,7 +13,8 @@ from blockhash.evaluate.testing import assert_images_close
 from blockhash.frame.caustic import estimate_exact
 from blockhash.frame.gbuffer import rasterize
 from blockhash.frame.photon_radius import exact_radii2
-from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.scene_rays import SceneRays
+from blockhash.frame.shading import shading_points
 from blockhash.passes.pipeline import NoCausticWarning, render_scene
 from blockhash.photons.tracing import trace_caustic_photons
 from blockhash.scene.loader import load_scene

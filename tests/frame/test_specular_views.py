@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import blockhash
-from blockhash.frame.shading import SceneRays
+from blockhash.frame.scene_rays import SceneRays
 from blockhash.passes.pipeline import render_scene
 from blockhash.scene.camera import Pinhole
 from blockhash.scene.loader import parse_scene

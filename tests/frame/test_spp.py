@@ -158,10 +158,12 @@ def test_spp_1_is_the_pixel_centre_render_of_the_rasteriser():
     shading points, their direct light and one caustic pass, with no filter."""
     context_or_skip("egl")
     from blockhash import BlockHashIndex
+    from blockhash.device.choice import resolve
     from blockhash.frame.caustic import CausticPass
     from blockhash.frame.direct_light import direct_light
     from blockhash.frame.gbuffer import rasterize
-    from blockhash.frame.shading import SceneRays, shading_points
+    from blockhash.frame.scene_rays import SceneRays
+    from blockhash.frame.shading import shading_points
     from blockhash.photons.tracing import trace_caustic_photons
     from blockhash.scene.materials import receiver_materials
     from blockhash.scene.model import MirrorMaterial
@@ -169,7 +171,7 @@ def test_spp_1_is_the_pixel_centre_render_of_the_rasteriser():
     scene = load_scene(ROOT / "scenes" / "ring.toml")
     pm = trace_caustic_photons(scene, 5000, seed=1)
     r = render_scene(scene, photon_map=pm, size=(24, 24), spp=1)
-    rays = SceneRays(scene.objects)
+    rays = SceneRays(scene.objects).on_device(resolve())  # where the render casts
     pts = shading_points(scene.camera, rasterize(scene.camera, scene.objects, size=(24, 24)),
                          scene.objects, rays, (MirrorMaterial,))
     index = BlockHashIndex(pm.positions, k=scene.photons.k, A=scene.photons.A,

@@ -86,7 +86,7 @@ def test_cell_centres_by_ray_casting_see_what_the_rasteriser_sees():
 
     context_or_skip("egl")
     from blockhash.frame.gbuffer import rasterize
-    from blockhash.frame.shading import SceneRays
+    from blockhash.frame.scene_rays import SceneRays
 
     scene = load_scene(SCENES / "ring.toml")
     g = rasterize(scene.camera, scene.objects, size=(64, 48), backend="egl")
@@ -107,7 +107,7 @@ def test_the_film_is_cast_in_chunks_the_same_as_at_once(monkeypatch, aperture):
     from dataclasses import replace
 
     from blockhash.frame import subpixel
-    from blockhash.frame.shading import SceneRays
+    from blockhash.frame.scene_rays import SceneRays
 
     scene = load_scene(SCENES / "glass.toml")
     camera = replace(scene.camera, aperture_radius=aperture, focus_distance=2.0)
@@ -182,7 +182,7 @@ def test_done_when_study_rows_summary_and_tables(small_study):
 
 
 def test_refinement_replaces_only_the_most_uneven_pixels_with_fresh_points():
-    from blockhash.frame.shading import SceneRays
+    from blockhash.frame.scene_rays import SceneRays
     from blockhash.index.block_hash_index import BlockHashIndex
     from blockhash.photons.tracing import trace_caustic_photons
     from blockhash.reference.lighttrace import lambertian

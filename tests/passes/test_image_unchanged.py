@@ -24,6 +24,8 @@ from blockhash.passes.run import run_passes
 ROOT = Path(__file__).resolve().parents[2]
 REFERENCE = ROOT / "tests" / "data" / "passes-df31412-48x48.npz"
 SCENES = ("ring", "glass")
+#: The direct light's tolerance where the camera's casts run on the device (float32 hits).
+DEVICE_DIRECT_RTOL = 2e-5
 
 
 def render(name: str, device: str = "host", seed: int = 7):
@@ -53,7 +55,10 @@ def test_the_image_is_df31412s_within_the_noise_of_another_seed(name, device):
     ref = np.load(REFERENCE)
     want = ref[f"{name}_caustic"]
     caustic, direct, _ = render(name, device=device)
-    np.testing.assert_allclose(direct, ref[f"{name}_direct"], rtol=1e-6, atol=1e-9)
+    # On a Dr.Jit device the camera's rays are cast there, hit points in float32 (within 1e-7
+    # of the scene's size of embree's): the direct light moves by a few parts in 10^6.
+    np.testing.assert_allclose(direct, ref[f"{name}_direct"], rtol=1e-6 if device == "host"
+                               else DEVICE_DIRECT_RTOL, atol=1e-9)
     other_seed = render(name, device="host", seed=8)[0]  # the noise between two streams
     noise = _rel(other_seed, want)
     assert _rel(caustic, want) < 1.5 * noise, (name, _rel(caustic, want), noise)

@@ -148,7 +148,7 @@ def test_the_whole_image_agrees_with_mitsubas_particle_tracer(name):
     dimming) over the receivers seen directly: flux within 2% (without the indirect layer,
     corner has 0.79 of Mitsuba's light and the box 0.84)."""
     mitsuba_or_skip()
-    from blockhash.frame.shading import SceneRays
+    from blockhash.frame.scene_rays import SceneRays
     from blockhash.reference.mitsuba import render_mitsuba, without_specular_lobes
     from blockhash.studies.lights import receivers_seen
 

@@ -142,7 +142,8 @@ def test_exact_knn_photon_map_agrees_with_the_light_tracer(traced):
     from blockhash import BlockHashIndex
     from blockhash.frame.caustic import estimate_exact
     from blockhash.frame.gbuffer import rasterize
-    from blockhash.frame.shading import SceneRays, shading_points
+    from blockhash.frame.scene_rays import SceneRays
+    from blockhash.frame.shading import shading_points
     from blockhash.photons.tracing import trace_caustic_photons
     from blockhash.scene.materials import receiver_materials
 

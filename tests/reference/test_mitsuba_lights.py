@@ -19,7 +19,7 @@ from scipy.ndimage import binary_erosion, uniform_filter
 
 from blockhash.frame.camera_samples import camera_samples
 from blockhash.frame.direct_light import direct_light
-from blockhash.frame.shading import SceneRays
+from blockhash.frame.scene_rays import SceneRays
 from blockhash.frame.subpixel import box_filter
 from blockhash.reference.lighttrace import light_trace
 from blockhash.reference.mitsuba import mitsuba_reference, render_mitsuba, without_specular_lobes

@@ -110,7 +110,7 @@ def render(scene):
 
 def first_hits(scene, name):
     """(h, w) bool: the ray through each pixel centre meets object ``name`` first."""
-    from blockhash.frame.shading import SceneRays
+    from blockhash.frame.scene_rays import SceneRays
 
     pin = Pinhole.of(scene.camera)
     d = pin.pixel_rays()

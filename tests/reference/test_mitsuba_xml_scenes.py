@@ -61,7 +61,7 @@ def mitsuba_layers(path, depth):
 def seen_specular(scene):
     """(h, w) bool: pixels whose centre ray first meets glass or a mirror, black in the
     particle tracer (which cannot connect through them to the camera), widened by a pixel."""
-    from blockhash.frame.shading import SceneRays
+    from blockhash.frame.scene_rays import SceneRays
 
     cam = Pinhole.of(scene.camera)
     d = cam.pixel_rays()

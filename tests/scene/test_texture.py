@@ -81,7 +81,7 @@ def test_a_textured_point_takes_the_texture_over_its_mean():
     """Every point on the textured floor, seen directly or in the ring's mirror, carries the
     plain floor's path weight times the texture there over its mean."""
     from blockhash.frame.camera_samples import camera_points
-    from blockhash.frame.shading import SceneRays
+    from blockhash.frame.scene_rays import SceneRays
 
     texture = Texture(image(6, 9), wrap="clamp")
     plain = load_scene(SCENES / "ring.toml").with_size(48, 36)

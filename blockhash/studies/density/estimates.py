@@ -27,7 +27,8 @@ from blockhash.evaluate.metrics import exact_knn
 from blockhash.frame.caustic import Neighbours
 from blockhash.frame.estimate import EstimateOptions
 from blockhash.frame.gbuffer import rasterize
-from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.scene_rays import SceneRays
+from blockhash.frame.shading import shading_points
 from blockhash.frame.shading_points import ShadingPoints
 from blockhash.frame.subpixel import raycast_gbuffer
 from blockhash.gl.lookup import query_slot_bits

@@ -32,7 +32,8 @@ import time
 import numpy as np
 
 from blockhash.frame.estimate import EstimateOptions
-from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.scene_rays import SceneRays
+from blockhash.frame.shading import shading_points
 from blockhash.frame.subpixel import raycast_gbuffer
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.photons.tracing import trace_caustic_photons

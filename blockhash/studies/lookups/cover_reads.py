@@ -18,7 +18,8 @@ def scene_points(path: Path, photons: int, size: int, k: int):
     """(index, (m, 3) float32 shading points) of a scene's camera at size x size: the index
     over its caustic photons, one point per pixel that sees a surface."""
     from blockhash.frame.gbuffer import rasterize
-    from blockhash.frame.shading import SceneRays, shading_points
+    from blockhash.frame.scene_rays import SceneRays
+    from blockhash.frame.shading import shading_points
     from blockhash.photons.tracing import trace_caustic_photons
     from blockhash.scene.loader import load_scene
     from blockhash.scene.model import MirrorMaterial

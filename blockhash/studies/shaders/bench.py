@@ -238,7 +238,8 @@ def run_caustic_benchmark(scene_path, *, photons=None, A=None, variant="default"
     from blockhash.frame.estimate import EstimateOptions
     from blockhash.frame.gbuffer import rasterize
     from blockhash.frame.photon_radius import exact_radii2, own_radii2
-    from blockhash.frame.shading import SceneRays, shading_points
+    from blockhash.frame.scene_rays import SceneRays
+    from blockhash.frame.shading import shading_points
     from blockhash.gl.context import get_context
     from blockhash.photons.tracing import trace_caustic_photons
     from blockhash.scene.loader import load_scene

@@ -224,7 +224,8 @@ def caustic_shaders(scene: str, *, k: int = 50, A: int = 8, photons: int = 20_00
     from blockhash import BlockHashIndex
     from blockhash.frame.caustic import STAGES, CausticPass
     from blockhash.frame.gbuffer import rasterize
-    from blockhash.frame.shading import SceneRays, shading_points
+    from blockhash.frame.scene_rays import SceneRays
+    from blockhash.frame.shading import shading_points
     from blockhash.gl.shaderlib import recording
     from blockhash.photons.tracing import trace_caustic_photons
     from blockhash.scene.loader import load_scene

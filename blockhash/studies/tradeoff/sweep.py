@@ -36,7 +36,8 @@ from blockhash.errors import InputError
 from blockhash.evaluate.metrics import accuracy, exact_knn
 from blockhash.frame.caustic import CausticPass, estimate_cpu, estimate_exact
 from blockhash.frame.gbuffer import rasterize
-from blockhash.frame.shading import SceneRays, shading_points
+from blockhash.frame.scene_rays import SceneRays
+from blockhash.frame.shading import shading_points
 from blockhash.index.block_hash_index import BlockHashIndex
 from blockhash.index.tables.params import PRESETS
 from blockhash.photons.tracing import trace_caustic_photons
