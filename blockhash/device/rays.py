@@ -17,6 +17,10 @@ import numpy as np
 
 from blockhash.device.geometry import DeviceGeometry
 
+#: Camera rays made and cast a launch (:meth:`DeviceCasts.film_hits`): their device arrays,
+#: about 30 floats a ray, stay near 30 MiB whatever the film.
+CHUNK = 1 << 18
+
 
 class DeviceCasts:
     """First hits and occlusion of host rays on ``device`` (a jit
@@ -66,6 +70,64 @@ class DeviceCasts:
         del vectors
         dr.flush_malloc_cache()  # the launch's arrays given back, not kept beside the host's
         return hit, face, u, v, p, ns, ng, outer
+
+    def film_hits(self, pin, x, y, lens):
+        """The G-buffer's columns of the camera rays through film points ``(x, y)`` (pixels
+        from the top left, (m,)) of ``pin`` (a :class:`~blockhash.scene.camera.Pinhole`), the
+        rays made on the device as :meth:`~blockhash.scene.camera.Pinhole.lens_rays` makes
+        them (``lens``: its (m, 2) uniforms, None for a pinhole), :data:`CHUNK` rays a launch:
+        (points (a miss: one unit along its ray), normals facing the camera, objects (-1: a
+        miss), met the face's outer side, the rays' origins (None for a pinhole))."""
+        m = len(x)
+        out = (np.empty((m, 3), np.float32), np.empty((m, 3), np.float32),
+               np.empty(m, np.int32), np.empty(m, bool),
+               np.empty((m, 3)) if lens is not None else None)
+        for start in range(0, m, CHUNK):
+            s = slice(start, start + CHUNK)
+            part = self._film_chunk(pin, x[s], y[s], None if lens is None else lens[s])
+            for column, values in zip(out, part):
+                if column is not None:
+                    column[s] = values
+        return out
+
+    def _film_chunk(self, pin, x, y, lens):
+        mi, dr = self.device.modules()
+        n = len(x)
+        f32 = lambda a: mi.Float(np.ascontiguousarray(a, dtype=np.float32))  # noqa: E731
+        vec = lambda a: mi.Vector3f(*(float(c) for c in a))  # noqa: E731
+        right, up, forward, eye = vec(pin.right), vec(pin.up), vec(pin.forward), vec(pin.eye)
+        sx = pin.cx + (2.0 * f32(x) / pin.width - 1.0) * pin.tan_x
+        sy = pin.cy + (1.0 - 2.0 * f32(y) / pin.height) * pin.tan_y
+        d = dr.normalize(forward + sx * right + sy * up)
+        o = mi.Point3f(eye)
+        if lens is not None:  # Shirley and Chiu's concentric map, as Pinhole.lens_rays
+            u0, u1 = f32(lens[:, 0]), f32(lens[:, 1])
+            big = dr.abs(u0) > dr.abs(u1)
+            r = dr.select(big, u0, u1)
+            phi = dr.select(big, (dr.pi / 4) * u1 / dr.select(u0 == 0, 1.0, u0),
+                            dr.pi / 2 - (dr.pi / 4) * u0 / dr.select(u1 == 0, 1.0, u1))
+            phi = dr.select((u0 == 0) & (u1 == 0), 0.0, phi)
+            o = mi.Point3f(eye + pin.aperture * r * (dr.cos(phi) * right + dr.sin(phi) * up))
+            focus = eye + d * (pin.focus / dr.dot(d, forward))
+            d = dr.normalize(focus - o)
+        geo = self.geometry
+        hit, face, u, v = geo.intersect(o, d, dr.full(mi.Bool, True, n))
+        p, ns, _, outer = geo.hit_frame(face, u, v, d, hit)
+        ns = dr.select(dr.dot(ns, d) > 0.0, -ns, ns)
+        p = dr.select(hit, p, o + d)
+        ns = dr.select(hit, ns, mi.Vector3f(0.0))
+        obj = dr.select(hit, mi.Int32(dr.gather(mi.UInt32, geo.face_object, face, hit)), -1)
+        columns = [dr.ravel(p), dr.ravel(ns), obj, outer & hit]
+        if lens is not None:
+            columns.append(dr.ravel(o))
+        dr.eval(columns)
+        del o, d, p, ns, hit, face, u, v, outer, obj
+        out = [np.asarray(columns[0]).reshape(n, 3), np.asarray(columns[1]).reshape(n, 3),
+               np.asarray(columns[2]), np.asarray(columns[3], dtype=bool)]
+        out.append(np.asarray(columns[4]).reshape(n, 3) if lens is not None else None)
+        del columns
+        dr.flush_malloc_cache()
+        return out
 
     def occluded(self, origins, dirs, tmax) -> np.ndarray:
         """(n,) bool: each ray meets a surface before ``tmax`` (an any-hit query)."""

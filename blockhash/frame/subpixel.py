@@ -105,7 +105,15 @@ CHUNK_RAYS = 1 << 15
 def film_gbuffer(pin: Pinhole, rays, x: np.ndarray, y: np.ndarray, *,
                  lens_seed: int = LENS_KEY) -> GBuffer:
     """The G-buffer of the rays through film points ``(x, y)`` (pixels from the top left,
-    any shape), by ray casting, :data:`CHUNK_RAYS` rays at a time."""
+    any shape), by ray casting, :data:`CHUNK_RAYS` rays at a time; where ``rays`` cast on a
+    device, the rays are made and cast there (:meth:`blockhash.device.rays.DeviceCasts.film_hits`)."""
+    if rays.device is not None:
+        lens = pin.lens_uniforms(x.size, lens_seed) if pin.aperture > 0 else None
+        position, normal, obj, front, o = rays.device.film_hits(pin, x.reshape(-1), y.reshape(-1),
+                                                                lens)
+        return GBuffer(position=position.reshape(*x.shape, 3), normal=normal.reshape(*x.shape, 3),
+                       object=obj.reshape(x.shape), front=front.reshape(x.shape),
+                       origin=o.reshape(*x.shape, 3) if o is not None else None)
     o, d = pin.lens_rays(x, y, lens_seed)
     shape, m = x.shape, len(d)
     position, normal = np.empty((m, 3), np.float32), np.empty((m, 3), np.float32)

@@ -93,7 +93,7 @@ class Pinhole:
         d = self.film_rays(x, y)
         if self.aperture <= 0.0:
             return np.broadcast_to(self.eye, d.shape).copy(), d
-        u = np.random.default_rng(seed).random((len(d), 2)) * 2.0 - 1.0
+        u = self.lens_uniforms(len(d), seed)
         big = np.abs(u[:, 0]) > np.abs(u[:, 1])
         r = np.where(big, u[:, 0], u[:, 1])
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -105,6 +105,12 @@ class Pinhole:
         focus = self.eye + d * (self.focus / (d @ self.forward))[:, None]
         dirs = focus - origins
         return origins, dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
+
+    @staticmethod
+    def lens_uniforms(m: int, seed: int) -> np.ndarray:
+        """(m, 2) float64 uniforms in [-1, 1) of :meth:`lens_rays`' lens points, drawn with
+        ``seed``."""
+        return np.random.default_rng(seed).random((m, 2)) * 2.0 - 1.0
 
     @property
     def pixel_area(self) -> float:

@@ -132,3 +132,35 @@ def test_shading_points_and_direct_light_agree_with_embree(cpu, name, both):
     assert np.percentile(np.abs(g.weight[s] - h.weight[s]), 99) < 1e-5
     lit = np.abs(g_direct[s] - h_direct[s]) <= 1e-4 * np.maximum(h_direct[s], 1e-3)
     assert lit.mean() > 0.99  # a shadow's edge: a sample lit on one side only
+
+
+@pytest.mark.parametrize("aperture", [0.0, 0.05])
+def test_the_films_gbuffer_made_on_the_device_is_embrees(cpu, aperture):
+    """The camera's rays made and cast on the device (a pinhole and a thin lens, launches of
+    :data:`CHUNK` rays) against the host's rays cast by embree."""
+    from dataclasses import replace
+
+    import blockhash.device.rays as device_rays
+    from blockhash.frame.subpixel import film_gbuffer, pass_points
+
+    scene = load_scene(SCENES / "ring.toml")
+    camera = replace(scene.camera, aperture_radius=aperture, focus_distance=3.0)
+    pin = Pinhole.of(camera, (40, 30))
+    x, y = pass_points(40, 30, 3, 1)
+    host = film_gbuffer(pin, SceneRays(scene.objects), x, y, lens_seed=11)
+    chunk, device_rays.CHUNK = device_rays.CHUNK, 1000
+    try:
+        dev = film_gbuffer(pin, SceneRays(scene.objects).on_device(cpu), x, y, lens_seed=11)
+    finally:
+        device_rays.CHUNK = chunk
+    assert dev.object.shape == host.object.shape == x.shape
+    same = dev.object == host.object
+    assert same.mean() > 0.998 and (host.object < 0).any() and (host.object >= 0).mean() > 0.5
+    scale = np.ptp(scene.bounds)
+    assert np.percentile(np.abs(dev.position[same] - host.position[same]), 99.9) < 1e-5 * scale
+    assert np.percentile(np.abs(dev.normal[same] - host.normal[same]), 99.9) < 1e-4
+    assert (dev.front[same] == host.front[same]).mean() > 0.999
+    if aperture:
+        assert np.abs(dev.origin - host.origin).max() < 1e-6 * scale
+    else:
+        assert dev.origin is None and host.origin is None
