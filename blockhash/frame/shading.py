@@ -13,6 +13,7 @@ is :mod:`.direct_light`'s.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from blockhash.frame.chain_end import emission_met
@@ -88,11 +89,10 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
         events = MAX_DIELECTRIC_EVENTS if glass.any() else MAX_MIRROR_BOUNCES
     met = None  # the light met at rough vertices and past the last event, per sample
     q = np.full(h * w, np.inf)  # the rays' rough_pdf (ShadingPoints)
+    idx = np.flatnonzero(specular[obj])  # the rays on a specular surface, followed
     for event in range(events + 1):  # the last: a segment that ends on a light (.chain_end)
-        on = specular[obj]
-        if not on.any():
+        if not len(idx):
             break
-        idx = np.flatnonzero(on)
         wi = view[idx]
         n = nrm[idx]
         d = -wi
@@ -131,7 +131,8 @@ def shading_points(camera, gbuffer, objects, rays: SceneRays, mirror_types, *,
         escaped[idx] = obj[idx] < 0
         obj[idx] = _no_back(obj[idx], outer[idx], backs)
         view[idx] = -r
-    obj[specular[obj]] = -1  # still on a specular surface after the last event: nothing to shade
+        idx = idx[specular[obj[idx]]]  # the others' objects are not specular: they stay put
+    obj[idx] = -1  # still on a specular surface after the last event: nothing to shade
     _textures(rays, objects, pos, nrm, view, obj, weight)
     return ShadingPoints(position=pos.reshape(h, w, 3).astype(np.float32),
                          normal=nrm.reshape(h, w, 3).astype(np.float32),
@@ -155,8 +156,7 @@ def _camera_start(camera, gbuffer, sided, rays: SceneRays):
     obj = gbuffer.object.reshape(-1).copy()
     start = (np.broadcast_to(np.asarray(camera.eye, dtype=np.float64), pos.shape)
              if gbuffer.origin is None else gbuffer.origin.reshape(-1, 3))  # a lens's points
-    view = start - pos
-    view /= np.maximum(np.linalg.norm(view, axis=1, keepdims=True), 1e-30)
+    view = _toward(start, pos)
     outer = np.zeros(len(obj), dtype=bool)
     first = np.flatnonzero(sided[obj])
     if gbuffer.front is not None:
@@ -164,6 +164,20 @@ def _camera_start(camera, gbuffer, sided, rays: SceneRays):
     elif len(first):
         outer[first] = rays.first_hit(start[first].copy(), -view[first], sides=True)[5]
     return pos, nrm, obj, view, outer
+
+
+@numba.njit(cache=True, nogil=True)
+def _toward(start, pos):
+    """(m, 3) unit directions from ``pos`` (m, 3) toward ``start`` ((m, 3), or a broadcast row),
+    in one pass without temporaries (zero vectors stay zero)."""
+    out = np.empty(pos.shape)
+    for i in range(pos.shape[0]):
+        v0 = start[i, 0] - pos[i, 0]
+        v1 = start[i, 1] - pos[i, 1]
+        v2 = start[i, 2] - pos[i, 2]
+        r = max(np.sqrt((v0 * v0 + v1 * v1) + v2 * v2), 1e-30)
+        out[i, 0], out[i, 1], out[i, 2] = v0 / r, v1 / r, v2 / r
+    return out
 
 
 def _textures(rays: SceneRays, objects, pos, nrm, view, obj, weight) -> None:

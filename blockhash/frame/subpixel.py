@@ -32,9 +32,14 @@ def box_filter(image: np.ndarray, samples) -> np.ndarray:
     if rows == cols == 1:
         return np.asarray(image, dtype=np.float32)
     hs, ws = image.shape[:2]
-    blocks = np.asarray(image, dtype=np.float64).reshape(hs // rows, rows, ws // cols, cols,
-                                                         *image.shape[2:])
-    return blocks.mean(axis=(1, 3)).astype(np.float32)
+    blocks = np.asarray(image).reshape(hs // rows, rows, ws // cols, cols, *image.shape[2:])
+    # A float64 sum over each cell's samples, one strided slice at a time: no float64 copy of
+    # the whole film (a few float32 samples add exactly in float64, so the order is free).
+    total = np.zeros((hs // rows, ws // cols) + image.shape[2:])
+    for i in range(rows):
+        for j in range(cols):
+            total += blocks[:, i, :, j]
+    return (total / (rows * cols)).astype(np.float32)
 
 
 def subpixel_points(width: int, height: int, samples, seed: int | None = None, *,
