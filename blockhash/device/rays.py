@@ -62,7 +62,7 @@ class DeviceCasts:
         vectors = [dr.ravel(a) for a in (p, ns, ng)]
         dr.eval(hit, face, u, v, outer, vectors)
         del o, d, p, ns, ng
-        hit = np.asarray(hit, dtype=bool)
+        hit = np.array(hit, dtype=bool)  # a copy: no view keeps the launch's array
         face = np.where(hit, np.asarray(face).astype(np.int64), -1)
         u, v = (np.where(hit, np.asarray(a, dtype=np.float64), 0.0) for a in (u, v))
         outer = np.asarray(outer, dtype=bool) & hit
@@ -84,20 +84,23 @@ class DeviceCasts:
                np.empty((m, 3)) if lens is not None else None)
         for start in range(0, m, CHUNK):
             s = slice(start, start + CHUNK)
-            part = self._film_chunk(pin, x[s], y[s], None if lens is None else lens[s])
-            for column, values in zip(out, part):
-                if column is not None:
-                    column[s] = values
+            self._film_chunk(pin, x[s], y[s], None if lens is None else lens[s],
+                             [None if column is None else column[s] for column in out])
         return out
 
-    def _film_chunk(self, pin, x, y, lens):
+    def _film_chunk(self, pin, x, y, lens, out):
+        """:meth:`film_hits` of one launch, written into ``out`` (its columns' slices)."""
         mi, dr = self.device.modules()
         n = len(x)
         f32 = lambda a: mi.Float(np.ascontiguousarray(a, dtype=np.float32))  # noqa: E731
-        vec = lambda a: mi.Vector3f(*(float(c) for c in a))  # noqa: E731
+        # The camera's numbers as opaque values, not literals: one kernel for every camera
+        # (literals would compile a kernel again for each frame of a moving camera).
+        one = lambda c: dr.opaque(mi.Float, float(c))  # noqa: E731
+        vec = lambda a: mi.Vector3f(*(one(c) for c in a))  # noqa: E731
         right, up, forward, eye = vec(pin.right), vec(pin.up), vec(pin.forward), vec(pin.eye)
-        sx = pin.cx + (2.0 * f32(x) / pin.width - 1.0) * pin.tan_x
-        sy = pin.cy + (1.0 - 2.0 * f32(y) / pin.height) * pin.tan_y
+        cx, cy, tan_x, tan_y = (one(c) for c in (pin.cx, pin.cy, pin.tan_x, pin.tan_y))
+        sx = cx + (2.0 * f32(x) / one(pin.width) - 1.0) * tan_x
+        sy = cy + (1.0 - 2.0 * f32(y) / one(pin.height)) * tan_y
         d = dr.normalize(forward + sx * right + sy * up)
         o = mi.Point3f(eye)
         if lens is not None:  # Shirley and Chiu's concentric map, as Pinhole.lens_rays
@@ -107,8 +110,8 @@ class DeviceCasts:
             phi = dr.select(big, (dr.pi / 4) * u1 / dr.select(u0 == 0, 1.0, u0),
                             dr.pi / 2 - (dr.pi / 4) * u0 / dr.select(u1 == 0, 1.0, u1))
             phi = dr.select((u0 == 0) & (u1 == 0), 0.0, phi)
-            o = mi.Point3f(eye + pin.aperture * r * (dr.cos(phi) * right + dr.sin(phi) * up))
-            focus = eye + d * (pin.focus / dr.dot(d, forward))
+            o = mi.Point3f(eye + one(pin.aperture) * r * (dr.cos(phi) * right + dr.sin(phi) * up))
+            focus = eye + d * (one(pin.focus) / dr.dot(d, forward))
             d = dr.normalize(focus - o)
         geo = self.geometry
         hit, face, u, v = geo.intersect(o, d, dr.full(mi.Bool, True, n))
@@ -122,12 +125,10 @@ class DeviceCasts:
             columns.append(dr.ravel(o))
         dr.eval(columns)
         del o, d, p, ns, hit, face, u, v, outer, obj
-        out = [np.asarray(columns[0]).reshape(n, 3), np.asarray(columns[1]).reshape(n, 3),
-               np.asarray(columns[2]), np.asarray(columns[3], dtype=bool)]
-        out.append(np.asarray(columns[4]).reshape(n, 3) if lens is not None else None)
+        for column, values in zip(out, columns):  # copied out before the arrays are let go
+            column[...] = np.asarray(values).reshape(column.shape)
         del columns
         dr.flush_malloc_cache()
-        return out
 
     def occluded(self, origins, dirs, tmax) -> np.ndarray:
         """(n,) bool: each ray meets a surface before ``tmax`` (an any-hit query)."""
@@ -140,7 +141,7 @@ class DeviceCasts:
         ray = mi.Ray3f(o, d)
         ray.maxt = t
         blocked = self.geometry.scene.ray_test(ray, dr.full(mi.Bool, True, n))
-        out = np.asarray(blocked, dtype=bool)
+        out = np.array(blocked, dtype=bool)
         del o, d, t, ray, blocked
         dr.flush_malloc_cache()
         return out
