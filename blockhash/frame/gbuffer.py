@@ -133,8 +133,9 @@ def rasterize(camera, objects, *, size=None, backend=None) -> GBuffer:
     pos = np.array(pos[..., :3])
     miss = obj_id < 0
     if miss.any():  # one unit along the ray through the pixel's centre (GBuffer)
-        rays = Pinhole.of(camera, (width, height)).pixel_rays().reshape(height, width, 3)
-        pos[miss] = (np.asarray(camera.eye, dtype=np.float64) + rays[miss]).astype(np.float32)
+        rows, cols = np.nonzero(miss)  # the missed pixels' rays only, in pos[miss]'s order
+        rays = Pinhole.of(camera, (width, height)).film_rays(cols + 0.5, rows + 0.5)
+        pos[miss] = (np.asarray(camera.eye, dtype=np.float64) + rays).astype(np.float32)
     return GBuffer(position=pos,
                    normal=np.ascontiguousarray(nrm[..., :3]), object=obj_id,
                    front=nrm[..., 3] > 0.5)
