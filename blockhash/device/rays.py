@@ -22,6 +22,23 @@ from blockhash.device.geometry import DeviceGeometry
 CHUNK = 1 << 18
 
 
+#: Bytes a host array handed to the device is aligned to: Dr.Jit's LLVM backend reads a
+#: host array in place, and its kernel states the pointer's alignment, so an array at another
+#: alignment would compile the same kernel again.
+ALIGN = 64
+
+
+def floats(mi, a):
+    """``a`` flattened as Mitsuba's Float, from a float32 copy aligned to :data:`ALIGN` bytes
+    (one kernel whatever numpy's allocator gave)."""
+    flat = np.asarray(a).reshape(-1)
+    buf = np.empty(flat.size + ALIGN // 4, dtype=np.float32)
+    first = (-buf.ctypes.data % ALIGN) // 4
+    out = buf[first:first + flat.size]
+    out[...] = flat
+    return mi.Float(out)
+
+
 class DeviceCasts:
     """First hits and occlusion of host rays on ``device`` (a jit
     :class:`~blockhash.device.choice.Device`), over ``geometry``'s
@@ -40,8 +57,8 @@ class DeviceCasts:
     def _rays(self, origins, dirs):
         """(origins as Point3f, unit directions as Vector3f) of host (n, 3) arrays."""
         mi, dr = self.device.modules()
-        return [dr.unravel(kind, mi.Float(np.ascontiguousarray(a, dtype=np.float32).reshape(-1)))
-                for kind, a in ((mi.Point3f, origins), (mi.Vector3f, dirs))]
+        return [dr.unravel(kind, floats(mi, a)) for kind, a in ((mi.Point3f, origins),
+                                                                 (mi.Vector3f, dirs))]
 
     def first_hit(self, origins, dirs):
         """(hit (n,) bool, face (n,) int64 (-1: a miss), barycentrics u and v (n,), points,
@@ -92,7 +109,7 @@ class DeviceCasts:
         """:meth:`film_hits` of one launch, written into ``out`` (its columns' slices)."""
         mi, dr = self.device.modules()
         n = len(x)
-        f32 = lambda a: mi.Float(np.ascontiguousarray(a, dtype=np.float32))  # noqa: E731
+        f32 = lambda a: floats(mi, a)  # noqa: E731
         # The camera's numbers as opaque values, not literals: one kernel for every camera
         # (literals would compile a kernel again for each frame of a moving camera).
         one = lambda c: dr.opaque(mi.Float, float(c))  # noqa: E731
@@ -137,7 +154,7 @@ class DeviceCasts:
         if n == 0:
             return np.zeros(0, bool)
         o, d = self._rays(origins, dirs)
-        t = mi.Float(np.ascontiguousarray(tmax, dtype=np.float32).reshape(-1))
+        t = floats(mi, tmax)
         ray = mi.Ray3f(o, d)
         ray.maxt = t
         blocked = self.geometry.scene.ray_test(ray, dr.full(mi.Bool, True, n))

@@ -42,6 +42,11 @@ FILES = {"rough": HERE / "mitsuba_xml" / "rough.xml",
 #: percent, so a pass emits far more than it stores).
 PHOTONS = {"rough": 50_000, "roughdielectric": 50_000, "plastic": 20_000,
            "plastic, published": 20_000, "roughplastic": 20_000}
+#: Passes a render; the frosted glass's camera paths (up to eight rough events each) are the
+#: noisiest: at 4 passes its blurred error moved between 0.041 and 0.051 with the hit points'
+#: last bits (embree's or the device's casts, or the ray offset 2% off), at 8 it measured
+#: 0.026 (embree's casts) and 0.036 (the device's).
+PASSES = {"roughdielectric": 8}
 
 pytestmark = pytest.mark.gl
 
@@ -54,7 +59,8 @@ def needs_mitsuba():
 @pytest.mark.slow
 @pytest.mark.parametrize("name", list(FILES))
 def test_rough_surfaces_render_as_mitsuba_renders_them(name):
-    row = compare(FILES[name], size=40, spp=4096, passes=4, samples=36, photons=PHOTONS[name])
+    row = compare(FILES[name], size=40, spp=4096, passes=PASSES.get(name, 4), samples=36,
+                  photons=PHOTONS[name])
     assert row.refused is None, row.refused
     assert np.all(np.abs(row.flux - 1) < FLUX), f"{name}: flux ratio {row.flux}"
     assert row.blurred < BLURRED, f"{name}: blurred relative RMS {row.blurred:.3f}"
