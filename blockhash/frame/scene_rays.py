@@ -53,7 +53,7 @@ class SceneRays:
         return out
 
     def _embree_hit(self, origins, dirs):
-        """:meth:`.device.rays.DeviceCasts.first_hit`'s record of each ray, by embree."""
+        """:meth:`blockhash.device.rays.DeviceCasts.first_hit`'s record of each ray, by embree."""
         n = len(origins)
         hit, face, u, v = self.geometry.intersect(origins, dirs)
         d = np.asarray(dirs, dtype=np.float64)[hit]
