@@ -6,7 +6,7 @@ map or another turn of it reuses the compiled kernels."""
 
 from __future__ import annotations
 
-import numpy as np
+from blockhash.device.arrays import floats, uints
 
 
 class DeviceEnvironment:
@@ -15,13 +15,13 @@ class DeviceEnvironment:
     def __init__(self, light, device):
         self.mi, self.dr = mi, dr = device.modules()
         h, w = light.image.shape[:2]
-        f32 = lambda a: mi.Float(np.ascontiguousarray(a, dtype=np.float32).reshape(-1))  # noqa: E731
+        f32 = lambda a: floats(mi, a)  # noqa: E731
         self.image = f32(light.image)
         self.row_cdf, self.col_cdf = f32(light.row_cdf), f32(light.column_cdf)
         self.pmf = f32(light.cell_pmf)
         self.band_cos, self.omega = f32(light.band_cos), f32(light.cell_solid_angle)
         self.rotation = f32(light.to_world)  # row by row
-        self.size = mi.UInt32(np.array([w, h], dtype=np.uint32))
+        self.size = uints(mi, [w, h])
         self.rows, self.columns = int(h - 1), int(w)
         dr.make_opaque(self.image, self.row_cdf, self.col_cdf, self.pmf, self.band_cos, self.omega, self.rotation,
                        self.size)

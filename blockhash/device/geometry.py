@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from blockhash.device.arrays import floats, uints
 from blockhash.scene.raycast import RAY_OFFSET
 
 #: Object kinds in :attr:`DeviceGeometry.kind`.
@@ -84,32 +85,31 @@ class DeviceGeometry:
         face_offset = np.zeros(max(ids.values()) + 1, dtype=np.uint32)
         for key, (_, first) in shapes.items():
             face_offset[ids[key]] = first
-        self.face_offset = mi.UInt32(face_offset)
+        self.face_offset = uints(mi, face_offset)
         self._tables(geometry)
 
     def _tables(self, geometry) -> None:
         """The per-face and per-object tables the kernels gather from, of ``geometry``."""
         mi = self.mi
         self.offset = float(RAY_OFFSET * geometry.scale)
-        f32 = lambda a: mi.Float(np.ascontiguousarray(a, dtype=np.float32).reshape(-1))  # noqa: E731
+        f32 = lambda a: floats(mi, a)  # noqa: E731
         self.triangles = f32(geometry.triangles)
         self.vertex_normals = f32(geometry.vertex_normals)
         self.face_normals = f32(geometry.face_normals)
-        self.face_object = mi.UInt32(np.asarray(geometry.face_object, dtype=np.uint32))
-        kind = np.where(geometry.is_dielectric, GLASS,
-                        np.where(geometry.is_specular, MIRROR, DIFFUSE)).astype(np.uint32)
-        self.kind = mi.UInt32(kind)
-        self.one_sided = mi.UInt32(np.asarray(geometry.one_sided, dtype=np.uint32))
+        self.face_object = uints(mi, geometry.face_object)
+        self.kind = uints(mi, np.where(geometry.is_dielectric, GLASS,
+                                       np.where(geometry.is_specular, MIRROR, DIFFUSE)))
+        self.one_sided = uints(mi, geometry.one_sided)
         self.reflectance = f32(geometry.reflectance)
         self.any_conductor = bool(np.any(geometry.conductor))
-        self.conductor = mi.UInt32(np.asarray(geometry.conductor, dtype=np.uint32))
+        self.conductor = uints(mi, geometry.conductor)
         self.eta = f32(geometry.eta)
         self.k = f32(geometry.k)
         self.tint = f32(geometry.tint)
         self.ior = f32(geometry.ior)
         self.any_glass = bool(np.any(geometry.is_dielectric))
         self.alpha = f32(geometry.alpha)
-        self.ggx = mi.UInt32(np.asarray(geometry.ggx, dtype=np.uint32))
+        self.ggx = uints(mi, geometry.ggx)
         self.any_rough = bool(np.any(geometry.alpha > 0.0))
         self.coat = f32(geometry.coat)
         self.coat_reflectance = f32(geometry.coat_reflectance)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from blockhash.device.arrays import floats, uints
 from blockhash.device.caustic import (
     coat_factor,
     coat_glint,
@@ -76,8 +77,8 @@ class DeviceIndirectTracer:
                 axis[li] = a
                 t1[li], t2[li] = orthonormal_basis(np.asarray(a, dtype=np.float64))
                 omc[li] = 2.0 if cos_c <= -1.0 else 1.0 - cos_c
-        f32 = lambda a: mi.Float(np.ascontiguousarray(a, dtype=np.float32).reshape(-1))  # noqa: E731
-        self.kind, self.axis, self.t1, self.t2 = mi.UInt32(kind), f32(axis), f32(t1), f32(t2)
+        f32 = lambda a: floats(mi, a)  # noqa: E731
+        self.kind, self.axis, self.t1, self.t2 = uints(mi, kind), f32(axis), f32(t1), f32(t2)
         self.omc, self.disc = f32(omc), f32(disc)
         self.radius = float(source.radius)
         self.weight = f32(source.power / source.pmf[:, None])

@@ -7,20 +7,21 @@ import math
 
 import numpy as np
 
+from blockhash.device.arrays import floats, uints
+
 
 def float_table(mi, values, width=None):
     """A float32 device array of ``values`` (one 0 where there are none)."""
     a = np.asarray(values, dtype=np.float64)
     if width is not None:
         a = a.reshape(-1, width)
-    return mi.Float(np.ascontiguousarray(a, dtype=np.float32).reshape(-1) if a.size else
-                    np.zeros(1, np.float32))
+    return floats(mi, a if a.size else np.zeros(1))
 
 
 def uint_table(mi, values):
     """A uint32 device array of ``values`` (one 0 where there are none)."""
     a = np.asarray(values, dtype=np.uint32).reshape(-1)
-    return mi.UInt32(a if a.size else np.zeros(1, np.uint32))
+    return uints(mi, a if a.size else np.zeros(1))
 
 
 

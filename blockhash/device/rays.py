@@ -15,28 +15,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from blockhash.device.arrays import floats
 from blockhash.device.geometry import DeviceGeometry
 
 #: Camera rays made and cast a launch (:meth:`DeviceCasts.film_hits`): their device arrays,
 #: about 30 floats a ray, stay near 30 MiB whatever the film.
 CHUNK = 1 << 18
-
-
-#: Bytes a host array handed to the device is aligned to: Dr.Jit's LLVM backend reads a
-#: host array in place, and its kernel states the pointer's alignment, so an array at another
-#: alignment would compile the same kernel again.
-ALIGN = 64
-
-
-def floats(mi, a):
-    """``a`` flattened as Mitsuba's Float, from a float32 copy aligned to :data:`ALIGN` bytes
-    (one kernel whatever numpy's allocator gave)."""
-    flat = np.asarray(a).reshape(-1)
-    buf = np.empty(flat.size + ALIGN // 4, dtype=np.float32)
-    first = (-buf.ctypes.data % ALIGN) // 4
-    out = buf[first:first + flat.size]
-    out[...] = flat
-    return mi.Float(out)
 
 
 class DeviceCasts:
@@ -109,19 +93,18 @@ class DeviceCasts:
         """:meth:`film_hits` of one launch, written into ``out`` (its columns' slices)."""
         mi, dr = self.device.modules()
         n = len(x)
-        f32 = lambda a: floats(mi, a)  # noqa: E731
         # The camera's numbers as opaque values, not literals: one kernel for every camera
         # (literals would compile a kernel again for each frame of a moving camera).
         one = lambda c: dr.opaque(mi.Float, float(c))  # noqa: E731
         vec = lambda a: mi.Vector3f(*(one(c) for c in a))  # noqa: E731
         right, up, forward, eye = vec(pin.right), vec(pin.up), vec(pin.forward), vec(pin.eye)
         cx, cy, tan_x, tan_y = (one(c) for c in (pin.cx, pin.cy, pin.tan_x, pin.tan_y))
-        sx = cx + (2.0 * f32(x) / one(pin.width) - 1.0) * tan_x
-        sy = cy + (1.0 - 2.0 * f32(y) / one(pin.height)) * tan_y
+        sx = cx + (2.0 * floats(mi, x) / one(pin.width) - 1.0) * tan_x
+        sy = cy + (1.0 - 2.0 * floats(mi, y) / one(pin.height)) * tan_y
         d = dr.normalize(forward + sx * right + sy * up)
         o = mi.Point3f(eye)
         if lens is not None:  # Shirley and Chiu's concentric map, as Pinhole.lens_rays
-            u0, u1 = f32(lens[:, 0]), f32(lens[:, 1])
+            u0, u1 = floats(mi, lens[:, 0]), floats(mi, lens[:, 1])
             big = dr.abs(u0) > dr.abs(u1)
             r = dr.select(big, u0, u1)
             phi = dr.select(big, (dr.pi / 4) * u1 / dr.select(u0 == 0, 1.0, u0),

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from blockhash.device.arrays import floats, uints
 from blockhash.scene.texture import FILTERS, WRAPS
 
 
@@ -18,14 +19,14 @@ class DeviceTextures:
 
     def __init__(self, textures, device):
         self.mi, self.dr = mi, dr = device.modules()
-        f32 = lambda a: mi.Float(np.ascontiguousarray(a, dtype=np.float32).reshape(-1))  # noqa: E731
+        f32 = lambda a: floats(mi, a)  # noqa: E731
         sizes = np.array([t.image.shape[1::-1] for t in textures], dtype=np.uint32)  # (w, h)
         first = np.concatenate([[0], np.cumsum(sizes[:, 0] * sizes[:, 1])[:-1]]).astype(np.uint32)
         self.pixels = f32(np.concatenate([t.image.reshape(-1, 3) for t in textures]))
-        self.first, self.width, self.height = mi.UInt32(first), mi.UInt32(sizes[:, 0].copy()), \
-            mi.UInt32(sizes[:, 1].copy())
-        self.wrap = mi.UInt32(np.array([WRAPS.index(t.wrap) for t in textures], np.uint32))
-        self.nearest = mi.UInt32(np.array([FILTERS.index(t.filter) for t in textures], np.uint32))
+        self.first, self.width, self.height = (uints(mi, first), uints(mi, sizes[:, 0]),
+                                               uints(mi, sizes[:, 1]))
+        self.wrap = uints(mi, [WRAPS.index(t.wrap) for t in textures])
+        self.nearest = uints(mi, [FILTERS.index(t.filter) for t in textures])
         self.to_uv = f32(np.stack([t.to_uv for t in textures]))  # (textures, 2, 3)
         dr.make_opaque(self.pixels, self.first, self.width, self.height, self.wrap,
                        self.nearest, self.to_uv)
